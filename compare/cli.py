@@ -1,0 +1,16 @@
+"""The `ked` command line: one click group; each command lives in its own module."""
+
+from __future__ import annotations
+
+import click
+
+from ked_quasi.cli import quasi
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="ked-harness")
+def main() -> None:
+    """ked-harness: when can a quasi-static elastic analysis of a fast four-bar be trusted?"""
+
+
+main.add_command(quasi)

@@ -1,0 +1,237 @@
+"""The linkage model shared by every solver: link sections and the four-bar, SI units.
+
+Frame and conventions (used everywhere in the harness):
+
+* global planar frame x, y; crank pivot M, follower pivot Q (ground is rigid);
+* crank angle ``theta``: angle of the crank M->A measured counter-clockwise from the ground
+  line M->Q; the same definition for every four-bar, source or cognate;
+* coupler point P = A + extender * (unit vector of A->B rotated CCW by ``coupler_angle``);
+* ``branch`` "open": B lies to the left of the line A->Q (cross(Q-A, B-A) > 0), "crossed": to the
+  right; a four-bar keeps its branch over a full turn unless it passes a toggle;
+* ``direction`` "ccw"/"cw": sign of the constant crank speed (theta increases / decreases in time).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from . import units
+
+LINKS = ("crank", "coupler", "extender", "follower")
+BRANCHES = ("open", "crossed")
+DIRECTIONS = ("ccw", "cw")
+
+
+def _check_positive(name: str, value: float) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a positive finite number, got {value!r}") from None
+    if not math.isfinite(v) or v <= 0.0:
+        raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+    return v
+
+
+def _check_finite(name: str, value: float) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a finite number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be a finite number, got {value!r}")
+    return v
+
+
+def _check_choice(name: str, value: str, allowed: tuple[str, ...]) -> str:
+    if value not in allowed:
+        raise ValueError(f"{name} must be one of {', '.join(allowed)}; got {value!r}")
+    return value
+
+
+@dataclass(frozen=True)
+class Section:
+    """Uniform cross-section and material of one link.
+
+    youngs_modulus [Pa], area [m^2], second_moment (about the axis normal to the plane) [m^4],
+    density [kg/m^3].
+    """
+
+    youngs_modulus: float
+    area: float
+    second_moment: float
+    density: float
+
+    def __post_init__(self) -> None:
+        for name in ("youngs_modulus", "area", "second_moment", "density"):
+            object.__setattr__(self, name, _check_positive(f"Section.{name}", getattr(self, name)))
+
+    @property
+    def mass_per_length(self) -> float:
+        """kg/m."""
+        return self.density * self.area
+
+    @property
+    def axial_stiffness(self) -> float:
+        """EA [N]."""
+        return self.youngs_modulus * self.area
+
+    @property
+    def bending_stiffness(self) -> float:
+        """EI [N m^2]."""
+        return self.youngs_modulus * self.second_moment
+
+
+@dataclass(frozen=True)
+class FourBar:
+    """A planar four-bar with a coupler point, its assembly branch and elastic links (SI units).
+
+    Lengths in m, ``coupler_angle`` in rad (CCW from A->B to A->P), pivots in m in the global
+    frame, ``sections`` in the order of :data:`LINKS`.  Construction validates every value and,
+    unless ``full_turn`` is False (a rocker-driven linkage such as a double-rocker cognate, which no
+    crank-driven solver accepts), that the linkage assembles at every crank angle of a full turn.
+    """
+
+    crank: float
+    coupler: float
+    follower: float
+    extender: float
+    coupler_angle: float
+    sections: tuple[Section, Section, Section, Section]
+    crank_pivot: tuple[float, float] = (0.0, 0.0)
+    follower_pivot: tuple[float, float] = (1.0, 0.0)
+    branch: str = "open"
+    direction: str = "ccw"
+    full_turn: bool = True
+    _ground: float = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        for name in ("crank", "coupler", "follower", "extender"):
+            object.__setattr__(self, name, _check_positive(f"FourBar.{name}", getattr(self, name)))
+        object.__setattr__(self, "coupler_angle", _check_finite("FourBar.coupler_angle", self.coupler_angle))
+        for name in ("crank_pivot", "follower_pivot"):
+            p = getattr(self, name)
+            if len(p) != 2:
+                raise ValueError(f"FourBar.{name} must be an (x, y) pair in m, got {p!r}")
+            for i, c in enumerate(p):
+                _check_finite(f"FourBar.{name}[{i}]", c)
+            object.__setattr__(self, name, (float(p[0]), float(p[1])))
+        _check_choice("FourBar.branch", self.branch, BRANCHES)
+        _check_choice("FourBar.direction", self.direction, DIRECTIONS)
+        if len(self.sections) != 4 or not all(isinstance(s, Section) for s in self.sections):
+            raise ValueError("FourBar.sections must be four Section objects (crank, coupler, extender, follower)")
+        object.__setattr__(self, "sections", tuple(self.sections))
+        ground = math.dist(self.crank_pivot, self.follower_pivot)
+        if not ground > 0.0:
+            raise ValueError("FourBar.follower_pivot must differ from crank_pivot (ground length must be > 0)")
+        object.__setattr__(self, "_ground", ground)
+        failing = self.failing_angles()
+        if failing.size and self.full_turn:
+            deg = np.degrees(failing)
+            raise ValueError(
+                "FourBar cannot assemble over a full crank turn "
+                f"(Grashof class: {self.grashof_class}; crank={self.crank:g} m, coupler={self.coupler:g} m, "
+                f"follower={self.follower:g} m, ground={self.ground:g} m): no position of B for crank angles "
+                f"{deg.min():.1f}..{deg.max():.1f} deg ({failing.size} of 3600 checked). "
+                "The crank can turn fully only if coupler+follower >= ground+crank and "
+                "|coupler-follower| <= |ground-crank|."
+            )
+
+    # -- geometry ---------------------------------------------------------------------------
+    @property
+    def ground(self) -> float:
+        """Ground length |MQ| [m]."""
+        return self._ground
+
+    @property
+    def ground_angle(self) -> float:
+        """Angle of M->Q from the global x axis [rad]."""
+        return math.atan2(self.follower_pivot[1] - self.crank_pivot[1],
+                          self.follower_pivot[0] - self.crank_pivot[0])
+
+    def length(self, link: str) -> float:
+        """Length of a link [m]; ``link`` in :data:`LINKS`."""
+        _check_choice("link", link, LINKS)
+        return float(getattr(self, link))
+
+    def section(self, link: str) -> Section:
+        _check_choice("link", link, LINKS)
+        return self.sections[LINKS.index(link)]
+
+    def link_mass(self, link: str) -> float:
+        """Mass of a link from its section [kg]."""
+        return self.section(link).mass_per_length * self.length(link)
+
+    @property
+    def grashof_class(self) -> str:
+        """Grashof classification of the four lengths (crank, coupler, follower, ground)."""
+        return grashof_class(self.crank, self.coupler, self.follower, self.ground)
+
+    def failing_angles(self, n: int = 3600) -> np.ndarray:
+        """Crank angles [rad] of an n-point full-turn grid at which B cannot be placed."""
+        theta = np.arange(n) * (2.0 * np.pi / n)
+        d = np.sqrt(self.crank**2 + self.ground**2 - 2.0 * self.crank * self.ground * np.cos(theta))
+        tol = 1e-12 * (self.coupler + self.follower)
+        bad = (d > self.coupler + self.follower + tol) | (d < abs(self.coupler - self.follower) - tol)
+        return theta[bad]
+
+    # -- variants ---------------------------------------------------------------------------
+    def with_stiffness_scale(self, factor: float) -> FourBar:
+        """Copy with every Young's modulus multiplied by ``factor`` (> 0)."""
+        _check_positive("stiffness_scale", factor)
+        secs = tuple(replace(s, youngs_modulus=s.youngs_modulus * factor) for s in self.sections)
+        return replace(self, sections=secs)
+
+    def with_direction(self, direction: str) -> FourBar:
+        return replace(self, direction=direction)
+
+    def with_sections(self, section: Section) -> FourBar:
+        """Copy with the same section on every link."""
+        return replace(self, sections=(section,) * 4)
+
+
+def grashof_class(crank: float, coupler: float, follower: float, ground: float) -> str:
+    """Grashof class of a four-bar from its link lengths (any consistent unit)."""
+    lengths = {"crank": crank, "coupler": coupler, "follower": follower, "ground": ground}
+    s_name = min(lengths, key=lengths.get)
+    vals = sorted(lengths.values())
+    s, p, q, l_ = vals
+    lhs, rhs = s + l_, p + q
+    if math.isclose(lhs, rhs, rel_tol=1e-12):
+        return "change-point (s+l = p+q)"
+    if lhs > rhs:
+        return "non-Grashof triple-rocker (s+l > p+q)"
+    kind = {"crank": "crank-rocker", "ground": "double-crank (drag-link)",
+            "coupler": "Grashof double-rocker", "follower": "rocker-crank"}[s_name]
+    return f"{kind} (Grashof, s+l < p+q)"
+
+
+# -- the thesis's numerical example -------------------------------------------------------------
+THESIS_RPM = 300.0
+THESIS_TIP_MASS_KG = 2.0 * units.POUND_MASS  # "Mass at coupler point for Case I: 2 lb"
+
+THESIS_SECTION = Section(
+    youngs_modulus=10e6 * units.PSI,  # aluminium, 1e7 psi
+    area=0.19634 * units.INCH**2,  # 0.5 in diameter round bar
+    second_moment=0.0030679615 * units.INCH**4,
+    density=0.098 * units.POUND_MASS / units.INCH**3,  # 0.098 lb/in^3
+)
+
+
+def thesis_fourbar() -> FourBar:
+    """The thesis's numerical example (Ali 1977, Fig. 13a), converted to SI.
+
+    L1 = 10 in crank, L3 = 30 in coupler, L2 = 10 in extender, L4 = 25 in follower, L5 = 30 in ground,
+    alpha = 60 deg, all links 0.5 in round aluminium bar.  Frame: M at the origin, Q on +x, open branch,
+    crank CCW (this frame reproduces the published rigid X, Y columns of Table I).
+    """
+    i = units.INCH
+    return FourBar(
+        crank=10 * i, coupler=30 * i, follower=25 * i, extender=10 * i,
+        coupler_angle=math.radians(60.0),
+        sections=(THESIS_SECTION,) * 4,
+        crank_pivot=(0.0, 0.0), follower_pivot=(30 * i, 0.0),
+        branch="open", direction="ccw",
+    )

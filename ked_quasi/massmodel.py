@@ -1,0 +1,112 @@
+"""Mass models: where the moving mass of a four-bar sits, as point masses on its links.
+
+Every model is a set of lumps, each on one link at a fraction ``s`` of its length measured from the
+link's root (crank from M, coupler and extender from A, follower from Q), plus an optional payload
+at the coupler point P.
+
+* ``tip`` (thesis Case I): payload at P only, massless links (payload must be > 0).
+* ``joints`` (Case II): each link's mass lumped at its two ends; ``joint_split="half"`` puts half at
+  each end (default); other placements are given as ``joint_split`` fractions at the root end.
+* ``extender`` (Case III): the extender's mass in ``lumps`` equal lumps along AP, other links massless.
+* ``distributed``: every link's mass in ``lumps`` equal lumps: the quasi-static counterpart of a
+  flexible-body model with real distributed link mass.
+
+Lumps sit at the midpoints of ``lumps`` equal sub-elements (``placement="midpoint"``, converges as
+the midpoint rule) or at their outer ends (``placement="end"``, the thesis's Case III nodes).
+Lumps at a ground pivot (crank s=0, follower s=0) carry no inertia load and are dropped.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .linkage import LINKS, FourBar
+
+MASS_MODELS = ("tip", "joints", "extender", "distributed")
+PLACEMENTS = ("midpoint", "end")
+
+
+@dataclass(frozen=True)
+class MassModel:
+    """Which mass model, and its parameters.
+
+    name: one of :data:`MASS_MODELS`; lumps: lumps per distributed link (>= 1); payload: point mass at
+    P [kg] (>= 0; > 0 for ``tip``); joint_split: fraction of each link's mass at its root end in the
+    ``joints`` model (0..1, 0.5 = half at each end); placement: ``midpoint`` or ``end``.
+    """
+
+    name: str
+    lumps: int = 5
+    payload: float = 0.0
+    joint_split: float = 0.5
+    placement: str = "midpoint"
+
+    def __post_init__(self) -> None:
+        if self.name not in MASS_MODELS:
+            raise ValueError(f"mass model must be one of {', '.join(MASS_MODELS)}; got {self.name!r}")
+        if isinstance(self.lumps, bool) or not isinstance(self.lumps, (int, np.integer)) or self.lumps < 1:
+            raise ValueError(f"MassModel.lumps must be an integer >= 1, got {self.lumps!r}")
+        p = float(self.payload)
+        if not math.isfinite(p) or p < 0:
+            raise ValueError(f"MassModel.payload must be a finite mass >= 0 kg, got {self.payload!r}")
+        if self.name == "tip" and p <= 0:
+            raise ValueError("MassModel.payload must be > 0 kg for the 'tip' mass model (massless links)")
+        js = float(self.joint_split)
+        if not math.isfinite(js) or not 0.0 <= js <= 1.0:
+            raise ValueError(f"MassModel.joint_split must be in [0, 1], got {self.joint_split!r}")
+        if self.placement not in PLACEMENTS:
+            raise ValueError(f"MassModel.placement must be one of {', '.join(PLACEMENTS)}; got {self.placement!r}")
+
+
+@dataclass(frozen=True)
+class Lumps:
+    """Point masses on the links: parallel arrays ``link`` (names), ``s`` (fraction from root),
+    ``mass`` [kg].  The payload at P appears as an extender lump at s = 1."""
+
+    link: tuple[str, ...]
+    s: np.ndarray
+    mass: np.ndarray
+
+    def on(self, link: str) -> tuple[np.ndarray, np.ndarray]:
+        """(s, mass) of the lumps on one link."""
+        sel = np.array([lk == link for lk in self.link], dtype=bool)
+        return self.s[sel], self.mass[sel]
+
+    @property
+    def total_mass(self) -> float:
+        return float(self.mass.sum())
+
+
+def _fractions(n: int, placement: str) -> np.ndarray:
+    k = np.arange(1, n + 1, dtype=float)
+    return (k - 0.5) / n if placement == "midpoint" else k / n
+
+
+def lumps(fourbar: FourBar, mass_model: MassModel) -> Lumps:
+    """The point masses of ``mass_model`` on ``fourbar`` (ground-pivot lumps dropped)."""
+    link: list[str] = []
+    s: list[float] = []
+    m: list[float] = []
+
+    def add(lk: str, frac: float, mass: float) -> None:
+        if lk in ("crank", "follower") and frac == 0.0:
+            return  # sits on a ground pivot: no inertia load on the structure
+        if mass > 0.0:
+            link.append(lk)
+            s.append(frac)
+            m.append(mass)
+
+    mm = mass_model
+    if mm.name == "joints":
+        for lk in LINKS:
+            add(lk, 0.0, mm.joint_split * fourbar.link_mass(lk))
+            add(lk, 1.0, (1.0 - mm.joint_split) * fourbar.link_mass(lk))
+    elif mm.name in ("extender", "distributed"):
+        for lk in ("extender",) if mm.name == "extender" else LINKS:
+            for frac in _fractions(mm.lumps, mm.placement):
+                add(lk, float(frac), fourbar.link_mass(lk) / mm.lumps)
+    add("extender", 1.0, float(mm.payload))
+    return Lumps(tuple(link), np.array(s, dtype=float), np.array(m, dtype=float))

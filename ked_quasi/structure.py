@@ -1,0 +1,252 @@
+"""The frozen four-bar as an instantaneous structure: nodes, elements and the force transformation.
+
+At each crank angle the linkage is frozen: the crank is a cantilever clamped at M and pinned at A,
+coupler and extender form one rigid-jointed body, pinned to the crank at A and to the follower at B;
+the follower is pinned at Q; the ground is rigid.  Each link is a chain of straight Euler-Bernoulli
+elements (axial + bending) between nodes: the joints and the load (mass) nodes on it.
+
+The structure is statically determinate.  Its only redundancy-free coupling is the pin force R_B
+that the follower exerts on the coupler body, fixed by two moment conditions (no moment through the
+pins A and Q); every element's end forces then follow from the loads on its free side.  Element
+forces per element (axial N, transverse V, moment M at its outer end j, in the element frame e = i->j,
+n = z x e) make the force transformation ``beta``: f = beta P, and with the cantilever element
+flexibility F the system flexibility is beta^T F beta (the thesis's eq. (6), general in geometry and
+load nodes).
+
+System coordinates: x, y of every node (global frame) and the rotation of P.  Units SI.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .kinematics import loop
+from .linkage import LINKS, FourBar
+from .massmodel import Lumps
+
+#: chain of each link: (root joint, end joint)
+CHAINS = {"crank": ("M", "A"), "coupler": ("A", "B"), "extender": ("A", "P"), "follower": ("Q", "B")}
+
+
+def _canonical(link: str, s: float) -> tuple[str, float]:
+    """Map a point on a link to its structural node (joints belong to the coupler body)."""
+    if link == "crank" and s == 1.0:
+        return ("coupler", 0.0)  # A
+    if link == "follower" and s == 1.0:
+        return ("coupler", 1.0)  # B
+    if link == "extender" and s == 0.0:
+        return ("coupler", 0.0)  # A
+    return (link, float(s))
+
+
+@dataclass(frozen=True)
+class Topology:
+    """Nodes, elements and the free-side incidence of the frozen structure (angle independent).
+
+    Nodes: A, B, P, then interior load nodes; ``node_link``/``node_s`` place each node on a link.
+    Elements: per link, consecutive nodes from its root; ``elem_*`` describe them.
+    """
+
+    node_label: tuple[str, ...]
+    node_link: tuple[str, ...]
+    node_s: np.ndarray
+    elem_link: tuple[str, ...]
+    elem_s0: np.ndarray
+    elem_s1: np.ndarray
+    free: np.ndarray  # (n_elem, n_node) node loads act on the element's free side
+    via_A: np.ndarray  # (n_elem, n_node) ... but are transmitted through pin A (crank elements)
+    r_b_sign: np.ndarray  # (n_elem,) sign with which R_B acts on the free side
+    r_b_at_A: np.ndarray  # (n_elem,) R_B transmitted through pin A (crank elements)
+    body: np.ndarray  # (n_node,) node on the coupler body
+    on_follower: np.ndarray  # (n_node,) node inside the follower
+
+    @property
+    def n_nodes(self) -> int:
+        return len(self.node_label)
+
+    @property
+    def n_dofs(self) -> int:
+        """x, y of each node plus the rotation of P."""
+        return 2 * self.n_nodes + 1
+
+    @property
+    def p_index(self) -> int:
+        return self.node_label.index("P")
+
+    def node_of(self, link: str, s: float) -> int:
+        key = _canonical(link, s)
+        for i, (lk, ss) in enumerate(zip(self.node_link, self.node_s)):
+            if lk == key[0] and abs(ss - key[1]) < 1e-12:
+                return i
+        raise KeyError(f"no node at {link} s={s}")
+
+
+def topology(lumps: Lumps) -> Topology:
+    """Build the structure's topology with a node at every lump."""
+    labels = ["A", "B", "P"]
+    links = ["coupler", "coupler", "extender"]
+    ss = [0.0, 1.0, 1.0]
+    for lk, s in zip(lumps.link, lumps.s):
+        c = _canonical(lk, float(s))
+        if c in set(zip(links, ss)) or (lk in ("crank", "follower") and s == 0.0):
+            continue
+        links.append(c[0])
+        ss.append(c[1])
+        labels.append(f"{c[0]}@{c[1]:.6g}")
+    node_s = np.array(ss)
+    body = np.array([lk in ("coupler", "extender") for lk in links])
+    on_follower = np.array([lk == "follower" for lk in links])
+
+    elem_link, e0, e1 = [], [], []
+    for lk in LINKS:
+        inner = sorted(s for l2, s in zip(links, ss) if l2 == lk and 0.0 < s < 1.0)
+        pts = [0.0, *inner, 1.0]
+        for a, b in zip(pts[:-1], pts[1:]):
+            elem_link.append(lk)
+            e0.append(a)
+            e1.append(b)
+    n_e, n_n = len(elem_link), len(links)
+    free = np.zeros((n_e, n_n), dtype=bool)
+    via_A = np.zeros((n_e, n_n), dtype=bool)
+    r_b_sign = np.zeros(n_e)
+    r_b_at_A = np.zeros(n_e, dtype=bool)
+    for e, (lk, sj) in enumerate(zip(elem_link, e1)):
+        beyond = np.array([l2 == lk and s >= sj - 1e-12 for l2, s in zip(links, ss)])
+        if lk == "extender":
+            free[e] = beyond
+        elif lk == "coupler":
+            free[e] = beyond  # interior coupler nodes beyond the cut and B (coupler s=1)
+            r_b_sign[e] = 1.0
+        elif lk == "follower":
+            free[e] = beyond & on_follower
+            r_b_sign[e] = -1.0
+        else:  # crank: its own nodes beyond the cut, and the whole body through the pin at A
+            free[e] = beyond | body
+            via_A[e] = body
+            r_b_sign[e] = 1.0
+            r_b_at_A[e] = True
+    return Topology(
+        node_label=tuple(labels), node_link=tuple(links), node_s=node_s,
+        elem_link=tuple(elem_link), elem_s0=np.array(e0), elem_s1=np.array(e1),
+        free=free, via_A=via_A, r_b_sign=r_b_sign, r_b_at_A=r_b_at_A, body=body, on_follower=on_follower,
+    )
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """Positions at n crank angles: nodes (n, N, 2), joints A, B, Q (n, 2), element ends and axes."""
+
+    nodes: np.ndarray
+    A: np.ndarray
+    B: np.ndarray
+    Q: np.ndarray
+    elem_end: np.ndarray  # (n, E, 2)
+    elem_axis: np.ndarray  # (n, E, 2) unit vector i -> j
+    sin_transmission: np.ndarray  # (n,) signed sin of the angle at B between B->A and B->Q
+
+
+def geometry(fourbar: FourBar, topo: Topology, crank_angle: np.ndarray) -> Geometry:
+    lp = loop(fourbar, crank_angle)
+    A = lp.M + lp.z1
+    root = {"crank": lp.M + 0 * A, "coupler": A, "extender": A, "follower": lp.Q + 0 * A}
+    vec = {"crank": lp.z1, "coupler": lp.z3, "extender": lp.k * lp.z3, "follower": lp.z4}
+    nodes = np.stack([root[lk] + s * vec[lk] for lk, s in zip(topo.node_link, topo.node_s)], axis=1)
+    ends = np.stack([root[lk] + s * vec[lk] for lk, s in zip(topo.elem_link, topo.elem_s1)], axis=1)
+    axis = np.stack([vec[lk] / np.abs(vec[lk]) for lk in topo.elem_link], axis=1)
+    u, w = -lp.z3, -lp.z4  # B->A, B->Q
+    sin_mu = (np.conj(u) * w).imag / (np.abs(u) * np.abs(w))
+
+    def xy(z: np.ndarray) -> np.ndarray:
+        return np.stack([z.real, z.imag], axis=-1)
+
+    return Geometry(nodes=xy(nodes), A=xy(A), B=xy(A + lp.z3), Q=xy(lp.Q + 0 * A),
+                    elem_end=xy(ends), elem_axis=xy(axis), sin_transmission=sin_mu)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+def force_transformation(topo: Topology, geo: Geometry) -> np.ndarray:
+    """beta: (n_angles, 3 * n_elements, n_dofs), element forces (N, V, M per element) per unit system load.
+
+    System dofs: (x, y) of node k at 2k, 2k+1; rotation (moment) of P last.
+    """
+    n = geo.nodes.shape[0]
+    N, E, D = topo.n_nodes, len(topo.elem_link), topo.n_dofs
+    X = geo.nodes  # (n, N, 2)
+    # pin force R_B (follower -> coupler body) per unit load: two moment conditions
+    armA = X - geo.A[:, None, :]
+    armQ = X - geo.Q[:, None, :]
+    TA = np.zeros((n, D))
+    TQ = np.zeros((n, D))
+    body, fol = topo.body.astype(float), topo.on_follower.astype(float)
+    TA[:, 0:2 * N:2] = -armA[..., 1] * body
+    TA[:, 1:2 * N:2] = armA[..., 0] * body
+    TA[:, -1] = 1.0  # a moment at P acts on the body
+    TQ[:, 0:2 * N:2] = -armQ[..., 1] * fol
+    TQ[:, 1:2 * N:2] = armQ[..., 0] * fol
+    u = geo.B - geo.A
+    w = geo.B - geo.Q
+    det = _cross(u, w)[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        Rx = (-TA * w[:, 0:1] - u[:, 0:1] * TQ) / det
+        Ry = (-u[:, 1:2] * TQ - w[:, 1:2] * TA) / det
+
+    # resultant force (Fx, Fy) and moment about each element's outer end, per unit load
+    Fx = np.zeros((n, E, D))
+    Fy = np.zeros((n, E, D))
+    Mz = np.zeros((n, E, D))
+    free = topo.free.astype(float)
+    direct = (topo.free & ~topo.via_A).astype(float)
+    # application point: own position, or A for body loads reaching the crank through the pin
+    app = np.where(topo.via_A[None, :, :, None], geo.A[:, None, None, :], X[:, None, :, :])
+    arm = app - geo.elem_end[:, :, None, :]  # (n, E, N, 2)
+    Fx[:, :, 0:2 * N:2] = free
+    Fy[:, :, 1:2 * N:2] = free
+    Mz[:, :, 0:2 * N:2] = -arm[..., 1] * free
+    Mz[:, :, 1:2 * N:2] = arm[..., 0] * free
+    Mz[:, :, -1] = direct[:, topo.p_index]
+    sgn = topo.r_b_sign[None, :, None]
+    Rpt = np.where(topo.r_b_at_A[None, :, None], geo.A[:, None, :], geo.B[:, None, :])
+    Rarm = Rpt - geo.elem_end  # (n, E, 2)
+    Fx += sgn * Rx[:, None, :]
+    Fy += sgn * Ry[:, None, :]
+    Mz += sgn * (Rarm[..., 0:1] * Ry[:, None, :] - Rarm[..., 1:2] * Rx[:, None, :])
+
+    e = geo.elem_axis[..., None]  # (n, E, 2, 1)
+    Nn = Fx * e[:, :, 0] + Fy * e[:, :, 1]
+    Vn = -Fx * e[:, :, 1] + Fy * e[:, :, 0]
+    beta = np.stack([Nn, Vn, Mz], axis=2)  # (n, E, 3, D)
+    return beta.reshape(n, 3 * E, D)
+
+
+def element_flexibility(fourbar: FourBar, topo: Topology) -> np.ndarray:
+    """Cantilever flexibility of every element, (n_elements, 3, 3), for (N, V, M) at its outer end.
+
+    [[L/EA, 0, 0], [0, L^3/3EI, L^2/2EI], [0, L^2/2EI, L/EI]]; L = element length [m].
+    """
+    out = np.zeros((len(topo.elem_link), 3, 3))
+    for i, (lk, s0, s1) in enumerate(zip(topo.elem_link, topo.elem_s0, topo.elem_s1)):
+        sec = fourbar.section(lk)
+        L = (s1 - s0) * fourbar.length(lk)
+        EA, EI = sec.axial_stiffness, sec.bending_stiffness
+        out[i] = [[L / EA, 0, 0], [0, L**3 / (3 * EI), L**2 / (2 * EI)], [0, L**2 / (2 * EI), L / EI]]
+    return out
+
+
+def apply_flexibility(F: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Element deformations d = F f for element forces f shaped (..., 3 * n_elements)."""
+    E = F.shape[0]
+    fb = f.reshape(*f.shape[:-1], E, 3)
+    return np.einsum("eij,...ej->...ei", F, fb).reshape(f.shape)
+
+
+def system_flexibility(F: np.ndarray, beta: np.ndarray) -> np.ndarray:
+    """beta^T F beta: (n_angles, k, k) for beta shaped (n_angles, 3 * n_elements, k)."""
+    n, m, k = beta.shape
+    bb = beta.reshape(n, m // 3, 3, k)
+    Fb = np.einsum("eij,nejk->neik", F, bb).reshape(n, m, k)
+    return np.einsum("nmi,nmj->nij", beta, Fb)

@@ -1,0 +1,47 @@
+"""Shared fixtures: the thesis linkage, its cognate, random assemblable four-bars."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ked_quasi import FourBar, MassModel, Section, mechanism, thesis_fourbar
+from ked_quasi.linkage import THESIS_TIP_MASS_KG
+
+MASS_MODEL_CASES = {
+    "tip": MassModel("tip", payload=THESIS_TIP_MASS_KG),
+    "joints": MassModel("joints"),
+    "extender": MassModel("extender"),
+    "distributed": MassModel("distributed", lumps=4, payload=0.3),
+}
+
+
+@pytest.fixture(scope="session")
+def thesis():
+    return thesis_fourbar()
+
+
+@pytest.fixture(scope="session")
+def thesis_cognate():
+    return mechanism(thesis_fourbar(), "cognate")
+
+
+def random_fourbars(n: int, seed: int = 7) -> list[FourBar]:
+    """Random crank-rockers (open or crossed, random pivots and sections) that assemble fully."""
+    rng = np.random.default_rng(seed)
+    out: list[FourBar] = []
+    while len(out) < n:
+        crank = rng.uniform(0.03, 0.15)
+        ground, coupler, follower = rng.uniform(0.2, 0.6, 3)
+        if not (coupler + follower > ground + crank + 0.02 and abs(coupler - follower) < ground - crank - 0.02):
+            continue
+        M = rng.uniform(-0.2, 0.2, 2)
+        ang = rng.uniform(0, 2 * np.pi)
+        Q = M + ground * np.array([np.cos(ang), np.sin(ang)])
+        secs = tuple(Section(rng.uniform(50e9, 210e9), rng.uniform(5e-5, 3e-4), rng.uniform(5e-10, 5e-9),
+                             rng.uniform(2000, 8000)) for _ in range(4))
+        out.append(FourBar(crank=crank, coupler=coupler, follower=follower, extender=rng.uniform(0.05, 0.4),
+                           coupler_angle=rng.uniform(-np.pi, np.pi), sections=secs,
+                           crank_pivot=tuple(M), follower_pivot=tuple(Q),
+                           branch=str(rng.choice(["open", "crossed"])), direction=str(rng.choice(["ccw", "cw"]))))
+    return out
