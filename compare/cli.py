@@ -15,10 +15,4 @@ def main() -> None:
 
 
 main.add_command(quasi)
-
-from compare.campaign_cli import inspect_cmd, plot_cmd, run_cmd  # noqa: E402
-
-main.add_command(run_cmd)
-main.add_command(inspect_cmd)
-main.add_command(plot_cmd)
 main.add_command(simulate)
