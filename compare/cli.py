@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from compare.campaign_cli import inspect_cmd, plot_cmd, run_cmd
 from exudyn_models.cli import simulate
 from ked_quasi.cli import quasi
 
@@ -16,3 +17,6 @@ def main() -> None:
 
 main.add_command(quasi)
 main.add_command(simulate)
+main.add_command(run_cmd)
+main.add_command(inspect_cmd)
+main.add_command(plot_cmd)

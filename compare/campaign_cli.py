@@ -1,0 +1,144 @@
+"""``ked run``, ``ked inspect`` and ``ked plot``: the campaign commands (thin click wrappers)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import click
+
+from compare import store
+from compare.config import ConfigError, load_config
+from compare.inspect import (
+    find_scene,
+    format_counts,
+    format_detail,
+    format_table,
+    scene_detail,
+    sort_key,
+    summary_row,
+)
+
+DEFAULT_DIR = Path("ked_results")
+
+
+def _figures_dir(out: Path) -> Path:
+    return out.with_name(f"{out.stem}_figures")
+
+
+def _safe_name(name: str) -> str:
+    return "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name) or "campaign"
+
+
+@click.command("run")
+@click.argument("config", required=False, type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--out", "out", type=click.Path(dir_okay=False, path_type=Path),
+              help="Results file [default: ked_results/<campaign name>.h5].")
+@click.option("--workers", type=click.IntRange(min=1), default=None,
+              help="Local worker processes [default: available CPUs].")
+@click.option("--scheduler", metavar="ADDRESS", default=None,
+              help="Run the scenes on a Dask distributed cluster at this scheduler address.")
+@click.option("--figures", "figures", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Directory for the PNG figures [default: <out stem>_figures next to the file].")
+@click.option("--no-figures", is_flag=True, help="Do not draw figures.")
+@click.option("--retry-failed", is_flag=True, help="Recompute scenes stored as failed.")
+@click.option("--dry-run", is_flag=True, help="Validate the config, list the scenes and what would run; stop.")
+@click.option("--progress/--no-progress", default=True, help="Show the progress bar.")
+def run_cmd(config: Path | None, out: Path | None, workers: int | None, scheduler: str | None,
+            figures: Path | None, no_figures: bool, retry_failed: bool, dry_run: bool, progress: bool) -> None:
+    """Run a comparison campaign (CONFIG: TOML file; none = the embedded default campaign).
+
+    Scenes already stored in the results file are skipped, so rerunning resumes an interrupted
+    campaign.  Prints a summary table and writes figures at the end.
+    """
+    from compare.runner import plan, run_campaign
+
+    try:
+        cfg = load_config(config)
+    except ConfigError as exc:
+        click.echo(str(exc), err=True)
+        sys.exit(2)
+    out = out or DEFAULT_DIR / f"{_safe_name(cfg.name)}.h5"
+    scenes = cfg.scenes()
+    if dry_run:
+        p = plan(scenes, store.stored_status(out), retry_failed)
+        todo = {s.key for s in p.todo}
+        click.echo(f"campaign {cfg.name!r}: {len(scenes)} scenes, {len(p.todo)} to run, "
+                   f"{len(p.skipped)} already in {out}")
+        for s in scenes:
+            click.echo(f"  {s.key}  {'run ' if s.key in todo else 'skip'}  {s.label}")
+        return
+    click.echo(f"campaign {cfg.name!r}: {len(scenes)} scenes -> {out}", err=True)
+    summary = run_campaign(cfg, out, workers=workers, scheduler=scheduler, retry_failed=retry_failed,
+                           progress=progress)
+    order = {k: i for i, k in enumerate(summary.keys)}
+    results = sorted((r for r in store.read_scenes(out) if r.key in order), key=lambda r: order[r.key])
+    click.echo(format_table([summary_row(r) for r in results]))
+    click.echo(format_counts(results))
+    click.echo(f"this run: {summary.ok} ok, {summary.failed} failed, {summary.skipped} skipped (already stored)"
+               + (f", {summary.lost} lost to a crashed worker (rerun to retry)" if summary.lost else "")
+               + f" in {summary.wall_s:.1f} s; results: {out}")
+    if not no_figures:
+        from compare.plots import write_figures
+
+        fig_dir = figures or _figures_dir(out)
+        paths = write_figures(results, fig_dir)
+        click.echo(f"figures: {len(paths)} PNG files in {fig_dir}")
+
+
+@click.command("inspect")
+@click.argument("file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("scene", required=False)
+@click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON output.")
+@click.option("--verify", is_flag=True, help="Check the file's integrity and schema; exit 1 on problems.")
+def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool) -> None:
+    """Show a results FILE: summary table of its scenes, or one SCENE (key prefix or label) in detail."""
+    if verify:
+        problems = store.verify(file)
+        stale = store.stale_temp_files(file)
+        n = len(store.stored_status(file)) if not any("cannot open" in p for p in problems) else 0
+        if as_json:
+            click.echo(json.dumps({"file": str(file), "valid": not problems, "scenes": n,
+                                   "problems": problems, "stale_temp_files": [str(p) for p in stale]}, indent=2))
+        else:
+            for p in problems:
+                click.echo(f"PROBLEM {p}")
+            for p in stale:
+                click.echo(f"note: stale temporary file (ignored, removed by the next run): {p}")
+            click.echo(f"{file}: {'INVALID' if problems else 'valid'}, {n} complete scenes"
+                       + (f", {len(problems)} problem(s)" if problems else ""))
+        sys.exit(1 if problems else 0)
+    results = sorted(store.read_scenes(file), key=sort_key)
+    if scene:
+        try:
+            r = find_scene(results, scene)
+        except ValueError as exc:
+            raise click.ClickException(str(exc)) from exc
+        click.echo(json.dumps(scene_detail(r), indent=2) if as_json else format_detail(r))
+        return
+    rows = [summary_row(r) for r in results]
+    if as_json:
+        info = store.file_info(file)
+        click.echo(json.dumps({"file": str(file), "attributes": info, "scenes": rows}, indent=2, default=str))
+    else:
+        info = store.file_info(file)
+        click.echo(f"{file}: campaign {info.get('campaign_name')!r}, created {info.get('created_utc')}, "
+                   f"harness {info.get('harness_version')} ({info.get('git_commit', '')[:10] or 'no git'}), "
+                   f"exudyn {info.get('exudyn_version')}")
+        click.echo(format_table(rows))
+        click.echo(format_counts(results))
+
+
+@click.command("plot")
+@click.argument("file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Output directory [default: <file stem>_figures next to the file].")
+def plot_cmd(file: Path, out_dir: Path | None) -> None:
+    """Draw PNG figures of a results FILE: per-scene histories and coupler curves, amplification vs speed."""
+    from compare.plots import write_figures
+
+    results = store.read_scenes(file)
+    target = out_dir or _figures_dir(file)
+    paths = write_figures(results, target)
+    click.echo(f"{len(paths)} PNG files in {target}")

@@ -1,0 +1,198 @@
+"""Run a campaign: plan (skip stored scenes), execute in parallel, commit each result atomically.
+
+Backends: a local ``concurrent.futures.ProcessPoolExecutor`` (default) or a Dask distributed cluster
+(``scheduler`` = its address).  Both execute :func:`compare.execute.run_scene`; only this (parent)
+process writes the results file, after every completion (all results finished by then are committed
+together in one atomic file replacement, see :mod:`compare.store`).  A SIGKILL therefore loses only
+the scenes still being computed.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import multiprocessing
+import os
+import sys
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from compare import store
+from compare.config import CampaignConfig
+from compare.execute import run_scene
+from compare.results import STATUS_FAILED, STATUS_OK, RunStats, SceneResult
+from compare.scenes import SceneSpec
+
+
+@dataclass(frozen=True)
+class Plan:
+    """Scenes of a campaign split into those to compute and those already stored (by key)."""
+
+    todo: tuple[SceneSpec, ...]
+    skipped: tuple[SceneSpec, ...]
+
+
+@dataclass(frozen=True)
+class CampaignSummary:
+    """Outcome of one :func:`run_campaign` call.  ``wall_s`` [s] of the whole call."""
+
+    out: Path
+    total: int
+    skipped: int
+    ok: int
+    failed: int
+    lost: int
+    wall_s: float
+    keys: tuple[str, ...]
+
+
+def plan(scenes: Iterable[SceneSpec], stored: dict[str, str], retry_failed: bool = False) -> Plan:
+    """Pure: which scenes still need computing given ``stored`` (key -> status)."""
+    todo, skipped = [], []
+    for s in scenes:
+        status = stored.get(s.key)
+        if status is None or (retry_failed and status != STATUS_OK):
+            todo.append(s)
+        else:
+            skipped.append(s)
+    return Plan(tuple(todo), tuple(skipped))
+
+
+def default_workers() -> int:
+    """Worker processes used when none are given: the CPUs available to this process."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def _worker_crashed(spec: SceneSpec, exc: BaseException) -> SceneResult:
+    return SceneResult(
+        spec=spec,
+        status=STATUS_FAILED,
+        stage="worker",
+        error_type=type(exc).__name__,
+        message=f"worker failed while computing the scene: {exc}"[:2000],
+        stats=RunStats(finished_utc=store.utc_now()),
+    )
+
+
+class _LocalBackend:
+    """Process pool on this machine."""
+
+    def __init__(self, workers: int):
+        ctx = multiprocessing.get_context("spawn")
+        self.pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
+
+    def submit(self, spec: SceneSpec) -> Any:
+        return self.pool.submit(run_scene, spec)
+
+    def wait(self, pending: set[Any]) -> tuple[set[Any], set[Any]]:
+        done, not_done = cf.wait(pending, return_when=cf.FIRST_COMPLETED)
+        return set(done), set(not_done)
+
+    def result(self, fut: Any) -> SceneResult | None:
+        """The scene's result; ``None`` if the pool broke (scene not attributable, not stored)."""
+        try:
+            return fut.result()
+        except cf.process.BrokenProcessPool:
+            return None
+
+    def close(self) -> None:
+        self.pool.shutdown(wait=True, cancel_futures=True)
+
+
+class _DaskBackend:
+    """Dask distributed cluster at ``address`` (scheduler address, e.g. ``tcp://host:8786``)."""
+
+    def __init__(self, address: str):
+        from distributed import Client
+
+        self.client = Client(address, set_as_default=False)
+
+    def submit(self, spec: SceneSpec) -> Any:
+        return self.client.submit(run_scene, spec, key=f"ked-scene-{spec.key}", pure=False)
+
+    def wait(self, pending: set[Any]) -> tuple[set[Any], set[Any]]:
+        from distributed import wait
+
+        res = wait(list(pending), return_when="FIRST_COMPLETED")
+        return set(res.done), set(res.not_done)
+
+    def result(self, fut: Any) -> SceneResult | None:
+        return fut.result()
+
+    def close(self) -> None:
+        self.client.close()
+
+
+def run_campaign(
+    config: CampaignConfig,
+    out: str | Path,
+    *,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    retry_failed: bool = False,
+    progress: bool = True,
+    on_result: Callable[[SceneResult], None] | None = None,
+) -> CampaignSummary:
+    """Run every scene of ``config`` not yet stored in ``out`` and store the results there.
+
+    ``workers``: local worker processes (default: available CPUs; ignored with ``scheduler``).
+    ``retry_failed``: recompute stored failed scenes too.  ``progress``: tqdm bar on stderr.
+    """
+    from tqdm import tqdm
+
+    t0 = time.perf_counter()
+    out = Path(out)
+    scenes = config.scenes()
+    store.remove_stale_temp_files(out)
+    p = plan(scenes, store.stored_status(out), retry_failed)
+    run = store.record_run(out, config.text, config.name, len(scenes))
+    ok = failed = lost = 0
+    if p.todo:
+        if scheduler:
+            backend: Any = _DaskBackend(scheduler)
+        else:
+            backend = _LocalBackend(min(workers or default_workers(), len(p.todo)))
+        bar = tqdm(total=len(p.todo), unit="scene", desc=config.name, disable=not progress,
+                   file=sys.stderr, dynamic_ncols=True, smoothing=0.1)
+        bar.set_postfix(ok=0, failed=0, skipped=len(p.skipped))
+        try:
+            futures = {backend.submit(s): s for s in p.todo}
+            pending = set(futures)
+            while pending:
+                done, pending = backend.wait(pending)
+                batch = []
+                for fut in done:
+                    try:
+                        r = backend.result(fut)
+                    except Exception as exc:  # worker died (Dask KilledWorker, ...)
+                        r = _worker_crashed(futures[fut], exc)
+                    if r is None:
+                        lost += 1
+                        continue
+                    batch.append(r)
+                store.commit(out, batch, run)
+                for r in batch:
+                    ok += r.status == STATUS_OK
+                    failed += r.status != STATUS_OK
+                    if on_result is not None:
+                        on_result(r)
+                bar.update(len(done))
+                bar.set_postfix(ok=ok, failed=failed, skipped=len(p.skipped))
+        finally:
+            bar.close()
+            backend.close()
+    return CampaignSummary(
+        out=out,
+        total=len(scenes),
+        skipped=len(p.skipped),
+        ok=ok,
+        failed=failed,
+        lost=lost,
+        wall_s=time.perf_counter() - t0,
+        keys=tuple(s.key for s in scenes),
+    )
