@@ -20,10 +20,11 @@ from .massmodel import Lumps, lumps
 from .scene import Scene
 from .structure import (
     Topology,
-    apply_flexibility,
     element_flexibility,
+    element_forces,
     force_transformation,
     geometry,
+    nodal_deflections,
     system_flexibility,
     topology,
 )
@@ -95,22 +96,22 @@ def solve_quasi_static(scene: Scene, crank_angle: np.ndarray | None = None) -> Q
     lm = lumps(scene.fourbar, scene.mass_model)
     topo = topology(lm)
     geo = geometry(scene.fourbar, topo, theta)
-    beta = force_transformation(topo, geo)
     F = element_flexibility(scene.fourbar, topo)
     loads = inertia_loads(scene, topo, lm, theta)
-    P = np.concatenate([loads.reshape(theta.size, -1), np.zeros((theta.size, 1))], axis=1)
-    f = np.einsum("nmd,nd->nm", beta, P)
-    delta = np.einsum("nmd,nm->nd", beta, apply_flexibility(F, f))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = element_forces(topo, geo, loads)  # f = beta P
+        d = (F @ f[..., None])[..., 0]  # element deformations F f
+        nodes, rot = nodal_deflections(topo, geo, d)  # delta = beta^T F beta P
     cond, flagged, singular = _toggle_mask(geo.sin_transmission)
-    delta[singular] = np.nan
+    nodes[singular] = np.nan
+    rot[singular] = np.nan
     _warn(theta, flagged)
-    N = topo.n_nodes
     p = topo.p_index
-    deflection = np.stack([delta[:, 2 * p], delta[:, 2 * p + 1], delta[:, 2 * N]], axis=1)
+    deflection = np.column_stack([nodes[:, p, 0], nodes[:, p, 1], rot])
     mu = np.arccos(np.clip(_cos_mu(geo), -1.0, 1.0))
     return QuasiStaticResult(
         crank_angle=theta, deflection=deflection, node_label=topo.node_label,
-        node_deflection=delta[:, : 2 * N].reshape(theta.size, N, 2), loads=loads,
+        node_deflection=nodes, loads=loads,
         transmission_angle=mu, condition=cond, flagged=flagged,
     )
 

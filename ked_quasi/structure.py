@@ -250,3 +250,68 @@ def system_flexibility(F: np.ndarray, beta: np.ndarray) -> np.ndarray:
     bb = beta.reshape(n, m // 3, 3, k)
     Fb = np.einsum("eij,nejk->neik", F, bb).reshape(n, m, k)
     return np.einsum("nmi,nmj->nij", beta, Fb)
+
+
+def _perp(a: np.ndarray) -> np.ndarray:
+    """z x a for planar vectors (..., 2)."""
+    return np.stack([-a[..., 1], a[..., 0]], axis=-1)
+
+
+def _pin_force_map(geo: Geometry) -> np.ndarray:
+    """C (n, 2, 2): R_B = C @ (T_A, T_Q), the follower's pin force on the body from the two moments."""
+    u = geo.B - geo.A
+    w = geo.B - geo.Q
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / _cross(u, w)
+    return inv[:, None, None] * np.stack([np.stack([-w[:, 0], -u[:, 0]], -1),
+                                          np.stack([-w[:, 1], -u[:, 1]], -1)], axis=1)
+
+
+def element_forces(topo: Topology, geo: Geometry, loads: np.ndarray, moment_p: np.ndarray | None = None) -> np.ndarray:
+    """f = beta P without forming beta: element forces (n, E, 3) = (N, V, M) for nodal loads (n, N, 2) [N]
+    and an optional moment at P (n,) [N m].  Same statics as :func:`force_transformation`."""
+    n = loads.shape[0]
+    mp = np.zeros(n) if moment_p is None else moment_p
+    X = geo.nodes
+    free = topo.free.astype(float)
+    direct = (topo.free & ~topo.via_A).astype(float)
+    via = topo.via_A.astype(float)
+    TA = _cross(X - geo.A[:, None], loads) @ topo.body.astype(float) + mp
+    TQ = _cross(X - geo.Q[:, None], loads) @ topo.on_follower.astype(float)
+    R = np.einsum("aij,aj->ai", _pin_force_map(geo), np.stack([TA, TQ], -1))  # (n, 2)
+    Fsum = free @ loads
+    c_own = _cross(X, loads)  # moment of each load about the origin
+    M = (c_own @ direct.T + _cross(geo.A[:, None], via @ loads)
+         - _cross(geo.elem_end, Fsum) + direct[None, :, topo.p_index] * mp[:, None])
+    sgn = topo.r_b_sign[None, :, None]
+    Rpt = np.where(topo.r_b_at_A[None, :, None], geo.A[:, None, :], geo.B[:, None, :])
+    Fsum = Fsum + sgn * R[:, None, :]
+    M = M + sgn[..., 0] * _cross(Rpt - geo.elem_end, R[:, None, :])
+    e = geo.elem_axis
+    return np.stack([(Fsum * e).sum(-1), _cross(e, Fsum), M], axis=-1)
+
+
+def nodal_deflections(topo: Topology, geo: Geometry, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """delta = beta^T d without forming beta, for element deformations d (n, E, 3).
+
+    Returns node displacements (n, N, 2) [m] and the rotation of P (n,) [rad] (virtual work: the
+    transpose of :func:`element_forces`)."""
+    X = geo.nodes
+    e = geo.elem_axis
+    g = d[..., 0:1] * e + d[..., 1:2] * _perp(e)  # (n, E, 2)
+    h = d[..., 2]  # (n, E)
+    free = topo.free.astype(float)
+    direct = (topo.free & ~topo.via_A).astype(float)
+    via = topo.via_A.astype(float)
+    # direct paths: sum over elements whose free side holds the node
+    gh = g + h[..., None] * _perp(-geo.elem_end)
+    delta = (free.T @ gh + (h @ direct)[..., None] * _perp(X) + (h @ via)[..., None] * _perp(geo.A)[:, None, :])
+    rot = h @ direct[:, topo.p_index]
+    # through the pin force R_B
+    sgn = topo.r_b_sign[None, :, None]
+    Rpt = np.where(topo.r_b_at_A[None, :, None], geo.A[:, None, :], geo.B[:, None, :])
+    rho = (sgn * (g + h[..., None] * _perp(Rpt - geo.elem_end))).sum(axis=1)  # (n, 2)
+    lam = np.einsum("aji,aj->ai", _pin_force_map(geo), rho)  # (n, 2): (lambda_A, lambda_Q)
+    delta += lam[:, 0, None, None] * topo.body[None, :, None] * _perp(X - geo.A[:, None])
+    delta += lam[:, 1, None, None] * topo.on_follower[None, :, None] * _perp(X - geo.Q[:, None])
+    return delta, rot + lam[:, 0]

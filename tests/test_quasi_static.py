@@ -145,3 +145,32 @@ def test_cli_quasi_bad_input(args, word):
     out = CliRunner().invoke(main, ["quasi", *args])
     assert out.exit_code != 0
     assert word in out.output
+
+
+@pytest.mark.parametrize("mm", list(MASS_MODEL_CASES))
+def test_matrix_free_statics_equal_explicit_beta(thesis_cognate, mm):
+    # the solver's matrix-free f = beta P and delta = beta^T d must equal the explicit force transformation
+    from ked_quasi.solver import inertia_loads
+    from ked_quasi.structure import (
+        element_flexibility,
+        element_forces,
+        force_transformation,
+        geometry,
+        nodal_deflections,
+        system_flexibility,
+    )
+    scene = Scene(thesis_cognate, MASS_MODEL_CASES[mm], 300.0, 20.0)
+    lm = lumps(thesis_cognate, scene.mass_model)
+    topo = topology(lm)
+    geo = geometry(thesis_cognate, topo, scene.crank_angles)
+    beta = force_transformation(topo, geo)
+    loads = inertia_loads(scene, topo, lm, scene.crank_angles)
+    P = np.concatenate([loads.reshape(loads.shape[0], -1), np.full((loads.shape[0], 1), 3.0)], axis=1)
+    f_explicit = np.einsum("amd,ad->am", beta, P)
+    f_free = element_forces(topo, geo, loads, np.full(loads.shape[0], 3.0)).reshape(loads.shape[0], -1)
+    assert np.allclose(f_free, f_explicit, rtol=0, atol=1e-12 * np.abs(f_explicit).max())
+    delta_explicit = np.einsum("amd,ad->am", system_flexibility(element_flexibility(thesis_cognate, topo), beta), P)
+    F = element_flexibility(thesis_cognate, topo)
+    nodes, rot = nodal_deflections(topo, geo, (F @ f_free.reshape(*loads.shape[:1], -1, 3)[..., None])[..., 0])
+    delta_free = np.concatenate([nodes.reshape(loads.shape[0], -1), rot[:, None]], axis=1)
+    assert np.allclose(delta_free, delta_explicit, rtol=0, atol=1e-12 * np.abs(delta_explicit).max())
