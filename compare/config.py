@@ -177,7 +177,7 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
     ratios = c.numbers(grid, "grid.speed_ratios", default=(), lo=0.0, hi=10.0, lo_open=True)
     if "rpm" not in grid and "speed_ratios" not in grid:
         rpms = (_thesis_rpm(c),)
-    elif not rpms and not ratios and "grid.rpm" not in c.bad and "grid.speed_ratios" not in c.bad:
+    elif not rpms and not ratios and not any(b.startswith(("grid.rpm", "grid.speed_ratios")) for b in c.bad):
         c.err("grid", "at least one crank speed is required in grid.rpm or grid.speed_ratios")
     speeds = tuple(SpeedSpec("rpm", v) for v in rpms) + tuple(SpeedSpec("ratio", v) for v in ratios)
     stiffness = c.numbers(grid, "grid.stiffness_scales", default=(1.0,), lo=0.0, hi=1e6, lo_open=True)

@@ -1,0 +1,148 @@
+"""HDF5 store: round trip, atomic commits, verification (synthetic results, no solvers)."""
+
+from __future__ import annotations
+
+import shutil
+
+import h5py
+import numpy as np
+import pytest
+
+from compare import store
+from compare.metrics import scene_metrics
+from compare.results import RunStats, SceneResult
+from compare.scenes import LinkageSpec, MassModelSpec, SceneSpec, SectionSpec, SpeedSpec
+
+THETA = np.arange(12) * (2 * np.pi / 12)
+
+
+def spec(rpm: float = 300.0, outputs=("dx", "dy", "rotation")) -> SceneSpec:
+    sec = SectionSpec(7.0e10, 1.0e-4, 1.0e-9, 2700.0)
+    return SceneSpec(
+        linkage=LinkageSpec(0.1, 0.3, 0.25, 0.1, 1.0, (0.0, 0.0), (0.3, 0.0), "open", (sec,) * 4),
+        mechanism="source", mass_model=MassModelSpec("tip", payload=1.0), speed=SpeedSpec("rpm", rpm),
+        stiffness_scale=1.0, damping_ratio=0.02, direction="ccw", step_deg=30.0, n_modes=2,
+        outputs=tuple(outputs), tolerance=0.1, dynamic=(("damping_ratio", 0.02),),
+    )
+
+
+def ok_result(rpm: float = 300.0, outputs=("dx", "dy", "rotation")) -> SceneResult:
+    s = spec(rpm, outputs)
+    qs = {c: (i + 1) * 1e-3 * np.sin(THETA) for i, c in enumerate(outputs)}
+    dyn = {c: 1.05 * v for c, v in qs.items()}
+    return SceneResult(
+        spec=s, status="ok", rpm=rpm, omega1_min=100.0, crank_angle=THETA,
+        coupler_point=np.column_stack([np.cos(THETA), np.sin(THETA)]),
+        natural_frequencies=np.column_stack([20 + np.cos(THETA), 50 + np.sin(THETA)]),
+        quasi_static=qs, dynamic=dyn, dynamic_settings={"damping_ratio": 0.02, "damping_reference_hz": None,
+                                                       "sparse": False, "steps_per_cycle": 72},
+        metrics=scene_metrics(THETA, qs, dyn, omega=rpm * np.pi / 30, omega1_min=100.0, tolerance=0.1),
+        stats=RunStats(1.0, 2.0, 3.0, 6.5, 400, 900, 4, True, "steady", "host:1", "2026-01-01T00:00:00+00:00"),
+    )
+
+
+def failed_result() -> SceneResult:
+    return SceneResult(spec=spec(1000.0), status="failed", stage="dynamic", error_type="SimulationError",
+                       message="Newton iteration did not converge", rpm=1000.0, crank_angle=THETA,
+                       quasi_static={"dx": np.zeros(12)})
+
+
+def test_round_trip_preserves_everything(tmp_path):
+    f = tmp_path / "r.h5"
+    store.record_run(f, "[campaign]\nname='t'\n", "t", 2)
+    a, b = ok_result(), failed_result()
+    store.commit(f, [a, b], run=0)
+    assert store.stored_status(f) == {a.key: "ok", b.key: "failed"}
+    ra, rb = (store.read_scenes(f, [k])[0] for k in (a.key, b.key))
+    assert ra.spec == a.spec and ra.key == a.key and ra.status == "ok"
+    for side in ("quasi_static", "dynamic"):
+        for c in ("dx", "dy", "rotation"):
+            np.testing.assert_array_equal(getattr(ra, side)[c], getattr(a, side)[c])
+    np.testing.assert_array_equal(ra.natural_frequencies, a.natural_frequencies)
+    assert ra.metrics == a.metrics
+    assert ra.stats == a.stats
+    assert ra.dynamic_settings == a.dynamic_settings
+    assert rb.status == "failed" and rb.stage == "dynamic" and "Newton" in rb.message and rb.metrics is None
+    assert store.verify(f) == []
+
+
+def test_only_requested_outputs_are_stored(tmp_path):
+    f = tmp_path / "r.h5"
+    store.record_run(f, "", "t", 1)
+    r = ok_result(outputs=("dy",))
+    store.commit(f, [r])
+    with h5py.File(f, "r") as h:
+        g = h["scenes"][r.key]
+        assert list(g["quasi_static"]) == ["dy"] and list(g["dynamic"]) == ["dy"]
+        assert list(g["metrics"]) == ["dy"]
+        assert g["dynamic/dy"].attrs["units"] == "m"
+        assert g["parameters"].attrs["crank_m"] == 0.1
+    assert store.verify(f) == []
+
+
+def test_file_attributes_and_run_records(tmp_path):
+    f = tmp_path / "r.h5"
+    store.record_run(f, "text one", "first", 3)
+    created = store.file_info(f)["created_utc"]
+    assert store.record_run(f, "text two", "second", 4) == 1
+    info = store.file_info(f)
+    assert info["schema"] == store.SCHEMA and info["created_utc"] == created
+    assert info["campaign_config"] == "text two" and info["n_runs"] == 2
+    for k in ("harness_version", "exudyn_version", "numpy_version", "git_commit"):
+        assert k in info
+
+
+def test_failed_transaction_leaves_file_untouched(tmp_path):
+    f = tmp_path / "r.h5"
+    store.record_run(f, "", "t", 1)
+    store.commit(f, [ok_result(100.0)])
+    before = f.read_bytes()
+    with pytest.raises(RuntimeError):
+        with store.transaction(f) as h:
+            h.create_group("scenes/garbage")
+            raise RuntimeError("crash in the middle of a write")
+    assert f.read_bytes() == before
+    assert store.stale_temp_files(f) == []
+
+
+def test_replacing_a_scene_keeps_it_exactly_once(tmp_path):
+    f = tmp_path / "r.h5"
+    store.record_run(f, "", "t", 1)
+    store.commit(f, [failed_result()])
+    store.commit(f, [failed_result()])
+    assert len(store.read_scenes(f)) == 1
+
+
+def test_verify_detects_damage_and_readers_skip_incomplete_groups(tmp_path):
+    good = tmp_path / "good.h5"
+    store.record_run(good, "", "t", 1)
+    r = ok_result()
+    store.commit(good, [r])
+    cases = {
+        "incomplete": lambda g: g.attrs.__delitem__("complete"),
+        "content key": lambda g: g["parameters"].attrs.__setitem__("json", spec(123.0).canonical_json()),
+        "missing dataset dynamic/dx": lambda g: g["dynamic"].__delitem__("dx"),
+        "shape": lambda g: (g["quasi_static"].__delitem__("dy"), g["quasi_static"].create_dataset("dy", data=[1.0])),
+        "verdict inconsistent": lambda g: g["metrics/dx"].attrs.__setitem__("holds", np.uint8(0)),
+    }
+    for words, damage in cases.items():
+        bad = tmp_path / f"bad_{words.split()[0]}.h5"
+        shutil.copyfile(good, bad)
+        with h5py.File(bad, "a") as h:
+            damage(h["scenes"][r.key])
+        problems = store.verify(bad)
+        assert any(words in p for p in problems), (words, problems)
+    assert store.read_scenes(tmp_path / "bad_incomplete.h5") == []
+    not_hdf5 = tmp_path / "x.h5"
+    not_hdf5.write_bytes(b"garbage")
+    assert "cannot open" in store.verify(not_hdf5)[0]
+
+
+def test_stale_temp_files_are_ignored_and_cleaned(tmp_path):
+    f = tmp_path / "r.h5"
+    store.record_run(f, "", "t", 1)
+    stale = tmp_path / "r.h5.tmp-99999-deadbeef"
+    stale.write_bytes(b"half-written")
+    assert store.stale_temp_files(f) == [stale]
+    assert store.verify(f) == []
+    assert store.remove_stale_temp_files(f) == 1 and not stale.exists()

@@ -1,0 +1,87 @@
+"""Comparison metrics on synthetic histories with known answers."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from compare.metrics import (
+    amplification,
+    component_metrics,
+    max_abs_error,
+    peak_angle,
+    phase_shift,
+    relative_error,
+    rms_error,
+    scene_metrics,
+    wrap_angle,
+)
+
+THETA = np.arange(72) * (2 * np.pi / 72)
+
+
+def test_identical_histories_agree_perfectly():
+    y = 1e-3 * np.sin(THETA)
+    m = component_metrics("dx", THETA, y, y, tolerance=0.1)
+    assert m.max_abs_error == 0 and m.rms_error == 0 and m.relative_error == 0
+    assert m.amplification == 1 and m.phase_shift == 0 and m.holds and m.units == "m"
+
+
+def test_scaled_history():
+    qs = 2e-3 * np.cos(THETA)
+    dyn = 1.25 * qs
+    assert max_abs_error(qs, dyn) == pytest.approx(0.5e-3)
+    assert rms_error(qs, dyn) == pytest.approx(0.5e-3 / math.sqrt(2))
+    assert relative_error(qs, dyn) == pytest.approx(0.2)
+    assert amplification(qs, dyn) == pytest.approx(1.25)
+    m = component_metrics("dy", THETA, qs, dyn, tolerance=0.1)
+    assert not m.holds
+    assert component_metrics("dy", THETA, qs, dyn, tolerance=0.25).holds
+
+
+def test_phase_shift_of_the_peak_subgrid_and_direction():
+    lag = math.radians(7.0)  # not a multiple of the 5 deg grid
+    qs = np.exp(np.cos(THETA - 1.0) * 3)
+    dyn = np.exp(np.cos(THETA - 1.0 - lag) * 3)
+    assert peak_angle(THETA, qs) == pytest.approx(1.0, abs=math.radians(0.3))
+    assert phase_shift(THETA, qs, dyn) == pytest.approx(lag, abs=math.radians(0.5))
+    # cw: the crank angle decreases with time, so a peak at a larger angle comes earlier
+    assert phase_shift(THETA, qs, dyn, direction_sign=-1) == pytest.approx(-lag, abs=math.radians(0.5))
+
+
+def test_phase_shift_wraps_across_zero():
+    qs = np.cos(THETA - math.radians(355))
+    dyn = np.cos(THETA - math.radians(5))
+    assert phase_shift(THETA, np.maximum(qs, 0), np.maximum(dyn, 0)) == pytest.approx(math.radians(10), abs=1e-2)
+    assert wrap_angle(3 * math.pi) == pytest.approx(math.pi)
+    assert wrap_angle(-math.pi) == pytest.approx(math.pi)
+
+
+def test_degenerate_peaks():
+    zero = np.zeros_like(THETA)
+    assert relative_error(zero, zero) == 0.0
+    assert amplification(zero, np.ones_like(THETA)) == math.inf
+    assert relative_error(np.ones_like(THETA), zero) == math.inf
+
+
+def test_bad_inputs_are_rejected():
+    with pytest.raises(ValueError, match="shape"):
+        component_metrics("dx", THETA, np.zeros(3), np.zeros(3), 0.1)
+    bad = np.zeros_like(THETA)
+    bad[3] = np.nan
+    with pytest.raises(ValueError, match="non-finite"):
+        component_metrics("dx", THETA, bad, np.zeros_like(THETA), 0.1)
+
+
+def test_scene_metrics_verdict_and_speed_ratio():
+    qs = {"dx": np.sin(THETA), "rotation": np.cos(THETA)}
+    dyn = {"dx": 1.05 * np.sin(THETA), "rotation": 1.5 * np.cos(THETA)}
+    m = scene_metrics(THETA, qs, dyn, omega=-10.0, omega1_min=40.0, tolerance=0.1)
+    assert m.speed_ratio == pytest.approx(0.25) and m.omega == 10.0
+    assert [c.component for c in m.components] == ["dx", "rotation"]
+    assert m.component("dx").holds and not m.component("rotation").holds
+    assert not m.holds
+    assert m.max_relative_error == pytest.approx(1 / 3)
+    assert m.max_amplification == pytest.approx(1.5)
