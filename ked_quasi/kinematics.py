@@ -169,31 +169,34 @@ def joint_positions(fourbar: FourBar, crank_angle: np.ndarray | float) -> dict[s
     }
 
 
+def acceleration_field(fourbar: FourBar, lp: Loop, rpm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rigid acceleration field of each link, in :data:`LINKS` order, as complex (n, 4) arrays:
+    root position, root acceleration and c = i alpha - omega^2, so that a(z) = a_root + c (z - root) [m/s^2]
+    for any point z of that link (exact: a rigid body's acceleration field is affine in position)."""
+    r = _rates(lp, crank_speed(fourbar, rpm))
+    A = lp.M + lp.z1
+    aA = -(r.omega**2) * lp.z1
+    zero = np.zeros_like(aA)
+    root = np.stack([lp.M + zero, A, A, lp.Q + zero], axis=1)
+    a_root = np.stack([zero, aA, aA, zero], axis=1)
+    c = np.stack([-(r.omega**2) + zero, 1j * r.a3 - r.w3**2, 1j * r.a3 - r.w3**2, 1j * r.a4 - r.w4**2], axis=1)
+    return root, a_root, c
+
+
 def link_point_kinematics(
     fourbar: FourBar, crank_angle: np.ndarray | float, rpm: float, link: str, s: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Position [m] and acceleration [m/s^2] of points at fractions ``s`` along ``link``.
 
     Fractions are measured from the link's root: crank from M, coupler and extender from A, follower
-    from Q.  Returns two (n_angles, n_points, 2) arrays.  Exact: a rigid link's acceleration field
-    is affine in position.
+    from Q.  Returns two (n_angles, n_points, 2) arrays.
     """
     if link not in LINKS:
         raise ValueError(f"link must be one of {', '.join(LINKS)}; got {link!r}")
     s = np.atleast_1d(np.asarray(s, dtype=float))
     lp = loop(fourbar, crank_angle)
-    r = _rates(lp, crank_speed(fourbar, rpm))
-    A = lp.M + lp.z1
-    aA = -(r.omega**2) * lp.z1
-    if link == "crank":
-        root, aroot, vec, w, al = lp.M + 0 * lp.z1, 0 * aA, lp.z1, r.omega + 0 * r.w3, 0 * r.a3
-    elif link == "coupler":
-        root, aroot, vec, w, al = A, aA, lp.z3, r.w3, r.a3
-    elif link == "extender":
-        root, aroot, vec, w, al = A, aA, lp.k * lp.z3, r.w3, r.a3
-    else:
-        root, aroot, vec, w, al = lp.Q + 0 * lp.z4, 0 * aA, lp.z4, r.w4, r.a4
+    root, a_root, c = acceleration_field(fourbar, lp, rpm)
+    i = LINKS.index(link)
+    vec = np.stack([lp.z1, lp.z3, lp.k * lp.z3, lp.z4], axis=1)[:, i]
     off = vec[:, None] * s[None, :]
-    pos = root[:, None] + off
-    acc = aroot[:, None] + (1j * al - w**2)[:, None] * off
-    return _xy(pos), _xy(acc)
+    return _xy(root[:, i, None] + off), _xy(a_root[:, i, None] + c[:, i, None] * off)

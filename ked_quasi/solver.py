@@ -14,11 +14,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .kinematics import link_point_kinematics
+from .kinematics import Loop, acceleration_field, loop
 from .linkage import LINKS
 from .massmodel import Lumps, lumps
 from .scene import Scene
 from .structure import (
+    Geometry,
     Topology,
     element_flexibility,
     element_forces,
@@ -58,17 +59,24 @@ class QuasiStaticResult:
     flagged: np.ndarray
 
 
-def inertia_loads(scene: Scene, topo: Topology, lm: Lumps, crank_angle: np.ndarray) -> np.ndarray:
-    """d'Alembert loads P = -m a at the nodes, (n, N, 2) [N]."""
-    loads = np.zeros((crank_angle.size, topo.n_nodes, 2))
-    for lk in LINKS:
-        s, m = lm.on(lk)
-        if s.size == 0:
-            continue
-        _, acc = link_point_kinematics(scene.fourbar, crank_angle, scene.rpm, lk, s)
-        for j, (sj, mj) in enumerate(zip(s, m)):
-            loads[:, topo.node_of(lk, float(sj))] -= mj * acc[:, j]
-    return loads
+def node_masses(topo: Topology, lm: Lumps) -> np.ndarray:
+    """Mass [kg] at each structural node (lumps at the same node add up)."""
+    mass = np.zeros(topo.n_nodes)
+    for lk, s, m in zip(lm.link, lm.s, lm.mass):
+        mass[topo.node_of(lk, float(s))] += m
+    return mass
+
+
+def inertia_loads(scene: Scene, topo: Topology, lm: Lumps, crank_angle: np.ndarray,
+                  geo: Geometry | None = None, lp: Loop | None = None) -> np.ndarray:
+    """d'Alembert loads P = -m a at the nodes, (n, N, 2) [N], from the rigid acceleration field."""
+    lp = loop(scene.fourbar, crank_angle) if lp is None else lp
+    geo = geometry(scene.fourbar, topo, crank_angle, lp) if geo is None else geo
+    root, a_root, c = acceleration_field(scene.fourbar, lp, scene.rpm)
+    li = [LINKS.index(lk) for lk in topo.node_link]
+    acc = a_root[:, li] + c[:, li] * (geo.z_nodes - root[:, li])
+    load = -node_masses(topo, lm) * acc
+    return np.stack([load.real, load.imag], axis=-1)
 
 
 def _toggle_mask(sin_mu: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -95,9 +103,10 @@ def solve_quasi_static(scene: Scene, crank_angle: np.ndarray | None = None) -> Q
     theta = scene.crank_angles if crank_angle is None else np.atleast_1d(np.asarray(crank_angle, float))
     lm = lumps(scene.fourbar, scene.mass_model)
     topo = topology(lm)
-    geo = geometry(scene.fourbar, topo, theta)
+    lp = loop(scene.fourbar, theta)
+    geo = geometry(scene.fourbar, topo, theta, lp)
     F = element_flexibility(scene.fourbar, topo)
-    loads = inertia_loads(scene, topo, lm, theta)
+    loads = inertia_loads(scene, topo, lm, theta, geo, lp)
     with np.errstate(divide="ignore", invalid="ignore"):
         f = element_forces(topo, geo, loads)  # f = beta P
         d = (F @ f[..., None])[..., 0]  # element deformations F f
@@ -108,18 +117,12 @@ def solve_quasi_static(scene: Scene, crank_angle: np.ndarray | None = None) -> Q
     _warn(theta, flagged)
     p = topo.p_index
     deflection = np.column_stack([nodes[:, p, 0], nodes[:, p, 1], rot])
-    mu = np.arccos(np.clip(_cos_mu(geo), -1.0, 1.0))
+    mu = np.abs(np.angle((geo.zA - geo.zB) / (geo.zQ - geo.zB)))
     return QuasiStaticResult(
         crank_angle=theta, deflection=deflection, node_label=topo.node_label,
         node_deflection=nodes, loads=loads,
         transmission_angle=mu, condition=cond, flagged=flagged,
     )
-
-
-def _cos_mu(geo) -> np.ndarray:
-    u = geo.A - geo.B
-    w = geo.Q - geo.B
-    return (u * w).sum(-1) / (np.linalg.norm(u, axis=-1) * np.linalg.norm(w, axis=-1))
 
 
 def flexibility_at_masses(scene: Scene, crank_angle: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -133,9 +136,7 @@ def flexibility_at_masses(scene: Scene, crank_angle: np.ndarray | None = None) -
     topo = topology(lm)
     geo = geometry(scene.fourbar, topo, theta)
     beta = force_transformation(topo, geo)
-    mass = np.zeros(topo.n_nodes)
-    for lk, s, m in zip(lm.link, lm.s, lm.mass):
-        mass[topo.node_of(lk, float(s))] += m
+    mass = node_masses(topo, lm)
     nodes = np.flatnonzero(mass > 0)
     cols = np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel()
     D = system_flexibility(element_flexibility(scene.fourbar, topo), beta[:, :, cols])

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .kinematics import loop
+from .kinematics import Loop, loop
 from .linkage import LINKS, FourBar
 from .massmodel import Lumps
 
@@ -61,6 +61,7 @@ class Topology:
     r_b_at_A: np.ndarray  # (n_elem,) R_B transmitted through pin A (crank elements)
     body: np.ndarray  # (n_node,) node on the coupler body
     on_follower: np.ndarray  # (n_node,) node inside the follower
+    chain: dict  # link -> node indices of its interior nodes, in order from the root
 
     @property
     def n_nodes(self) -> int:
@@ -131,38 +132,52 @@ def topology(lumps: Lumps) -> Topology:
         node_label=tuple(labels), node_link=tuple(links), node_s=node_s,
         elem_link=tuple(elem_link), elem_s0=np.array(e0), elem_s1=np.array(e1),
         free=free, via_A=via_A, r_b_sign=r_b_sign, r_b_at_A=r_b_at_A, body=body, on_follower=on_follower,
+        chain={lk: np.array(sorted((i for i, l2 in enumerate(links) if l2 == lk and 0.0 < ss[i] < 1.0),
+                                   key=lambda i: ss[i]), dtype=int) for lk in LINKS},
     )
+
+
+def _xy(z: np.ndarray) -> np.ndarray:
+    return np.stack([z.real, z.imag], axis=-1)
 
 
 @dataclass(frozen=True)
 class Geometry:
-    """Positions at n crank angles: nodes (n, N, 2), joints A, B, Q (n, 2), element ends and axes."""
+    """Positions at n crank angles as complex numbers x + i y [m]: nodes (n, N), joints A, B, Q (n,),
+    element outer ends (n, E) and unit axes i -> j (n, E); ``sin_transmission`` (n,) is the signed sine
+    of the angle at B between B->A and B->Q.  The (..., 2) properties give the same as real arrays."""
 
-    nodes: np.ndarray
-    A: np.ndarray
-    B: np.ndarray
-    Q: np.ndarray
-    elem_end: np.ndarray  # (n, E, 2)
-    elem_axis: np.ndarray  # (n, E, 2) unit vector i -> j
-    sin_transmission: np.ndarray  # (n,) signed sin of the angle at B between B->A and B->Q
+    z_nodes: np.ndarray
+    zA: np.ndarray
+    zB: np.ndarray
+    zQ: np.ndarray
+    z_end: np.ndarray
+    z_axis: np.ndarray
+    sin_transmission: np.ndarray
+
+    nodes = property(lambda self: _xy(self.z_nodes))
+    A = property(lambda self: _xy(self.zA))
+    B = property(lambda self: _xy(self.zB))
+    Q = property(lambda self: _xy(self.zQ))
+    elem_end = property(lambda self: _xy(self.z_end))
+    elem_axis = property(lambda self: _xy(self.z_axis))
 
 
-def geometry(fourbar: FourBar, topo: Topology, crank_angle: np.ndarray) -> Geometry:
-    lp = loop(fourbar, crank_angle)
+def geometry(fourbar: FourBar, topo: Topology, crank_angle: np.ndarray, lp: Loop | None = None) -> Geometry:
+    """Frozen geometry at the crank angles [rad] (``lp``: the assembled loop, if already at hand)."""
+    lp = loop(fourbar, crank_angle) if lp is None else lp
     A = lp.M + lp.z1
-    root = {"crank": lp.M + 0 * A, "coupler": A, "extender": A, "follower": lp.Q + 0 * A}
-    vec = {"crank": lp.z1, "coupler": lp.z3, "extender": lp.k * lp.z3, "follower": lp.z4}
-    nodes = np.stack([root[lk] + s * vec[lk] for lk, s in zip(topo.node_link, topo.node_s)], axis=1)
-    ends = np.stack([root[lk] + s * vec[lk] for lk, s in zip(topo.elem_link, topo.elem_s1)], axis=1)
-    axis = np.stack([vec[lk] / np.abs(vec[lk]) for lk in topo.elem_link], axis=1)
+    root = np.stack([lp.M + 0 * A, A, A, lp.Q + 0 * A], axis=1)  # LINKS order
+    vec = np.stack([lp.z1, lp.z3, lp.k * lp.z3, lp.z4], axis=1)
+    n_idx = [LINKS.index(lk) for lk in topo.node_link]
+    e_idx = [LINKS.index(lk) for lk in topo.elem_link]
+    nodes = root[:, n_idx] + vec[:, n_idx] * topo.node_s
+    ends = root[:, e_idx] + vec[:, e_idx] * topo.elem_s1
+    unit = vec / np.abs(vec)
     u, w = -lp.z3, -lp.z4  # B->A, B->Q
     sin_mu = (np.conj(u) * w).imag / (np.abs(u) * np.abs(w))
-
-    def xy(z: np.ndarray) -> np.ndarray:
-        return np.stack([z.real, z.imag], axis=-1)
-
-    return Geometry(nodes=xy(nodes), A=xy(A), B=xy(A + lp.z3), Q=xy(lp.Q + 0 * A),
-                    elem_end=xy(ends), elem_axis=xy(axis), sin_transmission=sin_mu)
+    return Geometry(z_nodes=nodes, zA=A, zB=A + lp.z3, zQ=lp.Q + 0 * A, z_end=ends, z_axis=unit[:, e_idx],
+                    sin_transmission=sin_mu)
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -252,66 +267,96 @@ def system_flexibility(F: np.ndarray, beta: np.ndarray) -> np.ndarray:
     return np.einsum("nmi,nmj->nij", beta, Fb)
 
 
-def _perp(a: np.ndarray) -> np.ndarray:
-    """z x a for planar vectors (..., 2)."""
-    return np.stack([-a[..., 1], a[..., 0]], axis=-1)
+def _cx(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Planar cross product a x b of complex-encoded vectors."""
+    return (np.conj(a) * b).imag
 
 
 def _pin_force_map(geo: Geometry) -> np.ndarray:
-    """C (n, 2, 2): R_B = C @ (T_A, T_Q), the follower's pin force on the body from the two moments."""
-    u = geo.B - geo.A
-    w = geo.B - geo.Q
+    """C (n, 2, 2): (R_x, R_y) = C @ (T_A, T_Q), the follower's pin force on the coupler body from the
+    moments about A of the body's loads (T_A) and about Q of the follower's loads (T_Q)."""
+    u = geo.zB - geo.zA
+    w = geo.zB - geo.zQ
     with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / _cross(u, w)
-    return inv[:, None, None] * np.stack([np.stack([-w[:, 0], -u[:, 0]], -1),
-                                          np.stack([-w[:, 1], -u[:, 1]], -1)], axis=1)
+        inv = 1.0 / _cx(u, w)
+    return inv[:, None, None] * np.stack([np.stack([-w.real, -u.real], -1), np.stack([-w.imag, -u.imag], -1)], 1)
+
+
+def _suffix(a: np.ndarray) -> np.ndarray:
+    return np.cumsum(a[:, ::-1], axis=1)[:, ::-1]
+
+
+def _chain_ends(topo: Topology, geo: Geometry):
+    """Per link: element slice, node indices, the end point where the chain's end load acts."""
+    out = {}
+    start = 0
+    for lk in LINKS:
+        idx = topo.chain[lk]
+        sl = slice(start, start + idx.size + 1)
+        start = sl.stop
+        end_pt = {"crank": geo.zA, "coupler": geo.zB, "extender": None, "follower": geo.zB}[lk]
+        out[lk] = (sl, idx, end_pt)
+    return out
 
 
 def element_forces(topo: Topology, geo: Geometry, loads: np.ndarray, moment_p: np.ndarray | None = None) -> np.ndarray:
     """f = beta P without forming beta: element forces (n, E, 3) = (N, V, M) for nodal loads (n, N, 2) [N]
-    and an optional moment at P (n,) [N m].  Same statics as :func:`force_transformation`."""
+    and an optional moment at P (n,) [N m].  Same statics as :func:`force_transformation`, with the
+    free-side sums of each link done as suffix sums along its chain (O(n N))."""
     n = loads.shape[0]
     mp = np.zeros(n) if moment_p is None else moment_p
-    X = geo.nodes
-    free = topo.free.astype(float)
-    direct = (topo.free & ~topo.via_A).astype(float)
-    via = topo.via_A.astype(float)
-    TA = _cross(X - geo.A[:, None], loads) @ topo.body.astype(float) + mp
-    TQ = _cross(X - geo.Q[:, None], loads) @ topo.on_follower.astype(float)
-    R = np.einsum("aij,aj->ai", _pin_force_map(geo), np.stack([TA, TQ], -1))  # (n, 2)
-    Fsum = free @ loads
-    c_own = _cross(X, loads)  # moment of each load about the origin
-    M = (c_own @ direct.T + _cross(geo.A[:, None], via @ loads)
-         - _cross(geo.elem_end, Fsum) + direct[None, :, topo.p_index] * mp[:, None])
-    sgn = topo.r_b_sign[None, :, None]
-    Rpt = np.where(topo.r_b_at_A[None, :, None], geo.A[:, None, :], geo.B[:, None, :])
-    Fsum = Fsum + sgn * R[:, None, :]
-    M = M + sgn[..., 0] * _cross(Rpt - geo.elem_end, R[:, None, :])
-    e = geo.elem_axis
-    return np.stack([(Fsum * e).sum(-1), _cross(e, Fsum), M], axis=-1)
+    L = loads[..., 0] + 1j * loads[..., 1]
+    X = geo.z_nodes
+    p, b = topo.p_index, topo.node_label.index("B")
+    TA = _cx(X - geo.zA[:, None], L) @ topo.body.astype(float) + mp
+    TQ = _cx(X - geo.zQ[:, None], L) @ topo.on_follower.astype(float)
+    Rxy = np.einsum("aij,aj->ai", _pin_force_map(geo), np.stack([TA, TQ], -1))
+    R = Rxy[:, 0] + 1j * Rxy[:, 1]
+    end_load = {"crank": L @ topo.body.astype(float) + R, "coupler": L[:, b] + R, "extender": L[:, p],
+                "follower": -R}
+    end_moment = {"extender": mp}
+    f = np.empty((n, len(topo.elem_link), 3))
+    for lk, (sl, idx, end_pt) in _chain_ends(topo, geo).items():
+        pt = np.concatenate([X[:, idx], (X[:, p] if end_pt is None else end_pt)[:, None]], axis=1)
+        F = np.concatenate([L[:, idx], end_load[lk][:, None]], axis=1)
+        Mo = _cx(pt, F)
+        if lk in end_moment:
+            Mo[:, -1] += end_moment[lk]
+        Fs = _suffix(F)
+        Ms = _suffix(Mo) - _cx(pt, Fs)  # moment about each element's outer end
+        e = geo.z_axis[:, sl]
+        ce = np.conj(e) * Fs
+        f[:, sl, 0] = ce.real
+        f[:, sl, 1] = ce.imag
+        f[:, sl, 2] = Ms
+    return f
 
 
 def nodal_deflections(topo: Topology, geo: Geometry, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """delta = beta^T d without forming beta, for element deformations d (n, E, 3).
 
-    Returns node displacements (n, N, 2) [m] and the rotation of P (n,) [rad] (virtual work: the
-    transpose of :func:`element_forces`)."""
-    X = geo.nodes
-    e = geo.elem_axis
-    g = d[..., 0:1] * e + d[..., 1:2] * _perp(e)  # (n, E, 2)
-    h = d[..., 2]  # (n, E)
-    free = topo.free.astype(float)
-    direct = (topo.free & ~topo.via_A).astype(float)
-    via = topo.via_A.astype(float)
-    # direct paths: sum over elements whose free side holds the node
-    gh = g + h[..., None] * _perp(-geo.elem_end)
-    delta = (free.T @ gh + (h @ direct)[..., None] * _perp(X) + (h @ via)[..., None] * _perp(geo.A)[:, None, :])
-    rot = h @ direct[:, topo.p_index]
-    # through the pin force R_B
-    sgn = topo.r_b_sign[None, :, None]
-    Rpt = np.where(topo.r_b_at_A[None, :, None], geo.A[:, None, :], geo.B[:, None, :])
-    rho = (sgn * (g + h[..., None] * _perp(Rpt - geo.elem_end))).sum(axis=1)  # (n, 2)
-    lam = np.einsum("aji,aj->ai", _pin_force_map(geo), rho)  # (n, 2): (lambda_A, lambda_Q)
-    delta += lam[:, 0, None, None] * topo.body[None, :, None] * _perp(X - geo.A[:, None])
-    delta += lam[:, 1, None, None] * topo.on_follower[None, :, None] * _perp(X - geo.Q[:, None])
-    return delta, rot + lam[:, 0]
+    Returns node displacements (n, N, 2) [m] and the rotation of P (n,) [rad]: by virtual work the
+    transpose of :func:`element_forces` (prefix sums along each chain)."""
+    X = geo.z_nodes
+    p, b = topo.p_index, topo.node_label.index("B")
+    g = (d[..., 0] + 1j * d[..., 1]) * geo.z_axis  # (n, E)
+    h = d[..., 2]
+    delta = np.zeros(X.shape, dtype=complex)
+    end_val = {}
+    for lk, (sl, idx, end_pt) in _chain_ends(topo, geo).items():
+        pt = np.concatenate([X[:, idx], (X[:, p] if end_pt is None else end_pt)[:, None]], axis=1)
+        G = np.cumsum(g[:, sl] - 1j * h[:, sl] * geo.z_end[:, sl], axis=1)
+        H = np.cumsum(h[:, sl], axis=1)
+        val = G + 1j * pt * H  # adjoint value at each chain position (interior nodes, then the end)
+        delta[:, idx] += val[:, :-1]
+        end_val[lk] = val[:, -1]
+        if lk == "extender":
+            rot = H[:, -1].copy()
+    delta[:, p] += end_val["extender"]
+    delta[:, b] += end_val["coupler"]
+    delta += end_val["crank"][:, None] * topo.body  # the body's loads reach the crank through pin A
+    rho = end_val["coupler"] - end_val["follower"] + end_val["crank"]
+    lam = np.einsum("aji,aj->ai", _pin_force_map(geo), np.stack([rho.real, rho.imag], -1))
+    delta += lam[:, 0, None] * topo.body * 1j * (X - geo.zA[:, None])
+    delta += lam[:, 1, None] * topo.on_follower * 1j * (X - geo.zQ[:, None])
+    return _xy(delta), rot + lam[:, 0]
