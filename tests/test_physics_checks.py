@@ -1,0 +1,102 @@
+"""One set of physics checks that every solver must pass on the same scenes.
+
+Like scikit-learn's shared estimator checks: each check takes a *solver* (scene -> (n, 3) deflection of
+P: dx, dy [m], rotation [rad], on the scene's crank-angle grid) and asserts an invariant that physics
+predicts independently of the method:
+
+* mirror symmetry: reflecting the linkage in its ground line and reversing the crank mirrors the
+  response exactly (dx, -dy, -rotation at crank angle -theta); holds for the dynamics too, damping included;
+* low-speed limit: deflection / rpm^2 tends to a limit (inertia loads scale with omega^2);
+* stiffness scaling: well below resonance deflection scales as 1/E;
+* the rigid coupler curves of source and cognate coincide (checked in test_linkage).
+
+The quasi-static solver satisfies them to round-off; the Exudyn model within its discretization
+tolerance at speeds far below its first natural frequency.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from ked_quasi import MassModel, Scene, solve_quasi_static
+from ked_quasi.linkage import THESIS_TIP_MASS_KG
+
+
+def quasi_static(scene: Scene) -> np.ndarray:
+    return solve_quasi_static(scene).deflection
+
+
+def exudyn_dynamic(scene: Scene) -> np.ndarray:
+    from exudyn_models import DynamicSettings, simulate_steady_state
+
+    res = simulate_steady_state(scene, DynamicSettings())
+    assert res.converged, res.message
+    return res.deflection
+
+
+# (solver, relative tolerance on the peak) - the dynamic model carries discretization and residual
+# dynamic content at these low speeds (speed ratio ~0.05)
+SOLVERS = {"quasi": (quasi_static, 1e-10), "exudyn": (exudyn_dynamic, 0.02)}
+
+SCENES = {
+    "tip-source": lambda fb: Scene(fb, MassModel("tip", payload=THESIS_TIP_MASS_KG), rpm=30.0, step_deg=10.0),
+    "extender-cognate": lambda fb: Scene(fb, MassModel("extender"), rpm=60.0, step_deg=10.0),
+}
+
+
+def _fourbar(name, thesis, thesis_cognate):
+    return thesis if name.endswith("source") else thesis_cognate
+
+
+def _close(a: np.ndarray, b: np.ndarray, rtol: float) -> None:
+    peak = np.abs(b[:, :2]).max()
+    assert np.abs(a[:, :2] - b[:, :2]).max() <= rtol * peak
+    rpeak = np.abs(b[:, 2]).max()
+    assert np.abs(a[:, 2] - b[:, 2]).max() <= max(rtol, 1e-10) * rpeak * 2
+
+
+def mirror(fb):
+    """Reflection in the ground line M->Q (the thesis frame: the x axis) with the crank reversed."""
+    assert fb.crank_pivot[1] == 0.0 and fb.follower_pivot[1] == 0.0
+    return replace(fb, coupler_angle=-fb.coupler_angle, branch="crossed" if fb.branch == "open" else "open",
+                   direction="cw" if fb.direction == "ccw" else "ccw")
+
+
+@pytest.mark.parametrize("solver", list(SOLVERS))
+@pytest.mark.parametrize("scene_name", ["tip-source"])
+def test_mirror_symmetry(solver, scene_name, thesis, thesis_cognate):
+    solve, rtol = SOLVERS[solver]
+    scene = SCENES[scene_name](_fourbar(scene_name, thesis, thesis_cognate))
+    d = solve(scene)
+    m = solve(replace(scene, fourbar=mirror(scene.fourbar)))
+    idx = (-np.arange(d.shape[0])) % d.shape[0]  # crank angle -theta on the same grid
+    _close(m[idx] * np.array([1.0, -1.0, -1.0]), d, rtol)
+
+
+@pytest.mark.parametrize("solver", list(SOLVERS))
+@pytest.mark.parametrize("scene_name", list(SCENES))
+def test_low_speed_limit_scales_with_rpm_squared(solver, scene_name, thesis, thesis_cognate):
+    solve, rtol = SOLVERS[solver]
+    scene = SCENES[scene_name](_fourbar(scene_name, thesis, thesis_cognate))
+    d1 = solve(scene)
+    d2 = solve(replace(scene, rpm=scene.rpm / 2.0))
+    _close(4.0 * d2, d1, rtol)
+
+
+@pytest.mark.parametrize("solver", list(SOLVERS))
+def test_deflection_scales_as_inverse_stiffness(solver, thesis):
+    solve, rtol = SOLVERS[solver]
+    scene = SCENES["tip-source"](thesis)
+    d1 = solve(replace(scene, fourbar=thesis.with_stiffness_scale(10.0)))
+    d2 = solve(replace(scene, fourbar=thesis.with_stiffness_scale(20.0)))
+    _close(2.0 * d2, d1, rtol)
+
+
+@pytest.mark.parametrize("scene_name", list(SCENES))
+def test_dynamic_matches_quasi_static_far_below_resonance(scene_name, thesis, thesis_cognate):
+    # the instantaneous-structure assumption is exact in the limit Omega/omega1 -> 0
+    scene = SCENES[scene_name](_fourbar(scene_name, thesis, thesis_cognate))
+    _close(exudyn_dynamic(scene), quasi_static(scene), 0.03)
