@@ -7,6 +7,7 @@ import click
 from compare.campaign_cli import inspect_cmd, plot_cmd, run_cmd
 from exudyn_models.cli import simulate
 from ked_quasi.cli import quasi
+from ked_quasi.thesis_cli import thesis
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -20,3 +21,4 @@ main.add_command(simulate)
 main.add_command(run_cmd)
 main.add_command(inspect_cmd)
 main.add_command(plot_cmd)
+main.add_command(thesis)
