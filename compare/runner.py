@@ -14,7 +14,7 @@ import multiprocessing
 import os
 import sys
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -89,9 +89,12 @@ class _LocalBackend:
     def submit(self, spec: SceneSpec) -> Any:
         return self.pool.submit(run_scene, spec)
 
-    def wait(self, pending: set[Any]) -> tuple[set[Any], set[Any]]:
-        done, not_done = cf.wait(pending, return_when=cf.FIRST_COMPLETED)
-        return set(done), set(not_done)
+    def batches(self, futures: Iterable[Any]) -> Iterator[list[Any]]:
+        """Completed futures, grouped: everything finished by the time the previous group is stored."""
+        pending = set(futures)
+        while pending:
+            done, pending = cf.wait(pending, return_when=cf.FIRST_COMPLETED)
+            yield list(done)
 
     def result(self, fut: Any) -> SceneResult | None:
         """The scene's result; ``None`` if the pool broke (scene not attributable, not stored)."""
@@ -115,11 +118,10 @@ class _DaskBackend:
     def submit(self, spec: SceneSpec) -> Any:
         return self.client.submit(run_scene, spec, key=f"ked-scene-{spec.key}", pure=False)
 
-    def wait(self, pending: set[Any]) -> tuple[set[Any], set[Any]]:
-        from distributed import wait
+    def batches(self, futures: Iterable[Any]) -> Iterator[list[Any]]:
+        from distributed import as_completed
 
-        res = wait(list(pending), return_when="FIRST_COMPLETED")
-        return set(res.done), set(res.not_done)
+        yield from as_completed(list(futures), loop=self.client.loop).batches()
 
     def result(self, fut: Any) -> SceneResult | None:
         return fut.result()
@@ -162,9 +164,7 @@ def run_campaign(
         bar.set_postfix(ok=0, failed=0, skipped=len(p.skipped))
         try:
             futures = {backend.submit(s): s for s in p.todo}
-            pending = set(futures)
-            while pending:
-                done, pending = backend.wait(pending)
+            for done in backend.batches(futures):
                 batch = []
                 for fut in done:
                     try:

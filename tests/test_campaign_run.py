@@ -1,0 +1,146 @@
+"""Campaign runner with the real solvers: parallel run, resume, failing scene, CLI run/inspect/plot.
+
+Scenes are kept quick: 30 deg crank grid, coarse Exudyn settings, low speed.
+"""
+
+from __future__ import annotations
+
+import json
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from compare import store
+from compare.cli import main
+from compare.config import parse_config
+from compare.runner import plan, run_campaign
+
+QUICK = """
+[campaign]
+name = "quick"
+step_deg = 30.0
+n_modes = 2
+[grid]
+mechanisms = ["source", "cognate"]
+mass_models = ["extender", {name = "tip", payload_kg = 0.5}]
+rpm = [60.0]
+[dynamic]
+steps_per_cycle = 36
+max_cycles = 10
+"""
+
+# stiffness scaled by 1e-3 at 60 rpm puts the tip-mass scene far above its first resonance: the
+# Exudyn Newton iteration diverges during the start-up ramp (a genuine solver failure, no mock)
+FAILING = """
+[campaign]
+name = "with-failure"
+step_deg = 30.0
+n_modes = 2
+[grid]
+mass_models = [{name = "tip", payload_kg = 0.5}]
+rpm = [60.0]
+stiffness_scales = [1.0, 1.0e-3, 0.5]
+[dynamic]
+steps_per_cycle = 36
+max_cycles = 10
+"""
+
+
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("quick") / "quick.h5"
+    cfg = parse_config(QUICK)
+    summary = run_campaign(cfg, out, workers=2, progress=False)
+    return cfg, out, summary
+
+
+def test_parallel_campaign_stores_every_scene_once_and_valid(quick_run):
+    cfg, out, summary = quick_run
+    assert summary.total == 4 and summary.ok == 4 and summary.failed == 0 and summary.skipped == 0
+    assert store.verify(out) == []
+    results = store.read_scenes(out)
+    assert sorted(r.key for r in results) == sorted(s.key for s in cfg.scenes())
+    for r in results:
+        assert r.ok and r.metrics is not None
+        assert r.crank_angle.shape == (12,) and r.natural_frequencies.shape == (12, 2)
+        assert set(r.dynamic) == {"dx", "dy", "rotation"}
+        assert r.stats.steps > 0 and r.stats.cycles >= 1 and r.stats.dynamic_wall_s > 0
+        assert r.metrics.speed_ratio == pytest.approx(2 * np.pi / r.omega1_min)  # 60 rpm = 2 pi rad/s
+    assert len({r.stats.worker for r in results}) >= 1
+    with h5py.File(out, "r") as f:
+        assert "quick" in f.attrs["campaign_config"]
+
+
+def test_rerun_skips_stored_scenes(quick_run):
+    cfg, out, _ = quick_run
+    before = {r.key: r.stats.finished_utc for r in store.read_scenes(out)}
+    again = run_campaign(cfg, out, workers=2, progress=False)
+    assert again.skipped == 4 and again.ok == 0 and again.failed == 0
+    assert {r.key: r.stats.finished_utc for r in store.read_scenes(out)} == before
+    # a grown grid runs only the new scenes
+    bigger = parse_config(QUICK.replace("rpm = [60.0]", "rpm = [60.0, 90.0]"))
+    p = plan(bigger.scenes(), store.stored_status(out))
+    assert len(p.todo) == 4 and len(p.skipped) == 4
+    assert {s.speed.value for s in p.todo} == {90.0}
+
+
+def test_failing_scene_is_recorded_and_others_complete(tmp_path):
+    out = tmp_path / "fail.h5"
+    summary = run_campaign(parse_config(FAILING), out, workers=2, progress=False)
+    assert summary.ok == 2 and summary.failed == 1
+    results = {r.spec.stiffness_scale: r for r in store.read_scenes(out)}
+    bad = results[1.0e-3]
+    assert bad.status == "failed" and bad.stage == "dynamic" and bad.message
+    assert bad.error_type in ("SimulationError", "NoSteadyState")
+    assert "dx" in bad.quasi_static  # what was computed before the failure is kept
+    assert results[1.0].ok and results[0.5].ok
+    assert store.verify(out) == []
+    # failed scenes are skipped on resume unless asked to retry
+    assert run_campaign(parse_config(FAILING), out, workers=1, progress=False).skipped == 3
+    retry = run_campaign(parse_config(FAILING), out, workers=1, progress=False, retry_failed=True)
+    assert retry.failed == 1 and retry.skipped == 2
+    assert len(store.read_scenes(out)) == 3
+
+
+def test_cli_run_inspect_plot(tmp_path, quick_run):
+    _, out, _ = quick_run
+    cfg_file = tmp_path / "quick.toml"
+    cfg_file.write_text(QUICK)
+    runner = CliRunner()
+    res = runner.invoke(main, ["run", str(cfg_file), "--out", str(out), "--no-progress", "--no-figures"])
+    assert res.exit_code == 0, res.output
+    assert "0 ok, 0 failed, 4 skipped" in res.output and "verdict" in res.output
+
+    res = runner.invoke(main, ["inspect", str(out)])
+    assert res.exit_code == 0 and "4 scenes: 4 ok" in res.output
+    rows = json.loads(runner.invoke(main, ["inspect", str(out), "--json"]).output)["scenes"]
+    assert len(rows) == 4 and all(r["status"] == "ok" for r in rows)
+    key = rows[0]["key"]
+    detail = runner.invoke(main, ["inspect", str(out), key[:8]])
+    assert detail.exit_code == 0 and "phase[deg]" in detail.output
+    one = json.loads(runner.invoke(main, ["inspect", str(out), key, "--json"]).output)
+    assert one["key"] == key and len(one["dynamic"]["dx"]) == 12
+    ver = runner.invoke(main, ["inspect", str(out), "--verify"])
+    assert ver.exit_code == 0 and "valid, 4 complete scenes" in ver.output
+
+    fig_dir = tmp_path / "figs"
+    res = runner.invoke(main, ["plot", str(out), "--out", str(fig_dir)])
+    assert res.exit_code == 0, res.output
+    pngs = sorted(p.name for p in fig_dir.glob("*.png"))
+    assert "amplification.png" in pngs and len(pngs) == 5
+    assert all((fig_dir / p).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in pngs)
+
+
+def test_cli_reports_config_errors_and_dry_run(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[grid]\nrpm = [-1.0]\nmechanisms = ['x']\n")
+    res = CliRunner().invoke(main, ["run", str(bad)])
+    assert res.exit_code == 2
+    assert "grid.rpm[0]" in res.output and "grid.mechanisms[0]" in res.output
+    good = tmp_path / "q.toml"
+    good.write_text(QUICK)
+    res = CliRunner().invoke(main, ["run", str(good), "--out", str(tmp_path / "x.h5"), "--dry-run"])
+    assert res.exit_code == 0 and "4 scenes, 4 to run" in res.output
+    assert not (tmp_path / "x.h5").exists()
