@@ -7,6 +7,7 @@ on the same scene definition and kinematics as ked_quasi.
 
 from .builder import BuiltModel, build_model
 from .damping import rayleigh_beta, reference_frequency
+from .modal import frozen_natural_frequencies
 from .settings import ELEMENT_TYPES, DynamicSettings
 from .simulate import DynamicResult, SimulationError, simulate_steady_state
 
@@ -17,6 +18,7 @@ __all__ = [
     "DynamicSettings",
     "SimulationError",
     "build_model",
+    "frozen_natural_frequencies",
     "rayleigh_beta",
     "reference_frequency",
     "simulate_steady_state",

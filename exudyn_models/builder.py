@@ -94,7 +94,9 @@ def _shape_matrix(element: str, xi: float, length: float) -> np.ndarray:
     return S
 
 
-def _beam_template(element: str, section, mass_per_length: float, beta: float):
+def beam_template(element: str, section, mass_per_length: float, beta: float):
+    """Exudyn beam-element template of one link: stiffness from `section` (ked_quasi Section),
+    mass per length [kg/m] as given, stiffness-proportional damping beta [s] (exudyn_models.damping)."""
     E, A, I = section.youngs_modulus, section.area, section.second_moment
     if element == "ancf":
         return eii.ObjectANCFCable2D(
@@ -162,7 +164,7 @@ def build_model(scene, settings: DynamicSettings | None = None, *,
     for link, (root, tip) in LINK_ENDS.items():
         section = fourbar.section(link)
         mu = section.mass_per_length if distributed else massless_link_mass_per_length
-        template = _beam_template(element, section, mu, damping_beta)
+        template = beam_template(element, section, mu, damping_beta)
         p0, p1 = joints[root], joints[tip]
         created = GenerateBeamElementsAlongLine(mbs, [p0[0], p0[1], 0.0], [p1[0], p1[1], 0.0], n_el,
                                                 template)
@@ -224,8 +226,12 @@ def build_model(scene, settings: DynamicSettings | None = None, *,
         fix(n_hub, 2, offsetUserFunction=offset, offsetUserFunction_t=offset_t)
 
     def rigid_marker_at_root(link: str) -> int:
-        return int(mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=link_elements[link][0],
-                                                     localPosition=[0.0, 0.0, 0.0])))
+        """Rigid frame at the link root: the ANCF element's (slope-based) frame, or the geometrically
+        exact beam's rigid root node (its element does not provide body-rigid marker velocities)."""
+        if element == "ancf":
+            return int(mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=link_elements[link][0],
+                                                         localPosition=[0.0, 0.0, 0.0])))
+        return int(mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=link_nodes[link][0])))
 
     hidden_generic = eii.VObjectJointGeneric(show=False)
     mbs.AddObject(eii.ObjectJointGeneric(

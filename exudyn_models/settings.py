@@ -15,7 +15,8 @@ ELEMENT_TYPES = ("ancf", "gebeam")
 class DynamicSettings:
     """Discretization, damping and solver settings of one steady-state run.
 
-    element: "ancf" (ObjectANCFCable2D, default) or "gebeam" (ObjectBeamGeometricallyExact2D).
+    element: "ancf" (ObjectANCFCable2D, default) or "gebeam" (ObjectBeamGeometricallyExact2D; its
+        linear interpolation needs ~4x more elements than the cubic ANCF for the same accuracy).
     elements_per_link: finite elements per link (crank, coupler, extender, follower each).
     steps_per_cycle: fixed implicit time steps per crank revolution.
     spectral_radius: generalized-alpha spectral radius at infinite frequency (numerical damping
@@ -31,20 +32,21 @@ class DynamicSettings:
     steady_tol: periodic steady state is reached when two successive cycles of the coupler-point
         deflection (dx, dy on the scene grid) differ by less than steady_tol * peak |deflection|.
     min_cycles / max_cycles: cycles at constant speed simulated at least / at most.
-    newton_abs_tol, newton_rel_tol: Newton tolerances of Exudyn (absolute one in N-scaled units;
-        Exudyn's 1e-10 default fails on round-off for steel links).
+    newton_abs_tol [N], newton_rel_tol: Newton tolerances of Exudyn's residual (forces). Exudyn's
+        1e-10 default fails on round-off; the absolute tolerance is raised to 1e-13 * E*A for
+        very stiff links (exudyn_models.simulate.newton_abs_tolerance).
     newton_max_iterations: Newton iterations per step before the step counts as failed.
     sparse: use Exudyn's sparse (Eigen) linear solver instead of the dense one.
     """
 
     element: str = "ancf"
     elements_per_link: int = 2
-    steps_per_cycle: int = 144
+    steps_per_cycle: int = 288
     spectral_radius: float = 0.6
     damping_ratio: float = 0.02
     damping_reference_hz: float | None = None
     ramp_cycles: float = 1.0
-    steady_tol: float = 2e-3
+    steady_tol: float = 1e-3
     min_cycles: int = 2
     max_cycles: int = 80
     newton_abs_tol: float = 1e-4

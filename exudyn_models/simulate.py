@@ -69,8 +69,22 @@ class DynamicResult:
     settings: DynamicSettings
 
 
-def solver_settings(settings: DynamicSettings, step: float, end_time: float) -> exu.SimulationSettings:
-    """Exudyn SimulationSettings for a fixed-step generalized-alpha run writing no files."""
+ROUNDOFF_TOLERANCE = 1e-13
+"""The residual's round-off grows like 1e-16 * E*A [N]; the Newton absolute tolerance is kept at
+least ROUNDOFF_TOLERANCE * max(E*A), so that it stays reachable for very stiff links (E x 1e4 and
+more) while staying far below the inertia forces."""
+
+
+def newton_abs_tolerance(settings: DynamicSettings, fourbar) -> float:
+    """Newton absolute tolerance [N]: max(settings.newton_abs_tol, 1e-13 * max(E*A))."""
+    ea = max(s.youngs_modulus * s.area for s in fourbar.sections)
+    return max(settings.newton_abs_tol, ROUNDOFF_TOLERANCE * ea)
+
+
+def solver_settings(settings: DynamicSettings, step: float, end_time: float,
+                    abs_tol: float | None = None) -> exu.SimulationSettings:
+    """Exudyn SimulationSettings for a fixed-step generalized-alpha run writing no files.
+    abs_tol [N]: Newton absolute tolerance (None -> settings.newton_abs_tol)."""
     sset = exu.SimulationSettings()
     sset.solution.file.write = False  # default would write solution/coordinatesSolution.txt
     sset.solution.sensors.writePeriod = 0.5 * step  # store the P sensor every step
@@ -84,7 +98,7 @@ def solver_settings(settings: DynamicSettings, step: float, end_time: float) -> 
     ti.generalizedAlpha.spectralRadius = settings.spectral_radius
     ti.generalizedAlpha.computeInitialAccelerations = False
     nw = ti.newton
-    nw.absoluteTolerance = settings.newton_abs_tol
+    nw.absoluteTolerance = settings.newton_abs_tol if abs_tol is None else abs_tol
     nw.relativeTolerance = settings.newton_rel_tol
     nw.useModifiedNewton = True
     nw.modifiedNewtonJacUpdatePerStep = True
@@ -155,7 +169,8 @@ def simulate_steady_state(scene, settings: DynamicSettings | None = None) -> Dyn
     n = settings.steps_per_cycle
     h = drive.cycle_time / n
     ramp_steps = round(drive.ramp_time / h)
-    sset = solver_settings(settings, h, drive.cycle_start(settings.max_cycles))
+    sset = solver_settings(settings, h, drive.cycle_start(settings.max_cycles),
+                           newton_abs_tolerance(settings, scene.fourbar))
     sample = _CycleSampler(model, scene, n)
     state = {"cycles": 0, "previous": None, "current": None, "change": float("inf"),
              "converged": False, "error": None}

@@ -1,0 +1,125 @@
+"""Steady-state runs of the Exudyn model against ked_quasi and kinematics.
+
+Expected values: ked_quasi.solver.solve_quasi_static (same scene; the dynamic response tends to the
+quasi-static one at low speed and for stiff links), ked_quasi.kinematics.coupler_point (rigid path),
+and the model itself at a finer discretization (convergence).
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from scipy.optimize import minimize_scalar
+
+from compare.cli import main as ked
+from exudyn_models import DynamicSettings, simulate_steady_state
+from ked_quasi.kinematics import coupler_point
+from ked_quasi.massmodel import MassModel
+from ked_quasi.presets import make_scene
+from ked_quasi.scene import Scene
+from ked_quasi.solver import solve_quasi_static
+
+from .conftest import random_fourbars
+
+
+def _quasi(scene) -> np.ndarray:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return solve_quasi_static(scene).deflection
+
+
+def _rel_error(got: np.ndarray, expected: np.ndarray) -> tuple[float, float]:
+    """max |got - expected| relative to the expected peak: (dx, dy together), rotation."""
+    xy = np.abs(got[:, :2] - expected[:, :2]).max() / np.abs(expected[:, :2]).max()
+    rot = np.abs(got[:, 2] - expected[:, 2]).max() / np.abs(expected[:, 2]).max()
+    return float(xy), float(rot)
+
+
+@pytest.mark.parametrize("mechanism", ["source", "cognate"])
+@pytest.mark.parametrize("mass_model", ["tip", "joints", "extender", "distributed"])
+def test_low_speed_limit_matches_quasi_static(mass_model, mechanism):
+    """30 rpm (1/10 of the thesis speed): the steady deflection is the quasi-static one within 2 % of
+    the peak. (Case I keeps a genuine ~1 % dynamic part: f1 ~ 10 Hz against crank harmonics of 0.5 Hz.)"""
+    scene = make_scene(mass_model=mass_model, mechanism_name=mechanism, rpm=30.0)
+    res = simulate_steady_state(scene)
+    assert res.converged
+    np.testing.assert_allclose(res.crank_angle, scene.crank_angles)
+    xy, rot = _rel_error(res.deflection, _quasi(scene))
+    assert xy < 0.02 and rot < 0.02
+
+
+def test_low_speed_limit_clockwise_and_geometrically_exact_beam():
+    """Crank turning CW, and the alternative element type (8 linear elements per link)."""
+    scene = make_scene(mass_model="extender", rpm=30.0, direction="cw")
+    expected = _quasi(scene)
+    for settings in (DynamicSettings(), DynamicSettings(element="gebeam", elements_per_link=8)):
+        xy, rot = _rel_error(simulate_steady_state(scene, settings).deflection, expected)
+        assert xy < 0.02 and rot < 0.02, settings.element
+
+
+@pytest.mark.parametrize("mass_model", ["tip", "joints"])
+def test_stiff_links_deflection_scales_as_inverse_e(mass_model):
+    """E x 1e4 at 300 rpm: deflection x 1e4 equals the (linear, 1/E) quasi-static deflection of the
+    nominal links within 2 % of the peak (rigid limit: no dynamic amplification left). 1152 steps per
+    cycle: the model has an absolute error floor (~1e-7 m at the default 288 steps, falling like
+    h^3) which is ~1e-4 of the nominal deflections but not small against E x 1e4 ones."""
+    scene = make_scene(mass_model=mass_model, stiffness_scale=1e4)
+    res = simulate_steady_state(scene, DynamicSettings(steps_per_cycle=1152))
+    xy, rot = _rel_error(res.deflection * 1e4, _quasi(make_scene(mass_model=mass_model)))
+    assert xy < 0.02 and rot < 0.02
+
+
+def test_rigid_path_matches_kinematic_coupler_curve_and_cognate_traces_the_source_curve():
+    """E x 1e6: flexible P (rigid P + deflection) lies on the kinematic coupler curve within 1 um,
+    for the source, its cognate (against the source's curve) and a random CW/crossed four-bar."""
+    source = make_scene(mass_model="distributed", stiffness_scale=1e6)
+    cognate = make_scene(mass_model="distributed", mechanism_name="cognate", stiffness_scale=1e6)
+    fb = next(f for f in random_fourbars(20, seed=3) if f.direction == "cw" and f.branch == "crossed")
+    other = Scene(fb.with_stiffness_scale(1e6), MassModel("distributed"), 300.0, 10.0)
+    for scene in (source, cognate, other):
+        res = simulate_steady_state(scene)
+        assert np.abs(res.deflection[:, :2]).max() < 1e-6
+
+    res = simulate_steady_state(cognate)
+    path = coupler_point(cognate.fourbar, res.crank_angle) + res.deflection[:, :2]
+    dense = np.linspace(0.0, 2 * np.pi, 7201)
+    curve = coupler_point(source.fourbar, dense)
+    for p in path:
+        i = int(np.argmin(np.hypot(*(curve - p).T)))
+        best = minimize_scalar(lambda th, p=p: float(np.hypot(*(coupler_point(source.fourbar, np.array([th]))[0] - p))),
+                               bounds=(dense[i] - 0.002, dense[i] + 0.002), method="bounded",
+                               options={"xatol": 1e-12})
+        assert best.fun < 1e-6
+
+
+def test_case_iii_steady_cycle_converged_in_step_and_elements():
+    """Halving the step and doubling the elements changes the Case III cycle by < 1 % of its peak."""
+    scene = make_scene(mass_model="extender")
+    d = DynamicSettings()
+    coarse = simulate_steady_state(scene, d)
+    fine = simulate_steady_state(scene, DynamicSettings(steps_per_cycle=2 * d.steps_per_cycle,
+                                                        elements_per_link=2 * d.elements_per_link))
+    assert coarse.converged and fine.converged
+    xy, rot = _rel_error(coarse.deflection, fine.deflection)
+    assert xy < 0.01 and rot < 0.01
+
+
+def test_unsettled_run_is_reported_not_hidden():
+    scene = make_scene(mass_model="extender", step_deg=30.0)
+    res = simulate_steady_state(scene, DynamicSettings(steps_per_cycle=72, max_cycles=2, steady_tol=1e-12))
+    assert not res.converged and res.cycles == 2
+    assert "not steady" in res.message and res.deflection.shape == (12, 3)
+
+
+def test_ked_simulate_json():
+    out = CliRunner().invoke(ked, ["simulate", "--mass-model", "extender", "--step-deg", "30",
+                                   "--steps-per-cycle", "72", "--json"])
+    assert out.exit_code == 0, out.output
+    data = json.loads(out.output)
+    for key in ("crank_angle_deg", "dx_m", "dy_m", "rotation_rad"):
+        assert len(data[key]) == 12
+    assert data["converged"] is True and data["cycles"] >= 2 and data["wall_s"] > 0
