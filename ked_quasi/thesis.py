@@ -655,3 +655,29 @@ def quirk_walk(table: str, order: tuple[str, ...] | None = None) -> list[tuple[s
         q = q.without(name)
         out.append((name, as_printed(table, q)))
     return out
+
+
+def _max_change(a: ThesisTable, b: ThesisTable, mech: str) -> float:
+    return max(float(np.max(np.abs(a.column(f"{mech}_{k}") - b.column(f"{mech}_{k}")))) for k in ("dx_in", "dy_in"))
+
+
+def quirk_effects() -> list[dict[str, object]]:
+    """Measured effect of each quirk [in]: per table, the max change of the source and cognate dX, dY
+    columns when the quirk alone is switched off in the as-printed computation (``off_from_printed``)
+    and when it alone is switched on in the corrected one (``on_from_corrected``); None where the quirk
+    cannot touch the table."""
+    base = {t: as_printed(t) for t in TABLES}
+    none = {t: as_printed(t, ThesisQuirks.none()) for t in TABLES}
+    out: list[dict[str, object]] = []
+    for name in ThesisQuirks.names():
+        row: dict[str, object] = {"quirk": name}
+        for t in TABLES:
+            if name not in QUIRKS_BY_TABLE[t]:
+                row[t] = None
+                continue
+            off = as_printed(t, ThesisQuirks().without(name))
+            on = as_printed(t, ThesisQuirks.none().with_(**{name: True}))
+            row[t] = {"off_from_printed": {m: _max_change(off, base[t], m) for m in ("source", "cognate")},
+                      "on_from_corrected": {m: _max_change(on, none[t], m) for m in ("source", "cognate")}}
+        out.append(row)
+    return out

@@ -15,6 +15,7 @@ from .thesis import (
     corrected,
     corrected_mass_model,
     published_table,
+    quirk_effects,
     quirk_walk,
 )
 from .thesis_tables import TABLE_KEYS, TABLE_TITLES, TABLES, is_typo
@@ -80,6 +81,17 @@ def _render(table: str, tabs: dict[str, ThesisTable], diff: bool) -> str:
     return "\n".join(lines)
 
 
+def _effect_cell(v: object, kind: str) -> str:
+    if v is None:
+        return "-"
+    e = v[kind]  # type: ignore[index]
+
+    def fmt(x: float) -> str:
+        return "0" if x == 0 else f"{x:.4f}" if x >= 1e-4 else f"{x:.1e}"
+
+    return f"{fmt(e['source'])} / {fmt(e['cognate'])}"
+
+
 @click.command("thesis")
 @click.option("--table", "tables", multiple=True, type=click.Choice(TABLES), help="Table(s) to show (default all).")
 @click.option("--group", "groups", multiple=True, type=click.Choice(GROUPS),
@@ -90,10 +102,12 @@ def _render(table: str, tabs: dict[str, ThesisTable], diff: bool) -> str:
 @click.option("--walk", is_flag=True, help="Switch the quirks off one by one and print the max deviation from "
               "the corrected columns after each step.")
 @click.option("--list-quirks", is_flag=True, help="List the quirk switches and the tables they affect.")
+@click.option("--effects", is_flag=True,
+              help="Markdown table of each quirk's measured effect (max change of dX, dY [in]).")
 @click.option("--json", "as_json", is_flag=True,
               help='Print {"I": {"published": {...}, "as_printed": {...}, "corrected": {...}}, ...}.')
 def thesis(tables: tuple[str, ...], groups: tuple[str, ...], quirks: tuple[str, ...], diff: bool, walk: bool,
-           list_quirks: bool, as_json: bool) -> None:
+           list_quirks: bool, effects: bool, as_json: bool) -> None:
     """Reproduce the thesis's Tables I-III (Ali 1977): published, as printed, corrected."""
     q = _parse_quirks(quirks)
     tables = tables or TABLES
@@ -102,6 +116,14 @@ def thesis(tables: tuple[str, ...], groups: tuple[str, ...], quirks: tuple[str, 
         for name in ThesisQuirks.names():
             used = ", ".join(t for t in TABLES if name in QUIRKS_BY_TABLE[t])
             click.echo(f"{name:38s} {'on ' if getattr(q, name) else 'off'}  tables {used}")
+        return
+    if effects:
+        click.echo("| quirk | " + " | ".join(f"Table {t} off (src / cog)" for t in TABLES) + " | "
+                   + " | ".join(f"Table {t} alone on (src / cog)" for t in TABLES) + " |")
+        click.echo("|---" * (1 + 2 * len(TABLES)) + "|")
+        for row in quirk_effects():
+            cells = [_effect_cell(row[t], kind) for kind in ("off_from_printed", "on_from_corrected") for t in TABLES]
+            click.echo(f"| `{row['quirk']}` | " + " | ".join(cells) + " |")
         return
     if walk:
         for t in tables:
