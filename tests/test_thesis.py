@@ -159,3 +159,14 @@ def test_cli_text_and_quirk_toggle():
     assert bad.exit_code != 0
     walk = runner.invoke(thesis, ["--walk", "--table", "III"])
     assert walk.exit_code == 0 and "case3_block_diagonal_beta" in walk.output
+
+
+def test_errata_effects_table_is_current():
+    """results/thesis_errata.md's effects table is exactly what `ked thesis --effects` prints now."""
+    from pathlib import Path
+
+    out = CliRunner().invoke(thesis, ["--effects"])
+    assert out.exit_code == 0, out.output
+    doc = (Path(__file__).resolve().parents[1] / "results" / "thesis_errata.md").read_text()
+    for line in out.output.strip().splitlines():
+        assert line in doc, f"errata table out of date: {line}"
