@@ -272,8 +272,8 @@ class _Frame:
     coupler point; rotation: angle [rad] from the listing frame to the global frame; case II data:
     acc_A, acc_B (n, 2) true, acc_B_listing (n, 2) as printed (source), crank axes e2, n2 as the
     element forces f4, f5 act, e_follower (f6 direction), u_col7 (direction of the B force whose
-    crank rows column 7 carries), col7 (n, 8) that column, masses (crank, coupler, extender, follower)
-    [lbm] per the listing's lengths, angles T3, T4 (listing convention).
+    crank rows column 7 carries), col7 (n, 8) that column, link_lengths (crank, coupler, extender,
+    follower) [in], angles T3, T4 (listing convention).
     """
 
     P: np.ndarray
