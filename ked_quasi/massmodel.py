@@ -5,8 +5,10 @@ link's root (crank from M, coupler and extender from A, follower from Q), plus a
 at the coupler point P.
 
 * ``tip`` (thesis Case I): payload at P only, massless links (payload must be > 0).
-* ``joints`` (Case II): each link's mass lumped at its two ends; ``joint_split="half"`` puts half at
-  each end (default); other placements are given as ``joint_split`` fractions at the root end.
+* ``joints`` (Case II): each link's mass lumped at its two ends; ``joint_split`` is the fraction at the
+  root end: 0.5 (default) puts half at each end; 0.0 is the thesis's own placement (its Case II force
+  transformation puts each link's whole mass at its far joint: crank at A, coupler and follower at B,
+  extender at P).
 * ``extender`` (Case III): the extender's mass in ``lumps`` equal lumps along AP, other links massless.
 * ``distributed``: every link's mass in ``lumps`` equal lumps: the quasi-static counterpart of a
   flexible-body model with real distributed link mass.
