@@ -52,7 +52,7 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
     Scenes already stored in the results file are skipped, so rerunning resumes an interrupted
     campaign.  Prints a summary table and writes figures at the end.
     """
-    from compare.runner import plan, run_campaign
+    from compare.runner import default_workers, plan, run_campaign
 
     try:
         cfg = load_config(config)
@@ -83,7 +83,7 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
         from compare.plots import write_figures
 
         fig_dir = figures or _figures_dir(out)
-        paths = write_figures(results, fig_dir)
+        paths = write_figures(results, fig_dir, workers=1 if scheduler else (workers or default_workers()))
         click.echo(f"figures: {len(paths)} PNG files in {fig_dir}")
 
 
@@ -134,11 +134,14 @@ def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool) -> N
 @click.argument("file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Output directory [default: <file stem>_figures next to the file].")
-def plot_cmd(file: Path, out_dir: Path | None) -> None:
+@click.option("--workers", type=click.IntRange(min=1), default=None,
+              help="Processes drawing the figures [default: available CPUs].")
+def plot_cmd(file: Path, out_dir: Path | None, workers: int | None) -> None:
     """Draw PNG figures of a results FILE: per-scene histories and coupler curves, amplification vs speed."""
     from compare.plots import write_figures
+    from compare.runner import default_workers
 
-    results = store.read_scenes(file)
+    results = sorted(store.read_scenes(file), key=sort_key)
     target = out_dir or _figures_dir(file)
-    paths = write_figures(results, target)
+    paths = write_figures(results, target, workers=workers or default_workers())
     click.echo(f"{len(paths)} PNG files in {target}")

@@ -157,15 +157,26 @@ def amplification_figure(results: Sequence[SceneResult], tolerance: float | None
     return fig
 
 
-def write_figures(results: Sequence[SceneResult], out_dir: str | Path, dpi: int = 110) -> list[Path]:
-    """Write all campaign figures into ``out_dir``; returns the paths written."""
+def _write_scene_png(r: SceneResult, path: Path, dpi: int) -> Path:
+    scene_figure(r).savefig(path, dpi=dpi)
+    return path
+
+
+def write_figures(results: Sequence[SceneResult], out_dir: str | Path, dpi: int = 110,
+                  workers: int = 1) -> list[Path]:
+    """Write all campaign figures into ``out_dir`` (scene figures in ``workers`` processes);
+    returns the paths written."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    paths = []
-    for r in results:
-        p = out / f"scene_{r.key}.png"
-        scene_figure(r).savefig(p, dpi=dpi)
-        paths.append(p)
+    jobs = [(r, out / f"scene_{r.key}.png") for r in results]
+    if workers > 1 and len(jobs) > 2 * workers:
+        import concurrent.futures as cf
+        import multiprocessing
+
+        with cf.ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+            paths = list(pool.map(_write_scene_png, *zip(*jobs), [dpi] * len(jobs)))
+    else:
+        paths = [_write_scene_png(r, p, dpi) for r, p in jobs]
     p = out / "amplification.png"
     amplification_figure(results).savefig(p, dpi=dpi)
     paths.append(p)
