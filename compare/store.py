@@ -50,6 +50,8 @@ _METRIC_FIELDS = (
     "dynamic_peak",
     "quasi_static_peak",
 )
+# dataclass field -> HDF5 attribute name (unit suffix where the unit is fixed)
+_METRIC_ATTR = {name: ("phase_shift_rad" if name == "phase_shift" else name) for name in _METRIC_FIELDS}
 _RUN_STAT_FIELDS = (
     "frequencies_wall_s",
     "quasi_static_wall_s",
@@ -312,7 +314,7 @@ def _write_scene(g: h5py.Group, r: SceneResult, run: int) -> None:
             cg = mg.create_group(c.component)
             cg.attrs["units"] = c.units
             for name in _METRIC_FIELDS:
-                cg.attrs[name] = float(getattr(c, name))
+                cg.attrs[_METRIC_ATTR[name]] = float(getattr(c, name))
             cg.attrs["holds"] = _flag(c.holds)
 
     st = g.create_group("run_stats")
@@ -372,7 +374,7 @@ def _read_scene(g: h5py.Group) -> SceneResult:
                 component=c,
                 units=_s(mg[c].attrs["units"]),
                 holds=bool(mg[c].attrs["holds"]),
-                **{name: float(mg[c].attrs[name]) for name in _METRIC_FIELDS},
+                **{name: float(mg[c].attrs[_METRIC_ATTR[name]]) for name in _METRIC_FIELDS},
             )
             for c in COMPONENTS
             if c in mg
@@ -538,7 +540,7 @@ def _verify_scene(name: str, g: Any) -> list[str]:
         if c not in mg:
             p.append(f"metrics missing component {c}")
             continue
-        for a in (*_METRIC_FIELDS, "holds", "units"):
+        for a in (*_METRIC_ATTR.values(), "holds", "units"):
             if a not in mg[c].attrs:
                 p.append(f"metrics/{c} missing attribute {a!r}")
         if "relative_error" in mg[c].attrs and "holds" in mg[c].attrs:

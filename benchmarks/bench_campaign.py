@@ -1,0 +1,78 @@
+"""Campaign throughput with 1 and 2 local worker processes on the same scenes.
+
+Each measurement is a complete :func:`compare.runner.run_campaign` into a fresh results file (pool
+start-up, all scenes, every atomic HDF5 commit), as a user experiences ``ked run``.  Reports the median
+wall time of ``--repeats`` runs per worker count, scenes per second and the speed-up over 1 worker
+(goal: 2 workers >= 1.8x).
+
+    .venv/bin/python benchmarks/bench_campaign.py [--repeats 3] [--workers 1 2] [--json out.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+from compare import store
+from compare.config import parse_config
+from compare.runner import run_campaign
+
+CONFIG = """
+[campaign]
+name = "bench"
+step_deg = 10.0
+[linkage]
+preset = "thesis"
+[grid]
+mechanisms = ["source", "cognate"]
+mass_models = ["joints", "extender", "distributed"]
+rpm = [60.0, 120.0, 180.0]
+[dynamic]
+element = "ancf"
+elements_per_link = 4
+steps_per_cycle = 360
+"""
+
+
+def measure(workers: int, repeats: int) -> list[float]:
+    """Wall times [s] of ``repeats`` complete campaigns with ``workers`` processes."""
+    cfg = parse_config(CONFIG)
+    times = []
+    with tempfile.TemporaryDirectory() as d:
+        for i in range(repeats):
+            out = Path(d) / f"bench_{workers}_{i}.h5"
+            t0 = time.perf_counter()
+            summary = run_campaign(cfg, out, workers=workers, progress=False)
+            times.append(time.perf_counter() - t0)
+            assert summary.ok + summary.failed == summary.total and not store.verify(out)
+    return times
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--json", type=Path, default=None, help="also write the numbers to this JSON file")
+    args = ap.parse_args()
+    n = len(parse_config(CONFIG).scenes())
+    rows = {}
+    for w in args.workers:
+        times = measure(w, args.repeats)
+        med = statistics.median(times)
+        rows[w] = {"times_s": times, "median_s": med, "scenes_per_s": n / med}
+        print(f"workers={w}: median {med:.2f} s over {args.repeats} runs ({', '.join(f'{t:.2f}' for t in times)}),"
+              f" {n / med:.2f} scenes/s", flush=True)
+    base = rows[min(rows)]["median_s"]
+    for w, r in rows.items():
+        r["speedup"] = base / r["median_s"]
+        print(f"workers={w}: speed-up {r['speedup']:.2f}x over {min(rows)} worker(s)")
+    if args.json:
+        args.json.write_text(json.dumps({"scenes": n, "results": rows}, indent=2))
+
+
+if __name__ == "__main__":
+    main()
