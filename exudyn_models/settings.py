@@ -32,6 +32,8 @@ class DynamicSettings:
     steady_tol: periodic steady state is reached when two successive cycles of the coupler-point
         deflection (dx, dy on the scene grid) differ by less than steady_tol * peak |deflection|.
     min_cycles / max_cycles: cycles at constant speed simulated at least / at most.
+    extrapolate: also accept the limit cycle extrapolated from the last 4 cycles once it has settled
+        (exudyn_models.simulate.extrapolate_limit); False returns only simulated cycles.
     newton_abs_tol [N], newton_rel_tol: Newton tolerances of Exudyn's residual (forces). Exudyn's
         1e-10 default fails on round-off; the absolute tolerance is raised to 1e-13 * E*A for
         very stiff links (exudyn_models.simulate.newton_abs_tolerance).
@@ -40,19 +42,20 @@ class DynamicSettings:
     """
 
     element: str = "ancf"
-    elements_per_link: int = 2
-    steps_per_cycle: int = 288
-    spectral_radius: float = 0.6
+    elements_per_link: int = 4
+    steps_per_cycle: int = 720
+    spectral_radius: float = 0.9
     damping_ratio: float = 0.02
     damping_reference_hz: float | None = None
     ramp_cycles: float = 1.0
     steady_tol: float = 1e-3
     min_cycles: int = 2
     max_cycles: int = 80
+    extrapolate: bool = True
     newton_abs_tol: float = 1e-4
     newton_rel_tol: float = 1e-6
     newton_max_iterations: int = 12
-    sparse: bool = False
+    sparse: bool = True
 
     def __post_init__(self) -> None:
         if self.element not in ELEMENT_TYPES:

@@ -12,7 +12,11 @@ links may be exactly massless). After the start-up ramp (exudyn_models.drive) th
 one crank cycle at a time; after each cycle the deflection is sampled on the scene's crank-angle
 grid and compared with the previous cycle. Steady state: max |change| < steady_tol * peak, for dx,dy
 (relative to the peak of |dx|, |dy|) and for the rotation (relative to its peak), after at least
-min_cycles cycles. The returned cycle is the last one simulated.
+min_cycles cycles; the returned cycle is then the last one simulated. With settings.extrapolate the
+limit cycle is also estimated from the last 4 cycles by minimal polynomial extrapolation (the
+transient of a lightly damped mode decays geometrically from cycle to cycle); once two successive
+estimates agree within steady_tol (and differ from the last cycle by < 20 % of the peak) the estimate
+is returned. That saves the last few cycles of a slowly decaying, near-resonant transient.
 """
 
 from __future__ import annotations
@@ -52,7 +56,8 @@ class DynamicResult:
     steps: time steps taken (ramp + cycles). newton_iterations: Newton iterations in total.
     cycles: constant-speed cycles simulated (the last one is returned).
     converged: True if the steady-state criterion was met within max_cycles.
-    cycle_change: last relative change between successive cycles (the steady-state measure).
+    cycle_change: last relative change between successive cycles (the steady-state measure);
+    cycle_changes: all of them, one per cycle from the second on (how the transient decayed).
     damping_reference_hz: the frequency at which the modal damping ratio was imposed.
     """
 
@@ -67,6 +72,7 @@ class DynamicResult:
     cycle_change: float
     damping_reference_hz: float
     settings: DynamicSettings
+    cycle_changes: tuple[float, ...] = ()
 
 
 ROUNDOFF_TOLERANCE = 1e-13
@@ -151,6 +157,34 @@ class _CycleSampler:
         return spline(self.grid)
 
 
+EXTRAPOLATION_ORDER = 2
+"""Decaying transient components assumed by the cycle extrapolation (2 = one lightly damped mode,
+whose per-cycle multiplier is a complex pair); it needs EXTRAPOLATION_ORDER + 2 cycles."""
+
+
+def extrapolate_limit(cycles: list[np.ndarray]) -> np.ndarray:
+    """Limit of a sequence of cycles x_0..x_{k+1} (k = len - 2) by minimal polynomial extrapolation.
+
+    If successive cycles follow x_{i+1} - x* = T (x_i - x*) (a linear periodic system's Poincare map,
+    sampled on the grid) and the transient has at most k components, x* = sum_i g_i x_i with weights
+    from the least-squares fit sum_i c_i (x_{i+1} - x_i) = 0, c_k = 1, g = c / sum(c). dx, dy and the
+    rotation are scaled by their peaks so both enter the fit alike.
+    """
+    X = np.array(cycles, dtype=float)
+    scale = np.ones(X.shape[-1])
+    for cols in (slice(0, 2), slice(2, 3)):
+        peak = float(np.max(np.abs(X[-1][:, cols])))
+        scale[cols] = 1.0 / peak if peak > 0.0 else 1.0
+    flat = (X * scale).reshape(len(cycles), -1)
+    U = np.diff(flat, axis=0).T
+    k = len(cycles) - 2
+    c, *_ = np.linalg.lstsq(U[:, :k], -U[:, k], rcond=None)
+    c = np.append(c, 1.0)
+    if abs(c.sum()) < 1e-12:
+        return X[-1]
+    return np.tensordot(c / c.sum(), X[:k + 1], axes=1)
+
+
 def simulate_steady_state(scene, settings: DynamicSettings | None = None) -> DynamicResult:
     """Drive the elastic four-bar of `scene` (ked_quasi Scene) to periodic steady state.
 
@@ -172,8 +206,8 @@ def simulate_steady_state(scene, settings: DynamicSettings | None = None) -> Dyn
     sset = solver_settings(settings, h, drive.cycle_start(settings.max_cycles),
                            newton_abs_tolerance(settings, scene.fourbar))
     sample = _CycleSampler(model, scene, n)
-    state = {"cycles": 0, "previous": None, "current": None, "change": float("inf"),
-             "converged": False, "error": None}
+    state = {"cycles": 0, "current": None, "change": float("inf"), "converged": False, "error": None,
+             "changes": [], "history": [], "estimate": None, "result": None, "extrapolated": False}
     # cycle k (k = 0, 1, ...) is complete when the step to time cycle_start(k + 1) is finished; the
     # pre-step function of the following step sees t = cycle_start(k + 1) (up to round-off)
     next_check = [drive.cycle_start(1) - 0.5 * h]
@@ -193,10 +227,23 @@ def simulate_steady_state(scene, settings: DynamicSettings | None = None) -> Dyn
             state["cycles"] = k + 1
             if state["current"] is not None:
                 state["change"] = _relative_change(current, state["current"])
-            state["previous"], state["current"] = state["current"], current
-            if state["change"] < settings.steady_tol and state["cycles"] >= settings.min_cycles:
-                state["converged"] = True
+                state["changes"].append(state["change"])
+            state["current"] = current
+            state["history"] = (state["history"] + [current])[-(EXTRAPOLATION_ORDER + 2):]
+            enough = state["cycles"] >= settings.min_cycles
+            if state["change"] < settings.steady_tol and enough:
+                state["converged"], state["result"] = True, current
                 return False
+            if settings.extrapolate and len(state["history"]) == EXTRAPOLATION_ORDER + 2:
+                estimate = extrapolate_limit(state["history"])
+                previous, state["estimate"] = state["estimate"], estimate
+                if previous is not None and enough:
+                    change = _relative_change(estimate, previous)
+                    # accept only a settled estimate that is a modest correction of the last cycle
+                    if change < settings.steady_tol and _relative_change(estimate, current) < 0.2:
+                        state["change"], state["changes"][-1] = change, change
+                        state["converged"], state["result"], state["extrapolated"] = True, estimate, True
+                        return False
         except Exception as exc:  # noqa: BLE001 - reported after the solver returned
             state["error"] = exc
             return False
@@ -214,16 +261,22 @@ def simulate_steady_state(scene, settings: DynamicSettings | None = None) -> Dyn
     if not state["converged"] and state["cycles"] < settings.max_cycles:
         check_cycle(mbs, drive.cycle_start(settings.max_cycles))  # the last cycle ends with the run
     cycles, change, converged = state["cycles"], state["change"], state["converged"]
+    if state["result"] is None:
+        state["result"] = state["current"]
     if state["current"] is None:
         raise SimulationError("no complete steady cycle was simulated", float(solver.it.currentTime),
                               float(np.mod(drive.angle(float(solver.it.currentTime)), 2.0 * math.pi)))
-    if converged:
+    if converged and state["extrapolated"]:
+        message = (f"steady after {cycles} cycles, extrapolated from the last {EXTRAPOLATION_ORDER + 2} "
+                   f"(change of the estimate {change:.2e} < tol {settings.steady_tol:g})")
+    elif converged:
         message = f"steady after {cycles} cycles (change {change:.2e} < tol {settings.steady_tol:g})"
     else:
         message = (f"not steady after max_cycles={settings.max_cycles} cycles: last relative change "
                    f"{change:.2e} >= tol {settings.steady_tol:g}")
     return DynamicResult(crank_angle=np.asarray(scene.crank_angles, dtype=float),
-                         deflection=state["current"], wall_s=time.perf_counter() - t_wall,
+                         deflection=state["result"], wall_s=time.perf_counter() - t_wall,
                          steps=int(solver.it.currentStepIndex), newton_iterations=int(solver.it.newtonStepsCount),
                          cycles=cycles, converged=converged, message=message, cycle_change=change,
-                         damping_reference_hz=f_ref, settings=settings)
+                         damping_reference_hz=f_ref, settings=settings,
+                         cycle_changes=tuple(state["changes"]))
