@@ -23,6 +23,13 @@ from compare.inspect import (
 DEFAULT_DIR = Path("ked_results")
 
 
+def _read(file: Path) -> list:
+    try:
+        return store.read_scenes(file)
+    except (store.StoreError, OSError) as exc:
+        raise click.ClickException(str(exc)) from exc
+
+
 def _figures_dir(out: Path) -> Path:
     return out.with_name(f"{out.stem}_figures")
 
@@ -109,7 +116,7 @@ def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool) -> N
             click.echo(f"{file}: {'INVALID' if problems else 'valid'}, {n} complete scenes"
                        + (f", {len(problems)} problem(s)" if problems else ""))
         sys.exit(1 if problems else 0)
-    results = sorted(store.read_scenes(file), key=sort_key)
+    results = sorted(_read(file), key=sort_key)
     if scene:
         try:
             r = find_scene(results, scene)
@@ -141,7 +148,7 @@ def plot_cmd(file: Path, out_dir: Path | None, workers: int | None) -> None:
     from compare.plots import write_figures
     from compare.runner import default_workers
 
-    results = sorted(store.read_scenes(file), key=sort_key)
+    results = sorted(_read(file), key=sort_key)
     target = out_dir or _figures_dir(file)
     paths = write_figures(results, target, workers=workers or default_workers())
     click.echo(f"{len(paths)} PNG files in {target}")

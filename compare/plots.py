@@ -41,13 +41,19 @@ def magnification(r: SceneResult) -> float:
     return float(max(m * decade for m in (1, 2, 5) if m * decade <= raw))
 
 
+def _short(text: str, n: int = 110) -> str:
+    return text if len(text) <= n else text[: n - 3] + "..."
+
+
 def scene_figure(r: SceneResult) -> Figure:
     """Histories and coupler curves of one scene."""
     comps = [c for c in r.spec.outputs if c in r.quasi_static or c in r.dynamic]
     nrows = max(1, len(comps))
-    fig = Figure(figsize=(11, 2.6 * nrows + 0.8), layout="constrained")
-    gs = fig.add_gridspec(nrows, 2, width_ratios=(1.4, 1.0))
-    status = "ok" if r.ok else f"FAILED at {r.stage}: {r.error_type}"
+    height = 2.6 * nrows + 1.0
+    fig = Figure(figsize=(11, height))  # fixed margins: a layout engine would double the drawing time
+    gs = fig.add_gridspec(nrows, 2, width_ratios=(1.4, 1.0), left=0.075, right=0.985, bottom=0.55 / height,
+                          top=1.0 - 0.95 / height, hspace=0.5, wspace=0.22)
+    status = "ok" if r.ok else f"FAILED at {r.stage}: {r.error_type}\n{_short(r.message)}"
     verdict = ""
     if r.metrics is not None:
         verdict = (f"; max rel. error {r.metrics.max_relative_error:.1%} -> quasi-static "

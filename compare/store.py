@@ -67,6 +67,10 @@ _RUN_STAT_FIELDS = (
 )
 
 
+class StoreError(ValueError):
+    """A results file that does not follow the schema (or is damaged)."""
+
+
 # --------------------------------------------------------------------------------------------------
 # provenance
 
@@ -434,7 +438,11 @@ def read_scenes(path: str | Path, keys: Iterable[str] | None = None) -> list[Sce
                 continue
             if wanted is not None and not any(k.startswith(w) for w in wanted):
                 continue
-            out.append(_read_scene(g))
+            try:
+                out.append(_read_scene(g))
+            except (KeyError, ValueError, TypeError) as exc:
+                raise StoreError(f"{path}: /{SCENES}/{k} is unreadable ({exc}); "
+                                 "check the file with `ked inspect FILE --verify`") from exc
     return out
 
 
