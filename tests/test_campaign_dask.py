@@ -22,8 +22,13 @@ mechanisms = ["source", "cognate"]
 mass_models = ["extender"]
 rpm = [60.0, 120.0]
 [dynamic]
+element = "ancf"
+elements_per_link = 2
 steps_per_cycle = 36
+spectral_radius = 0.6
+ramp_cycles = 1.0
 max_cycles = 10
+sparse = false
 """
 
 

@@ -27,8 +27,13 @@ mechanisms = ["source", "cognate"]
 mass_models = ["extender", {name = "tip", payload_kg = 0.5}]
 rpm = [60.0]
 [dynamic]
+element = "ancf"
+elements_per_link = 2
 steps_per_cycle = 36
+spectral_radius = 0.6
+ramp_cycles = 1.0
 max_cycles = 10
+sparse = false
 """
 
 # stiffness scaled by 1e-3 at 60 rpm puts the tip-mass scene far above its first resonance: the
@@ -43,8 +48,13 @@ mass_models = [{name = "tip", payload_kg = 0.5}]
 rpm = [60.0]
 stiffness_scales = [1.0, 1.0e-3, 0.5]
 [dynamic]
+element = "ancf"
+elements_per_link = 2
 steps_per_cycle = 36
+spectral_radius = 0.6
+ramp_cycles = 1.0
 max_cycles = 10
+sparse = false
 """
 
 
