@@ -36,10 +36,13 @@ _DEFAULT = DynamicSettings()
               help="Steady state: change between successive cycles < tol * peak.")
 @click.option("--max-cycles", type=int, default=_DEFAULT.max_cycles, show_default=True,
               help="Give up (converged=false) after this many constant-speed cycles.")
+@click.option("--extrapolate/--no-extrapolate", default=_DEFAULT.extrapolate, show_default=True,
+              help="Accept the steady cycle extrapolated from the last 4 cycles once it has settled.")
+@click.option("--sparse/--dense", default=_DEFAULT.sparse, show_default=True, help="Exudyn linear solver.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object with the arrays and run statistics.")
 def simulate(as_json: bool, element: str, elements_per_link: int, steps_per_cycle: int, spectral_radius: float,
              damping_ratio: float, damping_reference_hz: float | None, ramp_cycles: float, steady_tol: float,
-             max_cycles: int, **kw) -> None:
+             max_cycles: int, extrapolate: bool, sparse: bool, **kw) -> None:
     """Flexible-multibody (Exudyn) run of one scene to periodic steady state.
 
     JSON keys: crank_angle_deg, dx_m, dy_m, rotation_rad (elastic deflection of P over one steady
@@ -52,7 +55,8 @@ def simulate(as_json: bool, element: str, elements_per_link: int, steps_per_cycl
             element=element, elements_per_link=elements_per_link, steps_per_cycle=steps_per_cycle,
             spectral_radius=spectral_radius, damping_ratio=damping_ratio,
             damping_reference_hz=damping_reference_hz, ramp_cycles=ramp_cycles, steady_tol=steady_tol,
-            max_cycles=max_cycles, min_cycles=min(_DEFAULT.min_cycles, max_cycles))
+            max_cycles=max_cycles, min_cycles=min(_DEFAULT.min_cycles, max_cycles), extrapolate=extrapolate,
+            sparse=sparse)
     except ValueError as exc:
         raise click.BadParameter(str(exc)) from exc
     try:

@@ -241,7 +241,7 @@ def simulate_steady_state(scene, settings: DynamicSettings | None = None) -> Dyn
                     change = _relative_change(estimate, previous)
                     # accept only a settled estimate that is a modest correction of the last cycle
                     if change < settings.steady_tol and _relative_change(estimate, current) < 0.2:
-                        state["change"], state["changes"][-1] = change, change
+                        state["change"] = change  # the estimate's change (cycle_changes stay plain)
                         state["converged"], state["result"], state["extrapolated"] = True, estimate, True
                         return False
         except Exception as exc:  # noqa: BLE001 - reported after the solver returned
