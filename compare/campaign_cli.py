@@ -77,8 +77,11 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
             click.echo(f"  {s.key}  {'run ' if s.key in todo else 'skip'}  {s.label}")
         return
     click.echo(f"campaign {cfg.name!r}: {len(scenes)} scenes -> {out}", err=True)
-    summary = run_campaign(cfg, out, workers=workers, scheduler=scheduler, retry_failed=retry_failed,
-                           progress=progress)
+    try:
+        summary = run_campaign(cfg, out, workers=workers, scheduler=scheduler, retry_failed=retry_failed,
+                               progress=progress)
+    except store.LockedError as exc:
+        raise click.ClickException(str(exc)) from exc
     order = {k: i for i, k in enumerate(summary.keys)}
     results = sorted((r for r in store.read_scenes(out) if r.key in order), key=lambda r: order[r.key])
     click.echo(format_table([summary_row(r) for r in results]))

@@ -144,11 +144,20 @@ def run_campaign(
 
     ``workers``: local worker processes (default: available CPUs; ignored with ``scheduler``).
     ``retry_failed``: recompute stored failed scenes too.  ``progress``: tqdm bar on stderr.
+    Raises :class:`compare.store.LockedError` if another campaign is writing ``out``.
     """
+    out = Path(out)
+    with store.writer_lock(out):
+        return _run_locked(config, out, workers=workers, scheduler=scheduler, retry_failed=retry_failed,
+                           progress=progress, on_result=on_result)
+
+
+def _run_locked(config: CampaignConfig, out: Path, *, workers: int | None, scheduler: str | None,
+                retry_failed: bool, progress: bool,
+                on_result: Callable[[SceneResult], None] | None) -> CampaignSummary:
     from tqdm import tqdm
 
     t0 = time.perf_counter()
-    out = Path(out)
     scenes = config.scenes()
     store.remove_stale_temp_files(out)
     p = plan(scenes, store.stored_status(out), retry_failed)

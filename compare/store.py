@@ -156,6 +156,36 @@ def transaction(path: str | Path) -> Iterator[h5py.File]:
             tmp.unlink()
 
 
+class LockedError(RuntimeError):
+    """Another process is writing the same results file."""
+
+
+@contextmanager
+def writer_lock(path: str | Path) -> Iterator[None]:
+    """Exclusive, non-blocking lock on ``<path>.lock`` for one writer (campaign) at a time; released by
+    the kernel if the process dies.  Raises :class:`LockedError` if another process holds it."""
+    import fcntl
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    lock = path.with_name(path.name + ".lock")
+    fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as exc:
+            raise LockedError(f"{path} is being written by another process (lock {lock})") from exc
+        try:
+            yield
+        finally:
+            try:
+                lock.unlink()
+            except OSError:
+                pass
+    finally:
+        os.close(fd)
+
+
 def stale_temp_files(path: str | Path) -> list[Path]:
     """Temporary files left next to ``path`` by killed writers."""
     path = Path(path)

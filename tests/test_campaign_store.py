@@ -146,3 +146,15 @@ def test_stale_temp_files_are_ignored_and_cleaned(tmp_path):
     assert store.stale_temp_files(f) == [stale]
     assert store.verify(f) == []
     assert store.remove_stale_temp_files(f) == 1 and not stale.exists()
+
+
+def test_second_writer_is_refused_while_a_campaign_writes(tmp_path):
+    from compare.config import parse_config
+    from compare.runner import run_campaign
+
+    f = tmp_path / "r.h5"
+    with store.writer_lock(f):
+        with pytest.raises(store.LockedError, match="another process"):
+            run_campaign(parse_config(""), f, workers=1, progress=False)
+    assert not f.exists()
+    assert not (tmp_path / "r.h5.lock").exists()
