@@ -214,8 +214,7 @@ def build_model(scene, settings: DynamicSettings | None = None, *,
     n_hub = mbs.AddNode(eii.NodeRigidBody2D(
         referenceCoordinates=[joints["M"][0], joints["M"][1], math.atan2(crank_dir[1], crank_dir[0])],
         visualization=eii.VNodeRigidBody2D(show=False)))
-    mbs.AddObject(eii.ObjectRigidBody2D(nodeNumber=n_hub, physicsMass=HUB_MASS_KG,
-                                        physicsInertia=HUB_INERTIA_KGM2,
+    mbs.AddObject(eii.ObjectRigidBody2D(nodeNumber=n_hub, mass=HUB_MASS_KG, inertia=HUB_INERTIA_KGM2,
                                         visualization=eii.VObjectRigidBody2D(show=False)))
     fix(n_hub, 0)
     fix(n_hub, 1)
@@ -225,13 +224,19 @@ def build_model(scene, settings: DynamicSettings | None = None, *,
         offset, offset_t = drive.user_functions()
         fix(n_hub, 2, offsetUserFunction=offset, offsetUserFunction_t=offset_t)
 
-    def rigid_marker_at_root(link: str) -> int:
+    def rigid_marker_at_root(link: str, rotation=None) -> int:
         """Rigid frame at the link root: the ANCF element's (slope-based) frame, or the geometrically
-        exact beam's rigid root node (its element does not provide body-rigid marker velocities)."""
+        exact beam's rigid root node (its element does not provide body-rigid marker velocities);
+        optionally rotated by the 3x3 `rotation` (local frame of the marker)."""
+        ht = None if rotation is None else exu.HT(rotation=rotation, translation=[0.0, 0.0, 0.0])
         if element == "ancf":
-            return int(mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=link_elements[link][0],
-                                                         localPosition=[0.0, 0.0, 0.0])))
-        return int(mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=link_nodes[link][0])))
+            if ht is None:
+                return int(mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=link_elements[link][0],
+                                                             localPosition=[0.0, 0.0, 0.0])))
+            return int(mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=link_elements[link][0], localHT=ht)))
+        if ht is None:
+            return int(mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=link_nodes[link][0])))
+        return int(mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=link_nodes[link][0], localHT=ht)))
 
     hidden_generic = eii.VObjectJointGeneric(show=False)
     mbs.AddObject(eii.ObjectJointGeneric(
@@ -252,9 +257,9 @@ def build_model(scene, settings: DynamicSettings | None = None, *,
     gamma = math.atan2(ab[0] * ap[1] - ab[1] * ap[0], ab @ ap)
     c, s = math.cos(gamma), math.sin(gamma)
     mbs.AddObject(eii.ObjectJointGeneric(
-        markerNumbers=[rigid_marker_at_root("coupler"), rigid_marker_at_root("extender")],
-        constrainedAxes=[1, 1, 0, 0, 0, 1],
-        rotationMarker0=[[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]], visualization=hidden_generic))
+        markerNumbers=[rigid_marker_at_root("coupler", np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])),
+                       rigid_marker_at_root("extender")],
+        constrainedAxes=[1, 1, 0, 0, 0, 1], visualization=hidden_generic))
 
     p_node = link_nodes["extender"][-1]
     sensor = None

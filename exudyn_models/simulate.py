@@ -111,8 +111,8 @@ def solver_settings(settings: DynamicSettings, step: float, end_time: float,
     nw.maxIterations = settings.newton_max_iterations
     sset.linearSolver.solverType = (exu.LinearSolverType.EigenSparse if settings.sparse
                                     else exu.LinearSolverType.EXUdense)
-    sset.displayComputationTime = False
-    sset.displayStatistics = False
+    sset.show.computationTime = False
+    sset.show.statistics = False
     return sset
 
 
