@@ -190,8 +190,8 @@ def _run_locked(config: CampaignConfig, out: Path, *, workers: int | None, sched
                     failed += r.status != STATUS_OK
                     if on_result is not None:
                         on_result(r)
+                bar.set_postfix(ok=ok, failed=failed, skipped=len(p.skipped), refresh=False)
                 bar.update(len(done))
-                bar.set_postfix(ok=ok, failed=failed, skipped=len(p.skipped))
         finally:
             bar.close()
             backend.close()
