@@ -9,6 +9,7 @@ out-of-range value, bad combination) is collected with its TOML path and reporte
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from dataclasses import dataclass
 from importlib import resources
@@ -96,6 +97,7 @@ class CampaignConfig:
     directions: tuple[str, ...]
     dynamic: tuple[tuple[str, Any], ...]
     text: str = ""
+    dynamic_variants: tuple[tuple[tuple[str, Any], ...], ...] = ((),)
 
     def scenes(self) -> tuple[SceneSpec, ...]:
         """All scenes of the campaign grid (see :func:`compare.scenes.expand_grid`)."""
@@ -112,6 +114,7 @@ class CampaignConfig:
             outputs=self.outputs,
             tolerance=self.tolerance,
             dynamic=self.dynamic,
+            dynamic_variants=self.dynamic_variants,
         )
 
 
@@ -169,7 +172,7 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
         grid,
         "grid",
         ("mechanisms", "mass_models", "rpm", "speed_ratios", "stiffness_scales", "damping_ratios",
-         "directions"),
+         "directions", "dynamic_variants"),
     )
     mechanisms = c.choices(grid, "grid.mechanisms", MECHANISMS, default=("source",))
     mass_models = _mass_models(c, grid)
@@ -184,7 +187,9 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
     damping = c.numbers(grid, "grid.damping_ratios", default=(0.02,), lo=0.0, hi=0.99)
     directions = c.choices(grid, "grid.directions", DIRECTIONS, default=("ccw",))
 
-    dynamic = _dynamic(c, c.table(doc, "dynamic"))
+    dynamic_raw = c.table(doc, "dynamic")
+    dynamic = _dynamic(c, dynamic_raw)
+    variants = _dynamic_variants(c, grid, dynamic_raw)
 
     if c.problems:
         raise ConfigError(c.problems, source=source)
@@ -204,6 +209,7 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
         directions=directions,
         dynamic=dynamic,
         text=text,
+        dynamic_variants=variants,
     )
 
 
@@ -322,11 +328,12 @@ def _mass_models(c: _Checker, grid: dict[str, Any]) -> tuple[MassModelSpec, ...]
     return tuple(out)
 
 
-def _dynamic(c: _Checker, tab: dict[str, Any]) -> tuple[tuple[str, Any], ...]:
+def _dynamic(c: _Checker, tab: dict[str, Any], prefix: str = "dynamic",
+             check_settings: bool = True) -> tuple[tuple[str, Any], ...]:
     fields = _dynamic_fields()
     out: dict[str, Any] = {}
     for key in tab:
-        p = f"dynamic.{key}"
+        p = f"{prefix}.{key}"
         if key == "damping_ratio":
             c.err(p, "set damping in grid.damping_ratios (a grid axis), not in [dynamic]")
             continue
@@ -348,7 +355,7 @@ def _dynamic(c: _Checker, tab: dict[str, Any]) -> tuple[tuple[str, Any], ...]:
             v = c.like(tab, p, fields[key])
         if v is not None:
             out[key] = v
-    if not any(p.startswith("dynamic.") for p in c.bad):
+    if check_settings and not any(p.startswith(f"{prefix}.") for p in c.bad):
         try:
             from compare.execute import dynamic_api
 
@@ -359,8 +366,52 @@ def _dynamic(c: _Checker, tab: dict[str, Any]) -> tuple[tuple[str, Any], ...]:
             try:
                 DynamicSettings(**out)
             except (TypeError, ValueError) as exc:
-                c.err("dynamic", str(exc))
+                c.err(prefix, str(exc))
     return tuple(sorted(out.items()))
+
+
+def _dynamic_variants(c: _Checker, grid: dict[str, Any],
+                      base: dict[str, Any]) -> tuple[tuple[tuple[str, Any], ...], ...]:
+    """``grid.dynamic_variants``: an array of tables of ``[dynamic]`` overrides (a grid axis).
+
+    A value given as an array expands the variant into the Cartesian product of its values (the
+    fields of DynamicSettings are scalars, so this is unambiguous).  Each expanded variant is
+    validated like ``[dynamic]``, merged on top of it.  Absent key: one variant, no overrides.
+    """
+    path = "grid.dynamic_variants"
+    if "dynamic_variants" not in grid:
+        return ((),)
+    raw = grid["dynamic_variants"]
+    if not isinstance(raw, list) or not raw:
+        c.err(path, f"must be a non-empty array of tables, got {_tname(raw)}")
+        return ((),)
+    out: list[tuple[tuple[str, Any], ...]] = []
+    for i, item in enumerate(raw):
+        p = f"{path}[{i}]"
+        if not isinstance(item, dict) or not item:
+            c.err(p, f"must be a non-empty table of [dynamic] settings, got {_tname(item)}")
+            continue
+        axes = []
+        for key, v in item.items():
+            if isinstance(v, list):
+                if not v:
+                    c.err(f"{p}.{key}", "must not be an empty array")
+                axes.append([(key, x) for x in v])
+            else:
+                axes.append([(key, v)])
+        for combo in itertools.product(*axes):
+            n_bad = len(c.problems)
+            own = _dynamic(c, dict(combo), prefix=p, check_settings=False)
+            if len(c.problems) > n_bad:
+                break  # one report per variant table
+            if not any(b.startswith("dynamic") for b in c.bad):  # the merged settings must be valid too
+                _dynamic(c, {**base, **dict(own)}, prefix=p)
+            if len(c.problems) > n_bad:
+                break
+            out.append(own)
+    if len(set(out)) != len(out):
+        c.err(path, "duplicate variants")
+    return tuple(out) or ((),)
 
 
 # --------------------------------------------------------------------------------------------------

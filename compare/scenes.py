@@ -233,17 +233,19 @@ def expand_grid(
     outputs: tuple[str, ...],
     tolerance: float,
     dynamic: tuple[tuple[str, Any], ...],
+    dynamic_variants: tuple[tuple[tuple[str, Any], ...], ...] = ((),),
 ) -> tuple[SceneSpec, ...]:
     """Cartesian product of the grid axes, in a fixed order, without duplicate keys.
 
-    Order: mechanism, mass model, speed, stiffness scale, damping ratio, direction (last varies fastest).
+    Order: mechanism, mass model, speed, stiffness scale, damping ratio, direction, dynamic variant
+    (last varies fastest).  Each dynamic variant's overrides are merged on top of ``dynamic``.
     """
     scenes: list[SceneSpec] = []
     seen: set[str] = set()
-    for mech, mm, speed, k, zeta, direction in itertools.product(
-        mechanisms, mass_models, speeds, stiffness_scales, damping_ratios, directions
+    for mech, mm, speed, k, zeta, direction, variant in itertools.product(
+        mechanisms, mass_models, speeds, stiffness_scales, damping_ratios, directions, dynamic_variants
     ):
-        dyn = tuple(sorted(dict(dynamic, damping_ratio=zeta).items()))
+        dyn = tuple(sorted(dict(dynamic, **dict(variant), damping_ratio=zeta).items()))
         spec = SceneSpec(
             linkage=linkage,
             mechanism=mech,
