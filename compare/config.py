@@ -157,6 +157,7 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
     name = c.string(camp, "campaign.name", default="campaign")
     tolerance = c.number(camp, "campaign.tolerance", default=DEFAULT_TOLERANCE, lo=0.0, hi=10.0, lo_open=True)
     outputs = c.choices(camp, "campaign.outputs", COMPONENTS, default=COMPONENTS)
+    outputs = tuple(x for x in COMPONENTS if x in outputs)  # canonical order: same scenes, same keys
     step_deg = c.number(camp, "campaign.step_deg", default=10.0, lo=0.0, hi=45.0, lo_open=True)
     if step_deg is not None and step_deg > 0:
         n = 360.0 / step_deg

@@ -14,6 +14,7 @@ import multiprocessing
 import os
 import sys
 import time
+import uuid
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -116,7 +117,9 @@ class _DaskBackend:
         self.client = Client(address, set_as_default=False)
 
     def submit(self, spec: SceneSpec) -> Any:
-        return self.client.submit(run_scene, spec, key=f"ked-scene-{spec.key}", pure=False)
+        # unique task key: never reuse a result another campaign left on a long-lived cluster
+        return self.client.submit(run_scene, spec, key=f"ked-scene-{spec.key}-{uuid.uuid4().hex[:8]}",
+                                  pure=False)
 
     def batches(self, futures: Iterable[Any]) -> Iterator[list[Any]]:
         from distributed import as_completed

@@ -184,3 +184,9 @@ def test_scene_key_is_stable_and_content_based():
     assert _spec(dynamic=(("damping_ratio", 0.02), ("steps_per_cycle", 73))).key != s.key
     with pytest.raises(AttributeError):
         s.mechanism = "cognate"  # immutable
+
+
+def test_output_order_does_not_change_keys():
+    a = parse_config("[campaign]\noutputs = ['dy', 'dx']\n").scenes()[0]
+    b = parse_config("[campaign]\noutputs = ['dx', 'dy']\n").scenes()[0]
+    assert a.outputs == ("dx", "dy") and a.key == b.key
