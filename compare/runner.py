@@ -16,6 +16,7 @@ import sys
 import time
 import uuid
 from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -80,15 +81,35 @@ def _worker_crashed(spec: SceneSpec, exc: BaseException) -> SceneResult:
     )
 
 
+# One BLAS/OpenMP thread per worker process: the parallelism is across scenes (as on Dask workers,
+# whose nannies set the same variables); nested threads would oversubscribe the cores.
+_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+@contextmanager
+def _single_threaded_children() -> Iterator[None]:
+    """Set the thread-count variables (unless the user set them) for processes spawned inside."""
+    added = [v for v in _THREAD_VARS if v not in os.environ]
+    for v in added:
+        os.environ[v] = "1"
+    try:
+        yield
+    finally:
+        for v in added:
+            os.environ.pop(v, None)
+
+
 class _LocalBackend:
-    """Process pool on this machine."""
+    """Process pool on this machine (spawned workers, one BLAS thread each)."""
 
     def __init__(self, workers: int):
         ctx = multiprocessing.get_context("spawn")
+        self.workers = workers
         self.pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
 
-    def submit(self, spec: SceneSpec) -> Any:
-        return self.pool.submit(run_scene, spec)
+    def submit_all(self, specs: Iterable[SceneSpec]) -> dict[Any, SceneSpec]:
+        with _single_threaded_children():  # workers are spawned on submit
+            return {self.pool.submit(run_scene, s): s for s in specs}
 
     def batches(self, futures: Iterable[Any]) -> Iterator[list[Any]]:
         """Completed futures, grouped: everything finished by the time the previous group is stored."""
@@ -116,10 +137,10 @@ class _DaskBackend:
 
         self.client = Client(address, set_as_default=False)
 
-    def submit(self, spec: SceneSpec) -> Any:
-        # unique task key: never reuse a result another campaign left on a long-lived cluster
-        return self.client.submit(run_scene, spec, key=f"ked-scene-{spec.key}-{uuid.uuid4().hex[:8]}",
-                                  pure=False)
+    def submit_all(self, specs: Iterable[SceneSpec]) -> dict[Any, SceneSpec]:
+        # unique task keys: never reuse a result another campaign left on a long-lived cluster
+        return {self.client.submit(run_scene, s, key=f"ked-scene-{s.key}-{uuid.uuid4().hex[:8]}", pure=False): s
+                for s in specs}
 
     def batches(self, futures: Iterable[Any]) -> Iterator[list[Any]]:
         from distributed import as_completed
@@ -175,7 +196,7 @@ def _run_locked(config: CampaignConfig, out: Path, *, workers: int | None, sched
                    file=sys.stderr, dynamic_ncols=True, smoothing=0.1)
         bar.set_postfix(ok=0, failed=0, skipped=len(p.skipped))
         try:
-            futures = {backend.submit(s): s for s in p.todo}
+            futures = backend.submit_all(p.todo)
             for done in backend.batches(futures):
                 batch = []
                 for fut in done:
