@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 
 from compare.campaign_cli import inspect_cmd, plot_cmd, run_cmd
+from compare.studies import study
 from exudyn_models.cli import simulate
 from ked_quasi.cli import quasi
 from ked_quasi.thesis_cli import thesis
@@ -22,3 +23,4 @@ main.add_command(run_cmd)
 main.add_command(inspect_cmd)
 main.add_command(plot_cmd)
 main.add_command(thesis)
+main.add_command(study)

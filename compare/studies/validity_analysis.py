@@ -1,0 +1,158 @@
+"""Validity study, pure analysis: errors of the quasi-static solution against the dynamic steady
+state, the largest speed ratio at which it stays within a tolerance, and the harmonic rule.
+
+Deflection d(theta) = (dx, dy) of the coupler point P [m] on a uniform full-turn crank-angle grid.
+Speed ratio r = Omega / omega1_min [1].  Errors are dimensionless fractions:
+
+* peak error      |max|d_qs| - max|d_dyn|| / max|d_dyn|   (the peak deflection magnitude)
+* history error   max|d_qs - d_dyn| / max|d_dyn|           (the whole cycle: amplitude and phase)
+* amplification   max|d_dyn| / max|d_qs|
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ked_quasi.harmonics import harmonic_amplitudes, one_mode_dynamic_estimate
+
+TOLERANCES = (0.05, 0.10)
+ERROR_KINDS = ("peak", "history")
+
+
+@dataclass(frozen=True)
+class Errors:
+    """Errors of one scene (dimensionless, see module docstring)."""
+
+    peak: float
+    history: float
+    amplification: float
+
+    def of(self, kind: str) -> float:
+        return self.peak if kind == "peak" else self.history
+
+
+def magnitude(d: np.ndarray) -> np.ndarray:
+    """|d| (n,) [m] of a (n, 2) deflection history."""
+    return np.hypot(d[:, 0], d[:, 1])
+
+
+def errors(qs: np.ndarray, dyn: np.ndarray) -> Errors:
+    """Peak and history errors and the amplification of ``dyn`` against ``qs`` (both (n, 2) [m])."""
+    p_qs, p_dyn = float(magnitude(qs).max()), float(magnitude(dyn).max())
+    if p_dyn <= 0.0:
+        return Errors(math.nan, math.nan, math.nan)
+    return Errors(peak=abs(p_qs - p_dyn) / p_dyn,
+                  history=float(magnitude(qs - dyn).max()) / p_dyn,
+                  amplification=p_dyn / p_qs if p_qs > 0 else math.nan)
+
+
+@dataclass(frozen=True)
+class Limit:
+    """Largest speed ratio below which the error stays under ``tolerance`` on a ratio grid.
+
+    ``status``: "crossed" (error reaches the tolerance between ``r_pass`` and ``r_fail``; ``r_cross``
+    interpolated linearly in the error), "below_grid" (already at the smallest ratio, ``r_fail``),
+    "above_grid" (never reached up to ``r_pass``, the largest ratio), "failure" (the dynamic solver
+    failed at ``r_fail`` before the error reached the tolerance; the limit is only known to be
+    >= ``r_pass``), "no_data".
+    """
+
+    tolerance: float
+    status: str
+    r_pass: float = math.nan
+    r_fail: float = math.nan
+    r_cross: float = math.nan
+
+    @property
+    def half_bracket(self) -> float:
+        """Half width of the bracketing grid interval (the r-grid uncertainty) [1]."""
+        return 0.5 * (self.r_fail - self.r_pass) if self.status == "crossed" else math.nan
+
+
+def validity_limit(r: Sequence[float], err: Sequence[float], ok: Sequence[bool], tolerance: float) -> Limit:
+    """Walk up the ratio grid: the largest ratio below which every scene solved and had err < tol.
+
+    ``r`` ratios, ``err`` errors (nan where failed), ``ok`` dynamic solution available.
+    """
+    order = np.argsort(np.asarray(r, float))
+    if order.size == 0:
+        return Limit(tolerance, "no_data")
+    last_r, last_e = math.nan, math.nan
+    for i in order:
+        ri, ei = float(r[i]), float(err[i])
+        if not ok[i] or not math.isfinite(ei):
+            return Limit(tolerance, "failure", r_pass=last_r, r_fail=ri)
+        if ei >= tolerance:
+            if not math.isfinite(last_r):
+                return Limit(tolerance, "below_grid", r_fail=ri)
+            frac = (tolerance - last_e) / (ei - last_e)
+            return Limit(tolerance, "crossed", r_pass=last_r, r_fail=ri,
+                         r_cross=last_r + frac * (ri - last_r))
+        last_r, last_e = ri, ei
+    return Limit(tolerance, "above_grid", r_pass=last_r)
+
+
+def crossing(r_lo: float, e_lo: float, r_hi: float, e_hi: float, tolerance: float) -> float:
+    """Ratio at which the error, linear between two bracketing scenes, equals ``tolerance`` (nan if
+    the pair does not bracket it)."""
+    if not (math.isfinite(e_lo) and math.isfinite(e_hi)) or not (e_lo < tolerance <= e_hi):
+        return math.nan
+    return r_lo + (tolerance - e_lo) / (e_hi - e_lo) * (r_hi - r_lo)
+
+
+# --------------------------------------------------------------------------------------------------
+# harmonic rule
+
+
+def significant_harmonic(loads: np.ndarray, fraction: float) -> int:
+    """Highest crank harmonic k >= 1 of the inertia loads (all nodes, both components) whose amplitude
+    is at least ``fraction`` of the largest harmonic (as ``ked_quasi.harmonics.significant_harmonic``)."""
+    a = harmonic_amplitudes(loads)[1:]
+    return int(np.flatnonzero(a >= fraction * a.max()).max()) + 1
+
+
+def harmonic_spectrum(signal: np.ndarray, k_max: int = 8) -> np.ndarray:
+    """Amplitudes of harmonics 1..k_max, normalized by the largest of them [1]."""
+    a = harmonic_amplitudes(signal)[1:k_max + 1]
+    return a / a.max()
+
+
+def one_mode_errors(qs: np.ndarray, r: float, damping: float) -> Errors:
+    """Errors the one-mode estimate predicts at ratio ``r`` (each crank harmonic k of the quasi-static
+    history amplified by 1 / (1 - (k r)^2 + 2 i zeta k r), omega1 taken as omega1_min)."""
+    est = one_mode_dynamic_estimate(qs, r, damping)
+    return errors(qs, est)
+
+
+def one_mode_limit(qs: np.ndarray, tolerance: float, damping: float, kind: str,
+                   r_max: float = 1.2, n: int = 600) -> float:
+    """Largest r (grid of ``n`` points up to ``r_max``) below which the one-mode estimate keeps the
+    error of ``kind`` under ``tolerance``; linear interpolation at the crossing."""
+    rs = np.linspace(r_max / n, r_max, n)
+    es = np.array([one_mode_errors(qs, float(x), damping).of(kind) for x in rs])
+    bad = np.flatnonzero(~(es < tolerance))
+    if not bad.size:
+        return float(rs[-1])
+    i = int(bad[0])
+    if i == 0:
+        return 0.0
+    c = crossing(float(rs[i - 1]), float(es[i - 1]), float(rs[i]), float(es[i]), tolerance)
+    return c if math.isfinite(c) else float(rs[i - 1])
+
+
+# --------------------------------------------------------------------------------------------------
+# small helpers for tables
+
+
+def peak_ratio(a: float, b: float) -> float:
+    """a / b, nan if either is missing or b is 0."""
+    return a / b if (math.isfinite(a) and math.isfinite(b) and b != 0) else math.nan
+
+
+def peak_of(d: np.ndarray | None) -> float:
+    """max |d| [m] of a (n, 2) history, nan if absent."""
+    return float(magnitude(d).max()) if d is not None else math.nan

@@ -1,0 +1,151 @@
+"""Validity study, data edge: read campaign HDF5 files into flat :class:`Point` records.
+
+Everything downstream (:mod:`compare.studies.validity_analysis`, ``validity_figures``,
+``validity_report``) is pure and works on these records.  Units: SI; deflections of the coupler
+point P in m (dx, dy, global frame), crank angle in rad, speeds in rad/s or rev/min where named.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from compare import store
+from compare.results import SceneResult
+from compare.scenes import SceneSpec
+
+RETRY_STEP_FACTOR = 4
+"""Newton failures are retried once with this many times the steps per cycle."""
+
+
+@dataclass(frozen=True, eq=False)
+class Point:
+    """One stored scene of the study, flattened.
+
+    ``linkage``: label of the four-bar (campaign name without ``validity-``); ``r``: crank speed ratio
+    Omega / omega1_min [1]; ``rpm`` [rev/min]; ``omega1_min`` [rad/s]; ``f1_range_hz`` (min, max) of
+    the first frozen-structure frequency over the cycle [Hz]; ``theta`` (n,) [rad]; ``qs`` / ``dyn``
+    (n, 2) dx, dy of P [m] (``dyn`` None when the dynamic solver failed); ``refined``: computed at the
+    refined (doubled) dynamic discretization; ``wall_s`` [s] scene wall time; ``cycles`` crank cycles
+    simulated (-1: did not finish).
+    """
+
+    key: str
+    label: str
+    linkage: str
+    mechanism: str
+    mass_model: str
+    damping: float
+    direction: str
+    speed_kind: str
+    r: float
+    rpm: float
+    omega1_min: float
+    f1_range_hz: tuple[float, float]
+    status: str
+    stage: str
+    error_type: str
+    message: str
+    refined: bool
+    elements_per_link: int
+    steps_per_cycle: int
+    theta: np.ndarray | None
+    qs: np.ndarray | None
+    dyn: np.ndarray | None
+    wall_s: float
+    cycles: int
+    spec: SceneSpec
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok" and self.dyn is not None and self.qs is not None
+
+    @property
+    def family(self) -> tuple[str, str, str, float, str]:
+        """(linkage, mechanism, mass model, damping ratio, direction)."""
+        return (self.linkage, self.mechanism, self.mass_model, self.damping, self.direction)
+
+
+def linkage_label(campaign_name: str) -> str:
+    """``validity-thesis`` -> ``thesis``."""
+    for prefix in ("validity-", "validity_"):
+        if campaign_name.startswith(prefix):
+            return campaign_name[len(prefix):]
+    return campaign_name
+
+
+def _xy(side: dict[str, np.ndarray]) -> np.ndarray | None:
+    if "dx" not in side or "dy" not in side:
+        return None
+    return np.stack([np.asarray(side["dx"], float), np.asarray(side["dy"], float)], axis=1)
+
+
+def _speed_ratio(r: SceneResult) -> float:
+    if r.metrics is not None:
+        return float(r.metrics.speed_ratio)
+    if r.spec.speed.kind == "ratio":
+        return float(r.spec.speed.value)
+    if math.isfinite(r.rpm) and math.isfinite(r.omega1_min) and r.omega1_min > 0:
+        return r.rpm * 2.0 * math.pi / 60.0 / r.omega1_min
+    return float("nan")
+
+
+def to_point(r: SceneResult, linkage: str, refined: bool) -> Point:
+    """Flatten one :class:`SceneResult`."""
+    ds = r.dynamic_settings or {}
+    f = r.natural_frequencies
+    f1 = (float(np.nanmin(f[:, 0])), float(np.nanmax(f[:, 0]))) if f is not None and f.size else (math.nan,) * 2
+    return Point(
+        key=r.key, label=r.spec.label, linkage=linkage, mechanism=r.spec.mechanism,
+        mass_model=r.spec.mass_model.name, damping=float(r.spec.damping_ratio), direction=r.spec.direction,
+        speed_kind=r.spec.speed.kind, r=_speed_ratio(r), rpm=float(r.rpm), omega1_min=float(r.omega1_min),
+        f1_range_hz=f1, status=r.status, stage=r.stage, error_type=r.error_type, message=r.message,
+        refined=refined, elements_per_link=int(ds.get("elements_per_link", -1)),
+        steps_per_cycle=int(ds.get("steps_per_cycle", -1)),
+        theta=r.crank_angle, qs=_xy(r.quasi_static), dyn=_xy(r.dynamic) if r.ok else None,
+        wall_s=float(r.stats.total_wall_s), cycles=int(r.stats.cycles), spec=r.spec,
+    )
+
+
+def read_points(path: str | Path, linkage: str | None = None, refined: bool = False,
+                labels: dict[str, str] | None = None) -> list[Point]:
+    """All complete scenes of one campaign file as points.  ``linkage`` label: given, else looked up
+    by the scene's linkage JSON in ``labels``, else from the file's ``campaign_name``."""
+    info = store.file_info(path)
+    default = linkage or linkage_label(str(info.get("campaign_name", Path(path).stem)))
+    out = []
+    for r in store.read_scenes(path):
+        lab = linkage or (labels or {}).get(linkage_json(r.spec), default)
+        out.append(to_point(r, lab, refined))
+    return out
+
+
+def linkage_json(spec: SceneSpec) -> str:
+    """Canonical JSON of a scene's source linkage (identifies the four-bar across files)."""
+    from compare.scenes import canonical_json
+
+    return canonical_json(spec.linkage.to_dict())
+
+
+def file_wall_seconds(path: str | Path) -> float:
+    """Sum of the stored scenes' wall times [s] (worker time, not elapsed time)."""
+    return float(sum(r.stats.total_wall_s for r in store.read_scenes(path)))
+
+
+def quasi_static_loads(spec: SceneSpec) -> tuple[np.ndarray, np.ndarray]:
+    """Recompute the scene's quasi-static solution at 1 rad/s-equivalent shape: returns
+    (loads (n, N, 2) [N], deflection (n, 2) [m]) at the scene's grid and an arbitrary speed.  The shape
+    of both is independent of the speed (they scale with Omega^2), which is all the harmonic rule needs."""
+    from compare.execute import build_fourbar, build_mass_model
+    from ked_quasi.scene import Scene
+    from ked_quasi.solver import solve_quasi_static
+
+    scene = Scene(build_fourbar(spec), build_mass_model(spec), rpm=100.0, step_deg=spec.step_deg)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        qs = solve_quasi_static(scene)
+    return np.asarray(qs.loads, float), np.asarray(qs.deflection, float)[:, :2]

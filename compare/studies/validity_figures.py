@@ -1,0 +1,255 @@
+"""Validity study figures (PNG, ~100 dpi), drawn from the family summaries only."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+from compare.studies.validity_analysis import TOLERANCES, one_mode_errors  # noqa: E402
+from compare.studies.validity_data import Point  # noqa: E402
+from compare.studies.validity_summary import FamilySummary  # noqa: E402
+
+DPI = 100
+COLORS = {"tip": "tab:red", "joints": "tab:blue", "extender": "tab:green", "distributed": "tab:purple"}
+HISTORY_RATIOS = (0.06, 0.15, 0.33)
+"""Speed ratios (nearest on the grid) of the deflection-history figure."""
+
+
+def reference(summaries: Sequence[FamilySummary], damping: float = 0.02, direction: str = "ccw"
+              ) -> dict[tuple[str, str], list[FamilySummary]]:
+    """Reference families grouped by (linkage, mechanism), in order."""
+    out: dict[tuple[str, str], list[FamilySummary]] = {}
+    for fs in summaries:
+        if fs.damping == damping and fs.direction == direction:
+            out.setdefault((fs.linkage, fs.mechanism), []).append(fs)
+    return out
+
+
+def _grid(n: int) -> tuple[Figure, np.ndarray]:
+    cols = 2 if n > 1 else 1
+    rows = math.ceil(n / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 3.6 * rows), squeeze=False)
+    for ax in axes.flat[n:]:
+        ax.set_visible(False)
+    return fig, axes
+
+
+def _resonances(ax) -> None:
+    for k in (2, 3):
+        ax.axvline(1.0 / k, color="0.75", lw=0.8, ls=":")
+    ax.axvline(1.0, color="0.6", lw=0.8, ls=":")
+
+
+def _qs_shape(fs: FamilySummary) -> np.ndarray | None:
+    for s in fs.slots:
+        if s.point.qs is not None:
+            return s.point.qs
+    return None
+
+
+def error_figure(summaries: Sequence[FamilySummary]) -> Figure:
+    """Relative error of the quasi-static solution vs r: history error (solid), peak error (dashed);
+    x at the top: dynamic solver failed; open markers: solved by the retry (4x steps per cycle)."""
+    groups = reference(summaries)
+    fig, axes = _grid(len(groups))
+    for ax, ((lk, mech), fams) in zip(axes.flat, groups.items()):
+        for fs in fams:
+            c = COLORS.get(fs.mass_model, "k")
+            ok = [s for s in fs.slots if s.ok]
+            r = [s.r for s in ok]
+            ax.plot(r, [s.errors.history for s in ok], "-o", color=c, ms=3.5, label=fs.mass_model)
+            ax.plot(r, [s.errors.peak for s in ok], "--", color=c, lw=1)
+            re = [s for s in ok if s.retried]
+            ax.plot([s.r for s in re], [s.errors.history for s in re], "o", mfc="white", color=c, ms=5)
+            bad = [s.r for s in fs.slots if not s.ok]
+            ax.plot(bad, [8.0] * len(bad), "x", color=c, ms=6)
+        for tol in TOLERANCES:
+            ax.axhline(tol, color="k", lw=0.8, ls="-." if tol < 0.1 else "-")
+        _resonances(ax)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_ylim(1e-3, 10)
+        ax.set_title(f"{lk} / {mech}")
+        ax.set_xlabel("r = Omega / omega1_min")
+        ax.set_ylabel("relative error of quasi-static")
+        ax.grid(True, which="both", alpha=0.25)
+        ax.legend(fontsize=7, loc="lower right")
+    fig.suptitle("Quasi-static error vs speed ratio (solid: whole history, dashed: peak |d|; "
+                 "x: dynamic failed; lines 5 %, 10 %)", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def amplification_figure(summaries: Sequence[FamilySummary]) -> Figure:
+    """Dynamic amplification max|d_dyn| / max|d_qs| vs r, with the one-mode estimate (dotted)."""
+    groups = reference(summaries)
+    fig, axes = _grid(len(groups))
+    for ax, ((lk, mech), fams) in zip(axes.flat, groups.items()):
+        for fs in fams:
+            c = COLORS.get(fs.mass_model, "k")
+            ok = [s for s in fs.slots if s.ok]
+            ax.plot([s.r for s in ok], [s.errors.amplification for s in ok], "-o", color=c, ms=3.5,
+                    label=fs.mass_model)
+            qs = _qs_shape(fs)
+            if qs is not None and ok:
+                rs = np.linspace(0.01, max(s.r for s in fs.slots), 240)
+                ax.plot(rs, [one_mode_errors(qs, float(x), fs.damping).amplification for x in rs], ":",
+                        color=c, lw=1)
+            bad = [s.r for s in fs.slots if not s.ok]
+            ax.plot(bad, [0.55] * len(bad), "x", color=c, ms=6)
+        _resonances(ax)
+        ax.axhline(1.0, color="k", lw=0.6)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_ylim(0.5, 20)
+        ax.set_title(f"{lk} / {mech}")
+        ax.set_xlabel("r = Omega / omega1_min")
+        ax.set_ylabel("dynamic amplification")
+        ax.grid(True, which="both", alpha=0.25)
+        ax.legend(fontsize=7, loc="upper left")
+    fig.suptitle("Dynamic amplification of the peak deflection (dotted: one-mode estimate; "
+                 "x: dynamic failed)", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def nearest_slots(fs: FamilySummary, targets: Sequence[float]) -> list:
+    """The solved slots nearest to each target ratio (None where nothing solved)."""
+    ok = [s for s in fs.slots if s.ok]
+    return [min(ok, key=lambda s: abs(math.log(s.r / t))) if ok else None for t in targets]
+
+
+def history_figure(summaries: Sequence[FamilySummary], linkage: str = "thesis", mechanism: str = "source"
+                   ) -> Figure:
+    """dx, dy of P [mm] over the crank angle, dynamic (solid) vs quasi-static (dashed), per mass model
+    (rows) at the ratios nearest to :data:`HISTORY_RATIOS` (columns)."""
+    fams = reference(summaries).get((linkage, mechanism)) or next(iter(reference(summaries).values()), [])
+    fig, axes = plt.subplots(len(fams), len(HISTORY_RATIOS), figsize=(11, 2.4 * len(fams) + 0.6),
+                             squeeze=False)
+    for row, fs in zip(axes, fams):
+        for ax, s in zip(row, nearest_slots(fs, HISTORY_RATIOS)):
+            if s is None:
+                ax.set_visible(False)
+                continue
+            p = s.point
+            th = np.degrees(p.theta)
+            for j, (name, c) in enumerate((("dx", "tab:blue"), ("dy", "tab:orange"))):
+                ax.plot(th, 1e3 * p.dyn[:, j], "-", color=c, label=f"{name} dynamic")
+                ax.plot(th, 1e3 * p.qs[:, j], "--", color=c, label=f"{name} quasi-static")
+            ax.set_title(f"{fs.mass_model}, r = {p.r:.3g} ({p.rpm:.0f} rpm): error "
+                         f"{100 * s.errors.history:.1f} %", fontsize=8)
+            ax.set_xlim(0, 360)
+            ax.set_xticks(range(0, 361, 90))
+            ax.tick_params(labelsize=7)
+            ax.grid(True, alpha=0.25)
+        row[0].set_ylabel("deflection [mm]", fontsize=8)
+    axes[0, 0].legend(fontsize=6, loc="best")
+    for ax in axes[-1]:
+        ax.set_xlabel("crank angle [deg]", fontsize=8)
+    fig.suptitle(f"Deflection of P, {linkage} {mechanism}: dynamic steady state (solid) vs quasi-static "
+                 "(dashed)", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def variants_figure(summaries: Sequence[FamilySummary]) -> Figure | None:
+    """History error vs r for the damping / direction variants (families with more than one
+    (damping, direction) pair)."""
+    groups: dict[tuple[str, str, str], list[FamilySummary]] = {}
+    for fs in summaries:
+        groups.setdefault((fs.linkage, fs.mechanism, fs.mass_model), []).append(fs)
+    groups = {k: v for k, v in groups.items() if len(v) > 1}
+    if not groups:
+        return None
+    fig, axes = _grid(len(groups))
+    for ax, ((lk, mech, mm), fams) in zip(axes.flat, groups.items()):
+        for fs in sorted(fams, key=lambda f: (f.direction, f.damping)):
+            ok = [s for s in fs.slots if s.ok]
+            ls = "-" if fs.direction == "ccw" else "--"
+            ax.plot([s.r for s in ok], [s.errors.history for s in ok], ls, marker="o", ms=3,
+                    label=f"zeta {100 * fs.damping:g} %, {fs.direction}")
+        for tol in TOLERANCES:
+            ax.axhline(tol, color="k", lw=0.8, ls="-." if tol < 0.1 else "-")
+        _resonances(ax)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_title(f"{lk} / {mech} / {mm}")
+        ax.set_xlabel("r = Omega / omega1_min")
+        ax.set_ylabel("history error")
+        ax.grid(True, which="both", alpha=0.25)
+        ax.legend(fontsize=7)
+    fig.suptitle("Effect of damping ratio and crank direction on the quasi-static error", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def rule_figure(summaries: Sequence[FamilySummary]) -> Figure:
+    """Left: dynamic validity limit vs the one-mode prediction; right: implied fraction k_sig * r_lim."""
+    fig, (a, b) = plt.subplots(1, 2, figsize=(10, 4))
+    ref = [fs for fams in reference(summaries).values() for fs in fams]
+    marks = {("history", 0.05): "o", ("history", 0.10): "s", ("peak", 0.05): "^", ("peak", 0.10): "v"}
+    for (kind, tol), m in marks.items():
+        x, y, c = [], [], []
+        for fs in ref:
+            lim = fs.limits[(kind, tol)]
+            if lim.status == "crossed":
+                x.append(fs.one_mode[(kind, tol)])
+                y.append(lim.r_cross)
+                c.append(COLORS.get(fs.mass_model, "k"))
+        a.scatter(x, y, marker=m, c=c, s=22, label=f"{kind}, {100 * tol:g} %")
+    lim_max = 0.3
+    a.plot([0, lim_max], [0, lim_max], "k-", lw=0.6)
+    a.set_xlim(0, lim_max)
+    a.set_ylim(0, lim_max)
+    a.set_xlabel("one-mode prediction of the limit r")
+    a.set_ylabel("dynamic limit r (Exudyn)")
+    a.legend(fontsize=7)
+    a.grid(True, alpha=0.25)
+    labels, vals = [], []
+    for fs in ref:
+        lim = fs.limits[("history", 0.10)]
+        if lim.status == "crossed":
+            labels.append(f"{fs.linkage[:4]}/{fs.mechanism[:3]}/{fs.mass_model[:4]}")
+            vals.append((fs.k_significant[0.01] * lim.r_cross, fs.k_significant[0.05] * lim.r_cross,
+                         COLORS.get(fs.mass_model, "k")))
+    xs = np.arange(len(vals))
+    b.bar(xs - 0.2, [v[0] for v in vals], 0.4, color=[v[2] for v in vals], label="k at 1 % of loads")
+    b.bar(xs + 0.2, [v[1] for v in vals], 0.4, color=[v[2] for v in vals], alpha=0.45,
+          label="k at 5 % of loads")
+    b.set_xticks(xs, labels, rotation=70, fontsize=6)
+    b.set_ylabel("k_sig * r_lim (10 %, history)")
+    b.legend(fontsize=7)
+    b.grid(True, axis="y", alpha=0.25)
+    fig.suptitle("Does 'highest significant crank harmonic below a fraction of omega1' explain the limit?",
+                 fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def write_figures(points: Sequence[Point], summaries: Sequence[FamilySummary], out_dir: Path) -> list[Path]:
+    """Write every figure of the study; returns their paths."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    figs = {
+        "validity_error.png": error_figure(summaries),
+        "validity_amplification.png": amplification_figure(summaries),
+        "validity_histories.png": history_figure(summaries),
+        "validity_variants.png": variants_figure(summaries),
+        "validity_rule.png": rule_figure(summaries),
+    }
+    paths = []
+    for name, fig in figs.items():
+        if fig is None:
+            continue
+        p = out_dir / name
+        fig.savefig(p, dpi=DPI)
+        plt.close(fig)
+        paths.append(p)
+    return paths

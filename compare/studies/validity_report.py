@@ -1,0 +1,326 @@
+"""Validity study: the Markdown section of results/README.md, generated from the family summaries
+(every number in it comes from the HDF5 files it was read from)."""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from compare.studies.validity_analysis import TOLERANCES, peak_of, peak_ratio
+from compare.studies.validity_data import RETRY_STEP_FACTOR, Point, file_wall_seconds
+from compare.studies.validity_figures import reference
+from compare.studies.validity_summary import FamilySummary, Slot
+
+THESIS_RPM = (300.0, 400.0)
+
+
+def f3(x: float) -> str:
+    return f"{x:.3f}" if math.isfinite(x) else "-"
+
+
+def pct(x: float, digits: int = 1) -> str:
+    return f"{100 * x:.{digits}f} %" if math.isfinite(x) else "-"
+
+
+def mm(x: float) -> str:
+    return f"{1e3 * x:.2f}" if math.isfinite(x) else "-"
+
+
+def _table(head: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
+    out = ["| " + " | ".join(head) + " |", "|" + "|".join(" --- " for _ in head) + "|"]
+    out += ["| " + " | ".join(r) + " |" for r in rows]
+    return out
+
+
+def limit_text(fs: FamilySummary, kind: str, tol: float) -> str:
+    """'0.071 ± 0.012 (0.06-0.08; fine 0.070)' or the reason there is no crossing."""
+    lim = fs.limits[(kind, tol)]
+    if lim.status == "crossed":
+        fine = fs.refined_cross.get((kind, tol), math.nan)
+        note = f"fine {f3(fine)}" if math.isfinite(fine) else (fs.refined_note.get((kind, tol)) or "fine -")
+        return f"**{f3(lim.r_cross)}** ± {f3(fs.uncertainty(kind, tol))} ({lim.r_pass:g}-{lim.r_fail:g}; {note})"
+    if lim.status == "below_grid":
+        return f"< {lim.r_fail:g}"
+    if lim.status == "above_grid":
+        return f">= {lim.r_pass:g} (never exceeded)"
+    if lim.status == "failure":
+        return f">= {lim.r_pass:g} (dynamic failed at {lim.r_fail:g})"
+    return "no data"
+
+
+def _rpm_at(fs: FamilySummary, r: float) -> float:
+    return r * fs.omega1_min * 60.0 / (2.0 * math.pi) if math.isfinite(r) else math.nan
+
+
+def _name(fs: FamilySummary) -> str:
+    return f"{fs.linkage} {fs.mechanism}"
+
+
+def linkage_rows(points: Sequence[Point]) -> list[list[str]]:
+    """Data of each linkage (from the stored scene parameters)."""
+    seen: dict[str, Point] = {}
+    pay: dict[str, float] = {}
+    for p in points:
+        seen.setdefault(p.linkage, p)
+        if p.mass_model == "tip":
+            pay[p.linkage] = p.spec.mass_model.payload
+    rows = []
+    for name, p in seen.items():
+        lk = p.spec.linkage
+        s = lk.sections[0]
+        ground = math.dist(lk.crank_pivot, lk.follower_pivot)
+        rows.append([name, f"{1e3 * lk.crank:.1f}", f"{1e3 * lk.coupler:.1f}", f"{1e3 * lk.follower:.1f}",
+                     f"{1e3 * ground:.1f}", f"{1e3 * lk.extender:.1f}", f"{math.degrees(lk.coupler_angle):.0f}",
+                     f"{s.youngs_modulus / 1e9:.1f}", f"{1e6 * s.area:.2f}", f"{1e12 * s.second_moment:.1f}",
+                     f"{s.density:.0f}", f"{pay.get(name, math.nan):.3f}"])
+    return rows
+
+
+def answer_rows(ref: Sequence[FamilySummary]) -> list[list[str]]:
+    rows = []
+    for fs in ref:
+        rows.append([_name(fs), fs.mass_model,
+                     f"{fs.f1_range_hz[0]:.1f}-{fs.f1_range_hz[1]:.1f}",
+                     f"{_rpm_at(fs, 1.0):.0f}",
+                     limit_text(fs, "peak", 0.05), limit_text(fs, "peak", 0.10),
+                     limit_text(fs, "history", 0.05), limit_text(fs, "history", 0.10)])
+    return rows
+
+
+def _crossed(ref: Sequence[FamilySummary], kind: str, tol: float) -> list[FamilySummary]:
+    return [fs for fs in ref if fs.limits[(kind, tol)].status == "crossed"]
+
+
+def plain_answer(ref: Sequence[FamilySummary]) -> list[str]:
+    """Generated sentences: range of the limits over the families, per mass model."""
+    out = []
+    for kind, what in (("peak", "peak deflection |d| of P"), ("history", "whole deflection history")):
+        for tol in TOLERANCES:
+            fams = _crossed(ref, kind, tol)
+            if not fams:
+                continue
+            lo = min(fams, key=lambda f: f.limits[(kind, tol)].r_cross)
+            hi = max(fams, key=lambda f: f.limits[(kind, tol)].r_cross)
+            unc = max(f.uncertainty(kind, tol) for f in fams)
+            out.append(
+                f"* {what} within {100 * tol:g} %: r up to **{f3(lo.limits[(kind, tol)].r_cross)}** "
+                f"({_name(lo)}, {lo.mass_model}) ... **{f3(hi.limits[(kind, tol)].r_cross)}** "
+                f"({_name(hi)}, {hi.mass_model}) over the {len(fams)} families with a crossing; "
+                f"largest uncertainty ± {f3(unc)}.")
+    per_mm: dict[str, list[float]] = {}
+    for fs in _crossed(ref, "history", 0.10):
+        per_mm.setdefault(fs.mass_model, []).append(fs.limits[("history", 0.10)].r_cross)
+    if per_mm:
+        out.append("* Whole history within 10 %, per mass model (min-max over the linkages): " + "; ".join(
+            f"{m} {f3(min(v))}-{f3(max(v))}" for m, v in per_mm.items()) + ".")
+    return out
+
+
+def rule_rows(ref: Sequence[FamilySummary]) -> list[list[str]]:
+    rows = []
+    for fs in ref:
+        spec = " ".join(f"{a:.2f}" for a in fs.spectrum[:6])
+        dyn10 = fs.limits[("history", 0.10)].r_cross
+        dyn5 = fs.limits[("history", 0.05)].r_cross
+        rows.append([_name(fs), fs.mass_model, spec, str(fs.k_significant[0.01]), str(fs.k_significant[0.05]),
+                     f3(fs.one_mode[("history", 0.05)]), f3(dyn5), f3(fs.one_mode[("history", 0.10)]), f3(dyn10),
+                     f3(fs.k_significant[0.01] * dyn10), f3(fs.k_significant[0.05] * dyn10),
+                     f"{fs.f1_range_hz[1] / fs.f1_range_hz[0]:.2f}"])
+    return rows
+
+
+def rule_text(ref: Sequence[FamilySummary]) -> list[str]:
+    """Generated verdict on the harmonic rule and the one-mode estimate."""
+    out = []
+    for kind in ("history", "peak"):
+        for tol in TOLERANCES:
+            pairs = [(fs, fs.one_mode[(kind, tol)], fs.limits[(kind, tol)].r_cross) for fs in _crossed(ref, kind, tol)]
+            if not pairs:
+                continue
+            ratio = [d / p for _, p, d in pairs if p > 0]
+            within = [abs(x - 1) <= 0.25 for x in ratio]
+            worst = max(pairs, key=lambda t: abs(math.log(t[2] / t[1])) if t[1] > 0 else 0)
+            out.append(f"* {kind} error {100 * tol:g} %: dynamic limit / one-mode prediction = "
+                       f"{min(ratio):.2f} ... {max(ratio):.2f} (median {float(np.median(ratio)):.2f}); within "
+                       f"±25 % for {sum(within)} of {len(pairs)} families; worst {_name(worst[0])} "
+                       f"{worst[0].mass_model} (predicted {f3(worst[1])}, dynamic {f3(worst[2])}).")
+    fams = _crossed(ref, "history", 0.10)
+    for frac in (0.01, 0.05):
+        c = [fs.k_significant[frac] * fs.limits[("history", 0.10)].r_cross for fs in fams]
+        ks = [fs.k_significant[frac] for fs in fams]
+        if c:
+            out.append(f"* Rule 'k_sig r <= c' with k_sig at {100 * frac:g} % of the largest load harmonic: the "
+                       f"implied c for the 10 % history limit spans {min(c):.2f} ... {max(c):.2f} "
+                       f"(max/min {max(c) / min(c):.1f}); k_sig = {min(ks)} ... {max(ks)}.")
+    return out
+
+
+def _slot_at(slots: Sequence[Slot], rpm: float) -> Slot | None:
+    return next((s for s in slots if s.point.spec.speed.value == rpm), None)
+
+
+def _peaks(s: Slot | None) -> tuple[float, float, float]:
+    """(qs peak, dyn peak, r) [m, m, 1] of a slot (dyn nan if it failed)."""
+    if s is None:
+        return math.nan, math.nan, math.nan
+    return peak_of(s.point.qs), (peak_of(s.point.dyn) if s.ok else math.nan), s.r
+
+
+def _fail_note(s: Slot | None) -> str:
+    if s is None or s.ok:
+        return ""
+    return f"dyn. failed ({s.point.error_type})"
+
+
+def claims_rows(summaries: Sequence[FamilySummary]) -> tuple[list[list[str]], list[list[str]]]:
+    """(doubling rows, cognate rows) from the rpm scenes of the thesis families."""
+    fams = [fs for fs in summaries if fs.rpm_points and fs.damping == 0.02 and fs.direction == "ccw"]
+    dbl, cog = [], []
+    for fs in fams:
+        a, b = (_slot_at(fs.rpm_points, x) for x in THESIS_RPM)
+        q3, d3, r3 = _peaks(a)
+        q4, d4, r4 = _peaks(b)
+        dbl.append([_name(fs), fs.mass_model, f"{r3:.3f} / {r4:.3f}", mm(q3), mm(q4), f"{peak_ratio(q4, q3):.3f}",
+                    mm(d3), mm(d4), f"{peak_ratio(d4, d3):.3f}" if math.isfinite(peak_ratio(d4, d3)) else "-",
+                    "; ".join(x for x in (_fail_note(a), _fail_note(b)) if x)])
+    src = {(fs.linkage, fs.mass_model): fs for fs in fams if fs.mechanism == "source"}
+    for fs in fams:
+        if fs.mechanism != "cognate" or (fs.linkage, fs.mass_model) not in src:
+            continue
+        s = src[(fs.linkage, fs.mass_model)]
+        for rpm in THESIS_RPM:
+            qs_s, dy_s, _ = _peaks(_slot_at(s.rpm_points, rpm))
+            qs_c, dy_c, _ = _peaks(_slot_at(fs.rpm_points, rpm))
+            cog.append([fs.mass_model, f"{rpm:.0f}", mm(qs_s), mm(qs_c), f"{peak_ratio(qs_c, qs_s):.3f}",
+                        mm(dy_s), mm(dy_c),
+                        f"{peak_ratio(dy_c, dy_s):.3f}" if math.isfinite(peak_ratio(dy_c, dy_s)) else "-"])
+    return dbl, cog
+
+
+def variant_rows(summaries: Sequence[FamilySummary]) -> list[list[str]]:
+    groups: dict[tuple, list[FamilySummary]] = {}
+    for fs in summaries:
+        groups.setdefault((fs.linkage, fs.mechanism, fs.mass_model), []).append(fs)
+    rows = []
+    for fams in groups.values():
+        if len(fams) < 2:
+            continue
+        for fs in sorted(fams, key=lambda f: (f.direction, f.damping)):
+            errs = {round(s.r, 6): s for s in fs.slots}
+            cells = []
+            for r in (0.1, 0.25, 0.5):
+                s = errs.get(r)
+                cells.append(pct(s.errors.history) if s is not None and s.ok else ("failed" if s else "-"))
+            rows.append([_name(fs), fs.mass_model, f"{100 * fs.damping:g} %", fs.direction,
+                         limit_text(fs, "history", 0.05), limit_text(fs, "history", 0.10), *cells])
+    return rows
+
+
+def failure_lines(summaries: Sequence[FamilySummary]) -> tuple[list[str], int, int, int]:
+    """(lines, failed slots, retried slots, solved by retry)."""
+    lines, failed, retried, rescued = [], 0, 0, 0
+    for fs in summaries:
+        for s in (*fs.slots, *fs.rpm_points):
+            retried += s.retried
+            rescued += s.retried and s.ok
+            if not s.ok:
+                failed += 1
+                p = s.point
+                msg = p.message.split(" (time=")[0][:110]
+                extra = f" (retry with {p.steps_per_cycle} steps/cycle also failed)" if s.retried else ""
+                speed = f"r = {p.r:.3g}" + (f" ({p.spec.speed.value:g} rpm)" if p.speed_kind == "rpm" else "")
+                lines.append(f"* {_name(fs)} {fs.mass_model}, zeta {100 * fs.damping:g} %, {fs.direction}, "
+                             f"{speed}: {p.stage} {p.error_type}{extra}: {msg}")
+    return lines, failed, retried, rescued
+
+
+def render_section(points: Sequence[Point], summaries: Sequence[FamilySummary], *, files: Sequence[Path],
+                   refine_file: Path, figures: Sequence[Path], readme: Path, configs: Sequence[Path]) -> str:
+    """The whole Markdown section (without markers)."""
+    base = next((p for p in points if not p.refined), None)
+    dyn = dict(base.spec.dynamic) if base else {}
+    dyn.pop("damping_ratio", None)
+    ref_groups = reference(summaries)
+    ref = [fs for fams in ref_groups.values() for fs in fams]
+    rel = readme.resolve().parent
+
+    def link(p: Path) -> str:
+        return os.path.relpath(p.resolve(), rel)
+
+    L: list[str] = ["## Validity map: when does the quasi-static (instantaneous-structure) assumption hold?", ""]
+    L += ["Regenerate (resumable; runs the campaigns, retries, refinement scenes, figures and this section):",
+          "", "    ked study validity", "",
+          "Configs: " + ", ".join(f"`{link(c)}`" for c in configs) + ". Results: "
+          + ", ".join(f"`{link(f)}`" for f in (*files, refine_file) if f.exists()) + ".", ""]
+    L += ["**Setup.** Crank speed as r = Omega / omega1_min (omega1_min: lowest first natural frequency of the "
+          "frozen structure over the cycle, same mass model). Reference damping ratio "
+          f"{100 * (base.damping if base else math.nan):g} % (stiffness-proportional, at the mean first "
+          "frequency), crank ccw. Dynamic model (Exudyn, pinned): "
+          + ", ".join(f"{k} = {v}" for k, v in sorted(dyn.items()))
+          + f"; scenes whose Newton iteration failed are retried once with {RETRY_STEP_FACTOR}x the steps per cycle. "
+          "Mass models: tip (payload at P, massless links), joints (half of each link's mass at each end), "
+          "extender (extender mass in 5 lumps), distributed (quasi-static: 5 lumps per link; dynamic: the "
+          "beams' consistent mass).", ""]
+    L += ["Errors of the quasi-static deflection d = (dx, dy) of the coupler point P against the dynamic "
+          "periodic steady state: **peak error** |max|d_qs| - max|d_dyn|| / max|d_dyn| (what the brief "
+          "calls the peak deflection) and **history error** max|d_qs - d_dyn| / max|d_dyn| (whole cycle, "
+          "amplitude and phase). Limit = the largest r below which every grid scene solved and stayed under "
+          "the tolerance, linear interpolation between the bracketing grid ratios; ± = half the bracketing "
+          "grid interval plus the shift of the crossing when the two bracketing scenes are rerun with twice "
+          "the elements per link and twice the steps per cycle ('fine').", ""]
+    L += ["Linkages (all links the same section; lengths in mm, E in GPa, A in mm^2, I in mm^4, rho in "
+          "kg/m^3, tip payload in kg):", ""]
+    L += _table(["linkage", "crank", "coupler", "follower", "ground", "extender", "coupler angle [deg]", "E", "A",
+                 "I", "rho", "tip payload"], linkage_rows([p for p in points if not p.refined]))
+    L += ["", "### The answer", ""]
+    L += plain_answer(ref)
+    L += ["", "Per family (f1: first frozen frequency over the cycle, min-max; rpm at r = 1):", ""]
+    L += _table(["linkage", "mass model", "f1 [Hz]", "rpm at r=1", "peak 5 %", "peak 10 %", "history 5 %",
+                 "history 10 %"], answer_rows(ref))
+    L += ["", "### Does a harmonic rule explain it?", ""]
+    L += ["Harmonic content of the quasi-static inertia loads (all nodes, amplitudes of crank harmonics 1-6 "
+          "normalized by the largest), k_sig = highest harmonic above 1 % / 5 % of the largest, the one-mode "
+          "estimate's limit (each harmonic k of the quasi-static history amplified by "
+          "1/(1 - (k r)^2 + 2 i zeta k r) with omega1 = omega1_min) and the dynamic limit (history error), "
+          "and the implied fraction c = k_sig * r_lim(10 %):", ""]
+    L += _table(["linkage", "mass model", "load harmonics 1-6", "k_sig 1 %", "k_sig 5 %", "one-mode 5 %",
+                 "dynamic 5 %", "one-mode 10 %", "dynamic 10 %", "c (1 %)", "c (5 %)", "f1 max/min"],
+                rule_rows(ref))
+    L += [""] + rule_text(ref)
+    dbl, cog = claims_rows(summaries)
+    if dbl:
+        L += ["", "### The thesis's claims, checked with dynamics", ""]
+        L += ["'The deflection doubles for +100 rpm (300 -> 400 rpm)': peak |d| of P [mm]; quasi-static "
+              "ratios are (4/3)^2 by construction:", ""]
+        L += _table(["linkage", "mass model", "r at 300 / 400 rpm", "qs 300", "qs 400", "qs ratio", "dyn 300",
+                     "dyn 400", "dyn ratio", "note"], dbl)
+    if cog:
+        L += ["", "'The cognate does not share the source's KED deflection': peak |d| of P [mm] at the same "
+              "crank speed:", ""]
+        L += _table(["mass model", "rpm", "source qs", "cognate qs", "qs cognate/source", "source dyn",
+                     "cognate dyn", "dyn cognate/source"], cog)
+    var = variant_rows(summaries)
+    if var:
+        L += ["", "### Damping and crank direction", ""]
+        L += _table(["linkage", "mass model", "damping", "direction", "history 5 %", "history 10 %",
+                     "error r=0.1", "error r=0.25", "error r=0.5"], var)
+    lines, failed, retried, rescued = failure_lines(summaries)
+    L += ["", "### Failures of the dynamic model (recorded in the HDF5 files)", ""]
+    L += [f"{failed} grid slots have no dynamic steady state; {retried} slots were retried with "
+          f"{RETRY_STEP_FACTOR}x the steps per cycle, {rescued} of them solved by the retry "
+          "(open markers in the figures).", ""]
+    L += lines
+    L += ["", "### Run time", ""]
+    rows = []
+    for f in (*files, refine_file):
+        if f.exists():
+            rows.append([f"`{f.name}`", f"{file_wall_seconds(f):.0f}", f"{f.stat().st_size / 1e6:.2f}"])
+    L += _table(["file", "sum of scene wall times [s]", "size [MB]"], rows)
+    L += ["", "### Figures", ""]
+    for p in figures:
+        L += [f"![{p.stem}]({link(p)})"]
+    return "\n".join(L) + "\n"
