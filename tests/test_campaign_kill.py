@@ -13,6 +13,8 @@ import subprocess
 import sys
 import time
 
+import pytest
+
 from compare import store
 from compare.config import parse_config
 from compare.runner import run_campaign
@@ -68,12 +70,15 @@ def test_sigkill_mid_run_then_resume(tmp_path):
     for _ in range(3):
         before = set(_stored(out))
         proc = _start(cfg_file, out)
-        deadline = time.monotonic() + 60
+        deadline = time.monotonic() + 180
         while len(_stored(out)) <= len(before) and time.monotonic() < deadline and proc.poll() is None:
             time.sleep(0.05)
         time.sleep(rng.uniform(0.0, 0.6))  # kill at an arbitrary moment (possibly mid-commit)
         finished = proc.poll() is not None
         _kill(proc)
+        if finished and proc.returncode != 0:
+            pytest.fail(f"campaign subprocess failed: {proc.stderr.read().decode()[-2000:]}")
+        assert len(_stored(out)) > len(before), "no scene was stored before the kill"
         assert store.verify(out) == [], "results file damaged by SIGKILL"
         stored = _stored(out)
         assert set(stored) <= expected
