@@ -13,9 +13,13 @@ def study() -> None:
 
 
 def _register() -> None:
+    from compare.studies.stability import stability
     from compare.studies.validity import validity
+    from compare.studies.work_precision import work_precision
 
     study.add_command(validity)
+    study.add_command(work_precision)
+    study.add_command(stability)
 
 
 _register()

@@ -1,0 +1,44 @@
+"""Marked sections of ``results/README.md``: each study owns the text between its own markers.
+
+``<!-- BEGIN name -->`` ... ``<!-- END name -->``; everything outside one's own markers is left
+byte-for-byte alone. :func:`replace_section` is pure; :func:`write_section` is the I/O edge.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+TITLE = "# ked-harness results\n"
+
+
+def markers(name: str) -> tuple[str, str]:
+    """The begin and end marker lines of section ``name``."""
+    return f"<!-- BEGIN {name} -->", f"<!-- END {name} -->"
+
+
+def replace_section(text: str, name: str, body: str) -> str:
+    """``text`` with the section ``name`` set to ``body`` (appended at the end if absent).
+
+    Raises ValueError if the markers are present but malformed (one missing, or out of order)."""
+    begin, end = markers(name)
+    block = f"{begin}\n{body.strip()}\n{end}\n"
+    i, j = text.find(begin), text.find(end)
+    if i < 0 and j < 0:
+        base = text if text.strip() else TITLE
+        return base.rstrip("\n") + "\n\n" + block
+    if i < 0 or j < 0 or j < i:
+        raise ValueError(f"malformed markers for section {name!r}")
+    tail = text[j + len(end):]
+    return text[:i] + block.rstrip("\n") + tail
+
+
+def write_section(path: str | Path, name: str, body: str) -> Path:
+    """Set section ``name`` of the README at ``path`` (created with a title if missing); atomic."""
+    path = Path(path)
+    text = path.read_text(encoding="utf-8") if path.exists() else TITLE
+    new = replace_section(text, name, body)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    tmp.write_text(new, encoding="utf-8")
+    os.replace(tmp, path)
+    return path

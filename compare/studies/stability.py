@@ -1,0 +1,227 @@
+"""`ked study stability`: numerical stability on stiff and extreme scenes (issue 6, part 3).
+
+Runs every campaign config in ``results/studies/stability/`` (one extreme case each, named by its
+``campaign.name``) into ``results/studies/stability.h5``. A scene's failure never stops the campaign:
+it is stored with status "failed", its stage, exception type and message. Then, per scene, it records
+what the quasi-static solver reports (peak, condition number, flagged near-toggle angles, distance of
+the transmission angle from a toggle) and what the dynamic one did (converged?, cycles, Newton
+iterations, steps, wall time, error), checks every converged result, and for a Newton failure
+(SimulationError) searches the step needed for stability (steps per cycle doubled up to 8x). The
+table goes to ``/study/cases`` and to the ``stability`` section of ``results/README.md``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+import warnings
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+
+import click
+import numpy as np
+
+from compare import store
+from compare.config import load_config
+from compare.execute import build_settings
+from compare.results import SceneResult
+from compare.scenes import COMPONENTS
+from compare.studies import study_io
+from compare.studies.sections import write_section
+from compare.studies.stability_analysis import check, deviation, peak, quasi_report
+from compare.studies.work_precision import family_key, ked_scene
+
+ROOT = Path(__file__).resolve().parents[2]
+CONFIG_DIR = ROOT / "results" / "studies" / "stability"
+OUT = ROOT / "results" / "studies" / "stability.h5"
+README = ROOT / "results" / "README.md"
+SECTION = "stability"
+LADDER = (2, 4, 8)
+LADDER_MAX_CYCLES = 12
+LADDER_MAX_STEPS = 11520
+
+
+@dataclass(frozen=True)
+class CaseRow:
+    """One scene of the stability campaign (see module docstring). Peaks [m], wall [s], angles [deg]."""
+
+    case: str
+    config: str
+    key: str
+    label: str
+    variant: str
+    speed_ratio: float
+    rpm: float
+    status: str
+    stage: str
+    error_type: str
+    message: str
+    qs_peak_m: float
+    qs_condition_max: float
+    qs_flagged_deg: str
+    qs_toggle_distance_deg: float
+    qs_nonfinite: int
+    qs_warning: str
+    dyn_converged: bool
+    dyn_cycles: int
+    dyn_newton_iterations: int
+    dyn_steps: int
+    dyn_wall_s: float
+    dyn_peak_m: float
+    amplification: float
+    deviation_from_default: float
+    check: str
+    stable_steps_per_cycle: int
+    ladder: str
+
+
+def case_of_keys(configs: Sequence[Path]) -> dict[str, tuple[str, str]]:
+    """Scene key -> (case name = campaign.name, config file name)."""
+    out = {}
+    for c in configs:
+        cfg = load_config(c)
+        for s in cfg.scenes():
+            out.setdefault(s.key, (cfg.name, c.name))
+    return out
+
+
+def variant_text(r: SceneResult) -> str:
+    """What sets the scene apart: speed, stiffness scale, payload, explicit Exudyn settings."""
+    s = r.spec
+    parts = [f"{s.mass_model.name}"]
+    parts.append(f"{s.speed.value:g} rpm" if s.speed.kind == "rpm" else f"r={s.speed.value:g}")
+    if s.stiffness_scale != 1.0:
+        parts.append(f"E x{s.stiffness_scale:g}")
+    if s.mass_model.name != "tip" and s.mass_model.payload > 0:
+        parts.append(f"payload {s.mass_model.payload:g} kg")
+    parts += [f"{k}={v}" for k, v in s.dynamic if k != "damping_ratio"]
+    return ", ".join(parts)
+
+
+def _dyn(r: SceneResult) -> np.ndarray | None:
+    return np.column_stack([r.dynamic[c] for c in COMPONENTS]) if r.dynamic else None
+
+
+def is_default(r: SceneResult) -> bool:
+    """Resolved Exudyn settings equal to the defaults (damping ratio aside)."""
+    from exudyn_models import DynamicSettings
+
+    d = asdict(DynamicSettings())
+    return all(r.dynamic_settings.get(k) == v for k, v in d.items() if k != "damping_ratio")
+
+
+def step_ladder(r: SceneResult) -> tuple[int, str]:
+    """For a Newton failure: rerun with steps per cycle x2, x4, x8 (at most LADDER_MAX_STEPS, at most
+    LADDER_MAX_CYCLES cycles); returns (first steps per cycle that ran through, or -1; log text)."""
+    from exudyn_models import SimulationError, simulate_steady_state
+
+    base = build_settings(r.spec)
+    scene = ked_scene(r)
+    log = []
+    for factor in LADDER:
+        n = base.steps_per_cycle * factor
+        if n > LADDER_MAX_STEPS:
+            break
+        settings = replace(base, steps_per_cycle=n, max_cycles=min(base.max_cycles, LADDER_MAX_CYCLES),
+                           min_cycles=min(base.min_cycles, LADDER_MAX_CYCLES))
+        t0 = time.perf_counter()
+        try:
+            res = simulate_steady_state(scene, settings)
+        except SimulationError as exc:
+            log.append(f"{n}: SimulationError ({time.perf_counter() - t0:.1f} s)")
+            del exc
+            continue
+        log.append(f"{n}: ran through, {'steady' if res.converged else 'not steady'} after {res.cycles} cycles "
+                   f"({time.perf_counter() - t0:.1f} s)")
+        return n, "; ".join(log)
+    return -1, "; ".join(log)
+
+
+def case_rows(results: Sequence[SceneResult], cases: dict[str, tuple[str, str]], ladder: bool = True) -> list[CaseRow]:
+    """One row per stored scene of the stability campaign (in config order)."""
+    from ked_quasi.solver import solve_quasi_static
+
+    by_key = {r.key: r for r in results}
+    defaults = {family_key(r.spec): r for r in results if r.ok and is_default(r)}
+    rows = []
+    for key, (case, config) in cases.items():
+        r = by_key.get(key)
+        if r is None:
+            continue
+        qs = None
+        warn = ""
+        if r.crank_angle is not None and math.isfinite(r.rpm):
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                q = solve_quasi_static(ked_scene(r))
+            warn = "; ".join(sorted({type(w.message).__name__ for w in caught}))
+            qs = quasi_report(q.deflection, q.condition, q.flagged, q.transmission_angle, q.crank_angle)
+        d = _dyn(r)
+        dyn_peak = peak(d) if d is not None else math.nan
+        amp = dyn_peak / qs.peak_m if (qs is not None and qs.peak_m > 0) else math.nan
+        base = defaults.get(family_key(r.spec))
+        dev = deviation(d, _dyn(base)) if (d is not None and base is not None and base.key != r.key) else None
+        ratio = r.metrics.speed_ratio if r.metrics else (r.rpm * 2 * math.pi / 60 / r.omega1_min
+                                                         if math.isfinite(r.omega1_min) else math.nan)
+        finite = d is not None and bool(np.all(np.isfinite(d)))
+        verdict = check(r.ok, finite, r.stats.converged, ratio, amp, dev)
+        stable, log = -1, ""
+        if ladder and r.error_type == "SimulationError":
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                stable, log = step_ladder(r)
+        elif r.stats.cycles >= 0 and r.error_type != "SimulationError":
+            stable = int(r.dynamic_settings.get("steps_per_cycle", -1))
+        rows.append(CaseRow(
+            case=case, config=config, key=key, label=r.spec.label, variant=variant_text(r), speed_ratio=ratio,
+            rpm=r.rpm, status=r.status, stage=r.stage, error_type=r.error_type, message=r.message[:400],
+            qs_peak_m=qs.peak_m if qs else math.nan, qs_condition_max=qs.condition_max if qs else math.nan,
+            qs_flagged_deg=",".join(f"{x:g}" for x in qs.flagged_deg) if qs else "",
+            qs_toggle_distance_deg=qs.toggle_distance_deg if qs else math.nan,
+            qs_nonfinite=qs.nonfinite if qs else -1, qs_warning=warn,
+            dyn_converged=bool(r.stats.converged), dyn_cycles=r.stats.cycles,
+            dyn_newton_iterations=r.stats.newton_iterations, dyn_steps=r.stats.steps,
+            dyn_wall_s=r.stats.dynamic_wall_s, dyn_peak_m=dyn_peak, amplification=amp,
+            deviation_from_default=math.nan if dev is None else dev, check=verdict,
+            stable_steps_per_cycle=stable, ladder=log))
+    return rows
+
+
+def run_study(out: Path = OUT, *, workers: int | None = 2, fresh: bool = True, readme: Path = README,
+              ladder: bool = True, progress: bool = True) -> dict:
+    """The whole study (see module docstring); returns a small summary dict."""
+    from compare.studies import stability_report
+
+    t0 = time.perf_counter()
+    configs = sorted(CONFIG_DIR.glob("*.toml"))
+    summaries = study_io.run_configs(configs, out, workers=workers, fresh=fresh, progress=progress)
+    t_campaign = time.perf_counter() - t0
+    results = store.read_scenes(out)
+    rows = case_rows(results, case_of_keys(configs), ladder=ladder)
+    from exudyn_models import DynamicSettings
+
+    attrs = {"name": SECTION, "created_utc": store.utc_now(), "defaults": asdict(DynamicSettings()),
+             "campaign_wall_s": t_campaign, "study_wall_s": time.perf_counter() - t0, "workers": workers or 0,
+             "configs": [f"results/studies/stability/{c.name}" for c in configs],
+             "scenes": sum(s.total for s in summaries), "lost": sum(s.lost for s in summaries),
+             "git_commit": store.git_commit()}
+    study_io.write_tables(out, {"cases": rows}, attrs)
+    tables, attrs = study_io.read_tables(out)
+    write_section(readme, SECTION, stability_report.markdown(tables, attrs))
+    return {"out": str(out), "wall_s": attrs["study_wall_s"], "scenes": len(rows)}
+
+
+@click.command("stability")
+@click.option("--out", type=click.Path(path_type=Path), default=OUT, show_default=True, help="results file")
+@click.option("--workers", type=int, default=2, show_default=True, help="campaign worker processes")
+@click.option("--resume", is_flag=True, help="keep scenes already in the results file (default: regenerate)")
+@click.option("--readme", type=click.Path(path_type=Path), default=README, show_default=True)
+@click.option("--no-ladder", is_flag=True, help="skip the search for the step needed after a Newton failure")
+@click.option("--no-progress", is_flag=True)
+def stability(out: Path, workers: int, resume: bool, readme: Path, no_ladder: bool, no_progress: bool) -> None:
+    """Numerical stability of both solvers on stiff and extreme scenes (issue 6, part 3)."""
+    summary = run_study(out, workers=workers, fresh=not resume, readme=readme, ladder=not no_ladder,
+                        progress=not no_progress)
+    click.echo(json.dumps(summary, indent=2))

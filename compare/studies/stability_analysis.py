@@ -1,0 +1,75 @@
+"""Stability study, pure analysis: what each solver reported on an extreme scene, and the check.
+
+Units: deflection peaks [m], angles [deg] where named ``_deg``, wall time [s]. Inputs are plain
+arrays and values so that everything here is testable without running a solver.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+#: speed ratio below which the dynamic peak must be within AMPLIFICATION_BAND of the quasi-static one
+SUBCRITICAL = 0.8
+AMPLIFICATION_BAND = (0.5, 3.0)
+#: settings variants must agree with the same scene at default settings within this (relative) [1]
+DEVIATION_LIMIT = 0.05
+
+
+@dataclass(frozen=True)
+class QuasiReport:
+    """Quasi-static solver on one scene: peak of |dx|, |dy| [m] (nan-aware), largest condition number
+    1/|sin mu| [1], flagged (near-toggle) crank angles [deg], smallest distance of the transmission angle
+    mu from a toggle, min(mu, 180 - mu) [deg], and whether any deflection is non-finite."""
+
+    peak_m: float
+    condition_max: float
+    flagged_deg: tuple[float, ...]
+    toggle_distance_deg: float
+    nonfinite: int
+
+
+def quasi_report(deflection: np.ndarray, condition: np.ndarray, flagged: np.ndarray,
+                 transmission_angle: np.ndarray, crank_angle: np.ndarray) -> QuasiReport:
+    """Summarize a QuasiStaticResult's arrays (deflection (n, 3), angles [rad])."""
+    d = np.asarray(deflection, dtype=float)
+    mu = np.degrees(np.asarray(transmission_angle, dtype=float))
+    xy = np.abs(d[:, :2])
+    return QuasiReport(
+        peak_m=float(np.nanmax(xy)) if np.isfinite(xy).any() else math.nan,
+        condition_max=float(np.nanmax(np.where(np.isfinite(condition), condition, np.inf))),
+        flagged_deg=tuple(float(x) for x in np.round(np.degrees(np.asarray(crank_angle)[np.asarray(flagged, bool)]),
+                                                     3)),
+        toggle_distance_deg=float(np.min(np.minimum(mu, 180.0 - mu))),
+        nonfinite=int((~np.isfinite(d)).any(axis=1).sum()),
+    )
+
+
+def peak(deflection: np.ndarray) -> float:
+    """Peak of |dx|, |dy| [m] of an (n, >=2) history (nan if none is finite)."""
+    xy = np.abs(np.asarray(deflection, dtype=float)[:, :2])
+    return float(np.nanmax(xy)) if np.isfinite(xy).any() else math.nan
+
+
+def deviation(d: np.ndarray, base: np.ndarray) -> float:
+    """max |d - base| of (dx, dy) relative to the peak of base [1]."""
+    d, base = np.asarray(d, dtype=float), np.asarray(base, dtype=float)
+    return float(np.max(np.abs(d[:, :2] - base[:, :2])) / np.max(np.abs(base[:, :2])))
+
+
+def check(ok: bool, finite: bool, converged: bool, speed_ratio: float, amplification: float,
+          deviation_from_default: float | None) -> str:
+    """Verdict on a dynamic result: "pass" or "fail: <reason>" (a failed run is not checked: "-")."""
+    if not ok:
+        return "-"
+    if not finite:
+        return "fail: non-finite deflection"
+    if not converged:
+        return "fail: not steady"
+    if speed_ratio < SUBCRITICAL and not AMPLIFICATION_BAND[0] <= amplification <= AMPLIFICATION_BAND[1]:
+        return f"fail: amplification {amplification:.3g} outside {AMPLIFICATION_BAND} below r = {SUBCRITICAL}"
+    if deviation_from_default is not None and deviation_from_default > DEVIATION_LIMIT:
+        return f"fail: {100 * deviation_from_default:.3g} % from the default-settings result"
+    return "pass"

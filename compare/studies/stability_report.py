@@ -1,0 +1,75 @@
+"""Stability study: the README section, generated only from the stored ``/study/cases`` table."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from compare.studies.stability_analysis import AMPLIFICATION_BAND, DEVIATION_LIMIT, SUBCRITICAL
+from compare.studies.study_io import rows
+
+
+def _f(x: Any, fmt: str = ".3g", scale: float = 1.0) -> str:
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return str(x)
+    return "-" if not math.isfinite(x) else format(scale * x, fmt)
+
+
+def _dynamic(r: dict) -> str:
+    if r["status"] == "ok":
+        return "converged"
+    if r["stage"] in ("setup", "frequencies", "quasi_static"):
+        return f"not run ({r['stage']})"
+    return f"**failed** ({r['stage']}: {r['error_type']})"
+
+
+def markdown(tables: dict, attrs: dict) -> str:
+    """The ``stability`` section of results/README.md."""
+    cases = rows(tables.get("cases", {}))
+    n_ok = sum(1 for r in cases if r["status"] == "ok")
+    n_pass = sum(1 for r in cases if r["check"] == "pass")
+    lines = [
+        "## Numerical stability on stiff and extreme cases",
+        "",
+        "Regenerate: `ked study stability` (one campaign config per case in `results/studies/stability/`, all "
+        "run into `results/studies/stability.h5`; the table below is its `/study/cases` group). Last run: "
+        f"{attrs['created_utc']}, {len(cases)} scenes in {len({r['case'] for r in cases})} cases, "
+        f"{n_ok} converged ({n_pass} pass the check), {len(cases) - n_ok} failed with a recorded reason, "
+        f"{int(attrs.get('lost', 0))} lost; campaign {attrs['campaign_wall_s']:.0f} s on {int(attrs['workers'])} "
+        f"workers, whole study {attrs['study_wall_s']:.0f} s. Exudyn settings are the defaults unless the scene "
+        "says otherwise (ANCF, 4 elements/link, 720 steps/cycle, rho 0.9, 2 % damping).",
+        "",
+        "Quasi-static columns: peak of |dx|, |dy| of P; largest condition number 1/|sin mu| over the 10 deg grid; "
+        "crank angles flagged as near-toggle (transmission angle mu within 1 deg of 0/180 deg, `ToggleWarning`); "
+        "the smallest distance of mu from a toggle. Dynamic columns: outcome, constant-speed cycles, Newton "
+        "iterations and time steps in total, wall time, peak, amplification (dynamic / quasi-static peak). "
+        f"**Check** of a converged result: finite, steady, amplification within {AMPLIFICATION_BAND} when "
+        f"r < {SUBCRITICAL}, and within {100 * DEVIATION_LIMIT:g} % of the same scene at default settings where "
+        "the study has it. **Steps needed**: steps per cycle with which the integration ran through (after a "
+        "Newton failure: the first of 2x, 4x, 8x the scene's steps that did).",
+        "",
+        "| case | scene | r | QS peak mm | QS cond. max | flagged deg | toggle dist. deg | dynamic | cycles | "
+        "Newton it. | steps | wall s | dyn. peak mm | ampl. | check | steps needed |",
+        "| --- | --- | ---: | ---: | ---: | --- | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: |",
+    ]
+    for r in cases:
+        stable = int(r["stable_steps_per_cycle"])
+        lines.append(
+            f"| {r['case']} | {r['variant']} | {_f(r['speed_ratio'])} | {_f(r['qs_peak_m'], '.3g', 1e3)} | "
+            f"{_f(r['qs_condition_max'], '.3g')} | {r['qs_flagged_deg'] or '-'} | "
+            f"{_f(r['qs_toggle_distance_deg'], '.3g')} | {_dynamic(r)} | "
+            f"{int(r['dyn_cycles']) if r['dyn_cycles'] >= 0 else '-'} | "
+            f"{int(r['dyn_newton_iterations']) if r['dyn_newton_iterations'] >= 0 else '-'} | "
+            f"{int(r['dyn_steps']) if r['dyn_steps'] >= 0 else '-'} | {_f(r['dyn_wall_s'], '.2f')} | "
+            f"{_f(r['dyn_peak_m'], '.3g', 1e3)} | {_f(r['amplification'], '.3g')} | {r['check']} | "
+            f"{stable if stable > 0 else 'none' if r['ladder'] else '-'} |")
+    failed = [r for r in cases if r["status"] != "ok"]
+    if failed:
+        lines += ["", "Recorded reasons of the failures:", ""]
+        for r in failed:
+            extra = f" Step search: {r['ladder']}." if r["ladder"] else ""
+            lines.append(f"* **{r['case']}** ({r['variant']}), stage `{r['stage']}`, `{r['error_type']}`: "
+                         f"{r['message']}{extra}")
+    return "\n".join(lines)

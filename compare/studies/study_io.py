@@ -1,0 +1,92 @@
+"""I/O edge shared by the work-precision and stability studies.
+
+* running several campaign configs into one results file (:func:`run_configs`);
+* derived study tables stored next to the scenes in ``/study/<table>`` of the same HDF5 file, one
+  dataset per column (numbers as float64/int64, text as UTF-8 strings), written atomically with
+  :func:`compare.store.transaction`; ``ked inspect --verify`` ignores the group.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from compare import store
+from compare.config import load_config
+from compare.runner import CampaignSummary, run_campaign
+
+STUDY = "study"
+_STR = h5py.string_dtype("utf-8")
+
+
+def run_configs(configs: Sequence[Path], out: Path, *, workers: int | None, fresh: bool,
+                progress: bool = True) -> list[CampaignSummary]:
+    """Run each campaign config into ``out`` (scenes already stored are skipped, so scenes shared by
+    two configs run once). ``fresh``: delete ``out`` first (the study regenerates it)."""
+    if fresh and out.exists():
+        out.unlink()
+    return [run_campaign(load_config(c), out, workers=workers, progress=progress) for c in configs]
+
+
+def _flatten(row: Any) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in (dataclasses.asdict(row) if dataclasses.is_dataclass(row) else dict(row)).items():
+        if isinstance(v, dict):
+            out.update({f"{k}_{kk}": vv for kk, vv in v.items()})
+        else:
+            out[k] = v
+    return out
+
+
+def write_tables(path: Path, tables: dict[str, Sequence[Any]], attrs: dict[str, Any]) -> None:
+    """Replace ``/study`` of ``path`` by ``tables`` (name -> rows: dataclasses or dicts with scalar
+    fields; nested dataclasses become ``<field>_<sub>`` columns) and the ``attrs`` (JSON-able)."""
+    with store.transaction(path) as f:
+        if STUDY in f:
+            del f[STUDY]
+        g = f.create_group(STUDY)
+        for k, v in attrs.items():
+            g.attrs[k] = v if isinstance(v, (int, float, str)) else json.dumps(v)
+        for name, rows in tables.items():
+            tg = g.create_group(name)
+            flat = [_flatten(r) for r in rows]
+            tg.attrs["rows"] = len(flat)
+            for col in (flat[0].keys() if flat else ()):
+                vals = [r[col] for r in flat]
+                if all(isinstance(x, str) for x in vals):
+                    tg.create_dataset(col, data=np.array(vals, dtype=object), dtype=_STR)
+                elif all(isinstance(x, (bool, np.bool_)) for x in vals):
+                    tg.create_dataset(col, data=np.array(vals, dtype=np.uint8))
+                else:
+                    tg.create_dataset(col, data=np.array([np.nan if x is None else x for x in vals], dtype=float))
+
+
+def read_tables(path: Path) -> tuple[dict[str, dict[str, np.ndarray]], dict[str, Any]]:
+    """``/study`` of ``path``: (table -> column -> array, attrs)."""
+    with h5py.File(path, "r") as f:
+        g = f[STUDY]
+        attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in g.attrs.items()}
+        tables = {}
+        for name, tg in g.items():
+            cols = {}
+            for col, ds in tg.items():
+                data = ds[()]
+                if ds.dtype.kind == "O":
+                    data = np.array([x.decode() if isinstance(x, bytes) else str(x) for x in data], dtype=object)
+                cols[col] = data
+            tables[name] = cols
+    return tables, attrs
+
+
+def rows(table: dict[str, np.ndarray]) -> list[dict[str, Any]]:
+    """Column table -> list of row dicts (numpy scalars turned into Python ones)."""
+    if not table:
+        return []
+    n = len(next(iter(table.values())))
+    return [{k: (v[i].item() if hasattr(v[i], "item") else v[i]) for k, v in table.items()} for i in range(n)]

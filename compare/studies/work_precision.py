@@ -1,0 +1,236 @@
+"""`ked study work-precision`: error against run time of both solvers (issue 6, part 2).
+
+Regenerates ``results/studies/work_precision.h5`` from the checked-in configs
+``results/studies/work_precision*.toml`` (one file; scenes shared by two configs run once), re-times
+the cheap dynamic runs serially, measures the quasi-static solver's time and its lumps convergence,
+stores the derived tables in ``/study`` of the same file, draws ``results/figures/work_precision*.png``
+and writes the ``work-precision`` section of ``results/README.md`` from the stored tables.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import statistics
+import time
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import asdict
+from pathlib import Path
+
+import click
+import numpy as np
+
+from compare import store
+from compare.execute import build_fourbar, build_mass_model, build_settings
+from compare.results import SceneResult
+from compare.scenes import COMPONENTS, SceneSpec, canonical_json
+from compare.studies import study_io
+from compare.studies.sections import write_section
+from compare.studies.wp_analysis import (
+    REFERENCE,
+    Discretization,
+    LumpPoint,
+    WPPoint,
+    cycle_error,
+    is_reference,
+)
+
+ROOT = Path(__file__).resolve().parents[2]
+STUDIES = ROOT / "results" / "studies"
+CONFIGS = ("work_precision.toml", "work_precision_quasi.toml", "work_precision_refcheck.toml")
+OUT = STUDIES / "work_precision.h5"
+FIGURES = ROOT / "results" / "figures"
+README = ROOT / "results" / "README.md"
+SECTION = "work-precision"
+LUMPS = (1, 2, 3, 4, 5, 6, 8, 12, 16, 24, 32, 48, 64)
+LUMPS_REFERENCE = 256
+
+
+def family_key(spec: SceneSpec) -> str:
+    """The scene without its Exudyn discretization (damping ratio kept): what a reference serves."""
+    d = spec.to_dict()
+    d["dynamic"] = {"damping_ratio": spec.damping_ratio}
+    return canonical_json(d)
+
+
+def family_label(spec: SceneSpec) -> str:
+    """e.g. ``tip r=0.3`` (mass model and speed)."""
+    return f"{spec.mass_model.name} {'r=' if spec.speed.kind == 'ratio' else ''}{spec.speed.label().rstrip('w1')}"
+
+
+def deflection(side: dict[str, np.ndarray]) -> np.ndarray:
+    """(n, 3) dx, dy [m], rotation [rad] from a stored side (all three outputs required)."""
+    return np.column_stack([side[c] for c in COMPONENTS])
+
+
+def discretization(settings: dict) -> Discretization:
+    return Discretization(str(settings["element"]), int(settings["elements_per_link"]),
+                          int(settings["steps_per_cycle"]), float(settings["spectral_radius"]))
+
+
+def ked_scene(r: SceneResult):
+    """The ked_quasi Scene a stored result was computed on (resolved crank speed)."""
+    from ked_quasi.solver import Scene
+
+    return Scene(build_fourbar(r.spec), build_mass_model(r.spec), rpm=r.rpm, step_deg=r.spec.step_deg)
+
+
+def median_time(fn: Callable[[], object], repeats: int) -> float:
+    """Median wall time [s] of ``repeats`` calls of ``fn``."""
+    walls = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        walls.append(time.perf_counter() - t0)
+    return statistics.median(walls)
+
+
+def retime(results: Sequence[SceneResult], below_s: float, extra: int) -> dict[str, tuple[float, int]]:
+    """Key -> (median wall [s], timings) for ok runs whose campaign wall time was below ``below_s``:
+    ``extra`` more serial runs of the dynamic solver, median together with the campaign's timing."""
+    from exudyn_models import simulate_steady_state
+
+    out = {}
+    for r in results:
+        if not r.ok or r.stats.dynamic_wall_s >= below_s:
+            continue
+        scene, settings = ked_scene(r), build_settings(r.spec)
+        walls = [r.stats.dynamic_wall_s]
+        for _ in range(extra):
+            t0 = time.perf_counter()
+            simulate_steady_state(scene, settings)
+            walls.append(time.perf_counter() - t0)
+        out[r.key] = (statistics.median(walls), len(walls))
+    return out
+
+
+def dynamic_points(results: Sequence[SceneResult], timings: dict[str, tuple[float, int]]) -> list[WPPoint]:
+    """Every dynamic run of a family that has a reference, with its error against that reference."""
+    refs = {family_key(r.spec): r for r in results if r.ok and is_reference(r.dynamic_settings)}
+    points = []
+    for r in results:
+        ref = refs.get(family_key(r.spec))
+        if ref is None or not r.dynamic_settings:
+            continue
+        if r.key != ref.key and r.dynamic_settings.get("steady_tol") == REFERENCE["steady_tol"]:
+            continue  # a check of the reference itself (reference_check), not a discretization to rank
+        wall, n = timings.get(r.key, (r.stats.dynamic_wall_s, 1))
+        ok = r.ok and bool(r.dynamic)
+        err = cycle_error(deflection(r.dynamic), deflection(ref.dynamic)) if ok else math.nan
+        points.append(WPPoint(
+            family=family_label(r.spec), disc=discretization(r.dynamic_settings),
+            reference=r.key == ref.key, ok=ok, wall_s=float(wall), repeats=n, error=err,
+            cycles=r.stats.cycles, newton_iterations=r.stats.newton_iterations,
+            message=(r.message or r.stats.dynamic_message)[:300]))
+    return points
+
+
+def reference_check(results: Sequence[SceneResult]) -> list[dict]:
+    """Finer-than-reference ANCF runs (more elements and steps, same tolerance) against the reference."""
+    refs = {family_key(r.spec): r for r in results if r.ok and is_reference(r.dynamic_settings)}
+    out = []
+    for r in results:
+        s, ref = r.dynamic_settings, refs.get(family_key(r.spec))
+        if (ref is None or not r.ok or s.get("element") != "ancf" or s.get("steady_tol") != REFERENCE["steady_tol"]
+                or s["elements_per_link"] <= REFERENCE["elements_per_link"]):
+            continue
+        out.append({"family": family_label(r.spec), "elements_per_link": s["elements_per_link"],
+                    "steps_per_cycle": s["steps_per_cycle"], "wall_s": r.stats.dynamic_wall_s,
+                    "error": cycle_error(deflection(ref.dynamic), deflection(r.dynamic))})
+    return out
+
+
+def quasi_points(results: Sequence[SceneResult], repeats: int) -> list[dict]:
+    """Quasi-static solver on every reference scene: error [1] against the dynamic reference, median
+    solve time [s] over ``repeats`` solves, speed ratio, quasi-static and dynamic peaks [m]."""
+    from ked_quasi.solver import solve_quasi_static
+
+    out = []
+    for r in results:
+        if not (r.ok and is_reference(r.dynamic_settings) and r.metrics is not None):
+            continue
+        scene = ked_scene(r)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            wall = median_time(lambda scene=scene: solve_quasi_static(scene), repeats)
+        qs, dyn = deflection(r.quasi_static), deflection(r.dynamic)
+        out.append({"mass_model": r.spec.mass_model.name, "lumps": r.spec.mass_model.lumps,
+                    "speed_ratio": float(r.metrics.speed_ratio), "rpm": float(r.rpm),
+                    "error": cycle_error(qs, dyn), "wall_s": wall, "dynamic_wall_s": r.stats.dynamic_wall_s,
+                    "qs_peak_m": float(np.max(np.abs(qs[:, :2]))), "dyn_peak_m": float(np.max(np.abs(dyn[:, :2])))})
+    return sorted(out, key=lambda d: (d["mass_model"], d["speed_ratio"]))
+
+
+def lump_convergence(models: Sequence[str] = ("extender", "distributed"),
+                     placements: Sequence[str] = ("midpoint", "end"), lumps: Sequence[int] = LUMPS,
+                     reference: int = LUMPS_REFERENCE, repeats: int = 15) -> list[LumpPoint]:
+    """Quasi-static deflection with n lumps per link against n = ``reference`` (thesis source linkage,
+    300 rpm; the relative error does not depend on the speed since all loads scale with omega^2)."""
+    from ked_quasi.massmodel import MassModel
+    from ked_quasi.presets import linkage
+    from ked_quasi.solver import Scene, solve_quasi_static
+
+    fb = linkage("thesis")
+    out = []
+    for model in models:
+        for placement in placements:
+            def solve(n: int, model: str = model, placement: str = placement):
+                return solve_quasi_static(Scene(fb, MassModel(model, lumps=n, placement=placement), 300.0, 10.0))
+
+            ref = solve(reference).deflection
+            for n in lumps:
+                d = solve(n).deflection
+                out.append(LumpPoint(model, placement, n, reference, cycle_error(d, ref),
+                                     median_time(lambda n=n: solve(n), repeats)))
+    return out
+
+
+def run_study(out: Path = OUT, *, workers: int | None = 2, fresh: bool = True, figures: Path = FIGURES,
+              readme: Path = README, retime_below_s: float = 2.0, progress: bool = True) -> dict:
+    """The whole study (see module docstring); returns a small summary dict."""
+    from compare.studies import wp_report
+
+    t0 = time.perf_counter()
+    summaries = study_io.run_configs([STUDIES / c for c in CONFIGS], out, workers=workers, fresh=fresh,
+                                     progress=progress)
+    t_campaign = time.perf_counter() - t0
+    results = store.read_scenes(out)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        timings = retime(results, retime_below_s, extra=2)
+    points = dynamic_points(results, timings)
+    check = reference_check(results)
+    quasi = quasi_points(results, repeats=21)
+    lumps = lump_convergence()
+    wall = time.perf_counter() - t0
+    from exudyn_models import DynamicSettings
+
+    attrs = {"name": SECTION, "created_utc": store.utc_now(), "reference": REFERENCE,
+             "defaults": asdict(DynamicSettings()), "campaign_wall_s": t_campaign, "study_wall_s": wall,
+             "workers": workers or 0, "retime_below_s": retime_below_s,
+             "configs": [f"results/studies/{c}" for c in CONFIGS],
+             "scenes": sum(s.total for s in summaries), "git_commit": store.git_commit()}
+    study_io.write_tables(out, {"dynamic": points, "refcheck": check, "quasi_static": quasi,
+                                "lumps": lumps}, attrs)
+    tables, attrs = study_io.read_tables(out)
+    paths = wp_report.write_figures(tables, attrs, figures)
+    write_section(readme, SECTION, wp_report.markdown(tables, attrs, paths, readme.parent))
+    return {"out": str(out), "wall_s": wall, "figures": [str(p) for p in paths]}
+
+
+@click.command("work-precision")
+@click.option("--out", type=click.Path(path_type=Path), default=OUT, show_default=True, help="results file")
+@click.option("--workers", type=int, default=2, show_default=True, help="campaign worker processes")
+@click.option("--resume", is_flag=True, help="keep scenes already in the results file (default: regenerate)")
+@click.option("--figures", type=click.Path(path_type=Path), default=FIGURES, show_default=True)
+@click.option("--readme", type=click.Path(path_type=Path), default=README, show_default=True)
+@click.option("--retime-below", type=float, default=2.0, show_default=True,
+              help="re-time dynamic runs faster than this [s] twice more (median of 3)")
+@click.option("--no-progress", is_flag=True)
+def work_precision(out: Path, workers: int, resume: bool, figures: Path, readme: Path, retime_below: float,
+                   no_progress: bool) -> None:
+    """Error against run time of the dynamic and quasi-static solvers (issue 6, part 2)."""
+    summary = run_study(out, workers=workers, fresh=not resume, figures=figures, readme=readme,
+                        retime_below_s=retime_below, progress=not no_progress)
+    click.echo(json.dumps(summary, indent=2))

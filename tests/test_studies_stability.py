@@ -1,0 +1,137 @@
+"""Stability study (issue 6, part 3): the solvers' behaviour on extreme scenes, pinned on cheap scenes
+with the real solvers (no mocks), plus the study's pure helpers and checked-in configs."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from compare.config import load_config, parse_config
+from compare.execute import run_scene
+from compare.studies.stability import CONFIG_DIR, case_of_keys
+from compare.studies.stability_analysis import check, quasi_report
+
+STIFF = """
+[campaign]
+step_deg = 30.0
+n_modes = 1
+[grid]
+mass_models = ["extender"]
+rpm = [300.0]
+stiffness_scales = [1000.0]
+[dynamic]
+elements_per_link = 1
+"""
+
+
+def _scene(text: str):
+    (spec,) = parse_config(text).scenes()
+    return spec
+
+
+def test_stiff_case_converges_at_the_default_step() -> None:
+    """E x 1e3: the default 720 steps per cycle are stable and the result is the quasi-static one."""
+    from exudyn_models import DynamicSettings
+
+    r = run_scene(_scene(STIFF))
+    assert r.ok, r.message
+    assert r.dynamic_settings["steps_per_cycle"] == DynamicSettings().steps_per_cycle
+    assert r.stats.converged and r.stats.cycles <= 6
+    assert r.metrics.speed_ratio < 0.01
+    for c in ("dx", "dy"):
+        dyn, qs = r.dynamic[c], r.quasi_static[c]
+        assert np.all(np.isfinite(dyn))
+        assert np.max(np.abs(dyn - qs)) < 0.05 * np.max(np.abs(qs))
+
+
+def test_newton_failure_raises_simulation_error_and_is_recorded() -> None:
+    """Massless links (tip model) at 90 steps per cycle: Newton fails; simulate_steady_state raises
+    SimulationError with time and crank angle, and a campaign records it (stage dynamic)."""
+    from compare.execute import build_settings
+    from compare.studies.work_precision import ked_scene
+    from exudyn_models import SimulationError, simulate_steady_state
+
+    spec = _scene("[campaign]\nstep_deg = 30.0\nn_modes = 1\n[grid]\nmass_models = ['tip']\n"
+                  "speed_ratios = [0.3]\n[dynamic]\nelements_per_link = 1\nsteps_per_cycle = 90\n")
+    r = run_scene(spec)
+    assert (r.status, r.stage, r.error_type) == ("failed", "dynamic", "SimulationError")
+    assert "Newton" in r.message and "crank angle" in r.message
+    with pytest.raises(SimulationError) as err:
+        simulate_steady_state(ked_scene(r), build_settings(spec))
+    assert 0.0 <= err.value.crank_angle < 2 * math.pi and err.value.time > 0.0
+
+
+def test_no_steady_state_is_recorded_as_failed() -> None:
+    r = run_scene(_scene("[campaign]\nstep_deg = 30.0\nn_modes = 1\n[grid]\nmass_models = ['extender']\n"
+                         "rpm = [300.0]\n[dynamic]\nelements_per_link = 1\nsteps_per_cycle = 90\nmax_cycles = 2\n"
+                         "steady_tol = 1.0e-9\nextrapolate = false\n"))
+    assert (r.status, r.stage, r.error_type) == ("failed", "dynamic", "NoSteadyState")
+    assert "no periodic steady state" in r.message and r.stats.cycles == 2 and not r.stats.converged
+
+
+def test_linkage_past_the_grashof_limit_fails_at_setup_with_value_error() -> None:
+    import dataclasses
+
+    from ked_quasi.linkage import thesis_fourbar
+
+    with pytest.raises(ValueError, match="cannot assemble"):
+        dataclasses.replace(thesis_fourbar(), coupler=0.635, follower=0.3809)
+    (spec,) = load_config(CONFIG_DIR / "07_cannot_assemble.toml").scenes()
+    r = run_scene(spec)
+    assert (r.status, r.stage, r.error_type) == ("failed", "setup", "ValueError")
+    assert "Grashof" in r.message
+
+
+def test_near_toggle_is_flagged_by_the_quasi_static_solver() -> None:
+    import dataclasses
+
+    from ked_quasi.linkage import thesis_fourbar
+    from ked_quasi.massmodel import MassModel
+    from ked_quasi.solver import Scene, ToggleWarning, solve_quasi_static
+
+    fb = dataclasses.replace(thesis_fourbar(), coupler=0.635, follower=0.38103)
+    with pytest.warns(ToggleWarning):
+        q = solve_quasi_static(Scene(fb, MassModel("extender"), 300.0, 10.0))
+    rep = quasi_report(q.deflection, q.condition, q.flagged, q.transmission_angle, q.crank_angle)
+    assert rep.flagged_deg == (180.0,) and rep.toggle_distance_deg < 1.0 and rep.condition_max > 50
+    assert rep.nonfinite == 0
+
+
+def test_change_point_linkage_is_singular_but_finite_flagged() -> None:
+    import dataclasses
+
+    from ked_quasi.linkage import thesis_fourbar
+    from ked_quasi.massmodel import MassModel
+    from ked_quasi.solver import Scene, solve_quasi_static
+
+    fb = dataclasses.replace(thesis_fourbar(), coupler=0.635, follower=0.381)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        q = solve_quasi_static(Scene(fb, MassModel("extender"), 300.0, 10.0))
+    assert q.flagged.any() and np.nanmax(q.condition) > 1e6
+
+
+def test_check_verdicts() -> None:
+    assert check(True, True, True, 0.1, 1.01, 0.001) == "pass"
+    assert check(False, False, False, 0.1, math.nan, None) == "-"
+    assert check(True, False, True, 0.1, 1.0, None).startswith("fail: non-finite")
+    assert check(True, True, False, 0.1, 1.0, None) == "fail: not steady"
+    assert "amplification" in check(True, True, True, 0.1, 5.0, None)
+    assert check(True, True, True, 2.0, 5.0, None) == "pass"  # supercritical: no amplification band
+    assert "default-settings" in check(True, True, True, 0.1, 1.0, 0.2)
+
+
+def test_stability_configs_cover_the_required_cases() -> None:
+    configs = sorted(Path(CONFIG_DIR).glob("*.toml"))
+    cases = case_of_keys(configs)
+    assert len(cases) >= 10
+    names = {c for c, _ in cases.values()}
+    for required in ("stiff", "flexible", "supercritical", "near-toggle", "slender", "massless", "heavy-tip",
+                     "small-step", "large-step", "spectral-radius"):
+        assert required in names
+    scales = {s.stiffness_scale for c in configs for s in load_config(c).scenes()}
+    assert {1000.0, 0.01} <= scales

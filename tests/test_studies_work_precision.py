@@ -1,0 +1,110 @@
+"""Work-precision study (issue 6, part 2): pure helpers, README sections, checked-in configs; the full
+study runs are slow tests."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from compare.config import load_config
+from compare.studies.sections import markers, replace_section
+from compare.studies.work_precision import CONFIGS, STUDIES, family_key, lump_convergence
+from compare.studies.wp_analysis import (
+    Choice,
+    Discretization,
+    WPPoint,
+    choose,
+    cycle_error,
+    is_reference,
+    observed_order,
+    pareto_mask,
+)
+
+
+def test_replace_section_appends_replaces_and_leaves_others_alone() -> None:
+    text = "# t\n\n<!-- BEGIN other -->\nkeep me\n<!-- END other -->\n"
+    once = replace_section(text, "mine", "first")
+    assert "keep me" in once and once.count(markers("mine")[0]) == 1
+    twice = replace_section(once, "mine", "second\n")
+    assert "first" not in twice and "second" in twice and twice.startswith(text.rstrip("\n"))
+    assert replace_section(twice, "mine", "second") == twice
+    assert replace_section("", "mine", "x").startswith("# ked-harness results")
+    with pytest.raises(ValueError):
+        replace_section("<!-- END mine -->\n<!-- BEGIN mine -->", "mine", "x")
+
+
+def test_cycle_error_and_pareto_front() -> None:
+    ref = np.zeros((4, 3))
+    ref[:, 0], ref[:, 2] = [1.0, -2.0, 0.5, 0.0], [0.1, 0.0, -0.1, 0.0]
+    d = ref.copy()
+    d[1, 0] += 0.02  # 1 % of the xy peak
+    d[0, 2] += 0.005  # 5 % of the rotation peak
+    assert cycle_error(d, ref) == pytest.approx(0.05)
+    assert cycle_error(np.full((4, 3), np.nan), ref) == math.inf
+    mask = pareto_mask([1, 2, 3, 4, 2], [0.5, 0.1, 0.2, 0.01, math.nan])
+    assert mask.tolist() == [True, True, False, True, False]
+
+
+def _pt(fam: str, disc: Discretization, wall: float, err: float, ok: bool = True) -> WPPoint:
+    return WPPoint(fam, disc, False, ok, wall, 1, err, 4, 100, "")
+
+
+def test_choose_cheapest_within_budget_on_every_scene() -> None:
+    a, b, c = (Discretization("ancf", n, 90 * n, 0.9) for n in (1, 2, 4))
+    pts = [_pt("x", a, 0.1, 0.02), _pt("y", a, 0.1, 0.001),
+           _pt("x", b, 0.3, 0.004), _pt("y", b, 0.3, 0.002),
+           _pt("x", c, 1.0, 0.001), _pt("y", c, 1.0, 0.0005, ok=True)]
+    ch = choose(pts, 0.01, 2)
+    assert isinstance(ch, Choice) and ch.disc == b and ch.total_wall_s == pytest.approx(0.6)
+    assert choose(pts, 0.001, 2).disc == c
+    assert choose(pts, 1e-6, 2).disc is None
+
+
+def test_observed_order() -> None:
+    n = np.array([1, 2, 4, 8, 16])
+    assert observed_order(n, 3.0 / n**2) == pytest.approx(2.0)
+
+
+def test_lump_convergence_midpoint_is_second_order() -> None:
+    pts = lump_convergence(models=("extender",), placements=("midpoint", "end"), lumps=(4, 8, 16), reference=64,
+                           repeats=1)
+    mid = [p.error for p in pts if p.placement == "midpoint"]
+    end = [p.error for p in pts if p.placement == "end"]
+    assert observed_order([4, 8, 16], mid) > 1.8 and 0.8 < observed_order([4, 8, 16], end) < 1.3
+    assert all(m < e for m, e in zip(mid, end))
+
+
+def test_configs_share_the_reference_scenes() -> None:
+    wp, qs = (load_config(STUDIES / c) for c in CONFIGS[:2])
+    refs_wp = {s.key for s in wp.scenes() if is_reference(dict(s.dynamic))}
+    refs_qs = {s.key for s in qs.scenes() if is_reference(dict(s.dynamic))}
+    assert len(refs_wp) == 3 and refs_wp <= refs_qs and len(refs_qs) == len(qs.scenes())
+    assert len({family_key(s) for s in wp.scenes()}) == 3
+
+
+@pytest.mark.slow
+def test_work_precision_study_regenerates(tmp_path: Path) -> None:
+    from compare.studies import study_io
+    from compare.studies.work_precision import run_study
+
+    out, readme = tmp_path / "wp.h5", tmp_path / "README.md"
+    run_study(out, figures=tmp_path, readme=readme, progress=False)
+    tables, _ = study_io.read_tables(out)
+    assert len(tables["dynamic"]["error"]) > 100 and out.stat().st_size < 5e6
+    assert "<!-- BEGIN work-precision -->" in readme.read_text()
+    assert (tmp_path / "work_precision.png").exists()
+
+
+@pytest.mark.slow
+def test_stability_study_regenerates(tmp_path: Path) -> None:
+    from compare.studies import study_io
+    from compare.studies.stability import run_study
+
+    out, readme = tmp_path / "stab.h5", tmp_path / "README.md"
+    run_study(out, readme=readme, progress=False)
+    tables, attrs = study_io.read_tables(out)
+    assert len(tables["cases"]["case"]) >= 10 and attrs["lost"] == 0
+    assert "<!-- BEGIN stability -->" in readme.read_text()
