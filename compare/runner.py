@@ -70,15 +70,57 @@ def default_workers() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-def _worker_crashed(spec: SceneSpec, exc: BaseException) -> SceneResult:
+def _worker_crashed(spec: SceneSpec, exc: BaseException | None) -> SceneResult:
+    if exc is None:
+        error_type, message = "WorkerCrashed", "the worker process died while computing this scene"
+    else:
+        error_type, message = type(exc).__name__, f"worker failed while computing the scene: {exc}"
     return SceneResult(
         spec=spec,
         status=STATUS_FAILED,
         stage="worker",
-        error_type=type(exc).__name__,
-        message=f"worker failed while computing the scene: {exc}"[:2000],
+        error_type=error_type,
+        message=message[:2000],
         stats=RunStats(finished_utc=store.utc_now()),
     )
+
+
+def _drain(backend: Any, futures: dict[Any, SceneSpec],
+           store_batch: Callable[[list[SceneResult]], None]) -> list[SceneSpec]:
+    """Store results as they complete; returns the scenes lost to a broken local pool."""
+    lost: list[SceneSpec] = []
+    for done in backend.batches(futures):
+        batch = []
+        for fut in done:
+            try:
+                r = backend.result(fut)
+            except Exception as exc:  # the task itself failed outside run_scene (Dask KilledWorker, ...)
+                r = _worker_crashed(futures[fut], exc)
+            if r is None:
+                lost.append(futures[fut])
+            else:
+                batch.append(r)
+        if batch:
+            store_batch(batch)
+    return lost
+
+
+def _isolate(specs: list[SceneSpec], store_batch: Callable[[list[SceneResult]], None]) -> list[SceneSpec]:
+    """After a worker process died (a crash inside a solver breaks the whole pool, so the culprit is
+    unknown): rerun each scene in a fresh single-worker pool; one that kills its worker again is
+    stored as failed (stage "worker", WorkerCrashed).  Returns the scenes still lost (none)."""
+    for spec in specs:
+        iso = _LocalBackend(1)
+        try:
+            (fut,) = iso.submit_all([spec])
+            try:
+                r = iso.result(fut)
+            except Exception as exc:
+                r = _worker_crashed(spec, exc)
+        finally:
+            iso.close()
+        store_batch([r if r is not None else _worker_crashed(spec, None)])
+    return []
 
 
 # One BLAS/OpenMP thread per worker process: the parallelism is across scenes (as on Dask workers,
@@ -186,46 +228,50 @@ def _run_locked(config: CampaignConfig, out: Path, *, workers: int | None, sched
     store.remove_stale_temp_files(out)
     p = plan(scenes, store.stored_status(out), retry_failed)
     run = store.record_run(out, config.text, config.name, len(scenes))
-    ok = failed = lost = 0
+    counts = {STATUS_OK: 0, STATUS_FAILED: 0}
+    lost: list[SceneSpec] = []
     if p.todo:
-        if scheduler:
-            backend: Any = _DaskBackend(scheduler)
-        else:
-            backend = _LocalBackend(min(workers or default_workers(), len(p.todo)))
         bar = tqdm(total=len(p.todo), unit="scene", desc=config.name, disable=not progress,
                    file=sys.stderr, dynamic_ncols=True, smoothing=0.1)
         bar.set_postfix(ok=0, failed=0, skipped=len(p.skipped))
+
+        def store_batch(batch: list[SceneResult]) -> None:
+            store.commit(out, batch, run)
+            for r in batch:
+                counts[STATUS_OK if r.status == STATUS_OK else STATUS_FAILED] += 1
+                if on_result is not None:
+                    on_result(r)
+            bar.set_postfix(ok=counts[STATUS_OK], failed=counts[STATUS_FAILED], skipped=len(p.skipped),
+                            refresh=False)
+            bar.update(len(batch))
+
         try:
-            futures = backend.submit_all(p.todo)
-            for done in backend.batches(futures):
-                batch = []
-                for fut in done:
-                    try:
-                        r = backend.result(fut)
-                    except Exception as exc:  # worker died (Dask KilledWorker, ...)
-                        r = _worker_crashed(futures[fut], exc)
-                    if r is None:
-                        lost += 1
-                        continue
-                    batch.append(r)
-                store.commit(out, batch, run)
-                for r in batch:
-                    ok += r.status == STATUS_OK
-                    failed += r.status != STATUS_OK
-                    if on_result is not None:
-                        on_result(r)
-                bar.set_postfix(ok=ok, failed=failed, skipped=len(p.skipped), refresh=False)
-                bar.update(len(done))
+            if scheduler:
+                backend: Any = _DaskBackend(scheduler)
+            else:
+                backend = _LocalBackend(min(workers or default_workers(), len(p.todo)))
+            try:
+                lost = _drain(backend, backend.submit_all(p.todo), store_batch)
+            finally:
+                backend.close()
+            if lost and not scheduler:  # a worker died: retry once in a fresh pool, then one by one
+                retry = _LocalBackend(min(workers or default_workers(), len(lost)))
+                try:
+                    lost = _drain(retry, retry.submit_all(lost), store_batch)
+                finally:
+                    retry.close()
+                if lost:
+                    lost = _isolate(lost, store_batch)
         finally:
             bar.close()
-            backend.close()
+    ok, failed = counts[STATUS_OK], counts[STATUS_FAILED]
     return CampaignSummary(
         out=out,
         total=len(scenes),
         skipped=len(p.skipped),
         ok=ok,
         failed=failed,
-        lost=lost,
+        lost=len(lost),
         wall_s=time.perf_counter() - t0,
         keys=tuple(s.key for s in scenes),
     )

@@ -154,3 +154,31 @@ def test_cli_reports_config_errors_and_dry_run(tmp_path):
     res = CliRunner().invoke(main, ["run", str(good), "--out", str(tmp_path / "x.h5"), "--dry-run"])
     assert res.exit_code == 0 and "4 scenes, 4 to run" in res.output
     assert not (tmp_path / "x.h5").exists()
+
+
+def test_worker_killed_mid_campaign_is_recovered(tmp_path):
+    """A worker process that dies (as on a segfault inside a solver) breaks the local pool; the scenes
+    took down are rerun in a fresh pool (then one by one if it breaks again) and the campaign completes."""
+    import multiprocessing
+    import os
+    import signal
+
+    killed = []
+
+    def kill_a_worker(_result):
+        # twice: the first kill breaks the campaign's pool, the second the retry pool, so the last
+        # scenes go through the one-by-one isolation path
+        victims = [p for p in multiprocessing.active_children() if p.pid not in killed and p.is_alive()]
+        if len(killed) < 2 and victims:
+            os.kill(victims[0].pid, signal.SIGKILL)
+            killed.append(victims[0].pid)
+
+    cfg = parse_config(QUICK.replace("rpm = [60.0]", "rpm = [60.0, 75.0]"))
+    out = tmp_path / "crash.h5"
+    summary = run_campaign(cfg, out, workers=2, progress=False, on_result=kill_a_worker)
+    assert len(killed) == 2
+    assert summary.lost == 0 and summary.ok + summary.failed == 8
+    results = store.read_scenes(out)
+    assert sorted(r.key for r in results) == sorted(s.key for s in cfg.scenes())
+    assert all(r.ok for r in results)
+    assert store.verify(out) == []
