@@ -66,18 +66,14 @@ def cpu_ceiling(n: int = 4_000_000) -> float:
     return t1 / t2
 
 
-def measure(workers: int, repeats: int) -> list[float]:
-    """Wall times [s] of ``repeats`` complete campaigns with ``workers`` processes."""
-    cfg = parse_config(CONFIG)
-    times = []
-    with tempfile.TemporaryDirectory() as d:
-        for i in range(repeats):
-            out = Path(d) / f"bench_{workers}_{i}.h5"
-            t0 = time.perf_counter()
-            summary = run_campaign(cfg, out, workers=workers, progress=False)
-            times.append(time.perf_counter() - t0)
-            assert summary.ok + summary.failed == summary.total and not store.verify(out)
-    return times
+def run_once(workers: int, directory: Path) -> float:
+    """Wall time [s] of one complete campaign with ``workers`` processes into a fresh file."""
+    out = directory / f"bench_{workers}_{time.monotonic_ns()}.h5"
+    t0 = time.perf_counter()
+    summary = run_campaign(parse_config(CONFIG), out, workers=workers, progress=False)
+    wall = time.perf_counter() - t0
+    assert summary.ok + summary.failed == summary.total and not store.verify(out)
+    return wall
 
 
 def main() -> None:
@@ -89,19 +85,23 @@ def main() -> None:
     n = len(parse_config(CONFIG).scenes())
     print(f"{n} scenes; load average before: {os.getloadavg()[0]:.2f}; "
           f"pure-CPU 2-process ceiling now: {cpu_ceiling():.2f}x", flush=True)
+    times: dict[int, list[float]] = {w: [] for w in args.workers}
+    with tempfile.TemporaryDirectory() as d:
+        for i in range(args.repeats):  # interleaved, so that both counts see the same machine state
+            for w in args.workers:
+                times[w].append(run_once(w, Path(d)))
+                print(f"  round {i + 1}: workers={w} {times[w][-1]:.2f} s", flush=True)
+    base_w = min(args.workers)
     rows = {}
     for w in args.workers:
-        times = measure(w, args.repeats)
-        med = statistics.median(times)
-        rows[w] = {"times_s": times, "median_s": med, "min_s": min(times), "scenes_per_s": n / med}
-        print(f"workers={w}: median {med:.2f} s over {args.repeats} runs ({', '.join(f'{t:.2f}' for t in times)}),"
-              f" {n / med:.2f} scenes/s", flush=True)
-    base = rows[min(rows)]
-    for w, r in rows.items():
-        r["speedup"] = base["median_s"] / r["median_s"]
-        r["speedup_best"] = base["min_s"] / r["min_s"]
-        print(f"workers={w}: speed-up {r['speedup']:.2f}x (medians), {r['speedup_best']:.2f}x (best runs) "
-              f"over {min(rows)} worker(s)")
+        med = statistics.median(times[w])
+        pair = statistics.median(b / t for b, t in zip(times[base_w], times[w]))
+        rows[w] = {"times_s": times[w], "median_s": med, "min_s": min(times[w]), "scenes_per_s": n / med,
+                   "speedup": statistics.median(times[base_w]) / med,
+                   "speedup_best": min(times[base_w]) / min(times[w]), "speedup_paired": pair}
+        print(f"workers={w}: median {med:.2f} s ({n / med:.2f} scenes/s); speed-up over {base_w}: "
+              f"{rows[w]['speedup']:.2f}x (medians), {rows[w]['speedup_best']:.2f}x (best runs), "
+              f"{pair:.2f}x (median of same-round ratios)")
     ceiling = cpu_ceiling()
     print(f"load average after: {os.getloadavg()[0]:.2f}; pure-CPU 2-process ceiling now: {ceiling:.2f}x")
     if args.json:
