@@ -148,7 +148,7 @@ def run_study(configs: Sequence[Path], studies_dir: Path, *, workers: int = 2, r
         if retry:
             todo = retry_specs(read_points(out))
             if todo:
-                s = run_campaign(explicit_campaign(cfg, cfg.name + "-retry", todo), out, workers=workers,
+                s = run_campaign(explicit_campaign(cfg, cfg.name, todo), out, workers=workers,
                                  progress=progress)
                 computed += s.ok + s.failed
                 echo(f"  retries ({RETRY_STEP_FACTOR}x steps per cycle): {len(todo)} scenes, "
@@ -192,7 +192,7 @@ def write_outputs(files: Sequence[Path], refine_file: Path, figures_dir: Path, r
     from compare.studies.validity_report import render_section
 
     points, summaries = load_study(files, refine_file)
-    figs = write_figures(points, summaries, figures_dir)
+    figs = write_figures(summaries, figures_dir)
     section = render_section(points, summaries, files=files, refine_file=refine_file, figures=figs,
                              readme=readme, configs=config_paths)
     old = readme.read_text(encoding="utf-8") if readme.exists() else ""

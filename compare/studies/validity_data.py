@@ -31,7 +31,7 @@ class Point:
     the first frozen-structure frequency over the cycle [Hz]; ``theta`` (n,) [rad]; ``qs`` / ``dyn``
     (n, 2) dx, dy of P [m] (``dyn`` None when the dynamic solver failed); ``refined``: computed at the
     refined (doubled) dynamic discretization; ``wall_s`` [s] scene wall time; ``cycles`` crank cycles
-    simulated (-1: did not finish).
+    simulated (-1: did not finish); ``source`` name of the HDF5 file it was read from.
     """
 
     key: str
@@ -59,6 +59,7 @@ class Point:
     wall_s: float
     cycles: int
     spec: SceneSpec
+    source: str = ""
 
     @property
     def ok(self) -> bool:
@@ -74,8 +75,8 @@ def linkage_label(campaign_name: str) -> str:
     """``validity-thesis`` -> ``thesis``."""
     for prefix in ("validity-", "validity_"):
         if campaign_name.startswith(prefix):
-            return campaign_name[len(prefix):]
-    return campaign_name
+            campaign_name = campaign_name[len(prefix):]
+    return campaign_name.removesuffix("-retry")
 
 
 def _xy(side: dict[str, np.ndarray]) -> np.ndarray | None:
@@ -94,7 +95,7 @@ def _speed_ratio(r: SceneResult) -> float:
     return float("nan")
 
 
-def to_point(r: SceneResult, linkage: str, refined: bool) -> Point:
+def to_point(r: SceneResult, linkage: str, refined: bool, source: str = "") -> Point:
     """Flatten one :class:`SceneResult`."""
     ds = r.dynamic_settings or {}
     f = r.natural_frequencies
@@ -107,7 +108,7 @@ def to_point(r: SceneResult, linkage: str, refined: bool) -> Point:
         refined=refined, elements_per_link=int(ds.get("elements_per_link", -1)),
         steps_per_cycle=int(ds.get("steps_per_cycle", -1)),
         theta=r.crank_angle, qs=_xy(r.quasi_static), dyn=_xy(r.dynamic) if r.ok else None,
-        wall_s=float(r.stats.total_wall_s), cycles=int(r.stats.cycles), spec=r.spec,
+        wall_s=float(r.stats.total_wall_s), cycles=int(r.stats.cycles), spec=r.spec, source=source,
     )
 
 
@@ -120,7 +121,7 @@ def read_points(path: str | Path, linkage: str | None = None, refined: bool = Fa
     out = []
     for r in store.read_scenes(path):
         lab = linkage or (labels or {}).get(linkage_json(r.spec), default)
-        out.append(to_point(r, lab, refined))
+        out.append(to_point(r, lab, refined, Path(path).name))
     return out
 
 
@@ -129,11 +130,6 @@ def linkage_json(spec: SceneSpec) -> str:
     from compare.scenes import canonical_json
 
     return canonical_json(spec.linkage.to_dict())
-
-
-def file_wall_seconds(path: str | Path) -> float:
-    """Sum of the stored scenes' wall times [s] (worker time, not elapsed time)."""
-    return float(sum(r.stats.total_wall_s for r in store.read_scenes(path)))
 
 
 def quasi_static_loads(spec: SceneSpec) -> tuple[np.ndarray, np.ndarray]:

@@ -1,0 +1,132 @@
+"""``ked study validity``: the pipeline on a tiny campaign (quick) and the committed study (slow)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from compare import store
+from compare.cli import main
+from compare.studies.validity import CONFIGS, REFINE_FILE, load_study, replace_section, section_of
+from compare.studies.validity_analysis import Limit, crossing, errors, validity_limit
+from compare.studies.validity_figures import FIGURES
+from compare.studies.validity_report import render_section
+
+ROOT = Path(__file__).resolve().parents[1]
+
+TINY = """
+[campaign]
+name = "validity-tiny"
+step_deg = 30.0
+n_modes = 1
+
+[linkage]
+preset = "thesis"
+
+[grid]
+mechanisms = ["source"]
+mass_models = ["extender"]
+speed_ratios = [0.04, 0.25]
+damping_ratios = [0.02]
+
+[dynamic]
+element = "ancf"
+elements_per_link = 2
+steps_per_cycle = 72
+spectral_radius = 0.6
+ramp_cycles = 1.0
+min_cycles = 2
+max_cycles = 30
+extrapolate = false
+sparse = false
+"""
+
+
+def _history_error_from_file(path: Path, ratio: float) -> float:
+    """Independent reading (plain h5py) of one scene's history error."""
+    with h5py.File(path, "r") as f:
+        for g in f["scenes"].values():
+            p = g["parameters"].attrs
+            if p["speed_kind"] == "ratio" and math.isclose(p["speed_ratio_requested"], ratio):
+                qs = np.stack([g["quasi_static/dx"][()], g["quasi_static/dy"][()]], axis=1)
+                dyn = np.stack([g["dynamic/dx"][()], g["dynamic/dy"][()]], axis=1)
+                return float(np.hypot(*(qs - dyn).T).max() / np.hypot(*dyn.T).max())
+    raise KeyError(ratio)
+
+
+def test_limit_and_errors_pure():
+    qs = np.array([[1.0, 0.0], [0.0, 1.0]])
+    e = errors(qs, 2 * qs)
+    assert e.peak == pytest.approx(0.5) and e.history == pytest.approx(0.5) and e.amplification == pytest.approx(2)
+    lim = validity_limit([0.1, 0.2, 0.3], [0.01, 0.04, 0.2], [True, True, True], 0.05)
+    assert lim.status == "crossed" and (lim.r_pass, lim.r_fail) == (0.2, 0.3)
+    assert lim.r_cross == pytest.approx(0.2 + 0.1 * 0.01 / 0.16)
+    assert validity_limit([0.1, 0.2], [0.2, 0.3], [True, True], 0.05).status == "below_grid"
+    assert validity_limit([0.1, 0.2], [0.01, math.nan], [True, False], 0.05) == Limit(0.05, "failure", 0.1, 0.2)
+    assert validity_limit([0.1, 0.2], [0.01, 0.02], [True, True], 0.05).status == "above_grid"
+    assert math.isnan(crossing(0.1, 0.2, 0.2, 0.3, 0.05))
+
+
+def test_replace_section_keeps_the_rest():
+    text = "# T\n\nintro\n\n<!-- BEGIN other -->\nx\n<!-- END other -->\n"
+    once = replace_section(text, "A 1")
+    twice = replace_section(once, "B 2")
+    assert "<!-- BEGIN other -->\nx\n<!-- END other -->" in twice and section_of(twice) == "B 2"
+    assert twice.startswith("# T\n\nintro")
+
+
+def test_validity_study_quick(tmp_path):
+    cfg = tmp_path / "validity_tiny.toml"
+    cfg.write_text(TINY, encoding="utf-8")
+    readme = tmp_path / "README.md"
+    figs = tmp_path / "figures"
+    args = ["study", "validity", "--config", str(cfg), "--studies-dir", str(tmp_path), "--figures-dir", str(figs),
+            "--readme", str(readme), "--workers", "2"]
+    res = CliRunner().invoke(main, args, catch_exceptions=False)
+    assert res.exit_code == 0, res.output
+    h5 = tmp_path / "validity_tiny.h5"
+    assert store.verify(h5) == []
+    assert (tmp_path / REFINE_FILE).exists() and store.verify(tmp_path / REFINE_FILE) == []
+    assert (figs / "validity_error.png").stat().st_size > 1000
+    section = section_of(readme.read_text(encoding="utf-8"))
+    assert "### The answer" in section
+    # the section is exactly what the stored files give
+    points, summaries = load_study([h5], tmp_path / REFINE_FILE)
+    figures = [figs / n for n in FIGURES if (figs / n).exists()]
+    again = render_section(points, summaries, files=[h5], refine_file=tmp_path / REFINE_FILE, figures=figures,
+                           readme=readme, configs=[cfg])
+    assert section == again.strip("\n")
+    # and its headline number follows from the raw datasets
+    e_lo, e_hi = _history_error_from_file(h5, 0.04), _history_error_from_file(h5, 0.25)
+    r10 = crossing(0.04, e_lo, 0.25, e_hi, 0.10)
+    assert math.isfinite(r10)
+    row = next(line for line in section.splitlines() if line.startswith("| tiny source | extender"))
+    assert f"**{r10:.3f}**" in row
+    # rerun: everything stored, nothing computed, same section
+    res = CliRunner().invoke(main, args, catch_exceptions=False)
+    assert res.exit_code == 0 and "0 computed" in res.output
+    assert section_of(readme.read_text(encoding="utf-8")) == section
+
+
+@pytest.mark.slow
+def test_committed_validity_study_matches_readme():
+    studies = ROOT / "results" / "studies"
+    files = [studies / (Path(c).stem + ".h5") for c in CONFIGS]
+    for f in (*files, studies / REFINE_FILE):
+        assert f.stat().st_size < 5e6, f
+        res = CliRunner().invoke(main, ["inspect", str(f), "--verify"])
+        assert res.exit_code == 0, res.output
+    readme = ROOT / "results" / "README.md"
+    section = section_of(readme.read_text(encoding="utf-8"))
+    points, summaries = load_study(files, studies / REFINE_FILE)
+    figdir = ROOT / "results" / "figures"
+    figures = [figdir / n for n in FIGURES if (figdir / n).exists()]
+    assert len(figures) == len(FIGURES)
+    again = render_section(points, summaries, files=files, refine_file=studies / REFINE_FILE, figures=figures,
+                           readme=readme, configs=[studies / c for c in CONFIGS])
+    assert section == again.strip("\n")
