@@ -98,7 +98,7 @@ def test_near_toggle_is_flagged_by_the_quasi_static_solver() -> None:
         q = solve_quasi_static(Scene(fb, MassModel("extender"), 300.0, 10.0))
     rep = quasi_report(q.deflection, q.condition, q.flagged, q.transmission_angle, q.crank_angle)
     assert rep.flagged_deg == (180.0,) and rep.toggle_distance_deg < 1.0 and rep.condition_max > 50
-    assert rep.nonfinite == 0
+    assert rep.nonfinite == 0 and rep.peak_unflagged_m < rep.peak_m
 
 
 def test_change_point_linkage_is_singular_but_finite_flagged() -> None:
@@ -123,6 +123,7 @@ def test_check_verdicts() -> None:
     assert "amplification" in check(True, True, True, 0.1, 5.0, None)
     assert check(True, True, True, 2.0, 5.0, None) == "pass"  # supercritical: no amplification band
     assert "default-settings" in check(True, True, True, 0.1, 1.0, 0.2)
+    assert "amplification" in check(True, True, True, 1e4, 0.1, None, near_toggle=True)
 
 
 def test_stability_configs_cover_the_required_cases() -> None:

@@ -108,3 +108,11 @@ def test_stability_study_regenerates(tmp_path: Path) -> None:
     tables, attrs = study_io.read_tables(out)
     assert len(tables["cases"]["case"]) >= 10 and attrs["lost"] == 0
     assert "<!-- BEGIN stability -->" in readme.read_text()
+
+
+def test_choose_breaks_timing_ties_by_accuracy() -> None:
+    a, b = Discretization("ancf", 4, 720, 0.6), Discretization("ancf", 4, 720, 0.9)
+    pts = [_pt("x", a, 1.00, 0.005), _pt("x", b, 1.10, 0.003)]
+    assert choose(pts, 0.01, 1).disc == b  # 10 % slower: a tie, the more accurate wins
+    pts = [_pt("x", a, 1.00, 0.005), _pt("x", b, 1.30, 0.003)]
+    assert choose(pts, 0.01, 1).disc == a

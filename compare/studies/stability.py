@@ -59,6 +59,7 @@ class CaseRow:
     error_type: str
     message: str
     qs_peak_m: float
+    qs_peak_unflagged_m: float
     qs_condition_max: float
     qs_flagged_deg: str
     qs_toggle_distance_deg: float
@@ -160,13 +161,14 @@ def case_rows(results: Sequence[SceneResult], cases: dict[str, tuple[str, str]],
             qs = quasi_report(q.deflection, q.condition, q.flagged, q.transmission_angle, q.crank_angle)
         d = _dyn(r)
         dyn_peak = peak(d) if d is not None else math.nan
-        amp = dyn_peak / qs.peak_m if (qs is not None and qs.peak_m > 0) else math.nan
+        amp = dyn_peak / qs.peak_unflagged_m if (qs is not None and qs.peak_unflagged_m > 0) else math.nan
         base = defaults.get(family_key(r.spec))
         dev = deviation(d, _dyn(base)) if (d is not None and base is not None and base.key != r.key) else None
         ratio = r.metrics.speed_ratio if r.metrics else (r.rpm * 2 * math.pi / 60 / r.omega1_min
                                                          if math.isfinite(r.omega1_min) else math.nan)
         finite = d is not None and bool(np.all(np.isfinite(d)))
-        verdict = check(r.ok, finite, r.stats.converged, ratio, amp, dev)
+        verdict = check(r.ok, finite, r.stats.converged, ratio, amp, dev,
+                        near_toggle=bool(qs is not None and qs.flagged_deg))
         stable, log = -1, ""
         if ladder and r.error_type == "SimulationError":
             with warnings.catch_warnings():
@@ -177,7 +179,9 @@ def case_rows(results: Sequence[SceneResult], cases: dict[str, tuple[str, str]],
         rows.append(CaseRow(
             case=case, config=config, key=key, label=r.spec.label, variant=variant_text(r), speed_ratio=ratio,
             rpm=r.rpm, status=r.status, stage=r.stage, error_type=r.error_type, message=r.message[:400],
-            qs_peak_m=qs.peak_m if qs else math.nan, qs_condition_max=qs.condition_max if qs else math.nan,
+            qs_peak_m=qs.peak_m if qs else math.nan,
+            qs_peak_unflagged_m=qs.peak_unflagged_m if qs else math.nan,
+            qs_condition_max=qs.condition_max if qs else math.nan,
             qs_flagged_deg=",".join(f"{x:g}" for x in qs.flagged_deg) if qs else "",
             qs_toggle_distance_deg=qs.toggle_distance_deg if qs else math.nan,
             qs_nonfinite=qs.nonfinite if qs else -1, qs_warning=warn,

@@ -86,9 +86,10 @@ def median_time(fn: Callable[[], object], repeats: int) -> float:
     return statistics.median(walls)
 
 
-def retime(results: Sequence[SceneResult], below_s: float, extra: int) -> dict[str, tuple[float, int]]:
-    """Key -> (median wall [s], timings) for ok runs whose campaign wall time was below ``below_s``:
-    ``extra`` more serial runs of the dynamic solver, median together with the campaign's timing."""
+def retime(results: Sequence[SceneResult], below_s: float, extra: int) -> dict[str, tuple[float, int, float]]:
+    """Key -> (median wall [s], timings, (max - min) / median) for ok runs whose campaign wall time was
+    below ``below_s``: ``extra`` more serial runs of the dynamic solver, median together with the
+    campaign's timing."""
     from exudyn_models import simulate_steady_state
 
     out = {}
@@ -101,11 +102,12 @@ def retime(results: Sequence[SceneResult], below_s: float, extra: int) -> dict[s
             t0 = time.perf_counter()
             simulate_steady_state(scene, settings)
             walls.append(time.perf_counter() - t0)
-        out[r.key] = (statistics.median(walls), len(walls))
+        med = statistics.median(walls)
+        out[r.key] = (med, len(walls), (max(walls) - min(walls)) / med)
     return out
 
 
-def dynamic_points(results: Sequence[SceneResult], timings: dict[str, tuple[float, int]]) -> list[WPPoint]:
+def dynamic_points(results: Sequence[SceneResult], timings: dict[str, tuple[float, int, float]]) -> list[WPPoint]:
     """Every dynamic run of a family that has a reference, with its error against that reference."""
     refs = {family_key(r.spec): r for r in results if r.ok and is_reference(r.dynamic_settings)}
     points = []
@@ -115,14 +117,14 @@ def dynamic_points(results: Sequence[SceneResult], timings: dict[str, tuple[floa
             continue
         if r.key != ref.key and r.dynamic_settings.get("steady_tol") == REFERENCE["steady_tol"]:
             continue  # a check of the reference itself (reference_check), not a discretization to rank
-        wall, n = timings.get(r.key, (r.stats.dynamic_wall_s, 1))
+        wall, n, spread = timings.get(r.key, (r.stats.dynamic_wall_s, 1, 0.0))
         ok = r.ok and bool(r.dynamic)
         err = cycle_error(deflection(r.dynamic), deflection(ref.dynamic)) if ok else math.nan
         points.append(WPPoint(
             family=family_label(r.spec), disc=discretization(r.dynamic_settings),
             reference=r.key == ref.key, ok=ok, wall_s=float(wall), repeats=n, error=err,
             cycles=r.stats.cycles, newton_iterations=r.stats.newton_iterations,
-            message=(r.message or r.stats.dynamic_message)[:300]))
+            message=(r.message or r.stats.dynamic_message)[:300], wall_spread=float(spread)))
     return points
 
 
@@ -187,7 +189,7 @@ def lump_convergence(models: Sequence[str] = ("extender", "distributed"),
 
 
 def run_study(out: Path = OUT, *, workers: int | None = 2, fresh: bool = True, figures: Path = FIGURES,
-              readme: Path = README, retime_below_s: float = 2.0, progress: bool = True) -> dict:
+              readme: Path = README, retime_below_s: float = 5.0, progress: bool = True) -> dict:
     """The whole study (see module docstring); returns a small summary dict."""
     from compare.studies import wp_report
 
@@ -225,7 +227,7 @@ def run_study(out: Path = OUT, *, workers: int | None = 2, fresh: bool = True, f
 @click.option("--resume", is_flag=True, help="keep scenes already in the results file (default: regenerate)")
 @click.option("--figures", type=click.Path(path_type=Path), default=FIGURES, show_default=True)
 @click.option("--readme", type=click.Path(path_type=Path), default=README, show_default=True)
-@click.option("--retime-below", type=float, default=2.0, show_default=True,
+@click.option("--retime-below", type=float, default=5.0, show_default=True,
               help="re-time dynamic runs faster than this [s] twice more (median of 3)")
 @click.option("--no-progress", is_flag=True)
 def work_precision(out: Path, workers: int, resume: bool, figures: Path, readme: Path, retime_below: float,

@@ -21,6 +21,9 @@ REFERENCE = {"element": "ancf", "elements_per_link": 8, "steps_per_cycle": 2880,
              "steady_tol": 1e-5}
 #: error budgets [1] for which the cheapest discretization is reported
 TARGETS = (0.01, 0.002)
+#: wall times within this fraction of the cheapest count as a tie (timing noise on shared cores); among
+#: tied settings the most accurate one is chosen
+TIE = 0.15
 
 
 @dataclass(frozen=True)
@@ -39,8 +42,9 @@ class Discretization:
 
 @dataclass(frozen=True)
 class WPPoint:
-    """One run: ``family`` label, its discretization, ``wall_s`` [s] (median of ``repeats`` timings),
-    ``error`` [1] against the family's reference (nan if the run failed), run statistics."""
+    """One run: ``family`` label, its discretization, ``wall_s`` [s] (median of ``repeats`` timings,
+    ``wall_spread`` = (max - min) / median of them [1]), ``error`` [1] against the family's reference
+    (nan if the run failed), run statistics."""
 
     family: str
     disc: Discretization
@@ -52,6 +56,7 @@ class WPPoint:
     cycles: int
     newton_iterations: int
     message: str
+    wall_spread: float = 0.0
 
 
 def cycle_error(d: np.ndarray, ref: np.ndarray) -> float:
@@ -101,18 +106,22 @@ def by_discretization(points: Sequence[WPPoint]) -> dict[Discretization, list[WP
     return out
 
 
-def choose(points: Sequence[WPPoint], target: float, families: int) -> Choice:
-    """The discretization with the smallest total wall time among those that ran on all ``families``
-    and stayed within ``target`` on each."""
-    best = Choice(target, None, math.inf, math.nan)
+def choose(points: Sequence[WPPoint], target: float, families: int, tie: float = TIE) -> Choice:
+    """Among the discretizations that ran on all ``families`` and stayed within ``target`` on each, the
+    one with the smallest total wall time; totals within ``tie`` (fraction) of that are tied, and the
+    tied one with the smallest worst error wins."""
+    candidates = []
     for disc, pts in by_discretization(points).items():
         if len(pts) < families or not all(p.ok for p in pts):
             continue
         worst = max(p.error for p in pts)
-        total = sum(p.wall_s for p in pts)
-        if worst <= target and total < best.total_wall_s:
-            best = Choice(target, disc, total, worst)
-    return best
+        if worst <= target:
+            candidates.append(Choice(target, disc, sum(p.wall_s for p in pts), worst))
+    if not candidates:
+        return Choice(target, None, math.inf, math.nan)
+    fastest = min(c.total_wall_s for c in candidates)
+    tied = [c for c in candidates if c.total_wall_s <= (1.0 + tie) * fastest]
+    return min(tied, key=lambda c: (c.worst_error, c.total_wall_s))
 
 
 def summary(points: Sequence[WPPoint], disc: Discretization, families: int) -> tuple[float, float] | None:

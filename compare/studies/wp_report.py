@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -22,6 +23,7 @@ from matplotlib.figure import Figure  # noqa: E402
 from compare.studies.study_io import rows  # noqa: E402
 from compare.studies.wp_analysis import (  # noqa: E402
     TARGETS,
+    TIE,
     Discretization,
     WPPoint,
     choose,
@@ -42,7 +44,7 @@ def wp_points(tables: dict[str, dict[str, np.ndarray]]) -> list[WPPoint]:
                               float(r["disc_spectral_radius"]))
         out.append(WPPoint(r["family"], disc, bool(r["reference"]), bool(r["ok"]), float(r["wall_s"]),
                            int(r["repeats"]), float(r["error"]), int(r["cycles"]), int(r["newton_iterations"]),
-                           str(r["message"])))
+                           str(r["message"]), float(r.get("wall_spread", 0.0))))
     return out
 
 
@@ -102,12 +104,14 @@ def work_precision_figure(tables: dict, attrs: dict) -> Figure:
                     ax.plot(p.wall_s, p.error, "*", color="gold", mec="k", ms=16, zorder=4)
         qs = sorted((q for q in quasi if q["mass_model"] == model), key=lambda q: q["speed_ratio"])
         if qs:
-            ax.plot([q["wall_s"] for q in qs], [q["error"] for q in qs], "D-", color="crimson", ms=6, zorder=4)
+            ax.plot([q["wall_s"] for q in qs], [q["error"] for q in qs], "D", color="crimson", ms=6, zorder=4)
             for q in qs:
                 ax.annotate(f"QS r={q['speed_ratio']:.2g}", (q["wall_s"], q["error"]), fontsize=7,
                             xytext=(4, 2), textcoords="offset points", color="crimson")
         ax.set_xscale("log")
         ax.set_yscale("log")
+        ax.set_xlim(3e-4, 200.0)
+        ax.set_ylim(1e-4, 3.0)
         title = model + (f" ({', '.join(f.split(' ', 1)[1] for f in fams)})" if fams else " (quasi-static only)")
         ax.set_title(title, fontsize=10)
         ax.grid(True, which="both", alpha=0.25)
@@ -124,7 +128,7 @@ def work_precision_figure(tables: dict, attrs: dict) -> Figure:
                 Line2D([], [], color="gray", marker="^", ls="-", label="ANCF rho 1.0"),
                 Line2D([], [], color="k", marker="o", mfc="none", ms=9, ls="-", label="Pareto front"),
                 Line2D([], [], color="gold", mec="k", marker="*", ms=14, ls="", label="current default"),
-                Line2D([], [], color="crimson", marker="D", ls="-", label="quasi-static (5 lumps)")]
+                Line2D([], [], color="crimson", marker="D", ls="", label="quasi-static (5 lumps)")]
     fig.legend(handles=handles, loc="lower center", ncol=5, fontsize=8, frameon=False)
     fig.suptitle("Work-precision: steady-cycle error vs wall time (points along a line: 90..2880 steps/cycle)",
                  fontsize=11)
@@ -197,6 +201,7 @@ def markdown(tables: dict, attrs: dict, figures: Sequence[Path], base: Path) -> 
     ref = json.loads(ref) if isinstance(ref, str) else ref
     rel = [os.path.relpath(p, base) for p in figures]
     n_fail = sum(1 for p in points if not p.ok)
+    spreads = [p.wall_spread for p in points if p.repeats > 1]
     lines = [
         "## Error against run time (work-precision)",
         "",
@@ -219,9 +224,11 @@ def markdown(tables: dict, attrs: dict, figures: Sequence[Path], base: Path) -> 
         "includes the transient left by the steady-state criterion (about 1e-3). "
         f"**Reference**: {ref['element'].upper()} {ref['elements_per_link']} elements/link, {ref['steps_per_cycle']} "
         f"steps/cycle, rho {ref['spectral_radius']:g}, steady to {ref['steady_tol']:g}. "
-        f"**Wall time**: the dynamic solver's whole run; runs under {attrs['retime_below_s']:g} s are the median "
-        "of 3 (campaign run + 2 serial repeats), longer ones a single campaign run (2 workers on 2 shared cores, "
-        "so absolute times carry ~20-30 % noise).",
+        f"**Wall time**: the dynamic solver's whole run; runs under {attrs['retime_below_s']:g} s in the campaign "
+        f"({len(spreads)} runs) are the median of 3 (campaign run + 2 serial repeats), longer ones a single "
+        f"campaign run ({int(attrs['workers'])} workers on 2 cores shared with other jobs). The 3 timings of a "
+        f"run differ by {_pct(float(np.median(spreads)) if spreads else math.nan)} (median of (max - min) / "
+        "median), which is the noise level of the times.",
     ]
     for r in rows(tables.get("refcheck", {})):
         lines.append("")
@@ -249,7 +256,7 @@ def markdown(tables: dict, attrs: dict, figures: Sequence[Path], base: Path) -> 
         lines += ["", f"Failed dynamic runs ({n_fail}, not plotted):", ""]
         for p in points:
             if not p.ok:
-                lines.append(f"* {p.family}, {_disc(p.disc)}: {p.message}")
+                lines.append(f"* {p.family}, {_disc(p.disc)}: {re.sub(r' [(]time=.*[)]$', '', p.message)}")
     quasi = rows(tables.get("quasi_static", {}))
     lines += ["", "**Quasi-static solver on the same axes** (red diamonds): solve time (median of 21, 36 crank "
               "angles) and error against the dynamic reference of the same scene. Its error is the "
@@ -273,11 +280,13 @@ def _verdict(choices, dflt: Discretization, cur, on_front: list[str], fams: list
             f"with a worst error of {_pct(cur[1])}; it is on the Pareto front of "
             f"{len(on_front)} of {len(fams)} scenes{(' (' + ', '.join(on_front) + ')') if on_front else ''}. ")
     if c1.disc == dflt:
-        text += f"The data support it: it is the cheapest setting within the {_pct(c1.target)} budget."
+        text += (f"The data support it: it is the cheapest setting within the {_pct(c1.target)} budget (wall "
+                 f"times within {100 * TIE:g} % count as a tie, broken by the smaller worst error).")
     else:
         ratio = cur[0] / c1.total_wall_s
         text += (f"The cheapest setting within the {_pct(c1.target)} budget is {_disc(c1.disc)} "
-                 f"({c1.total_wall_s:.2f} s, worst {_pct(c1.worst_error)}, {ratio:.2g}x faster than the default). ")
+                 f"({c1.total_wall_s:.2f} s, worst {_pct(c1.worst_error)}; the default takes {ratio:.2f}x its "
+                 "time). ")
         if cur[1] <= c1.target:
             text += ("The default also meets the budget, with margin "
                      f"({_pct(cur[1])} vs {_pct(c1.worst_error)}).")
