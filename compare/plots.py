@@ -78,7 +78,7 @@ def scene_figure(r: SceneResult) -> Figure:
             if r.metrics is not None and c in [m.component for m in r.metrics.components]:
                 cm = r.metrics.component(c)
                 ax.set_title(f"{c}: rel. error {cm.relative_error:.1%}, amplification "
-                             f"{cm.amplification:.3f}, peak shift {math.degrees(cm.phase_shift):.1f} deg",
+                             f"{cm.amplification:.3f}, peak shift {math.degrees(cm.phase_shift) + 0.0:.1f} deg",
                              fontsize=9)
             if i == 0:
                 ax.legend(fontsize=8)
