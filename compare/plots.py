@@ -77,9 +77,9 @@ def scene_figure(r: SceneResult) -> Figure:
             ax.grid(alpha=0.3)
             if r.metrics is not None and c in [m.component for m in r.metrics.components]:
                 cm = r.metrics.component(c)
+                shift = round(math.degrees(cm.phase_shift), 1) + 0.0  # no "-0.0"
                 ax.set_title(f"{c}: rel. error {cm.relative_error:.1%}, amplification "
-                             f"{cm.amplification:.3f}, peak shift {math.degrees(cm.phase_shift) + 0.0:.1f} deg",
-                             fontsize=9)
+                             f"{cm.amplification:.3f}, peak shift {shift:.1f} deg", fontsize=9)
             if i == 0:
                 ax.legend(fontsize=8)
             if i == nrows - 1:
