@@ -21,7 +21,14 @@ from compare.config import CampaignConfig, ConfigError, load_config
 from compare.runner import run_campaign
 from compare.scenes import SceneSpec
 from compare.studies.validity_analysis import ERROR_KINDS, TOLERANCES
-from compare.studies.validity_data import RETRY_STEP_FACTOR, Point, linkage_json, quasi_static_loads, read_points
+from compare.studies.validity_data import (
+    RETRY_MAX_RATIO,
+    RETRY_STEP_FACTOR,
+    Point,
+    linkage_json,
+    quasi_static_loads,
+    read_points,
+)
 from compare.studies.validity_summary import FamilySummary, summarize
 
 CONFIGS = ("validity_thesis.toml", "validity_stiff.toml", "validity_slender.toml",
@@ -68,7 +75,8 @@ def _setting(p: Point, name: str, default: int) -> int:
 
 
 def retry_specs(points: Sequence[Point]) -> list[SceneSpec]:
-    """Retries for base scenes whose dynamic Newton iteration failed: 4x the steps per cycle.
+    """Retries for base scenes below r = RETRY_MAX_RATIO whose dynamic Newton iteration failed: 4x the
+    steps per cycle (above, near and past resonance, a retry costs minutes and rarely settles).
     Scenes that are themselves retries (or already have one) are not retried again."""
     speeds: dict[tuple, list[Point]] = {}
     for p in points:
@@ -78,7 +86,8 @@ def retry_specs(points: Sequence[Point]) -> list[SceneSpec]:
         if len(group) > 1:
             continue
         p = group[0]
-        if p.status != "ok" and p.stage == "dynamic" and p.error_type == "SimulationError":
+        if (p.status != "ok" and p.stage == "dynamic" and p.error_type == "SimulationError"
+                and p.r < RETRY_MAX_RATIO):
             out.append(with_dynamic(p.spec, steps_per_cycle=RETRY_STEP_FACTOR * p.steps_per_cycle))
     return out
 
@@ -113,7 +122,7 @@ def load_study(files: Sequence[Path], refine_file: Path | None) -> tuple[list[Po
     points: list[Point] = []
     labels: dict[str, str] = {}
     for f in files:
-        pts = read_points(f)
+        pts = read_points(f, labels=labels)  # a four-bar keeps the label of the first file that has it
         for p in pts:
             labels.setdefault(linkage_json(p.spec), p.linkage)
         points += pts
@@ -166,7 +175,7 @@ def run_study(configs: Sequence[Path], studies_dir: Path, *, workers: int = 2, r
     return StudyRun(tuple(files), refine_file, computed, time.perf_counter() - t0)
 
 
-def replace_section(text: str, section: str, title: str = "# Studies\n") -> str:
+def replace_section(text: str, section: str, title: str = "# ked-harness results\n") -> str:
     """``text`` with the part between the validity markers replaced by ``section`` (markers kept);
     appended (after a title if ``text`` is empty) when the markers are missing."""
     block = f"{BEGIN}\n{section.rstrip()}\n{END}"

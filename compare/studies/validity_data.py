@@ -19,7 +19,9 @@ from compare.results import SceneResult
 from compare.scenes import SceneSpec
 
 RETRY_STEP_FACTOR = 4
-"""Newton failures are retried once with this many times the steps per cycle."""
+"""Newton failures are retried once with this many times the steps per cycle ..."""
+RETRY_MAX_RATIO = 0.8
+"""... if their speed ratio is below this."""
 
 
 @dataclass(frozen=True, eq=False)
