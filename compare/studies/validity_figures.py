@@ -43,7 +43,9 @@ def _grid(n: int) -> tuple[Figure, np.ndarray]:
 
 def _layout(fig: Figure) -> None:
     """Fixed margins (no layout engine: several times faster than tight_layout)."""
-    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.12, top=0.88, wspace=0.25, hspace=0.45)
+    h = fig.get_figheight()
+    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.5 / h, top=1.0 - 0.6 / h, wspace=0.25,
+                        hspace=1.1 / (h / max(1, len(fig.axes) // 2 or 1)))
 
 
 def _resonances(ax) -> None:
