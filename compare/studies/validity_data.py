@@ -62,6 +62,7 @@ class Point:
     cycles: int
     spec: SceneSpec
     source: str = ""
+    finished_utc: str = ""
 
     @property
     def ok(self) -> bool:
@@ -111,6 +112,7 @@ def to_point(r: SceneResult, linkage: str, refined: bool, source: str = "") -> P
         steps_per_cycle=int(ds.get("steps_per_cycle", -1)),
         theta=r.crank_angle, qs=_xy(r.quasi_static), dyn=_xy(r.dynamic) if r.ok else None,
         wall_s=float(r.stats.total_wall_s), cycles=int(r.stats.cycles), spec=r.spec, source=source,
+        finished_utc=r.stats.finished_utc,
     )
 
 
@@ -125,6 +127,15 @@ def read_points(path: str | Path, linkage: str | None = None, refined: bool = Fa
         lab = linkage or (labels or {}).get(linkage_json(r.spec), default)
         out.append(to_point(r, lab, refined, Path(path).name))
     return out
+
+
+def run_starts(path: str | Path) -> list[str]:
+    """ISO-8601 start times of every ``ked run`` recorded in a campaign file (``/runs/*``)."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        runs = f.get("runs")
+        return [] if runs is None else [str(g.attrs["started_utc"]) for g in runs.values()]
 
 
 def linkage_json(spec: SceneSpec) -> str:

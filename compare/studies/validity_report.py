@@ -6,12 +6,13 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Sequence
+from datetime import datetime
 from pathlib import Path
 
 import numpy as np
 
 from compare.studies.validity_analysis import TOLERANCES, one_mode_curves, peak_of, peak_ratio
-from compare.studies.validity_data import RETRY_MAX_RATIO, RETRY_STEP_FACTOR, Point
+from compare.studies.validity_data import RETRY_MAX_RATIO, RETRY_STEP_FACTOR, Point, run_starts
 from compare.studies.validity_figures import reference
 from compare.studies.validity_summary import FamilySummary, Slot
 
@@ -424,6 +425,15 @@ def render_section(points: Sequence[Point], summaries: Sequence[FamilySummary], 
             rows.append([f"`{f.name}`", str(len(pts)), str(sum(p.ok for p in pts)),
                          f"{sum(p.wall_s for p in pts):.0f}", f"{max(p.wall_s for p in pts):.0f}"])
     L += _table(["file", "scenes", "solved", "sum of scene wall times [s]", "slowest scene [s]"], rows)
+    starts = [t for f in (*files, refine_file) if f.exists() for t in run_starts(f)]
+    ends = [p.finished_utc for p in points if p.finished_utc]
+    if starts and ends:
+        span = (datetime.fromisoformat(max(ends)) - datetime.fromisoformat(min(starts))).total_seconds()
+        L += ["", f"Elapsed from the first stored run's start to the last scene's finish: {span / 60:.1f} min "
+              f"({len(points)} scenes, 2 worker processes on 2 cores shared with other jobs). Tests: "
+              "`pytest tests/test_study_validity.py -m 'not slow'` runs the whole pipeline on a tiny campaign; "
+              "`pytest tests/test_study_validity.py -m slow` checks that the committed files verify and that "
+              "this section is exactly what they give."]
     L += ["", "### Figures", ""]
     for p in figures:
         L += [f"![{p.stem}]({link(p)})"]
