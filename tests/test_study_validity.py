@@ -13,7 +13,7 @@ from click.testing import CliRunner
 from compare import store
 from compare.cli import main
 from compare.studies.validity import CONFIGS, REFINE_FILE, load_study, replace_section, section_of
-from compare.studies.validity_analysis import Limit, crossing, errors, validity_limit
+from compare.studies.validity_analysis import Limit, crossing, errors, one_mode_curves, one_mode_errors, validity_limit
 from compare.studies.validity_figures import FIGURES
 from compare.studies.validity_report import render_section
 
@@ -70,6 +70,18 @@ def test_limit_and_errors_pure():
     assert validity_limit([0.1, 0.2], [0.01, math.nan], [True, False], 0.05) == Limit(0.05, "failure", 0.1, 0.2)
     assert validity_limit([0.1, 0.2], [0.01, 0.02], [True, True], 0.05).status == "above_grid"
     assert math.isnan(crossing(0.1, 0.2, 0.2, 0.3, 0.05))
+
+
+def test_vectorized_one_mode_equals_ked_quasi_estimate():
+    th = np.linspace(0, 2 * np.pi, 36, endpoint=False)
+    qs = np.stack([np.cos(th) + 0.3 * np.sin(3 * th), 0.5 * np.sin(th) + 0.2 * np.cos(5 * th)], axis=1)
+    rs = np.array([0.05, 0.3, 0.45])
+    curves = one_mode_curves(qs, rs, 0.02)
+    for i, r in enumerate(rs):
+        e = one_mode_errors(qs, float(r), 0.02)
+        assert curves["peak"][i] == pytest.approx(e.peak, rel=1e-12)
+        assert curves["history"][i] == pytest.approx(e.history, rel=1e-12)
+        assert curves["amplification"][i] == pytest.approx(e.amplification, rel=1e-12)
 
 
 def test_replace_section_keeps_the_rest():

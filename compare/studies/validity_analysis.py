@@ -108,13 +108,6 @@ def crossing(r_lo: float, e_lo: float, r_hi: float, e_hi: float, tolerance: floa
 # harmonic rule
 
 
-def significant_harmonic(loads: np.ndarray, fraction: float) -> int:
-    """Highest crank harmonic k >= 1 of the inertia loads (all nodes, both components) whose amplitude
-    is at least ``fraction`` of the largest harmonic (as ``ked_quasi.harmonics.significant_harmonic``)."""
-    a = harmonic_amplitudes(loads)[1:]
-    return int(np.flatnonzero(a >= fraction * a.max()).max()) + 1
-
-
 def harmonic_spectrum(signal: np.ndarray, k_max: int = 8) -> np.ndarray:
     """Amplitudes of harmonics 1..k_max, normalized by the largest of them [1]."""
     a = harmonic_amplitudes(signal)[1:k_max + 1]

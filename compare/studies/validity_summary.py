@@ -25,10 +25,10 @@ from compare.studies.validity_analysis import (
     errors,
     harmonic_spectrum,
     one_mode_limit,
-    significant_harmonic,
     validity_limit,
 )
 from compare.studies.validity_data import Point
+from ked_quasi.harmonics import significant_harmonic
 
 HARMONIC_FRACTIONS = (0.01, 0.05)
 
