@@ -325,11 +325,12 @@ def failure_lines(summaries: Sequence[FamilySummary]) -> tuple[list[str], int, i
 
 def busy_seconds(starts: Sequence[str], ends: Sequence[str], longest_s: float) -> float:
     """Elapsed compute time [s] from ISO-8601 run starts and scene finishes: the sum of the gaps between
-    consecutive events that are not longer than the slowest scene ``longest_s`` [s] (a longer gap has no
-    scene running through it, so it is idle time between runs)."""
-    t = sorted(datetime.fromisoformat(x).timestamp() for x in (*starts, *ends))
-    gaps = np.diff(np.asarray(t))
-    return float(gaps[gaps <= longest_s + 1.0].sum())
+    consecutive events that end with a scene finish and are not longer than the slowest scene
+    ``longest_s`` [s] (a longer gap has no scene running through it: idle time between runs; a run
+    that computed nothing adds nothing)."""
+    ev = sorted([(datetime.fromisoformat(x).timestamp(), 0) for x in starts]
+                + [(datetime.fromisoformat(x).timestamp(), 1) for x in ends])
+    return float(sum(b[0] - a[0] for a, b in zip(ev, ev[1:]) if b[1] == 1 and b[0] - a[0] <= longest_s + 1.0))
 
 
 def render_section(points: Sequence[Point], summaries: Sequence[FamilySummary], *, files: Sequence[Path],
