@@ -123,7 +123,8 @@ def test_check_verdicts() -> None:
     assert "amplification" in check(True, True, True, 0.1, 5.0, None)
     assert check(True, True, True, 2.0, 5.0, None) == "pass"  # supercritical: no amplification band
     assert "default-settings" in check(True, True, True, 0.1, 1.0, 0.2)
-    assert "amplification" in check(True, True, True, 1e4, 0.1, None, near_toggle=True)
+    assert check(True, True, True, 0.1, 0.1, None, near_toggle=True) == "pass"  # no QS yardstick at a toggle
+    assert "default-settings" in check(True, True, True, 0.1, 0.1, 0.2, near_toggle=True)
 
 
 def test_stability_configs_cover_the_required_cases() -> None:

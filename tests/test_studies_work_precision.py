@@ -17,6 +17,7 @@ from compare.studies.wp_analysis import (
     Discretization,
     WPPoint,
     choose,
+    coarsest_failures,
     cycle_error,
     is_reference,
     observed_order,
@@ -110,9 +111,31 @@ def test_stability_study_regenerates(tmp_path: Path) -> None:
     assert "<!-- BEGIN stability -->" in readme.read_text()
 
 
-def test_choose_breaks_timing_ties_by_accuracy() -> None:
+def test_choose_lists_timing_ties() -> None:
     a, b = Discretization("ancf", 4, 720, 0.6), Discretization("ancf", 4, 720, 0.9)
-    pts = [_pt("x", a, 1.00, 0.005), _pt("x", b, 1.10, 0.003)]
-    assert choose(pts, 0.01, 1).disc == b  # 10 % slower: a tie, the more accurate wins
-    pts = [_pt("x", a, 1.00, 0.005), _pt("x", b, 1.30, 0.003)]
-    assert choose(pts, 0.01, 1).disc == a
+    ch = choose([_pt("x", a, 1.00, 0.005), _pt("x", b, 1.10, 0.003)], 0.01, 1)
+    assert ch.disc == a and ch.tied == (b,)  # 10 % slower: within the timing noise
+    assert choose([_pt("x", a, 1.00, 0.005), _pt("x", b, 1.30, 0.003)], 0.01, 1).tied == ()
+    assert coarsest_failures([_pt("x", a, 1.0, math.nan, ok=False)]) == {("ancf", 4, 0.6): 720}
+
+
+def _section(name: str) -> str:
+    from compare.studies.sections import markers
+
+    text = (Path(__file__).resolve().parents[1] / "results" / "README.md").read_text(encoding="utf-8")
+    begin, end = markers(name)
+    return text[text.index(begin) + len(begin):text.index(end)].strip()
+
+
+def test_committed_readme_sections_are_generated_from_the_committed_results() -> None:
+    """Every number in the two README sections comes from the stored /study tables."""
+    from compare.studies import stability, stability_report, study_io, work_precision, wp_report
+
+    if not (work_precision.OUT.exists() and stability.OUT.exists()):
+        pytest.skip("study results not generated")
+    tables, attrs = study_io.read_tables(work_precision.OUT)
+    figs = [work_precision.FIGURES / "work_precision.png", work_precision.FIGURES / "work_precision_lumps.png"]
+    assert wp_report.markdown(tables, attrs, figs, work_precision.README.parent).strip() == _section("work-precision")
+    tables, attrs = study_io.read_tables(stability.OUT)
+    assert stability_report.markdown(tables, attrs).strip() == _section("stability")
+    assert work_precision.OUT.stat().st_size < 5e6 and stability.OUT.stat().st_size < 5e6

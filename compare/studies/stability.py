@@ -196,8 +196,6 @@ def case_rows(results: Sequence[SceneResult], cases: dict[str, tuple[str, str]],
 def run_study(out: Path = OUT, *, workers: int | None = 2, fresh: bool = True, readme: Path = README,
               ladder: bool = True, progress: bool = True) -> dict:
     """The whole study (see module docstring); returns a small summary dict."""
-    from compare.studies import stability_report
-
     t0 = time.perf_counter()
     configs = sorted(CONFIG_DIR.glob("*.toml"))
     summaries = study_io.run_configs(configs, out, workers=workers, fresh=fresh, progress=progress)
@@ -212,9 +210,16 @@ def run_study(out: Path = OUT, *, workers: int | None = 2, fresh: bool = True, r
              "scenes": sum(s.total for s in summaries), "lost": sum(s.lost for s in summaries),
              "git_commit": store.git_commit()}
     study_io.write_tables(out, {"cases": rows}, attrs)
-    tables, attrs = study_io.read_tables(out)
-    write_section(readme, SECTION, stability_report.markdown(tables, attrs))
+    report(out, readme)
     return {"out": str(out), "wall_s": attrs["study_wall_s"], "scenes": len(rows)}
+
+
+def report(out: Path = OUT, readme: Path = README) -> Path:
+    """The README section from the stored ``/study/cases`` table of ``out`` (no computation)."""
+    from compare.studies import stability_report
+
+    tables, attrs = study_io.read_tables(out)
+    return write_section(readme, SECTION, stability_report.markdown(tables, attrs))
 
 
 @click.command("stability")
@@ -224,8 +229,13 @@ def run_study(out: Path = OUT, *, workers: int | None = 2, fresh: bool = True, r
 @click.option("--readme", type=click.Path(path_type=Path), default=README, show_default=True)
 @click.option("--no-ladder", is_flag=True, help="skip the search for the step needed after a Newton failure")
 @click.option("--no-progress", is_flag=True)
-def stability(out: Path, workers: int, resume: bool, readme: Path, no_ladder: bool, no_progress: bool) -> None:
+@click.option("--report-only", is_flag=True, help="only rewrite the README section from the stored table")
+def stability(out: Path, workers: int, resume: bool, readme: Path, no_ladder: bool, no_progress: bool,
+              report_only: bool) -> None:
     """Numerical stability of both solvers on stiff and extreme scenes (issue 6, part 3)."""
+    if report_only:
+        click.echo(str(report(out, readme)))
+        return
     summary = run_study(out, workers=workers, fresh=not resume, readme=readme, ladder=not no_ladder,
                         progress=not no_progress)
     click.echo(json.dumps(summary, indent=2))

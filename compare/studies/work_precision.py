@@ -191,8 +191,6 @@ def lump_convergence(models: Sequence[str] = ("extender", "distributed"),
 def run_study(out: Path = OUT, *, workers: int | None = 2, fresh: bool = True, figures: Path = FIGURES,
               readme: Path = README, retime_below_s: float = 5.0, progress: bool = True) -> dict:
     """The whole study (see module docstring); returns a small summary dict."""
-    from compare.studies import wp_report
-
     t0 = time.perf_counter()
     summaries = study_io.run_configs([STUDIES / c for c in CONFIGS], out, workers=workers, fresh=fresh,
                                      progress=progress)
@@ -215,10 +213,18 @@ def run_study(out: Path = OUT, *, workers: int | None = 2, fresh: bool = True, f
              "scenes": sum(s.total for s in summaries), "git_commit": store.git_commit()}
     study_io.write_tables(out, {"dynamic": points, "refcheck": check, "quasi_static": quasi,
                                 "lumps": lumps}, attrs)
+    paths = report(out, figures, readme)
+    return {"out": str(out), "wall_s": wall, "figures": [str(p) for p in paths]}
+
+
+def report(out: Path = OUT, figures: Path = FIGURES, readme: Path = README) -> list[Path]:
+    """Figures and README section from the stored ``/study`` tables of ``out`` (no computation)."""
+    from compare.studies import wp_report
+
     tables, attrs = study_io.read_tables(out)
     paths = wp_report.write_figures(tables, attrs, figures)
     write_section(readme, SECTION, wp_report.markdown(tables, attrs, paths, readme.parent))
-    return {"out": str(out), "wall_s": wall, "figures": [str(p) for p in paths]}
+    return paths
 
 
 @click.command("work-precision")
@@ -230,9 +236,13 @@ def run_study(out: Path = OUT, *, workers: int | None = 2, fresh: bool = True, f
 @click.option("--retime-below", type=float, default=5.0, show_default=True,
               help="re-time dynamic runs faster than this [s] twice more (median of 3)")
 @click.option("--no-progress", is_flag=True)
+@click.option("--report-only", is_flag=True, help="only redraw figures and the README section from the stored tables")
 def work_precision(out: Path, workers: int, resume: bool, figures: Path, readme: Path, retime_below: float,
-                   no_progress: bool) -> None:
+                   no_progress: bool, report_only: bool) -> None:
     """Error against run time of the dynamic and quasi-static solvers (issue 6, part 2)."""
+    if report_only:
+        click.echo("\n".join(str(p) for p in report(out, figures, readme)))
+        return
     summary = run_study(out, workers=workers, fresh=not resume, figures=figures, readme=readme,
                         retime_below_s=retime_below, progress=not no_progress)
     click.echo(json.dumps(summary, indent=2))

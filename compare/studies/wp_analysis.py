@@ -21,8 +21,7 @@ REFERENCE = {"element": "ancf", "elements_per_link": 8, "steps_per_cycle": 2880,
              "steady_tol": 1e-5}
 #: error budgets [1] for which the cheapest discretization is reported
 TARGETS = (0.01, 0.002)
-#: wall times within this fraction of the cheapest count as a tie (timing noise on shared cores); among
-#: tied settings the most accurate one is chosen
+#: wall times within this fraction of the cheapest count as a tie (timing noise on shared cores)
 TIE = 0.15
 
 
@@ -89,12 +88,14 @@ def pareto_mask(cost: Sequence[float], error: Sequence[float]) -> np.ndarray:
 @dataclass(frozen=True)
 class Choice:
     """Cheapest discretization meeting ``target`` [1] on every family: ``total_wall_s`` [s] summed over
-    the families, ``worst_error`` [1] the largest error among them (None if nothing qualifies)."""
+    the families, ``worst_error`` [1] the largest error among them (None if nothing qualifies);
+    ``tied``: other qualifying discretizations within TIE of its time (indistinguishable by timing)."""
 
     target: float
     disc: Discretization | None
     total_wall_s: float
     worst_error: float
+    tied: tuple[Discretization, ...] = ()
 
 
 def by_discretization(points: Sequence[WPPoint]) -> dict[Discretization, list[WPPoint]]:
@@ -108,8 +109,7 @@ def by_discretization(points: Sequence[WPPoint]) -> dict[Discretization, list[WP
 
 def choose(points: Sequence[WPPoint], target: float, families: int, tie: float = TIE) -> Choice:
     """Among the discretizations that ran on all ``families`` and stayed within ``target`` on each, the
-    one with the smallest total wall time; totals within ``tie`` (fraction) of that are tied, and the
-    tied one with the smallest worst error wins."""
+    one with the smallest total wall time; those within ``tie`` (fraction) of it are listed as tied."""
     candidates = []
     for disc, pts in by_discretization(points).items():
         if len(pts) < families or not all(p.ok for p in pts):
@@ -119,9 +119,21 @@ def choose(points: Sequence[WPPoint], target: float, families: int, tie: float =
             candidates.append(Choice(target, disc, sum(p.wall_s for p in pts), worst))
     if not candidates:
         return Choice(target, None, math.inf, math.nan)
-    fastest = min(c.total_wall_s for c in candidates)
-    tied = [c for c in candidates if c.total_wall_s <= (1.0 + tie) * fastest]
-    return min(tied, key=lambda c: (c.worst_error, c.total_wall_s))
+    best = min(candidates, key=lambda c: c.total_wall_s)
+    tied = sorted((c for c in candidates if c is not best and c.total_wall_s <= (1.0 + tie) * best.total_wall_s),
+                  key=lambda c: c.total_wall_s)
+    return Choice(target, best.disc, best.total_wall_s, best.worst_error, tuple(c.disc for c in tied))
+
+
+def coarsest_failures(points: Sequence[WPPoint]) -> dict[tuple[str, int, float], int]:
+    """(element, elements per link, spectral radius) -> the most steps per cycle at which a run of that
+    kind failed on any family (where failures stop as the step shrinks)."""
+    out: dict[tuple[str, int, float], int] = {}
+    for p in points:
+        if not p.ok:
+            k = (p.disc.element, p.disc.elements_per_link, p.disc.spectral_radius)
+            out[k] = max(out.get(k, 0), p.disc.steps_per_cycle)
+    return out
 
 
 def summary(points: Sequence[WPPoint], disc: Discretization, families: int) -> tuple[float, float] | None:

@@ -27,6 +27,7 @@ from compare.studies.wp_analysis import (  # noqa: E402
     Discretization,
     WPPoint,
     choose,
+    coarsest_failures,
     pareto_mask,
     summary,
 )
@@ -279,19 +280,31 @@ def _verdict(choices, dflt: Discretization, cur, on_front: list[str], fams: list
     text = (f"**Default.** The current default ({_disc(dflt)}) costs {cur[0]:.2f} s over the {len(fams)} scenes "
             f"with a worst error of {_pct(cur[1])}; it is on the Pareto front of "
             f"{len(on_front)} of {len(fams)} scenes{(' (' + ', '.join(on_front) + ')') if on_front else ''}. ")
+    tied = ", ".join(_disc(d) for d in c1.tied)
     if c1.disc == dflt:
-        text += (f"The data support it: it is the cheapest setting within the {_pct(c1.target)} budget (wall "
-                 f"times within {100 * TIE:g} % count as a tie, broken by the smaller worst error).")
+        text += f"The data support it: it is the cheapest setting within the {_pct(c1.target)} budget"
+        text += f" (within the {100 * TIE:g} % timing noise of it: {tied})." if tied else "."
+    elif dflt in c1.tied:
+        text += (f"The data support it: within the {_pct(c1.target)} budget it ties (within the {100 * TIE:g} % "
+                 f"timing noise) with the cheapest, {_disc(c1.disc)} ({c1.total_wall_s:.2f} s, worst "
+                 f"{_pct(c1.worst_error)}).")
     else:
         ratio = cur[0] / c1.total_wall_s
         text += (f"The cheapest setting within the {_pct(c1.target)} budget is {_disc(c1.disc)} "
                  f"({c1.total_wall_s:.2f} s, worst {_pct(c1.worst_error)}; the default takes {ratio:.2f}x its "
                  "time). ")
-        if cur[1] <= c1.target:
-            text += ("The default also meets the budget, with margin "
-                     f"({_pct(cur[1])} vs {_pct(c1.worst_error)}).")
-        else:
-            text += "The default does not meet that budget on every scene."
+        text += ("The default also meets the budget." if cur[1] <= c1.target
+                 else "The default does not meet that budget on every scene.")
+    fails = coarsest_failures(points)
+    same = {k: v for k, v in fails.items() if k[0] == dflt.element and k[1] == dflt.elements_per_link}
+    if same:
+        worst_steps = same.get((dflt.element, dflt.elements_per_link, dflt.spectral_radius), 1)
+        text += (f" Robustness ({dflt.element.upper()} {dflt.elements_per_link} el/link): the most steps per cycle "
+                 "at which a run still failed (Newton) on some scene: "
+                 + ", ".join(f"rho {k[2]:g}: {v}" for k, v in sorted(same.items()))
+                 + f"; the default's {dflt.steps_per_cycle} steps leave a margin of "
+                 f"{dflt.steps_per_cycle / worst_steps:g}x"
+                 " at its spectral radius.")
     return text
 
 
