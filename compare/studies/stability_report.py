@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import re
 from typing import Any
@@ -35,6 +36,7 @@ def _dynamic(r: dict) -> str:
 def markdown(tables: dict, attrs: dict) -> str:
     """The ``stability`` section of results/README.md."""
     cases = rows(tables.get("cases", {}))
+    dd = json.loads(attrs["defaults"]) if isinstance(attrs["defaults"], str) else attrs["defaults"]
     n_ok = sum(1 for r in cases if r["status"] == "ok")
     n_pass = sum(1 for r in cases if r["check"] == "pass")
     lines = [
@@ -46,7 +48,8 @@ def markdown(tables: dict, attrs: dict) -> str:
         f"{n_ok} converged ({n_pass} pass the check), {len(cases) - n_ok} failed with a recorded reason, "
         f"{int(attrs.get('lost', 0))} lost; campaign {attrs['campaign_wall_s']:.0f} s on {int(attrs['workers'])} "
         f"workers, whole study {attrs['study_wall_s']:.0f} s. Exudyn settings are the defaults unless the scene "
-        "says otherwise (ANCF, 4 elements/link, 720 steps/cycle, rho 0.9, 2 % damping).",
+        f"says otherwise ({dd['element'].upper()}, {dd['elements_per_link']} elements/link, {dd['steps_per_cycle']} "
+        f"steps/cycle, rho {dd['spectral_radius']:g}, damping ratio {dd['damping_ratio']:g}).",
         "",
         "Quasi-static columns: peak of |dx|, |dy| of P; largest condition number 1/|sin mu| over the 10 deg grid; "
         "crank angles flagged as near-toggle (transmission angle mu within 1 deg of 0/180 deg, `ToggleWarning`); "
@@ -58,7 +61,8 @@ def markdown(tables: dict, attrs: dict) -> str:
         f"**Check** of a converged result: finite, steady, amplification within {AMPLIFICATION_BAND} when "
         f"r < {SUBCRITICAL} except near a toggle (there the frozen structure is nearly singular over a range of "
         "angles, so the quasi-static peak is no yardstick, and r is meaningless because the lowest frozen "
-        "frequency vanishes at the toggle; those cases carry a refined run, 8 elements/link and 1440 steps/cycle, "
+        "frequency vanishes at the toggle; those cases carry a refined run, more elements and steps, see the "
+        "scene column, "
         f"instead), and within {100 * DEVIATION_LIMIT:g} % of the same scene at default settings where "
         "the study has it. **Steps needed**: steps per cycle with which the integration ran through (after a "
         "Newton failure: the first of 2x, 4x, 8x the scene's steps that did).",
