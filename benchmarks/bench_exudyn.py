@@ -6,9 +6,10 @@ For one steady-state scene per mass model (thesis source four-bar, 300 rpm, 10 d
   recipe  : ramp over 5 cycles, then a fixed 10 cycles at 1000 steps per cycle (last cycle kept)
 and reports median wall seconds over --runs runs, steps, seconds per simulated crank cycle, and the
 error of the returned cycle against a fine reference (2304 steps per cycle, 4 elements per link,
-plain cycles steady to 1e-6, no extrapolation), as max |d - d_ref| over (dx, dy) relative to the reference peak, and the same for
-the rotation. Case I (tip) diverges at 300 rpm for damping ratios <= 0.05 (the massless coupler
-buckles near resonance), so its row uses --tip-damping (default 0.1) for all three runs.
+plain cycles steady to 1e-6, no extrapolation), as max |d - d_ref| over (dx, dy) relative to the
+reference peak, and the same for the rotation. Case I (tip) diverges at 300 rpm for damping ratios
+<= 0.05 (the massless coupler buckles near resonance), so its row uses --tip-damping (default 0.1)
+for all three runs.
 
 Usage: .venv/bin/python benchmarks/bench_exudyn.py [--runs 3] [--mass-models tip,joints,...]
 """
