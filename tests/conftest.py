@@ -8,6 +8,17 @@ import pytest
 from ked_quasi import FourBar, MassModel, Section, mechanism, thesis_fourbar
 from ked_quasi.linkage import THESIS_TIP_MASS_KG
 
+# cheap, pinned Exudyn settings for campaign tests (coarse but converging at low speed)
+QUICK_DYNAMIC = """[dynamic]
+element = "ancf"
+elements_per_link = 2
+steps_per_cycle = 36
+spectral_radius = 0.6
+ramp_cycles = 1.0
+max_cycles = 10
+sparse = false
+"""
+
 MASS_MODEL_CASES = {
     "tip": MassModel("tip", payload=THESIS_TIP_MASS_KG),
     "joints": MassModel("joints"),

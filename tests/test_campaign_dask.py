@@ -12,6 +12,8 @@ from compare.cli import main
 from compare.config import parse_config
 from compare.runner import run_campaign
 
+from .conftest import QUICK_DYNAMIC
+
 CONFIG = """
 [campaign]
 name = "dask"
@@ -21,15 +23,7 @@ n_modes = 2
 mechanisms = ["source", "cognate"]
 mass_models = ["extender"]
 rpm = [60.0, 120.0]
-[dynamic]
-element = "ancf"
-elements_per_link = 2
-steps_per_cycle = 36
-spectral_radius = 0.6
-ramp_cycles = 1.0
-max_cycles = 10
-sparse = false
-"""
+""" + QUICK_DYNAMIC
 
 
 @pytest.fixture(scope="module")

@@ -19,6 +19,8 @@ from compare import store
 from compare.config import parse_config
 from compare.runner import run_campaign
 
+from .conftest import QUICK_DYNAMIC
+
 CONFIG = """
 [campaign]
 name = "killme"
@@ -28,15 +30,7 @@ n_modes = 2
 mechanisms = ["source", "cognate"]
 mass_models = ["extender", "joints"]
 rpm = [30.0, 45.0, 60.0, 75.0]
-[dynamic]
-element = "ancf"
-elements_per_link = 2
-steps_per_cycle = 36
-spectral_radius = 0.6
-ramp_cycles = 1.0
-max_cycles = 10
-sparse = false
-"""
+""" + QUICK_DYNAMIC
 
 
 def _start(cfg_file, out):

@@ -17,6 +17,8 @@ from compare.cli import main
 from compare.config import parse_config
 from compare.runner import plan, run_campaign
 
+from .conftest import QUICK_DYNAMIC
+
 QUICK = """
 [campaign]
 name = "quick"
@@ -26,15 +28,7 @@ n_modes = 2
 mechanisms = ["source", "cognate"]
 mass_models = ["extender", {name = "tip", payload_kg = 0.5}]
 rpm = [60.0]
-[dynamic]
-element = "ancf"
-elements_per_link = 2
-steps_per_cycle = 36
-spectral_radius = 0.6
-ramp_cycles = 1.0
-max_cycles = 10
-sparse = false
-"""
+""" + QUICK_DYNAMIC
 
 # stiffness scaled by 1e-3 at 60 rpm puts the tip-mass scene far above its first resonance: the
 # Exudyn Newton iteration diverges during the start-up ramp (a genuine solver failure, no mock)
@@ -47,15 +41,7 @@ n_modes = 2
 mass_models = [{name = "tip", payload_kg = 0.5}]
 rpm = [60.0]
 stiffness_scales = [1.0, 1.0e-3, 0.5]
-[dynamic]
-element = "ancf"
-elements_per_link = 2
-steps_per_cycle = 36
-spectral_radius = 0.6
-ramp_cycles = 1.0
-max_cycles = 10
-sparse = false
-"""
+""" + QUICK_DYNAMIC
 
 
 @pytest.fixture(scope="module")
