@@ -59,7 +59,7 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
     Scenes already stored in the results file are skipped, so rerunning resumes an interrupted
     campaign.  Prints a summary table and writes figures at the end.
     """
-    from compare.runner import default_workers, plan, run_campaign
+    from compare.runner import SettingsMismatchError, default_workers, plan, run_campaign
 
     try:
         cfg = load_config(config)
@@ -80,7 +80,7 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
     try:
         summary = run_campaign(cfg, out, workers=workers, scheduler=scheduler, retry_failed=retry_failed,
                                progress=progress)
-    except store.LockedError as exc:
+    except (store.LockedError, SettingsMismatchError) as exc:
         raise click.ClickException(str(exc)) from exc
     order = {k: i for i, k in enumerate(summary.keys)}
     results = sorted((r for r in store.read_scenes(out) if r.key in order), key=lambda r: order[r.key])

@@ -10,6 +10,7 @@ the scenes still being computed.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import json
 import multiprocessing
 import os
 import sys
@@ -17,15 +18,15 @@ import time
 import uuid
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 from compare import store
 from compare.config import CampaignConfig
-from compare.execute import run_scene
+from compare.execute import build_settings, run_scene
 from compare.results import STATUS_FAILED, STATUS_OK, RunStats, SceneResult
-from compare.scenes import SceneSpec
+from compare.scenes import SceneSpec, canonical_json
 
 
 @dataclass(frozen=True)
@@ -60,6 +61,35 @@ def plan(scenes: Iterable[SceneSpec], stored: dict[str, str], retry_failed: bool
         else:
             skipped.append(s)
     return Plan(tuple(todo), tuple(skipped))
+
+
+class SettingsMismatchError(ValueError):
+    """Stored scenes were computed with other resolved Exudyn settings than the current ones."""
+
+
+def check_stored_settings(skipped: Iterable[SceneSpec], stored: dict[str, dict[str, Any]],
+                          resolve: Callable[[SceneSpec], dict[str, Any]]) -> None:
+    """Refuse to resume onto scenes computed with different resolved Exudyn settings.
+
+    A scene's content key hashes only the ``[dynamic]`` settings given explicitly, so a stored scene
+    computed under older ``DynamicSettings`` defaults would otherwise be silently reused.
+    ``resolve``: spec -> the settings the current code would use (field -> value)."""
+    problems = []
+    for spec in skipped:
+        old = stored.get(spec.key)
+        if old is None:
+            continue
+        new = resolve(spec)
+        diff = {k: (old.get(k), new.get(k)) for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)}
+        if diff:
+            fields = ", ".join(f"{k}: stored {a!r} -> now {b!r}" for k, (a, b) in diff.items())
+            problems.append(f"{spec.label} [{spec.key}]: {fields}")
+    if problems:
+        shown = "\n  ".join(problems[:5]) + (f"\n  ... and {len(problems) - 5} more" if len(problems) > 5 else "")
+        raise SettingsMismatchError(
+            f"{len(problems)} stored scene(s) were computed with other Exudyn settings than the current "
+            f"defaults would give; resuming would mix them:\n  {shown}\n"
+            "Write to a new --out file, or pin these settings in the config's [dynamic] table.")
 
 
 def default_workers() -> int:
@@ -227,6 +257,8 @@ def _run_locked(config: CampaignConfig, out: Path, *, workers: int | None, sched
     scenes = config.scenes()
     store.remove_stale_temp_files(out)
     p = plan(scenes, store.stored_status(out), retry_failed)
+    check_stored_settings(p.skipped, store.stored_dynamic_settings(out),
+                          lambda spec: json.loads(canonical_json(asdict(build_settings(spec)))))
     run = store.record_run(out, config.text, config.name, len(scenes))
     counts = {STATUS_OK: 0, STATUS_FAILED: 0}
     lost: list[SceneSpec] = []

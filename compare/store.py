@@ -382,6 +382,19 @@ def stored_status(path: str | Path) -> dict[str, str]:
         return {k: _s(g.attrs["status"]) for k, g in scenes.items() if _complete(g)}
 
 
+def stored_dynamic_settings(path: str | Path) -> dict[str, dict[str, Any]]:
+    """key -> resolved Exudyn settings (``dynamic_settings/json``) of every complete scene group."""
+    path = Path(path)
+    if not path.exists():
+        return {}
+    with h5py.File(path, "r") as f:
+        scenes = f.get(SCENES)
+        if scenes is None:
+            return {}
+        return {k: json.loads(_s(g["dynamic_settings"].attrs["json"])) for k, g in scenes.items()
+                if _complete(g) and "dynamic_settings" in g}
+
+
 def file_info(path: str | Path) -> dict[str, Any]:
     """File attributes (strings/numbers) plus ``n_runs``."""
     with h5py.File(path, "r") as f:

@@ -82,6 +82,30 @@ def test_rerun_skips_stored_scenes(quick_run):
     assert {s.speed.value for s in p.todo} == {90.0}
 
 
+def test_resume_refuses_scenes_computed_with_other_default_settings(quick_run, tmp_path):
+    # content keys hash only the explicit [dynamic] settings; a stored scene whose *resolved* settings differ
+    # from what the current DynamicSettings defaults give (here steady_tol, not pinned by QUICK) must not be
+    # silently reused: the rerun is refused before anything is written
+    import json
+    import shutil
+
+    from compare.runner import SettingsMismatchError
+
+    cfg, out, _ = quick_run
+    old = tmp_path / "old-defaults.h5"
+    shutil.copy(out, old)
+    key = cfg.scenes()[0].key
+    with h5py.File(old, "r+") as f:
+        attrs = f["scenes"][key]["dynamic_settings"].attrs
+        settings = json.loads(attrs["json"])
+        settings["steady_tol"] = 0.01
+        attrs["json"] = json.dumps(settings, sort_keys=True, separators=(",", ":"))
+    before = old.read_bytes()
+    with pytest.raises(SettingsMismatchError, match="steady_tol: stored 0.01"):
+        run_campaign(cfg, old, workers=1, progress=False)
+    assert old.read_bytes() == before
+
+
 def test_failing_scene_is_recorded_and_others_complete(tmp_path):
     out = tmp_path / "fail.h5"
     summary = run_campaign(parse_config(FAILING), out, workers=2, progress=False)
