@@ -21,6 +21,7 @@ from .scene import Scene
 from .structure import (
     Geometry,
     Topology,
+    element_deformations,
     element_flexibility,
     element_forces,
     force_transformation,
@@ -109,7 +110,7 @@ def solve_quasi_static(scene: Scene, crank_angle: np.ndarray | None = None) -> Q
     loads = inertia_loads(scene, topo, lm, theta, geo, lp)
     with np.errstate(divide="ignore", invalid="ignore"):
         f = element_forces(topo, geo, loads)  # f = beta P
-        d = (F @ f[..., None])[..., 0]  # element deformations F f
+        d = element_deformations(F, f)  # F f
         nodes, rot = nodal_deflections(topo, geo, d)  # delta = beta^T F beta P
     cond, flagged, singular = _toggle_mask(geo.sin_transmission)
     nodes[singular] = np.nan

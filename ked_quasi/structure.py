@@ -252,11 +252,14 @@ def element_flexibility(fourbar: FourBar, topo: Topology) -> np.ndarray:
     return out
 
 
-def apply_flexibility(F: np.ndarray, f: np.ndarray) -> np.ndarray:
-    """Element deformations d = F f for element forces f shaped (..., 3 * n_elements)."""
-    E = F.shape[0]
-    fb = f.reshape(*f.shape[:-1], E, 3)
-    return np.einsum("eij,...ej->...ei", F, fb).reshape(f.shape)
+def element_deformations(F: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Element deformations d = F f for element forces f (n, E, 3), using the cantilever flexibility's
+    structure (axial decoupled from bending, as built by :func:`element_flexibility`)."""
+    d = np.empty_like(f)
+    d[..., 0] = F[:, 0, 0] * f[..., 0]
+    d[..., 1] = F[:, 1, 1] * f[..., 1] + F[:, 1, 2] * f[..., 2]
+    d[..., 2] = F[:, 2, 1] * f[..., 1] + F[:, 2, 2] * f[..., 2]
+    return d
 
 
 def system_flexibility(F: np.ndarray, beta: np.ndarray) -> np.ndarray:
