@@ -22,7 +22,7 @@ import shutil
 import socket
 import subprocess
 import uuid
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from importlib import metadata
 from pathlib import Path
@@ -370,8 +370,8 @@ def _complete(g: h5py.Group) -> bool:
     return int(g.attrs.get("complete", 0)) == 1
 
 
-def stored_status(path: str | Path) -> dict[str, str]:
-    """key -> status of every complete scene group (empty if the file does not exist)."""
+def _map_complete(path: str | Path, read: Callable[[h5py.Group], Any]) -> dict[str, Any]:
+    """key -> read(group) for every complete scene group (empty if the file does not exist)."""
     path = Path(path)
     if not path.exists():
         return {}
@@ -379,20 +379,19 @@ def stored_status(path: str | Path) -> dict[str, str]:
         scenes = f.get(SCENES)
         if scenes is None:
             return {}
-        return {k: _s(g.attrs["status"]) for k, g in scenes.items() if _complete(g)}
+        return {k: read(g) for k, g in scenes.items() if _complete(g)}
+
+
+def stored_status(path: str | Path) -> dict[str, str]:
+    """key -> status of every complete scene group (empty if the file does not exist)."""
+    return _map_complete(path, lambda g: _s(g.attrs["status"]))
 
 
 def stored_dynamic_settings(path: str | Path) -> dict[str, dict[str, Any]]:
     """key -> resolved Exudyn settings (``dynamic_settings/json``) of every complete scene group."""
-    path = Path(path)
-    if not path.exists():
-        return {}
-    with h5py.File(path, "r") as f:
-        scenes = f.get(SCENES)
-        if scenes is None:
-            return {}
-        return {k: json.loads(_s(g["dynamic_settings"].attrs["json"])) for k, g in scenes.items()
-                if _complete(g) and "dynamic_settings" in g}
+    found = _map_complete(path, lambda g: _s(g["dynamic_settings"].attrs["json"]) if "dynamic_settings" in g
+                          else None)
+    return {k: json.loads(v) for k, v in found.items() if v is not None}
 
 
 def file_info(path: str | Path) -> dict[str, Any]:
