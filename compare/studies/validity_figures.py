@@ -61,6 +61,18 @@ def _qs_shape(fs: FamilySummary) -> np.ndarray | None:
     return None
 
 
+def _log_axes(ax, title: str, ylabel: str, ylim: tuple[float, float], legend_loc: str) -> None:
+    """Log-log axes over the speed ratio r, with title, labels, grid and legend."""
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_ylim(*ylim)
+    ax.set_title(title)
+    ax.set_xlabel("r = Omega / omega1_min")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, alpha=0.25)
+    ax.legend(fontsize=7, loc=legend_loc)
+
+
 def error_figure(summaries: Sequence[FamilySummary]) -> Figure:
     """Relative error of the quasi-static solution vs r: history error (solid), peak error (dashed);
     x at the top: dynamic solver failed; open markers: solved by the retry (4x steps per cycle)."""
@@ -80,14 +92,7 @@ def error_figure(summaries: Sequence[FamilySummary]) -> Figure:
         for tol in TOLERANCES:
             ax.axhline(tol, color="k", lw=0.8, ls="-." if tol < 0.1 else "-")
         _resonances(ax)
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_ylim(1e-3, 10)
-        ax.set_title(f"{lk} / {mech}")
-        ax.set_xlabel("r = Omega / omega1_min")
-        ax.set_ylabel("relative error of quasi-static")
-        ax.grid(True, alpha=0.25)
-        ax.legend(fontsize=7, loc="lower right")
+        _log_axes(ax, f"{lk} / {mech}", "relative error of quasi-static", (1e-3, 10), "lower right")
     fig.suptitle("Quasi-static error vs speed ratio (solid: whole history, dashed: peak |d|; "
                  "x: dynamic failed; lines 5 %, 10 %)", fontsize=9)
     _layout(fig)
@@ -112,14 +117,7 @@ def amplification_figure(summaries: Sequence[FamilySummary]) -> Figure:
             ax.plot(bad, [0.55] * len(bad), "x", color=c, ms=6)
         _resonances(ax)
         ax.axhline(1.0, color="k", lw=0.6)
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_ylim(0.5, 20)
-        ax.set_title(f"{lk} / {mech}")
-        ax.set_xlabel("r = Omega / omega1_min")
-        ax.set_ylabel("dynamic amplification")
-        ax.grid(True, alpha=0.25)
-        ax.legend(fontsize=7, loc="upper left")
+        _log_axes(ax, f"{lk} / {mech}", "dynamic amplification", (0.5, 20), "upper left")
     fig.suptitle("Dynamic amplification of the peak deflection (dotted: one-mode estimate; "
                  "x: dynamic failed)", fontsize=9)
     _layout(fig)
