@@ -69,7 +69,7 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
     out = out or DEFAULT_DIR / f"{_safe_name(cfg.name)}.h5"
     scenes = cfg.scenes()
     if dry_run:
-        p = plan(scenes, store.stored_status(out), retry_failed)
+        p = plan(scenes, store.stored_status(out), retry_failed, store.stored_solutions(out))
         todo = {s.key for s in p.todo}
         click.echo(f"campaign {cfg.name!r}: {len(scenes)} scenes, {len(p.todo)} to run, "
                    f"{len(p.skipped)} already in {out}")

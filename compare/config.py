@@ -8,7 +8,6 @@ out-of-range value, bad combination) is collected with its TOML path and reporte
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 import math
 from dataclasses import dataclass
@@ -21,23 +20,16 @@ try:  # Python >= 3.11
 except ModuleNotFoundError:  # pragma: no cover - Python 3.10
     import tomli as tomllib  # type: ignore[no-redef]
 
-from compare.scenes import (
-    BRANCHES,
-    COMPONENTS,
-    DIRECTIONS,
-    LINKS,
-    MASS_MODEL_NAMES,
-    MECHANISMS,
-    LinkageSpec,
-    MassModelSpec,
-    SceneSpec,
-    SectionSpec,
-    SpeedSpec,
-    expand_grid,
-)
+from compare import solvers as solver_registry
+from compare.scenes import DEFAULT_SOLVERS, MECHANISMS, Grid, Items, SceneSpec, SpeedSpec
+from compare.solvers import COMPONENTS
+from ked_quasi import rules
+from ked_quasi.linkage import BRANCHES, DIRECTIONS, LINKS, SECTION_RULES, THESIS_RPM, FourBar, thesis_fourbar
+from ked_quasi.massmodel import MASS_MODELS, PLACEMENTS, MassModel, default_payload
+from ked_quasi.scene import variant
 
 DEFAULT_TOLERANCE = 0.10
-SECTION_KEYS = ("youngs_modulus", "area", "second_moment", "density")
+SECTION_KEYS = tuple(SECTION_RULES)
 
 # Range rules for known exudyn_models.DynamicSettings fields: (kind, low, high, low_open).
 # kind: "int", "float", "str:<a>|<b>", "bool".  Unknown-but-existing fields are type-checked
@@ -57,19 +49,6 @@ _DYNAMIC_RULES: dict[str, tuple[str, float | None, float | None, bool]] = {
     "newton_max_iterations": ("int", 1, 1000, False),
     "sparse": ("bool", None, None, False),
 }
-# Fields assumed when exudyn_models is not importable (from the API contract).
-_CONTRACT_DYNAMIC_FIELDS = (
-    "element",
-    "elements_per_link",
-    "steps_per_cycle",
-    "spectral_radius",
-    "damping_ratio",
-    "damping_reference_hz",
-    "steady_tol",
-    "max_cycles",
-)
-
-
 class ConfigError(ValueError):
     """Invalid campaign configuration; ``problems`` lists ``"toml.path: message"`` strings."""
 
@@ -84,38 +63,20 @@ class CampaignConfig:
     """A validated campaign.  ``text`` is the TOML source (stored in the results file)."""
 
     name: str
-    tolerance: float
-    outputs: tuple[str, ...]
-    step_deg: float
-    n_modes: int
-    linkage: LinkageSpec
-    mechanisms: tuple[str, ...]
-    mass_models: tuple[MassModelSpec, ...]
-    speeds: tuple[SpeedSpec, ...]
-    stiffness_scales: tuple[float, ...]
-    damping_ratios: tuple[float, ...]
-    directions: tuple[str, ...]
-    dynamic: tuple[tuple[str, Any], ...]
+    grid: Grid
     text: str = ""
-    dynamic_variants: tuple[tuple[tuple[str, Any], ...], ...] = ((),)
 
     def scenes(self) -> tuple[SceneSpec, ...]:
-        """All scenes of the campaign grid (see :func:`compare.scenes.expand_grid`)."""
-        return expand_grid(
-            linkage=self.linkage,
-            mechanisms=self.mechanisms,
-            mass_models=self.mass_models,
-            speeds=self.speeds,
-            stiffness_scales=self.stiffness_scales,
-            damping_ratios=self.damping_ratios,
-            directions=self.directions,
-            step_deg=self.step_deg,
-            n_modes=self.n_modes,
-            outputs=self.outputs,
-            tolerance=self.tolerance,
-            dynamic=self.dynamic,
-            dynamic_variants=self.dynamic_variants,
-        )
+        """All scenes of the campaign grid (see :meth:`compare.scenes.Grid.expand`)."""
+        return self.grid.expand()
+
+    @property
+    def linkage(self) -> FourBar:
+        return self.grid.linkage
+
+    @property
+    def solvers(self) -> tuple[str, ...]:
+        return self.grid.solvers
 
 
 # --------------------------------------------------------------------------------------------------
@@ -132,11 +93,26 @@ def load_config(path: str | Path | None = None) -> CampaignConfig:
     if path is None:
         return parse_config(default_config_text(), source="<default campaign>")
     p = Path(path)
+    return parse_config(_read_text(p), source=str(p))
+
+
+def _read_text(p: Path) -> str:
+    """The file's text; ConfigError naming the file if it cannot be read or is not UTF-8 text."""
     try:
-        text = p.read_text(encoding="utf-8")
+        return p.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise ConfigError(["not a text file (a TOML campaign config is UTF-8 text)"], source=str(p)) from None
+    except IsADirectoryError:
+        raise ConfigError(["is a directory, not a TOML file"], source=str(p)) from None
     except OSError as exc:
-        raise ConfigError([f"cannot read file: {exc}"], source=str(p)) from exc
-    return parse_config(text, source=str(p))
+        raise ConfigError([f"cannot read file: {exc.strerror or exc}"], source=str(p)) from None
+
+
+def _read_toml(p: Path) -> dict[str, Any]:
+    try:
+        return tomllib.loads(_read_text(p))
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError([f"TOML syntax error: {exc}"], source=str(p)) from None
 
 
 def parse_config(text: str, source: str = "campaign config") -> CampaignConfig:
@@ -148,184 +124,184 @@ def parse_config(text: str, source: str = "campaign config") -> CampaignConfig:
     return validate(doc, text=text, source=source)
 
 
-def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config") -> CampaignConfig:
-    """Validate a parsed TOML document (pure apart from importing the thesis preset)."""
-    c = _Checker()
-    c.keys(doc, "", ("campaign", "linkage", "grid", "dynamic"))
+TOP_TABLES = ("campaign", "linkage", "grid", "dynamic")
 
+
+def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config") -> CampaignConfig:
+    """Validate a parsed TOML document; raise :class:`ConfigError` listing every problem."""
+    c = _Checker()
+    extra_tables = tuple(n for n in solver_registry.names() if n not in ("dynamic", "quasi_static"))
+    c.keys(doc, "", (*TOP_TABLES, *extra_tables))
     camp = c.table(doc, "campaign")
+    c.keys(camp, "campaign", ("name", "tolerance", "outputs", "step_deg", "n_modes", "solvers"))
     name = c.string(camp, "campaign.name", default="campaign")
-    tolerance = c.number(camp, "campaign.tolerance", default=DEFAULT_TOLERANCE, lo=0.0, hi=10.0, lo_open=True)
+    tolerance = c.rule(camp, "campaign.tolerance", rules.TOLERANCE, default=DEFAULT_TOLERANCE)
     outputs = c.choices(camp, "campaign.outputs", COMPONENTS, default=COMPONENTS)
     outputs = tuple(x for x in COMPONENTS if x in outputs)  # canonical order: same scenes, same keys
-    step_deg = c.number(camp, "campaign.step_deg", default=10.0, lo=0.0, hi=45.0, lo_open=True)
-    if step_deg is not None and step_deg > 0:
-        n = 360.0 / step_deg
-        if abs(n - round(n)) > 1e-9:
-            c.err("campaign.step_deg", f"must divide 360 degrees into whole steps (got {step_deg!r})")
-    n_modes = c.integer(camp, "campaign.n_modes", default=3, lo=1, hi=20)
-    c.keys(camp, "campaign", ("name", "tolerance", "outputs", "step_deg", "n_modes"))
-
-    linkage = _linkage(c, c.table(doc, "linkage"))
-
+    step_deg = c.check(camp, "campaign.step_deg", rules.check_step_deg, default=10.0)
+    n_modes = c.rule(camp, "campaign.n_modes", rules.N_MODES, default=3)
+    solvers = c.choices(camp, "campaign.solvers", solver_registry.names(), default=DEFAULT_SOLVERS)
+    if solvers and "quasi_static" not in solvers:
+        c.err("campaign.solvers", "must include 'quasi_static' (every verdict measures it)")
+    linkage = linkage_from_table(c, c.table(doc, "linkage"))
     grid = c.table(doc, "grid")
-    c.keys(
-        grid,
-        "grid",
-        ("mechanisms", "mass_models", "rpm", "speed_ratios", "stiffness_scales", "damping_ratios",
-         "directions", "dynamic_variants"),
-    )
-    mechanisms = c.choices(grid, "grid.mechanisms", MECHANISMS, default=("source",))
-    mass_models = _mass_models(c, grid)
-    rpms = c.numbers(grid, "grid.rpm", default=(), lo=0.0, hi=1e5, lo_open=True)
-    ratios = c.numbers(grid, "grid.speed_ratios", default=(), lo=0.0, hi=10.0, lo_open=True)
-    if "rpm" not in grid and "speed_ratios" not in grid:
-        rpms = (_thesis_rpm(c),)
-    elif not rpms and not ratios and not any(b.startswith(("grid.rpm", "grid.speed_ratios")) for b in c.bad):
-        c.err("grid", "at least one crank speed is required in grid.rpm or grid.speed_ratios")
-    speeds = tuple(SpeedSpec("rpm", v) for v in rpms) + tuple(SpeedSpec("ratio", v) for v in ratios)
-    stiffness = c.numbers(grid, "grid.stiffness_scales", default=(1.0,), lo=0.0, hi=1e6, lo_open=True)
-    damping = c.numbers(grid, "grid.damping_ratios", default=(0.02,), lo=0.0, hi=0.99)
-    directions = c.choices(grid, "grid.directions", DIRECTIONS, default=("ccw",))
-
+    c.keys(grid, "grid", ("mechanisms", "mass_models", "rpm", "speed_ratios", "stiffness_scales", "damping_ratios",
+                          "directions", "dynamic_variants"))
     dynamic_raw = c.table(doc, "dynamic")
-    dynamic = _dynamic(c, dynamic_raw)
-    variants = _dynamic_variants(c, grid, dynamic_raw)
-
+    fields = dict(
+        linkage=linkage, mechanisms=c.choices(grid, "grid.mechanisms", MECHANISMS, default=("source",)),
+        mass_models=_mass_models(c, grid), speeds=_speeds(c, grid),
+        stiffness_scales=c.rules(grid, "grid.stiffness_scales", rules.STIFFNESS_SCALE, default=(1.0,)),
+        damping_ratios=c.rules(grid, "grid.damping_ratios", rules.DAMPING_RATIO, default=(0.02,)),
+        directions=c.choices(grid, "grid.directions", DIRECTIONS, default=("ccw",)),
+        step_deg=step_deg, n_modes=n_modes, outputs=outputs, tolerance=tolerance,
+        dynamic=_dynamic(c, dynamic_raw), dynamic_variants=_dynamic_variants(c, grid, dynamic_raw),
+        extra_settings=_extra_settings(c, doc, extra_tables), solvers=tuple(x for x in solver_registry.names()
+                                                                            if x in solvers))
+    if not c.problems:
+        _check_mechanisms(c, fields["linkage"], fields["mechanisms"])
     if c.problems:
         raise ConfigError(c.problems, source=source)
-    assert linkage is not None
-    return CampaignConfig(
-        name=name,
-        tolerance=tolerance,
-        outputs=outputs,
-        step_deg=step_deg,
-        n_modes=n_modes,
-        linkage=linkage,
-        mechanisms=mechanisms,
-        mass_models=mass_models,
-        speeds=speeds,
-        stiffness_scales=stiffness,
-        damping_ratios=damping,
-        directions=directions,
-        dynamic=dynamic,
-        text=text,
-        dynamic_variants=variants,
-    )
+    return CampaignConfig(name=name, grid=Grid(**fields), text=text)
 
 
 # --------------------------------------------------------------------------------------------------
 # sections of the document
 
 
+def _speeds(c: _Checker, grid: dict[str, Any]) -> tuple[SpeedSpec, ...]:
+    rpms = c.rules(grid, "grid.rpm", rules.RPM, default=())
+    ratios = c.rules(grid, "grid.speed_ratios", rules.SPEED_RATIO, default=())
+    if "rpm" not in grid and "speed_ratios" not in grid:
+        rpms = (THESIS_RPM,)
+    elif not rpms and not ratios and not any(b.startswith(("grid.rpm", "grid.speed_ratios")) for b in c.bad):
+        c.err("grid", "at least one crank speed is required in grid.rpm or grid.speed_ratios")
+    return tuple(SpeedSpec("rpm", v) for v in rpms) + tuple(SpeedSpec("ratio", v) for v in ratios)
+
+
+def _check_mechanisms(c: _Checker, source: FourBar, mechanisms: tuple[str, ...]) -> None:
+    """Every requested mechanism must be crank-drivable (refused at load, not stored as failed)."""
+    for mech in mechanisms:
+        try:
+            variant(source, mech)
+        except ValueError as exc:
+            c.err("grid.mechanisms", f"{mech!r}: {exc}")
+
+
 _LINKAGE_NUMBERS = ("crank", "coupler", "follower", "extender")
 
 
-def _linkage(c: _Checker, tab: dict[str, Any]) -> LinkageSpec | None:
-    allowed = ("preset", *_LINKAGE_NUMBERS, "coupler_angle_deg", "ground", "branch", "section", "sections")
-    c.keys(tab, "linkage", allowed)
-    geometric = (*_LINKAGE_NUMBERS, "coupler_angle_deg", "ground")
-    base: dict[str, Any] = {}
-    explicit = False
-    if "preset" in tab:
-        preset_name = c.string(tab, "linkage.preset", choices=("thesis",))
-        if preset_name is None:
-            return None
-        base = _thesis_linkage(c)
-    elif any(k in tab for k in geometric):
-        explicit = True
-    else:
-        base = _thesis_linkage(c)  # no [linkage] dimensions -> thesis linkage
+def load_linkage(path: str | Path) -> FourBar:
+    """The ``[linkage]`` table of a TOML file (campaign schema; other tables are ignored) as the source
+    four-bar; :class:`ConfigError` naming the file and every problem otherwise."""
+    p = Path(path)
+    doc = _read_toml(p)
+    c = _Checker()
+    fb = linkage_from_table(c, c.table(doc, "linkage"))
+    if c.problems or fb is None:
+        raise ConfigError(c.problems or ["linkage: missing"], source=str(p))
+    return fb
+
+
+def linkage_from_table(c: _Checker, tab: dict[str, Any]) -> FourBar | None:
+    """A ``[linkage]`` table (campaign schema) -> the source :class:`FourBar` (None after a problem)."""
+    c.keys(tab, "linkage", ("preset", *_LINKAGE_NUMBERS, "coupler_angle_deg", "ground", "branch", "section",
+                            "sections"))
+    explicit = "preset" not in tab and any(k in tab for k in (*_LINKAGE_NUMBERS, "coupler_angle_deg", "ground"))
+    if "preset" in tab and c.string(tab, "linkage.preset", choices=("thesis",)) is None:
+        return None
+    base = None if explicit else thesis_fourbar().to_dict()
     vals: dict[str, Any] = {}
     for k in _LINKAGE_NUMBERS:
-        vals[k] = c.number(tab, f"linkage.{k}", default=base.get(k), lo=0.0, hi=1e3, lo_open=True,
-                           required=explicit)
-    if "coupler_angle_deg" in tab:
-        ang = c.number(tab, "linkage.coupler_angle_deg", lo=-360.0, hi=360.0)
-        vals["coupler_angle"] = None if ang is None else math.radians(ang)
-    elif explicit:
-        c.err("linkage.coupler_angle_deg", "required when no preset is given")
-        vals["coupler_angle"] = None
-    else:
-        vals["coupler_angle"] = base.get("coupler_angle")
-    if "ground" in tab:
-        ground = c.number(tab, "linkage.ground", lo=0.0, hi=1e3, lo_open=True)
-        vals["crank_pivot"] = (0.0, 0.0)
-        vals["follower_pivot"] = (ground, 0.0) if ground is not None else None
-    elif explicit:
-        c.err("linkage.ground", "required when no preset is given")
-        vals["crank_pivot"] = vals["follower_pivot"] = None
-    else:
-        vals["crank_pivot"] = base.get("crank_pivot")
-        vals["follower_pivot"] = base.get("follower_pivot")
-    vals["branch"] = c.string(tab, "linkage.branch", default=base.get("branch", "open"), choices=BRANCHES)
+        vals[k] = c.rule(tab, f"linkage.{k}", rules.LENGTH, default=base and base[k], required=explicit)
+    ang = c.rule(tab, "linkage.coupler_angle_deg", rules.COUPLER_ANGLE_DEG, required=explicit)
+    vals["coupler_angle"] = math.radians(ang) if ang is not None else base and base["coupler_angle"]
+    ground = c.rule(tab, "linkage.ground", rules.LENGTH, required=explicit)
+    vals["crank_pivot"] = [0.0, 0.0] if ground is not None else base and base["crank_pivot"]
+    vals["follower_pivot"] = [ground, 0.0] if ground is not None else base and base["follower_pivot"]
+    vals["branch"] = c.string(tab, "linkage.branch", default=base["branch"] if base else "open", choices=BRANCHES)
+    vals["sections"] = _sections(c, tab, base["sections"] if base else None)
+    if c.problems or any(v is None for v in vals.values()):
+        return None
+    try:
+        return FourBar.from_dict(vals)
+    except ValueError as exc:
+        c.err("linkage", str(exc))
+        return None
 
-    # sections: [linkage.section] applies to all links, [linkage.sections.<link>] overrides
+
+def _sections(c: _Checker, tab: dict[str, Any], base: list[dict[str, float]] | None) -> list[dict[str, float]] | None:
+    """``[linkage.section]`` applies to all links, ``[linkage.sections.<link>]`` overrides."""
     common = c.table(tab, "section", path="linkage.section")
     c.keys(common, "linkage.section", SECTION_KEYS)
     per = c.table(tab, "sections", path="linkage.sections")
     c.keys(per, "linkage.sections", LINKS)
-    sections = []
-    base_sections = base.get("sections")
+    out = []
     for i, link in enumerate(LINKS):
         own = c.table(per, link, path=f"linkage.sections.{link}")
         c.keys(own, f"linkage.sections.{link}", SECTION_KEYS)
         props = {}
-        for key in SECTION_KEYS:
-            default = base_sections[i][key] if base_sections else None
+        for key, rule in SECTION_RULES.items():
             if key in own:
-                props[key] = c.number(own, f"linkage.sections.{link}.{key}", lo=0.0, hi=1e15, lo_open=True)
+                props[key] = c.rule(own, f"linkage.sections.{link}.{key}", rule)
             elif key in common:
-                props[key] = c.number(common, f"linkage.section.{key}", lo=0.0, hi=1e15, lo_open=True)
-            elif default is not None:
-                props[key] = default
+                props[key] = c.rule(common, f"linkage.section.{key}", rule)
+            elif base is not None:
+                props[key] = base[i][key]
             else:
                 c.err(f"linkage.sections.{link}.{key}",
                       "missing (give it in [linkage.section] or [linkage.sections." + link + "])")
                 props[key] = None
-        sections.append(props)
-    if any(v is None for v in vals.values()) or any(v is None for s in sections for v in s.values()):
-        return None
-    return LinkageSpec(
-        crank=vals["crank"],
-        coupler=vals["coupler"],
-        follower=vals["follower"],
-        extender=vals["extender"],
-        coupler_angle=vals["coupler_angle"],
-        crank_pivot=tuple(vals["crank_pivot"]),
-        follower_pivot=tuple(vals["follower_pivot"]),
-        branch=vals["branch"],
-        sections=tuple(SectionSpec(**s) for s in sections),
-    )
+        out.append(props)
+    return None if any(v is None for p in out for v in p.values()) else out
 
 
-def _mass_models(c: _Checker, grid: dict[str, Any]) -> tuple[MassModelSpec, ...]:
+def _mass_models(c: _Checker, grid: dict[str, Any]) -> tuple[MassModel, ...]:
     path = "grid.mass_models"
     raw = grid.get("mass_models", ["tip"])
     if not isinstance(raw, list) or not raw:
         c.err(path, f"must be a non-empty array of names or tables, got {_tname(raw)}")
         return ()
-    out: list[MassModelSpec] = []
+    out: list[MassModel] = []
     for i, item in enumerate(raw):
         p = f"{path}[{i}]"
-        if isinstance(item, str):
-            item = {"name": item}
+        item = {"name": item} if isinstance(item, str) else item
         if not isinstance(item, dict):
             c.err(p, f"must be a mass-model name or a table, got {_tname(item)}")
             continue
         c.keys(item, p, ("name", "lumps", "payload_kg", "joint_split", "placement"))
-        name = c.string(item, f"{p}.name", required=True, choices=MASS_MODEL_NAMES)
-        lumps = c.integer(item, f"{p}.lumps", default=5, lo=1, hi=100)
-        default_payload = _thesis_tip_mass(c) if name == "tip" else 0.0
-        payload = c.number(item, f"{p}.payload_kg", default=default_payload, lo=0.0, hi=1e4)
-        if name == "tip" and payload is not None and payload <= 0.0:
-            c.err(f"{p}.payload_kg", "the 'tip' mass model needs a payload > 0 kg")
-        split = c.number(item, f"{p}.joint_split", default=0.5, lo=0.0, hi=1.0)
-        placement = c.string(item, f"{p}.placement", default="midpoint", choices=("midpoint", "end"))
-        if None not in (name, lumps, payload, split, placement):
-            out.append(MassModelSpec(name, lumps, payload, split, placement))
+        name = c.string(item, f"{p}.name", required=True, choices=MASS_MODELS)
+        vals = dict(name=name, lumps=c.rule(item, f"{p}.lumps", rules.LUMPS, default=5),
+                    payload=c.rule(item, f"{p}.payload_kg", rules.PAYLOAD_KG, default=default_payload(name)),
+                    joint_split=c.rule(item, f"{p}.joint_split", rules.JOINT_SPLIT, default=0.5),
+                    placement=c.string(item, f"{p}.placement", default="midpoint", choices=PLACEMENTS))
+        if None in vals.values():
+            continue
+        try:
+            out.append(MassModel(**vals))
+        except ValueError as exc:
+            c.err(p, str(exc))
     if len(set(out)) != len(out):
         c.err(path, "duplicate mass models")
+    return tuple(out)
+
+
+def _extra_settings(c: _Checker, doc: dict[str, Any], tables: tuple[str, ...]) -> tuple[tuple[str, Items], ...]:
+    """Settings tables of solvers other than Exudyn (e.g. ``[linear]``): checked by building the
+    solver's settings from them."""
+    out = []
+    for name in tables:
+        if name not in doc:
+            continue
+        tab = c.table(doc, name)
+        solver = solver_registry.get(name)
+        fields = solver.setting_fields()
+        c.keys(tab, name, tuple(k for k in fields if k != "damping_ratio"))
+        try:
+            solver.make_settings(dict(tab), 0.02)
+        except (TypeError, ValueError) as exc:
+            c.err(name, str(exc))
+        out.append((name, tuple(sorted(tab.items()))))
     return tuple(out)
 
 
@@ -358,16 +334,9 @@ def _dynamic(c: _Checker, tab: dict[str, Any], prefix: str = "dynamic",
             out[key] = v
     if check_settings and not any(p.startswith(f"{prefix}.") for p in c.bad):
         try:
-            from compare.execute import dynamic_api
-
-            DynamicSettings, _ = dynamic_api()
-        except ImportError:
-            pass
-        else:
-            try:
-                DynamicSettings(**out)
-            except (TypeError, ValueError) as exc:
-                c.err(prefix, str(exc))
+            solver_registry.get("dynamic").make_settings(out, 0.02)
+        except (TypeError, ValueError) as exc:
+            c.err(prefix, str(exc))
     return tuple(sorted(out.items()))
 
 
@@ -415,67 +384,9 @@ def _dynamic_variants(c: _Checker, grid: dict[str, Any],
     return tuple(out) or ((),)
 
 
-# --------------------------------------------------------------------------------------------------
-# foundation look-ups (lazy so that importing this module stays cheap)
-
-
-def _thesis_linkage(c: _Checker) -> dict[str, Any]:
-    try:
-        from ked_quasi.linkage import LINKS as QL
-        from ked_quasi.linkage import thesis_fourbar
-    except ImportError as exc:  # pragma: no cover - foundation missing
-        c.err("linkage.preset", f"thesis preset unavailable: {exc}")
-        return {}
-    fb = thesis_fourbar()
-    secs = {name: fb.section(name) for name in QL}
-    return {
-        "crank": float(fb.crank),
-        "coupler": float(fb.coupler),
-        "follower": float(fb.follower),
-        "extender": float(fb.extender),
-        "coupler_angle": float(fb.coupler_angle),
-        "crank_pivot": (float(fb.crank_pivot[0]), float(fb.crank_pivot[1])),
-        "follower_pivot": (float(fb.follower_pivot[0]), float(fb.follower_pivot[1])),
-        "branch": str(fb.branch),
-        "sections": [
-            {k: float(getattr(secs[link], k)) for k in SECTION_KEYS} for link in LINKS
-        ],
-    }
-
-
-def _thesis_rpm(c: _Checker) -> float:
-    try:
-        from ked_quasi.linkage import THESIS_RPM
-    except ImportError:  # pragma: no cover
-        return 300.0
-    return float(THESIS_RPM)
-
-
-def _thesis_tip_mass(c: _Checker) -> float:
-    try:
-        from ked_quasi.linkage import THESIS_TIP_MASS_KG
-    except ImportError:  # pragma: no cover
-        return 0.90718474
-    return float(THESIS_TIP_MASS_KG)
-
-
 def _dynamic_fields() -> dict[str, Any]:
-    """Field name -> default value of ``exudyn_models.DynamicSettings`` (contract names if absent)."""
-    try:
-        from compare.execute import dynamic_api
-
-        DynamicSettings, _ = dynamic_api()
-    except ImportError:
-        return {name: None for name in _CONTRACT_DYNAMIC_FIELDS}
-    out: dict[str, Any] = {}
-    for f in dataclasses.fields(DynamicSettings):
-        if f.default is not dataclasses.MISSING:
-            out[f.name] = f.default
-        elif f.default_factory is not dataclasses.MISSING:  # type: ignore[misc]
-            out[f.name] = f.default_factory()  # type: ignore[misc]
-        else:
-            out[f.name] = None
-    return out
+    """Field name -> default value of the Exudyn model's settings."""
+    return solver_registry.get("dynamic").setting_fields()
 
 
 # --------------------------------------------------------------------------------------------------
@@ -518,6 +429,40 @@ class _Checker:
                 self.err(path, "required")
             return False, None
         return True, tab[key]
+
+    def check(self, tab, path, fn, *, default=None, required=False):
+        """A value checked by ``fn(value, path)`` (which raises ValueError with the message)."""
+        present, v = self._get(tab, path, required)
+        if not present:
+            return default
+        try:
+            return fn(v, path)
+        except ValueError as exc:
+            self.problems.append(str(exc))
+            self.bad.add(path)
+            return None
+
+    def rule(self, tab, path, rule, *, default=None, required=False):
+        """A value checked by a :class:`ked_quasi.rules.Rule`."""
+        return self.check(tab, path, rule.check, default=default, required=required)
+
+    def rules(self, tab, path, rule, *, default=()):
+        """An array of values, each checked by a :class:`ked_quasi.rules.Rule`; duplicates refused."""
+        v, dflt = self._array(tab, path, default)
+        if v is None:
+            return tuple(dflt)
+        out = []
+        for i, x in enumerate(v):
+            try:
+                y = rule.check(x, f"{path}[{i}]")
+            except ValueError as exc:
+                self.problems.append(str(exc))
+                self.bad.add(f"{path}[{i}]")
+                continue
+            out.append(y)
+        if len(set(out)) != len(out):
+            self.err(path, f"duplicate values in {v!r}")
+        return tuple(out)
 
     def number(self, tab, path, *, default=None, lo=None, hi=None, lo_open=False, required=False):
         present, v = self._get(tab, path, required)

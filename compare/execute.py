@@ -1,9 +1,9 @@
-"""Compute one scene: natural frequencies, quasi-static and dynamic solutions, metrics.
+"""Compute one scene: natural frequencies, every requested solver, the metrics of every pair.
 
 :func:`run_scene` is what a worker process (local pool or Dask worker) executes.  It never raises for
-a problem of the scene itself: any exception of a solver stage is caught and returned as a
-``"failed"`` :class:`~compare.results.SceneResult` with the stage, exception type and message, keeping
-whatever earlier stages produced.  Units: SI, crank speed in rev/min where named ``rpm``.
+a problem of the scene itself: a failing stage or solver is caught and recorded (stage, exception type
+and message) and whatever else was computed is kept.  Units: SI, crank speed in rev/min where named
+``rpm``.
 """
 
 from __future__ import annotations
@@ -12,173 +12,113 @@ import math
 import os
 import socket
 import time
-import warnings
-from dataclasses import asdict
-from typing import Any
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from compare.metrics import scene_metrics
+from compare.metrics import all_pairs
 from compare.results import STATUS_FAILED, STATUS_OK, RunStats, SceneResult
-from compare.scenes import COMPONENTS, SceneSpec
+from compare.scenes import SceneSpec
+from compare.solvers import Solution, Solver
 from compare.store import utc_now
+from ked_quasi import units
 
 _MAX_MESSAGE = 2000
-
-
-def build_fourbar(spec: SceneSpec) -> Any:
-    """The scene's mechanism as a ``ked_quasi.linkage.FourBar`` (source or cognate, stiffness scale and
-    direction applied).  Raises ValueError if the linkage cannot assemble."""
-    from ked_quasi.cognates import mechanism
-    from ked_quasi.linkage import FourBar, Section
-
-    lk = spec.linkage
-    source = FourBar(
-        crank=lk.crank,
-        coupler=lk.coupler,
-        follower=lk.follower,
-        extender=lk.extender,
-        coupler_angle=lk.coupler_angle,
-        sections=tuple(Section(**s.to_dict()) for s in lk.sections),
-        crank_pivot=lk.crank_pivot,
-        follower_pivot=lk.follower_pivot,
-        branch=lk.branch,
-        direction=spec.direction,
-    )
-    fb = mechanism(source, spec.mechanism)
-    return fb.with_stiffness_scale(spec.stiffness_scale).with_direction(spec.direction)
-
-
-def build_mass_model(spec: SceneSpec) -> Any:
-    """The scene's ``ked_quasi.massmodel.MassModel``."""
-    from ked_quasi.massmodel import MassModel
-
-    mm = spec.mass_model
-    return MassModel(
-        name=mm.name, lumps=mm.lumps, payload=mm.payload, joint_split=mm.joint_split, placement=mm.placement
-    )
-
-
-def dynamic_api() -> tuple[Any, Any]:
-    """``(DynamicSettings, simulate_steady_state)`` of ``exudyn_models``."""
-    try:
-        from exudyn_models import DynamicSettings, simulate_steady_state
-    except ImportError:  # pragma: no cover - package not re-exporting yet
-        from exudyn_models.settings import DynamicSettings
-        from exudyn_models.simulate import simulate_steady_state
-    return DynamicSettings, simulate_steady_state
-
-
-def build_settings(spec: SceneSpec) -> Any:
-    """The scene's ``exudyn_models.DynamicSettings`` (explicit overrides on top of the defaults)."""
-    settings_cls, _ = dynamic_api()
-    return settings_cls(**dict(spec.dynamic))
 
 
 def resolve_rpm(spec: SceneSpec, omega1_min: float) -> float:
     """Crank speed [rev/min]: the given rpm, or ratio * omega1_min [rad/s] converted to rev/min."""
     if spec.speed.kind == "rpm":
         return spec.speed.value
-    return spec.speed.value * omega1_min * 60.0 / (2.0 * math.pi)
+    return units.rad_s_to_rpm(spec.speed.value * omega1_min)
 
 
-def _message(exc: BaseException) -> str:
-    text = str(exc) or repr(exc)
-    extra = []
-    for attr, unit in (("time", "s"), ("crank_angle", "rad")):
-        v = getattr(exc, attr, None)
-        if isinstance(v, (int, float)):
-            extra.append(f"{attr}={v:.6g} {unit}")
-    if extra:
-        text += f" ({', '.join(extra)})"
-    return text[:_MAX_MESSAGE]
+def message_of(exc: BaseException) -> str:
+    """An exception's message (at most 2000 characters)."""
+    return (str(exc) or repr(exc))[:_MAX_MESSAGE]
 
 
-def run_scene(spec: SceneSpec) -> SceneResult:
-    """Run both solvers on one scene and compare them (see module docstring)."""
-    from ked_quasi.kinematics import coupler_point
-    from ked_quasi.solver import Scene, natural_frequencies, solve_quasi_static
+@dataclass(frozen=True)
+class Frame:
+    """What every solver shares: the scene at its resolved speed and the frozen frequencies."""
 
+    scene: object
+    rpm: float
+    omega1_min: float
+    natural_frequencies: np.ndarray
+    frequencies_wall_s: float
+
+
+def frame(spec: SceneSpec) -> Frame:
+    """Resolve the scene: frozen natural frequencies (at a probe speed), omega1_min, rpm."""
+    from ked_quasi.solver import natural_frequencies
+
+    t0 = time.perf_counter()
+    probe = spec.scene(spec.speed.value if spec.speed.kind == "rpm" else 1.0)
+    freqs = np.asarray(natural_frequencies(probe, n_modes=spec.n_modes), dtype=float)
+    omega1_min = 2.0 * math.pi * float(np.nanmin(freqs[:, 0]))
+    rpm = resolve_rpm(spec, omega1_min)
+    return Frame(spec.scene(rpm), rpm, omega1_min, freqs, time.perf_counter() - t0)
+
+
+def solve_one(solver: Solver, spec: SceneSpec, scene: object) -> Solution:
+    """One solver on the scene; an exception becomes a failed :class:`Solution` (class and evidence
+    taken from the exception when it carries them)."""
+    t0 = time.perf_counter()
+    try:
+        settings = solver.make_settings(spec.settings_for(solver.name), spec.damping_ratio)
+    except (TypeError, ValueError) as exc:
+        return Solution(solver.name, STATUS_FAILED, message=message_of(exc), error_type=type(exc).__name__,
+                        failure_class="input", stats={"wall_s": time.perf_counter() - t0})
+    try:
+        sol = solver.run(scene, settings, spec.outputs)
+    except Exception as exc:  # a solver's own failure: record it, keep the scene going
+        return Solution(solver.name, STATUS_FAILED, settings=solver.settings_dict(settings),
+                        message=message_of(exc), error_type=type(exc).__name__,
+                        failure_class=str(getattr(exc, "failure_class", "") or ""),
+                        stats={"wall_s": time.perf_counter() - t0})
+    return replace(sol, settings=sol.settings or solver.settings_dict(settings))
+
+
+def run_scene(spec: SceneSpec, solvers: Sequence[Solver] | None = None,
+              reuse: Mapping[str, Solution] | None = None) -> SceneResult:
+    """Run ``solvers`` (default: the scene's own, from the registry) on one scene and compare them (see
+    module docstring).  ``reuse``: solutions already stored for this scene (kept, not recomputed)."""
     t_start = time.perf_counter()
-    state: dict[str, Any] = {"spec": spec}
-    stats: dict[str, Any] = {"worker": f"{socket.gethostname()}:{os.getpid()}"}
-    stage = "setup"
+    if solvers is None:
+        from compare import solvers as registry
 
-    def finish(status: str, stage_: str = "", exc: BaseException | None = None, message: str = "") -> SceneResult:
-        stats["total_wall_s"] = time.perf_counter() - t_start
-        stats["finished_utc"] = utc_now()
-        return SceneResult(
-            status=status,
-            stage=stage_,
-            error_type=type(exc).__name__ if exc is not None else ("NoSteadyState" if message else ""),
-            message=_message(exc) if exc is not None else message,
-            stats=RunStats(**stats),
-            **state,
-        )
+        solvers = [registry.get(n) for n in spec.solvers]
+    reuse = dict(reuse or {})
+    worker = f"{socket.gethostname()}:{os.getpid()}"
+
+    def stats(freq_wall: float = 0.0) -> RunStats:
+        return RunStats(frequencies_wall_s=freq_wall, total_wall_s=time.perf_counter() - t_start,
+                        worker=worker, finished_utc=utc_now())
 
     try:
-        fourbar = build_fourbar(spec)
-        mass_model = build_mass_model(spec)
-        settings = build_settings(spec)
-        state["dynamic_settings"] = asdict(settings)
+        fr = frame(spec)
+    except Exception as exc:  # the scene cannot be set up (a linkage that cannot assemble, ...)
+        return SceneResult(spec=spec, status=STATUS_FAILED, stage="setup", error_type=type(exc).__name__,
+                           message=message_of(exc), failure_class="input", stats=stats())
+    theta = fr.scene.crank_angles
+    from ked_quasi.kinematics import coupler_point
 
-        stage = "frequencies"
-        t0 = time.perf_counter()
-        probe_rpm = spec.speed.value if spec.speed.kind == "rpm" else 1.0
-        probe = Scene(fourbar, mass_model, rpm=probe_rpm, step_deg=spec.step_deg)
-        freqs = np.asarray(natural_frequencies(probe, n_modes=spec.n_modes), dtype=float)
-        stats["frequencies_wall_s"] = time.perf_counter() - t0
-        state["natural_frequencies"] = freqs
-        f1_min = float(np.nanmin(freqs[:, 0]))
-        omega1_min = 2.0 * math.pi * f1_min
-        state["omega1_min"] = omega1_min
-        rpm = resolve_rpm(spec, omega1_min)
-        state["rpm"] = rpm
-        scene = Scene(fourbar, mass_model, rpm=rpm, step_deg=spec.step_deg)
-        theta = np.asarray(scene.crank_angles, dtype=float)
-        state["crank_angle"] = theta
-        state["coupler_point"] = np.asarray(coupler_point(fourbar, theta), dtype=float)
-
-        stage = "quasi_static"
-        t0 = time.perf_counter()
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            qs = solve_quasi_static(scene)
-        stats["quasi_static_wall_s"] = time.perf_counter() - t0
-        state["warnings"] = "; ".join(sorted({str(w.message) for w in caught}))[:_MAX_MESSAGE]
-        qs_defl = np.asarray(qs.deflection, dtype=float)
-        state["quasi_static"] = {c: qs_defl[:, COMPONENTS.index(c)].copy() for c in spec.outputs}
-
-        stage = "dynamic"
-        _, simulate_steady_state = dynamic_api()
-        t0 = time.perf_counter()
-        try:
-            dyn = simulate_steady_state(scene, settings)
-        finally:
-            stats["dynamic_wall_s"] = time.perf_counter() - t0
-        stats["steps"] = int(dyn.steps)
-        stats["newton_iterations"] = int(dyn.newton_iterations)
-        stats["cycles"] = int(dyn.cycles)
-        stats["converged"] = bool(dyn.converged)
-        stats["dynamic_message"] = str(dyn.message)[:_MAX_MESSAGE]
-        if not np.allclose(np.asarray(dyn.crank_angle, dtype=float), theta, rtol=0.0, atol=1e-9):
-            raise ValueError("dynamic result is not on the scene's crank-angle grid")
-        dyn_defl = np.asarray(dyn.deflection, dtype=float)
-        state["dynamic"] = {c: dyn_defl[:, COMPONENTS.index(c)].copy() for c in spec.outputs}
-        if not dyn.converged:
-            return finish(STATUS_FAILED, "dynamic",
-                          message=f"no periodic steady state: {dyn.message}"[:_MAX_MESSAGE])
-
-        stage = "metrics"
-        state["metrics"] = scene_metrics(
-            theta,
-            state["quasi_static"],
-            state["dynamic"],
-            omega=scene.omega,
-            omega1_min=omega1_min,
-            tolerance=spec.tolerance,
-            direction_sign=1 if spec.direction == "ccw" else -1,
-        )
-    except Exception as exc:  # a scene's own failure: record it, keep the campaign going
-        return finish(STATUS_FAILED, stage, exc)
-    return finish(STATUS_OK)
+    solutions = {s.name: reuse[s.name] if s.name in reuse else solve_one(s, spec, fr.scene) for s in solvers}
+    base = dict(spec=spec, rpm=fr.rpm, omega1_min=fr.omega1_min, crank_angle=theta,
+                coupler_point=np.asarray(coupler_point(fr.scene.fourbar, theta), dtype=float),
+                natural_frequencies=fr.natural_frequencies, solutions=solutions,
+                warnings="; ".join(s.warnings for s in solutions.values() if s.warnings)[:_MAX_MESSAGE])
+    failed = [s for s in solutions.values() if not s.ok]
+    try:
+        metrics = all_pairs(theta, {n: s.deflection for n, s in solutions.items() if s.ok}, omega=fr.scene.omega,
+                            omega1_min=fr.omega1_min, tolerance=spec.tolerance, direction_sign=fr.scene.fourbar.sign)
+    except Exception as exc:
+        return SceneResult(**base, status=STATUS_FAILED, stage="metrics", error_type=type(exc).__name__,
+                           message=message_of(exc), stats=stats(fr.frequencies_wall_s))
+    if failed:
+        f = failed[0]
+        return SceneResult(**base, metrics=metrics, status=STATUS_FAILED, stage=f.solver, error_type=f.error_type,
+                           message=f.message, failure_class=f.failure_class, stats=stats(fr.frequencies_wall_s))
+    return SceneResult(**base, metrics=metrics, status=STATUS_OK, stats=stats(fr.frequencies_wall_s))

@@ -1,91 +1,106 @@
 """Summaries of stored scenes: table rows, detail records and their text rendering (pure functions).
 
+Every registered solver that a scene ran gets its own columns; nothing here names a solver except
+the quasi-static one, whose error decides the verdict (:data:`compare.metrics.VERDICT_METRIC`).
 Column units: rpm [rev/min], Omega/w1 [1] (crank speed over the lowest first natural circular
-frequency), errors relative to the dynamic peak [%], amplification [1], wall time [s].
+frequency), errors relative to the reference's peak [%], amplification [1], wall time [s].
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import asdict
 from typing import Any
 
+from compare import solvers as registry
+from compare.metrics import VERDICT_METRIC, pair_name
 from compare.results import SceneResult
+from ked_quasi.units import rpm_to_rad_s
 
 
-def _num(x: float) -> float | None:
+def _num(x: float | None) -> float | None:
     return None if x is None or (isinstance(x, float) and not math.isfinite(x)) else float(x)
 
 
-def summary_row(r: SceneResult) -> dict[str, Any]:
-    """One summary record (JSON-serialisable; non-finite numbers become ``None``)."""
-    m = r.metrics
-    row: dict[str, Any] = {
-        "key": r.key,
-        "label": r.spec.label,
-        "mechanism": r.spec.mechanism,
-        "mass_model": r.spec.mass_model.name,
-        "rpm": _num(r.rpm),
-        "speed_ratio": _num(m.speed_ratio) if m else _num(_ratio(r)),
-        "status": r.status,
-        "stage": r.stage,
-        "message": r.message,
-        "max_relative_error": _num(m.max_relative_error) if m else None,
-        "max_amplification": _num(m.max_amplification) if m else None,
-        "holds": m.holds if m else None,
-        "wall_s": _num(r.stats.total_wall_s),
-    }
-    if m:
-        for c in m.components:
-            row[f"relative_error_{c.component}"] = _num(c.relative_error)
-            row[f"amplification_{c.component}"] = _num(c.amplification)
-    return row
-
-
-def _ratio(r: SceneResult) -> float:
+def speed_ratio(r: SceneResult) -> float:
+    """Omega / omega1_min [1] (nan if unknown)."""
     if not (math.isfinite(r.rpm) and math.isfinite(r.omega1_min) and r.omega1_min > 0):
-        return float("nan")
-    return r.rpm * 2.0 * math.pi / 60.0 / r.omega1_min
+        return math.nan
+    return rpm_to_rad_s(r.rpm) / r.omega1_min
+
+
+def short_reason(r: SceneResult, n: int = 60) -> str:
+    """One short line on why a scene failed ("" if it did not)."""
+    if r.ok:
+        return ""
+    cls = f"{r.failure_class}: " if r.failure_class else ""
+    first = r.message.split("\n")[0].split(" (time=")[0]
+    text = f"{r.stage}: {cls}{first}"
+    return text if len(text) <= n else text[: n - 3] + "..."
+
+
+def summary_row(r: SceneResult) -> dict[str, Any]:
+    """One summary record (JSON-serialisable; non-finite numbers become ``None``).
+
+    ``max_relative_error`` is the verdict error (quasi-static against the reference); for every other
+    solver that is not the reference, ``error_<solver>`` is its own error against the reference."""
+    v = r.verdict
+    ref = r.reference
+    row: dict[str, Any] = {
+        "key": r.key, "label": r.spec.label, "mechanism": r.spec.mechanism, "mass_model": r.spec.mass_model.name,
+        "rpm": _num(r.rpm), "speed_ratio": _num(speed_ratio(r)), "status": r.status, "stage": r.stage,
+        "message": r.message, "failure_class": r.failure_class, "reason": short_reason(r),
+        "solvers": list(r.solutions), "reference": ref,
+        "max_relative_error": _num(v.verdict_error) if v else None,
+        "max_amplification": _num(v.max_amplification) if v else None,
+        "holds": v.holds if v else None, "wall_s": _num(r.stats.total_wall_s),
+    }
+    if v:
+        for c in v.components:
+            row[f"relative_error_{c.component}"] = _num(c.history_error)
+            row[f"amplification_{c.component}"] = _num(c.amplification)
+    for name in r.solutions:
+        m = r.metrics.get(pair_name(name, ref)) if ref else None
+        if name not in ("quasi_static", ref) and m is not None:
+            row[f"error_{name}"] = _num(m.verdict_error)
+    return row
 
 
 def verdict_text(holds: bool | None) -> str:
     return "-" if holds is None else ("holds" if holds else "FAILS")
 
 
+def _columns(rows: Sequence[dict[str, Any]]) -> list[tuple[str, str, str]]:
+    extra = sorted({k for row in rows for k in row if k.startswith("error_")}, key=registry.fidelity)
+    cols = [("key", "key", "{}"), ("label", "scene", "{}"), ("rpm", "rpm", "{:.1f}"),
+            ("speed_ratio", "Omega/w1", "{:.3f}"), ("status", "status", "{}"),
+            ("max_relative_error", "quasi-static err %", "%")]
+    cols += [(k, f"{registry.label(k[6:])} err %", "%") for k in extra]
+    cols += [("max_amplification", "amplif.", "{:.3f}"), ("holds", "verdict", ""), ("wall_s", "wall s", "{:.1f}")]
+    if any(row.get("reason") for row in rows):
+        cols.append(("reason", "reason (failed scenes)", "{}"))
+    return cols
+
+
 def format_table(rows: Sequence[dict[str, Any]]) -> str:
     """Fixed-width text table of summary rows."""
-    cols = [
-        ("key", "key", "{}", 16),
-        ("label", "scene", "{}", 0),
-        ("rpm", "rpm", "{:.1f}", 0),
-        ("speed_ratio", "Omega/w1", "{:.3f}", 0),
-        ("status", "status", "{}", 0),
-        ("max_relative_error", "rel.err %", "{:.1%}", 0),
-        ("max_amplification", "amplif.", "{:.3f}", 0),
-        ("holds", "verdict", "", 0),
-        ("wall_s", "wall s", "{:.1f}", 0),
-    ]
+    cols = _columns(rows)
 
     def cell(row: dict[str, Any], key: str, fmt: str) -> str:
         v = row.get(key)
         if key == "holds":
             return verdict_text(v)
-        if v is None:
+        if v is None or v == "":
             return "-"
-        if fmt == "{:.1%}":
-            return f"{100.0 * v:.1f}"
-        return fmt.format(v)
+        return f"{100.0 * v:.1f}" if fmt == "%" else fmt.format(v)
 
-    table = [[title for _, title, _, _ in cols]]
-    for row in rows:
-        table.append([cell(row, key, fmt) for key, _, fmt, _ in cols])
+    table = [[title for _, title, _ in cols]] + [[cell(row, key, fmt) for key, _, fmt in cols] for row in rows]
     widths = [max(len(r[i]) for r in table) for i in range(len(cols))]
-    right = {"rpm", "speed_ratio", "max_relative_error", "max_amplification", "wall_s"}
+    left = {"key", "label", "status", "holds", "reason"}
     lines = []
     for n, r in enumerate(table):
-        parts = [
-            r[i].rjust(widths[i]) if cols[i][0] in right else r[i].ljust(widths[i]) for i in range(len(cols))
-        ]
+        parts = [r[i].ljust(widths[i]) if cols[i][0] in left else r[i].rjust(widths[i]) for i in range(len(cols))]
         lines.append("  ".join(parts).rstrip())
         if n == 0:
             lines.append("  ".join("-" * w for w in widths))
@@ -93,13 +108,25 @@ def format_table(rows: Sequence[dict[str, Any]]) -> str:
 
 
 def format_counts(results: Sequence[SceneResult]) -> str:
-    """One line: how many scenes, ok, failed, verdicts."""
+    """How many scenes, ok, failed (by class), verdicts; and which metric the verdict uses."""
     ok = [r for r in results if r.ok]
-    holds = sum(1 for r in ok if r.metrics is not None and r.metrics.holds)
-    return (
-        f"{len(results)} scenes: {len(ok)} ok, {len(results) - len(ok)} failed; "
-        f"quasi-static holds in {holds} of {len(ok)} ok scenes"
-    )
+    holds = sum(1 for r in ok if r.verdict is not None and r.verdict.holds)
+    failed = [r for r in results if not r.ok]
+    classes = sorted({r.failure_class or "unclassified" for r in failed})
+    by_class = ", ".join(f"{sum(1 for r in failed if (r.failure_class or 'unclassified') == c)} {c}" for c in classes)
+    text = (f"{len(results)} scenes: {len(ok)} ok, {len(failed)} failed{f' ({by_class})' if failed else ''}; "
+            f"quasi-static holds in {holds} of {len(ok)} ok scenes (verdict: {VERDICT_METRIC} "
+            "against the highest-fidelity solver of the scene, below the campaign tolerance)")
+    if failed:
+        text += "\nfailed scenes: `ked inspect FILE KEY` shows the whole message"
+    return text
+
+
+def _pair_record(m: Any) -> dict[str, Any]:
+    return {"solver": m.solver, "reference": m.reference, "speed_ratio": _num(m.speed_ratio),
+            "tolerance": m.tolerance, "holds": m.holds, "verdict_error": _num(m.verdict_error),
+            "components": {c.component: {k: (_num(v) if isinstance(v, float) else v) for k, v in asdict(c).items()}
+                           for c in m.components}}
 
 
 def scene_detail(r: SceneResult) -> dict[str, Any]:
@@ -109,45 +136,21 @@ def scene_detail(r: SceneResult) -> dict[str, Any]:
         return None if a is None else [[_num(float(x)) for x in row] if hasattr(row, "__len__") else
                                        _num(float(row)) for row in a]
 
-    m = r.metrics
+    v = r.verdict
     return {
-        "key": r.key,
-        "label": r.spec.label,
-        "status": r.status,
-        "stage": r.stage,
-        "error_type": r.error_type,
-        "message": r.message,
-        "warnings": r.warnings,
-        "rpm": _num(r.rpm),
-        "omega1_min_rad_s": _num(r.omega1_min),
-        "parameters": r.spec.to_dict(),
-        "dynamic_settings": r.dynamic_settings,
-        "metrics": None if m is None else {
-            "omega_rad_s": m.omega,
-            "omega1_min_rad_s": m.omega1_min,
-            "speed_ratio": m.speed_ratio,
-            "tolerance": m.tolerance,
-            "holds": m.holds,
-            "components": {
-                c.component: {
-                    "units": c.units,
-                    "max_abs_error": _num(c.max_abs_error),
-                    "rms_error": _num(c.rms_error),
-                    "relative_error": _num(c.relative_error),
-                    "phase_shift_rad": _num(c.phase_shift),
-                    "amplification": _num(c.amplification),
-                    "dynamic_peak": _num(c.dynamic_peak),
-                    "quasi_static_peak": _num(c.quasi_static_peak),
-                    "holds": c.holds,
-                }
-                for c in m.components
-            },
-        },
-        "run_stats": {k: getattr(r.stats, k) for k in r.stats.__dataclass_fields__},
+        "key": r.key, "label": r.spec.label, "status": r.status, "stage": r.stage, "error_type": r.error_type,
+        "message": r.message, "failure_class": r.failure_class, "warnings": r.warnings, "rpm": _num(r.rpm),
+        "omega1_min_rad_s": _num(r.omega1_min), "speed_ratio": _num(speed_ratio(r)), "parameters": r.spec.to_dict(),
+        "reference": r.reference, "verdict": None if v is None else {"holds": v.holds, "metric": VERDICT_METRIC,
+                                                                      "error": _num(v.verdict_error)},
+        "solutions": {n: {"status": s.status, "message": s.message, "error_type": s.error_type,
+                          "failure_class": s.failure_class, "flags": list(s.flags), "settings": s.settings,
+                          "stats": s.stats, "deflection": {c: arr(h) for c, h in s.deflection.items()}}
+                      for n, s in r.solutions.items()},
+        "metrics": {name: _pair_record(m) for name, m in r.metrics.items()},
+        "run_stats": asdict(r.stats),
         "crank_angle_rad": arr(r.crank_angle),
         "natural_frequencies_hz": arr(r.natural_frequencies),
-        "quasi_static": {c: arr(v) for c, v in r.quasi_static.items()},
-        "dynamic": {c: arr(v) for c, v in r.dynamic.items()},
     }
 
 
@@ -157,36 +160,35 @@ def format_detail(r: SceneResult) -> str:
     lk = s.linkage
     lines = [
         f"scene {r.key}  {s.label}",
-        f"  status      : {r.status}" + (f" (stage {r.stage}, {r.error_type}: {r.message})" if not r.ok else ""),
+        f"  status      : {r.status}" + (f" (stage {r.stage}, {r.failure_class or 'unclassified'}, {r.error_type}: "
+                                         f"{r.message})" if not r.ok else ""),
         f"  mechanism   : {s.mechanism}, branch {lk.branch}, direction {s.direction}",
         f"  linkage [m] : crank {lk.crank:.4g}, coupler {lk.coupler:.4g}, follower {lk.follower:.4g}, "
         f"extender {lk.extender:.4g}, coupler angle {math.degrees(lk.coupler_angle):.4g} deg",
         f"  mass model  : {s.mass_model.name} (lumps {s.mass_model.lumps}, payload {s.mass_model.payload:.4g} kg)",
-        f"  speed       : {s.speed.label()} -> {r.rpm:.4g} rpm; omega1_min {r.omega1_min:.4g} rad/s",
+        f"  speed       : {s.speed.label()} -> {r.rpm:.4g} rpm; omega1_min {r.omega1_min:.4g} rad/s; "
+        f"Omega/omega1_min = {speed_ratio(r):.4g}",
         f"  stiffness x : {s.stiffness_scale:g}; damping ratio {s.damping_ratio:g}; grid step {s.step_deg:g} deg",
-        f"  dynamic     : {', '.join(f'{k}={v}' for k, v in sorted(r.dynamic_settings.items()))}",
+        f"  run stats   : total {r.stats.total_wall_s:.2f} s (frequencies {r.stats.frequencies_wall_s:.2f}); "
+        f"worker {r.stats.worker}",
     ]
-    st = r.stats
-    lines.append(
-        f"  run stats   : total {st.total_wall_s:.2f} s (freq {st.frequencies_wall_s:.2f}, quasi-static "
-        f"{st.quasi_static_wall_s:.2f}, dynamic {st.dynamic_wall_s:.2f}); steps {st.steps}, Newton "
-        f"iterations {st.newton_iterations}, cycles {st.cycles}, converged {st.converged}; worker {st.worker}"
-    )
+    for name, sol in r.solutions.items():
+        stats = ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}" for k, v in sol.stats.items())
+        lines.append(f"  {registry.label(name):<12}: {sol.status}"
+                     + (f" ({sol.failure_class or 'unclassified'}: {sol.message})" if not sol.ok else "")
+                     + (f"; flags {', '.join(sol.flags)}" if sol.flags else "") + f"; {stats}")
+        if sol.settings:
+            lines.append(f"  {'':<12}  settings: {', '.join(f'{k}={v}' for k, v in sorted(sol.settings.items()))}")
     if r.warnings:
         lines.append(f"  warnings    : {r.warnings}")
-    m = r.metrics
-    if m is not None:
-        lines.append(
-            f"  verdict     : quasi-static {verdict_text(m.holds)} (tolerance {m.tolerance:.1%}); "
-            f"Omega/omega1_min = {m.speed_ratio:.4g}"
-        )
-        lines.append("  component  units  max|err|     rms err      rel.err  phase[deg]  amplif.  verdict")
+    for m in r.metrics.values():
+        lines.append(f"  {registry.label(m.solver)} vs {registry.label(m.reference)}: {verdict_text(m.holds)} "
+                     f"(tolerance {m.tolerance:.1%}, {VERDICT_METRIC} = {m.verdict_error:.1%})")
+        lines.append("    component  units  max|err|     rms err      history  peak err  phase[deg]  amplif.")
         for c in m.components:
-            lines.append(
-                f"  {c.component:<9}  {c.units:<5}  {c.max_abs_error:<11.4g}  {c.rms_error:<11.4g}  "
-                f"{c.relative_error:>6.1%}  {math.degrees(c.phase_shift):>10.2f}  {c.amplification:>7.3f}  "
-                f"{verdict_text(c.holds)}"
-            )
+            lines.append(f"    {c.component:<9}  {c.units:<5}  {c.max_abs_error:<11.4g}  {c.rms_error:<11.4g}  "
+                         f"{c.history_error:>7.1%}  {c.peak_error:>8.1%}  {math.degrees(c.phase_shift):>10.2f}  "
+                         f"{c.amplification:>7.3f}")
     return "\n".join(lines)
 
 

@@ -1,96 +1,37 @@
-"""Comparison metrics between quasi-static and dynamic coupler-point deflection histories.
+"""The metrics: how far one solver's coupler-point deflection history is from another's.
 
-Pure functions on arrays sampled on one uniform, periodic crank-angle grid (one full cycle,
-``theta_k = theta_0 + k * step``, the last sample not repeating the first).  Units follow the
-component: dx, dy in m, rotation in rad; ratios are dimensionless; angles in rad.
+Every error the harness reports is defined here, once.  Histories are sampled on one uniform,
+periodic crank-angle grid (one full cycle, the last sample not repeating the first).  A *component*
+is ``dx``, ``dy`` [m], ``rotation`` [rad], or ``vector``: the deflection vector d = (dx, dy) [m],
+whose size is |d|.  For a solver history ``a`` measured against a reference ``b``:
+
+* ``history_error``  max_k |a_k - b_k| / max_k |b_k|   (the whole cycle: amplitude and phase; for
+  ``vector``, |.| is the vector norm)
+* ``peak_error``     |max_k |a_k| - max_k |b_k|| / max_k |b_k|   (the peak only)
+* ``max_abs_error``  max_k |a_k - b_k|, ``rms_error`` sqrt(mean_k (a_k - b_k)^2) [unit]
+* ``amplification``  max_k |b_k| / max_k |a_k|   (reference over solver: the dynamic amplification
+  when the solver is quasi-static and the reference dynamic)
+* ``phase_shift``    time lag [rad of crank rotation] of the reference's peak behind the solver's
+
+The **verdict** of a scene (``ked run``'s "holds"/"FAILS") uses :data:`VERDICT_METRIC`: the
+quasi-static history error of the worst of dx, dy and rotation against the scene's reference (the
+highest-fidelity solver that ran), compared with the campaign tolerance.  Studies report the
+``vector`` history and peak errors.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
-from compare.scenes import COMPONENT_UNITS
+from compare.solvers import COMPONENT_UNITS, COMPONENTS, fidelity
 
-
-@dataclass(frozen=True)
-class ComponentMetrics:
-    """Agreement of one deflection component over one cycle.
-
-    - ``max_abs_error`` [unit]: max_k |dyn_k - qs_k|
-    - ``rms_error`` [unit]: sqrt(mean_k (dyn_k - qs_k)^2)
-    - ``relative_error`` [1]: max_abs_error / dynamic_peak (inf if the dynamic peak is 0 and the error
-      is not, 0 if both are 0)
-    - ``phase_shift`` [rad]: time lag of the dynamic peak behind the quasi-static peak, wrapped to
-      (-pi, pi]; positive = the dynamic peak comes later in the cycle (sub-grid parabolic estimate)
-    - ``amplification`` [1]: dynamic_peak / quasi_static_peak
-    - ``dynamic_peak``, ``quasi_static_peak`` [unit]: max_k |.|
-    - ``holds`` : relative_error < tolerance
-    """
-
-    component: str
-    units: str
-    max_abs_error: float
-    rms_error: float
-    relative_error: float
-    phase_shift: float
-    amplification: float
-    dynamic_peak: float
-    quasi_static_peak: float
-    holds: bool
-
-
-@dataclass(frozen=True)
-class SceneMetrics:
-    """Scene-level summary.
-
-    ``omega`` [rad/s] crank speed magnitude, ``omega1_min`` [rad/s] lowest first natural circular
-    frequency over the cycle, ``speed_ratio`` = omega / omega1_min [1], ``tolerance`` [1] on the
-    relative error, ``holds`` = every component holds (the quasi-static assumption is accepted),
-    ``max_relative_error`` [1] over the components.
-    """
-
-    omega: float
-    omega1_min: float
-    speed_ratio: float
-    tolerance: float
-    components: tuple[ComponentMetrics, ...]
-
-    @property
-    def holds(self) -> bool:
-        return all(c.holds for c in self.components)
-
-    @property
-    def max_relative_error(self) -> float:
-        return max((c.relative_error for c in self.components), default=float("nan"))
-
-    @property
-    def max_amplification(self) -> float:
-        return max((c.amplification for c in self.components), default=float("nan"))
-
-    def component(self, name: str) -> ComponentMetrics:
-        for c in self.components:
-            if c.component == name:
-                return c
-        raise KeyError(name)
-
-
-def max_abs_error(qs: np.ndarray, dyn: np.ndarray) -> float:
-    """max |dyn - qs| [unit of the inputs]."""
-    return float(np.max(np.abs(np.asarray(dyn) - np.asarray(qs))))
-
-
-def rms_error(qs: np.ndarray, dyn: np.ndarray) -> float:
-    """Root-mean-square of dyn - qs over the cycle [unit of the inputs]."""
-    d = np.asarray(dyn) - np.asarray(qs)
-    return float(np.sqrt(np.mean(d * d)))
-
-
-def peak(y: np.ndarray) -> float:
-    """max |y| [unit of y]."""
-    return float(np.max(np.abs(np.asarray(y))))
+VECTOR = "vector"
+VERDICT_METRIC = "history_error, worst of dx, dy and rotation"
+"""What the verdict of a scene compares with the tolerance (see the module docstring)."""
 
 
 def safe_ratio(num: float, den: float) -> float:
@@ -100,21 +41,47 @@ def safe_ratio(num: float, den: float) -> float:
     return num / den
 
 
-def relative_error(qs: np.ndarray, dyn: np.ndarray) -> float:
-    """max |dyn - qs| / max |dyn| [1]."""
-    return safe_ratio(max_abs_error(qs, dyn), peak(dyn))
+def size(y: np.ndarray) -> np.ndarray:
+    """|y_k| (n,): absolute value of a (n,) history, vector norm of a (n, 2) one."""
+    y = np.asarray(y, dtype=float)
+    return np.abs(y) if y.ndim == 1 else np.hypot(y[:, 0], y[:, 1])
 
 
-def amplification(qs: np.ndarray, dyn: np.ndarray) -> float:
-    """Dynamic amplification max |dyn| / max |qs| [1]."""
-    return safe_ratio(peak(dyn), peak(qs))
+def peak(y: np.ndarray) -> float:
+    """max_k |y_k| [unit of y]."""
+    return float(np.max(size(y)))
+
+
+def max_abs_error(a: np.ndarray, b: np.ndarray) -> float:
+    """max_k |a_k - b_k| [unit of the inputs]."""
+    return peak(np.asarray(a, dtype=float) - np.asarray(b, dtype=float))
+
+
+def rms_error(a: np.ndarray, b: np.ndarray) -> float:
+    """Root-mean-square of |a_k - b_k| over the cycle [unit of the inputs]."""
+    return float(np.sqrt(np.mean(size(np.asarray(a, dtype=float) - np.asarray(b, dtype=float)) ** 2)))
+
+
+def history_error(a: np.ndarray, b: np.ndarray) -> float:
+    """max_k |a_k - b_k| / max_k |b_k| [1] (``b`` the reference)."""
+    return safe_ratio(max_abs_error(a, b), peak(b))
+
+
+def peak_error(a: np.ndarray, b: np.ndarray) -> float:
+    """|max_k |a_k| - max_k |b_k|| / max_k |b_k| [1] (``b`` the reference)."""
+    return safe_ratio(abs(peak(a) - peak(b)), peak(b))
+
+
+def amplification(a: np.ndarray, b: np.ndarray) -> float:
+    """max_k |b_k| / max_k |a_k| [1]: the reference's peak over the solver's."""
+    return safe_ratio(peak(b), peak(a))
 
 
 def peak_angle(crank_angle: np.ndarray, y: np.ndarray) -> float:
     """Crank angle [rad] of the peak of |y| on a uniform periodic grid, refined by a parabola
     through the peak sample and its two (periodic) neighbours."""
     theta = np.asarray(crank_angle, dtype=float)
-    a = np.abs(np.asarray(y, dtype=float))
+    a = size(y)
     n = a.size
     k = int(np.argmax(a))
     if n < 3:
@@ -134,66 +101,133 @@ def wrap_angle(x: float) -> float:
     return y - math.pi
 
 
-def phase_shift(crank_angle: np.ndarray, qs: np.ndarray, dyn: np.ndarray, direction_sign: int = 1) -> float:
-    """Time lag [rad of crank rotation] of the dynamic peak behind the quasi-static peak, in (-pi, pi].
+def phase_shift(crank_angle: np.ndarray, a: np.ndarray, b: np.ndarray, direction_sign: int = 1) -> float:
+    """Time lag [rad of crank rotation] of the peak of ``b`` behind the peak of ``a``, in (-pi, pi].
 
     ``direction_sign`` is +1 for ccw (crank angle grows with time) and -1 for cw.
     """
-    shift = peak_angle(crank_angle, dyn) - peak_angle(crank_angle, qs)
-    return wrap_angle(direction_sign * shift)
+    return wrap_angle(direction_sign * (peak_angle(crank_angle, b) - peak_angle(crank_angle, a)))
 
 
-def component_metrics(
-    component: str,
-    crank_angle: np.ndarray,
-    qs: np.ndarray,
-    dyn: np.ndarray,
-    tolerance: float,
-    direction_sign: int = 1,
-) -> ComponentMetrics:
-    """All metrics of one component (see :class:`ComponentMetrics`)."""
-    qs = np.asarray(qs, dtype=float)
-    dyn = np.asarray(dyn, dtype=float)
-    if qs.shape != dyn.shape or qs.shape != np.shape(crank_angle):
-        raise ValueError(f"shape mismatch: crank_angle {np.shape(crank_angle)}, qs {qs.shape}, dyn {dyn.shape}")
-    if not (np.all(np.isfinite(qs)) and np.all(np.isfinite(dyn))):
+@dataclass(frozen=True)
+class ComponentMetrics:
+    """Every metric of one component (see the module docstring); ``solver_peak``/``reference_peak``
+    = max_k |a_k| / max_k |b_k| [unit]; ``holds``: history_error < tolerance."""
+
+    component: str
+    units: str
+    history_error: float
+    peak_error: float
+    max_abs_error: float
+    rms_error: float
+    phase_shift: float
+    amplification: float
+    solver_peak: float
+    reference_peak: float
+    holds: bool
+
+
+def component_metrics(component: str, crank_angle: np.ndarray, a: np.ndarray, b: np.ndarray, tolerance: float,
+                      direction_sign: int = 1) -> ComponentMetrics:
+    """All metrics of one component: ``a`` the solver's history, ``b`` the reference's ((n,), or (n, 2)
+    for ``vector``)."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if a.shape != b.shape or a.shape[0] != np.shape(crank_angle)[0]:
+        raise ValueError(f"shape mismatch: crank_angle {np.shape(crank_angle)}, {a.shape}, {b.shape}")
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
         raise ValueError(f"non-finite deflection values in component {component!r}")
-    rel = relative_error(qs, dyn)
+    h = history_error(a, b)
     return ComponentMetrics(
-        component=component,
-        units=COMPONENT_UNITS[component],
-        max_abs_error=max_abs_error(qs, dyn),
-        rms_error=rms_error(qs, dyn),
-        relative_error=rel,
-        phase_shift=phase_shift(crank_angle, qs, dyn, direction_sign),
-        amplification=amplification(qs, dyn),
-        dynamic_peak=peak(dyn),
-        quasi_static_peak=peak(qs),
-        holds=bool(rel < tolerance),
+        component=component, units=COMPONENT_UNITS.get(component, "m"), history_error=h,
+        peak_error=peak_error(a, b), max_abs_error=max_abs_error(a, b), rms_error=rms_error(a, b),
+        phase_shift=phase_shift(crank_angle, a, b, direction_sign), amplification=amplification(a, b),
+        solver_peak=peak(a), reference_peak=peak(b), holds=bool(h < tolerance),
     )
 
 
-def scene_metrics(
-    crank_angle: np.ndarray,
-    quasi_static: dict[str, np.ndarray],
-    dynamic: dict[str, np.ndarray],
-    *,
-    omega: float,
-    omega1_min: float,
-    tolerance: float,
-    direction_sign: int = 1,
-) -> SceneMetrics:
-    """Metrics of every component present in both ``quasi_static`` and ``dynamic`` (same order as
-    ``quasi_static``).  ``omega``, ``omega1_min`` in rad/s."""
-    comps = tuple(
-        component_metrics(c, crank_angle, quasi_static[c], dynamic[c], tolerance, direction_sign)
-        for c in quasi_static
-        if c in dynamic
-    )
-    return SceneMetrics(
-        omega=float(abs(omega)),
-        omega1_min=float(omega1_min),
-        speed_ratio=safe_ratio(abs(omega), omega1_min),
-        tolerance=float(tolerance),
-        components=comps,
-    )
+@dataclass(frozen=True)
+class PairMetrics:
+    """One solver measured against a reference solver on one scene.
+
+    ``omega`` [rad/s] crank speed, ``omega1_min`` [rad/s] lowest first natural circular frequency
+    over the cycle, ``speed_ratio`` = omega / omega1_min [1], ``tolerance`` [1];
+    ``components``: dx, dy, rotation (those both solvers have), then ``vector`` if dx and dy exist.
+    """
+
+    solver: str
+    reference: str
+    omega: float
+    omega1_min: float
+    speed_ratio: float
+    tolerance: float
+    components: tuple[ComponentMetrics, ...]
+
+    @property
+    def name(self) -> str:
+        return pair_name(self.solver, self.reference)
+
+    def component(self, name: str) -> ComponentMetrics:
+        for c in self.components:
+            if c.component == name:
+                return c
+        raise KeyError(name)
+
+    @property
+    def scalar_components(self) -> tuple[ComponentMetrics, ...]:
+        return tuple(c for c in self.components if c.component != VECTOR)
+
+    @property
+    def verdict_error(self) -> float:
+        """The :data:`VERDICT_METRIC`: worst history error of dx, dy, rotation [1]."""
+        return max((c.history_error for c in self.scalar_components), default=math.nan)
+
+    @property
+    def holds(self) -> bool:
+        """The solver is within tolerance of the reference (:data:`VERDICT_METRIC` < tolerance)."""
+        return all(c.holds for c in self.scalar_components)
+
+    @property
+    def max_amplification(self) -> float:
+        return max((c.amplification for c in self.scalar_components), default=math.nan)
+
+    @property
+    def max_relative_error(self) -> float:
+        """Alias of :attr:`verdict_error`."""
+        return self.verdict_error
+
+
+def pair_name(solver: str, reference: str) -> str:
+    """The name of a pair, e.g. ``quasi_static_vs_dynamic``."""
+    return f"{solver}_vs_{reference}"
+
+
+def pair_metrics(solver: str, reference: str, crank_angle: np.ndarray, a: Mapping[str, np.ndarray],
+                 b: Mapping[str, np.ndarray], *, omega: float, omega1_min: float, tolerance: float,
+                 direction_sign: int = 1) -> PairMetrics:
+    """Metrics of every component both histories have (``a`` the solver's, ``b`` the reference's)."""
+    comps = [component_metrics(c, crank_angle, a[c], b[c], tolerance, direction_sign)
+             for c in COMPONENTS if c in a and c in b]
+    if all(c in a and c in b for c in ("dx", "dy")):
+        vec = [np.column_stack([h["dx"], h["dy"]]) for h in (a, b)]
+        comps.append(component_metrics(VECTOR, crank_angle, vec[0], vec[1], tolerance, direction_sign))
+    return PairMetrics(solver=solver, reference=reference, omega=float(abs(omega)), omega1_min=float(omega1_min),
+                       speed_ratio=safe_ratio(abs(omega), omega1_min), tolerance=float(tolerance),
+                       components=tuple(comps))
+
+
+def all_pairs(crank_angle: np.ndarray, histories: Mapping[str, Mapping[str, np.ndarray]], *, omega: float,
+              omega1_min: float, tolerance: float, direction_sign: int = 1) -> dict[str, PairMetrics]:
+    """Metrics of every pair of solvers (lower fidelity measured against higher), by pair name."""
+    order = sorted(histories, key=lambda n: (fidelity(n), n))
+    out = {}
+    for i, s in enumerate(order):
+        for ref in order[i + 1:]:
+            m = pair_metrics(s, ref, crank_angle, histories[s], histories[ref], omega=omega, omega1_min=omega1_min,
+                             tolerance=tolerance, direction_sign=direction_sign)
+            out[m.name] = m
+    return out
+
+
+def reference_of(solvers: list[str] | tuple[str, ...]) -> str | None:
+    """The reference of a set of solvers: the one with the highest fidelity."""
+    return max(solvers, key=lambda n: (fidelity(n), n)) if solvers else None

@@ -1,10 +1,15 @@
 """PNG figures of a campaign (matplotlib object API, Agg canvas, no global pyplot state).
 
-- ``scene_<key>.png``: dynamic vs quasi-static histories of every stored component over the crank
-  angle [deg], and the rigid coupler curve with the quasi-static and dynamic deflected curves
-  (deflections magnified by the factor shown in the legend).
-- ``amplification.png``: dynamic amplification and relative error vs speed ratio Omega/omega1_min,
-  one line per (mechanism, mass model, stiffness, damping, direction) family.
+- ``scene_<label>.png`` (the scene label with ``/`` as ``_``; ``_<key>`` appended only where two
+  scenes share a label): every solver's history of every stored component over the crank angle [deg],
+  and the rigid coupler curve with each solver's deflected curve (deflections magnified by the factor
+  shown in the legend).  The scene key is in the PNG's metadata (``Title``) and in ``index.json``.
+- ``amplification.png``: dynamic amplification and verdict error vs speed ratio Omega/omega1_min,
+  one line per (mechanism, mass model, stiffness, damping, direction) family; failed scenes are marked
+  on the speed axis, not drawn as errors.
+
+``index.json`` maps each scene figure to its key, label and a stamp of the stored scene; a figure
+whose stamp is unchanged is not drawn again.
 """
 
 from __future__ import annotations
@@ -17,6 +22,8 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from compare import solvers as registry
+from compare.inspect import speed_ratio
 from compare.results import SceneResult
 
 _LABELS = {"dx": "dx [mm]", "dy": "dy [mm]", "rotation": "rotation [mrad]"}
@@ -29,7 +36,7 @@ def magnification(r: SceneResult) -> float:
         return 1.0
     size = float(np.max(np.ptp(r.coupler_point, axis=0)))
     peak = 0.0
-    for side in (r.quasi_static, r.dynamic):
+    for side in (s.deflection for s in r.solutions.values()):
         if "dx" in side and "dy" in side:
             peak = max(peak, float(np.max(np.hypot(side["dx"], side["dy"]))))
     if peak <= 0.0 or not math.isfinite(peak):
@@ -47,7 +54,8 @@ def _short(text: str, n: int = 110) -> str:
 
 def scene_figure(r: SceneResult) -> Figure:
     """Histories and coupler curves of one scene."""
-    comps = [c for c in r.spec.outputs if c in r.quasi_static or c in r.dynamic]
+    comps = [c for c in r.spec.outputs if any(c in s.deflection for s in r.solutions.values())]
+    styles = _styles(r)
     nrows = max(1, len(comps))
     height = 2.6 * nrows + 1.0
     fig = Figure(figsize=(11, height))  # fixed margins: a layout engine would double the drawing time
@@ -55,33 +63,35 @@ def scene_figure(r: SceneResult) -> Figure:
                           top=1.0 - 0.95 / height, hspace=0.5, wspace=0.22)
     status = "ok" if r.ok else f"FAILED at {r.stage}: {r.error_type}\n{_short(r.message)}"
     verdict = ""
-    if r.metrics is not None:
-        verdict = (f"; max rel. error {r.metrics.max_relative_error:.1%} -> quasi-static "
-                   f"{'holds' if r.metrics.holds else 'FAILS'} (tol {r.metrics.tolerance:.0%})")
+    v = r.verdict
+    if v is not None:
+        verdict = (f"; quasi-static error vs {registry.label(v.reference)} {v.verdict_error:.1%} -> "
+                   f"{'holds' if v.holds else 'FAILS'} (tol {v.tolerance:.0%})")
     fig.suptitle(
         f"{r.spec.label}  [{r.key}]\n{r.rpm:.4g} rpm, Omega/w1min = "
-        f"{_speed_ratio(r):.3g}, {status}{verdict}",
+        f"{speed_ratio(r):.3g}, {status}{verdict}",
         fontsize=10,
     )
     if r.crank_angle is not None:
         deg = np.degrees(r.crank_angle)
         for i, c in enumerate(comps):
             ax = fig.add_subplot(gs[i, 0])
-            if c in r.quasi_static:
-                ax.plot(deg, _SCALE[c] * r.quasi_static[c], "o-", ms=3, lw=1.2, label="quasi-static")
-            if c in r.dynamic:
-                ax.plot(deg, _SCALE[c] * r.dynamic[c], "s--", ms=3, lw=1.2, label="dynamic (steady state)")
+            for name, sol in r.solutions.items():
+                if c in sol.deflection:
+                    d = np.append(sol.deflection[c], sol.deflection[c][:1])
+                    ax.plot(np.append(deg, 360.0), _SCALE[c] * d, styles[name], ms=3, lw=1.2,
+                            label=registry.label(name) + ("" if sol.ok else " (failed)"))
             ax.set_ylabel(_LABELS[c])
             ax.set_xlim(0, 360)
             ax.set_xticks(range(0, 361, 60))
             ax.grid(alpha=0.3)
-            if r.metrics is not None and c in [m.component for m in r.metrics.components]:
-                cm = r.metrics.component(c)
+            if v is not None and c in [m.component for m in v.components]:
+                cm = v.component(c)
                 shift = round(math.degrees(cm.phase_shift), 1) + 0.0  # no "-0.0"
-                ax.set_title(f"{c}: rel. error {cm.relative_error:.1%}, amplification "
+                ax.set_title(f"{c}: quasi-static history error {cm.history_error:.1%}, amplification "
                              f"{cm.amplification:.3f}, peak shift {shift:.1f} deg", fontsize=9)
             if i == 0:
-                ax.legend(fontsize=8)
+                ax.legend(fontsize=8, loc="best", framealpha=0.6)
             if i == nrows - 1:
                 ax.set_xlabel("crank angle [deg]")
     ax = fig.add_subplot(gs[:, 1])
@@ -90,26 +100,28 @@ def scene_figure(r: SceneResult) -> Figure:
         k = magnification(r)
         closed = np.vstack([P, P[:1]])
         ax.plot(closed[:, 0], closed[:, 1], "k-", lw=1.5, label="rigid")
-        for side, name, style in ((r.quasi_static, "quasi-static", "o-"), (r.dynamic, "dynamic", "s--")):
+        for name, sol in r.solutions.items():
+            side = sol.deflection
             if "dx" in side and "dy" in side:
                 D = P + k * 1e3 * np.column_stack([side["dx"], side["dy"]])
                 D = np.vstack([D, D[:1]])
-                ax.plot(D[:, 0], D[:, 1], style, ms=2.5, lw=1.0, label=f"{name} (x{k:g})")
+                ax.plot(D[:, 0], D[:, 1], styles[name], ms=2.5, lw=1.0, label=f"{registry.label(name)} (x{k:g})")
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_xlabel("x [mm]")
         ax.set_ylabel("y [mm]")
         ax.set_title("coupler curve of P (deflections magnified)", fontsize=9)
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=8, loc="best", framealpha=0.6)
     return fig
 
 
-def _speed_ratio(r: SceneResult) -> float:
-    if r.metrics is not None:
-        return r.metrics.speed_ratio
-    if math.isfinite(r.rpm) and math.isfinite(r.omega1_min) and r.omega1_min > 0:
-        return r.rpm * 2 * math.pi / 60 / r.omega1_min
-    return float("nan")
+_STYLES = ("o-", "s--", "^:", "D-.", "v-", "x--")
+
+
+def _styles(r: SceneResult) -> dict[str, str]:
+    """A line style per solver, in fidelity order (the same solver keeps its style across figures)."""
+    return {n: _STYLES[i % len(_STYLES)] for i, n in enumerate(registry.names())} | {
+        n: _STYLES[-1] for n in r.solutions if n not in registry.names()}
 
 
 def _family(r: SceneResult) -> str:
@@ -129,52 +141,81 @@ def amplification_figure(results: Sequence[SceneResult], tolerance: float | None
     ax_a, ax_e = fig.subplots(1, 2)
     fams: dict[str, list[SceneResult]] = defaultdict(list)
     for r in results:
-        if r.metrics is not None and r.metrics.components:
+        if r.verdict is not None and r.verdict.components:
             fams[_family(r)].append(r)
     markers = "osD^v<>pPX*h"
     for i, (fam, rs) in enumerate(sorted(fams.items())):
-        rs = sorted(rs, key=lambda r: r.metrics.speed_ratio)
-        x = [r.metrics.speed_ratio for r in rs]
-        amp = [r.metrics.max_amplification for r in rs]
-        err = [100 * r.metrics.max_relative_error for r in rs]
+        rs = sorted(rs, key=lambda r: r.verdict.speed_ratio)
+        x = [r.verdict.speed_ratio for r in rs]
+        amp = [r.verdict.max_amplification for r in rs]
+        err = [100 * r.verdict.verdict_error for r in rs]
         style = dict(marker=markers[i % len(markers)], ls="-" if fam.startswith("source") else "--", ms=5)
         ax_a.plot(x, amp, label=fam, **style)
         ax_e.plot(x, err, label=fam, **style)
-    failed = [r for r in results if not r.ok and math.isfinite(_speed_ratio(r))]
-    if failed:
-        ax_e.plot([_speed_ratio(r) for r in failed], [0.0] * len(failed), "rx", ms=9,
-                  label="failed scenes (no metrics)")
+    failed = [r for r in results if not r.ok and math.isfinite(speed_ratio(r))]
+    for i, r in enumerate(failed):
+        for ax in (ax_a, ax_e):
+            ax.axvline(speed_ratio(r), color="r", lw=0.8, ls=":", label="failed scene (no error)" if i == 0 and
+                       ax is ax_e else None)
     ax_a.axhline(1.0, color="k", lw=0.8)
     ax_a.set_xlabel("speed ratio Omega / omega1_min [1]")
-    ax_a.set_ylabel("max|dyn| / max|qs| [1], worst component")
+    ax_a.set_ylabel("max|reference| / max|quasi-static| [1], worst component")
     ax_a.set_title("dynamic amplification", fontsize=10)
     ax_e.set_xlabel("speed ratio Omega / omega1_min [1]")
-    ax_e.set_ylabel("max|dyn - qs| / max|dyn| [%], worst component")
-    tols = {r.metrics.tolerance for rs in fams.values() for r in rs}
+    ax_e.set_ylabel("quasi-static history error [%], worst component")
+    tols = {r.verdict.tolerance for rs in fams.values() for r in rs}
     if tolerance is None and len(tols) == 1:
         tolerance = tols.pop()
     if tolerance is not None:
         ax_e.axhline(100 * tolerance, color="r", lw=1, ls=":", label=f"tolerance {tolerance:.0%}")
-    ax_e.set_title("quasi-static error relative to the dynamic peak", fontsize=10)
+    ax_e.set_title("quasi-static error relative to the reference's peak", fontsize=10)
     for ax in (ax_a, ax_e):
         ax.grid(alpha=0.3)
     if fams or failed:
-        ax_e.legend(fontsize=7, loc="upper left")
+        fig.legend(*ax_e.get_legend_handles_labels(), fontsize=7, loc="outside right upper")
     return fig
 
 
 def _write_scene_png(r: SceneResult, path: Path, dpi: int) -> Path:
-    scene_figure(r).savefig(path, dpi=dpi)
+    scene_figure(r).savefig(path, dpi=dpi, metadata={"Title": f"{r.spec.label} [{r.key}]"})
     return path
+
+
+def figure_names(results: Sequence[SceneResult]) -> dict[str, str]:
+    """key -> file name of its scene figure: the label, plus the key where labels repeat."""
+    safe = {r.key: "scene_" + "".join(ch if ch.isalnum() or ch in "-." else "_" for ch in r.spec.label)
+            for r in results}
+    counts = defaultdict(int)
+    for name in safe.values():
+        counts[name] += 1
+    return {k: (f"{n}_{k}" if counts[n] > 1 else n) + ".png" for k, n in safe.items()}
+
+
+def _stamp(r: SceneResult) -> str:
+    """What a scene figure depends on: the stored scene (finished time, status, solvers) and this module."""
+    return f"{r.key}|{r.status}|{r.stats.finished_utc}|{','.join(sorted(r.solutions))}|{_FIGURE_VERSION}"
+
+
+_FIGURE_VERSION = 2
 
 
 def write_figures(results: Sequence[SceneResult], out_dir: str | Path, dpi: int = 110,
                   workers: int = 1) -> list[Path]:
-    """Write all campaign figures into ``out_dir`` (scene figures in ``workers`` processes);
-    returns the paths written."""
+    """Write the campaign figures into ``out_dir`` (scene figures in ``workers`` processes), skipping
+    scene figures whose stored scene did not change; returns the paths written."""
+    import json
+
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    jobs = [(r, out / f"scene_{r.key}.png") for r in results]
+    index_path = out / "index.json"
+    try:
+        old = json.loads(index_path.read_text()) if index_path.exists() else {}
+    except (OSError, ValueError):
+        old = {}
+    names = figure_names(results)
+    index = {names[r.key]: {"key": r.key, "label": r.spec.label, "stamp": _stamp(r)} for r in results}
+    jobs = [(r, out / names[r.key]) for r in results
+            if old.get(names[r.key], {}).get("stamp") != _stamp(r) or not (out / names[r.key]).exists()]
     if workers > 1 and len(jobs) > 2 * workers:
         import concurrent.futures as cf
         import multiprocessing
@@ -184,6 +225,10 @@ def write_figures(results: Sequence[SceneResult], out_dir: str | Path, dpi: int 
     else:
         paths = [_write_scene_png(r, p, dpi) for r, p in jobs]
     p = out / "amplification.png"
-    amplification_figure(results).savefig(p, dpi=dpi)
-    paths.append(p)
+    if jobs or not p.exists() or set(old) != set(index):
+        amplification_figure(results).savefig(p, dpi=dpi)
+        paths.append(p)
+    tmp = index_path.with_name(index_path.name + ".tmp")
+    tmp.write_text(json.dumps(index, indent=1, sort_keys=True))
+    tmp.replace(index_path)
     return paths

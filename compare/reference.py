@@ -38,18 +38,18 @@ def expected_metrics(results: Sequence[SceneResult]) -> dict[str, Any]:
                            "scenes": {}}
     for r in sorted(results, key=lambda r: r.key):
         rec: dict[str, Any] = {"label": r.spec.label, "status": r.status}
-        if r.metrics is not None:
-            rec["holds"] = r.metrics.holds
-            rec["speed_ratio"] = r.metrics.speed_ratio
-            rec["components"] = {
-                c.component: {
-                    "holds": c.holds,
-                    **{m: getattr(c, m) for m in TOLERANCES if m != "speed_ratio"},
-                }
-                for c in r.metrics.components
-            }
+        v = r.verdict
+        if v is not None:
+            rec["holds"] = v.holds
+            rec["speed_ratio"] = v.speed_ratio
+            rec["components"] = {c.component: {"holds": c.holds, **_values(c)} for c in v.scalar_components}
         out["scenes"][r.key] = rec
     return out
+
+
+def _values(c: Any) -> dict[str, float]:
+    """The recorded metrics of a component (``relative_error`` is the history error)."""
+    return {m: getattr(c, "history_error" if m == "relative_error" else m) for m in TOLERANCES if m != "speed_ratio"}
 
 
 def _close(name: str, new: float, old: float) -> bool:
@@ -74,21 +74,20 @@ def compare_to_reference(results: Sequence[SceneResult], expected: dict[str, Any
         if r.status != rec["status"]:
             problems.append(f"{label}: status {r.status!r} != reference {rec['status']!r} ({r.message})")
             continue
-        if r.metrics is None:
+        v = r.verdict
+        if v is None:
             continue
-        if r.metrics.holds != rec["holds"]:
-            problems.append(f"{label}: verdict changed (holds {r.metrics.holds}, reference {rec['holds']})")
-        if not _close("speed_ratio", r.metrics.speed_ratio, rec["speed_ratio"]):
-            problems.append(f"{label}: speed_ratio {r.metrics.speed_ratio:.6g} != {rec['speed_ratio']:.6g}")
+        if v.holds != rec["holds"]:
+            problems.append(f"{label}: verdict changed (holds {v.holds}, reference {rec['holds']})")
+        if not _close("speed_ratio", v.speed_ratio, rec["speed_ratio"]):
+            problems.append(f"{label}: speed_ratio {v.speed_ratio:.6g} != {rec['speed_ratio']:.6g}")
         for comp, ref in rec["components"].items():
-            c = r.metrics.component(comp)
+            c = v.component(comp)
             if c.holds != ref["holds"]:
                 problems.append(f"{label} {comp}: verdict changed (holds {c.holds}, reference {ref['holds']})")
-            for m in TOLERANCES:
-                if m == "speed_ratio":
-                    continue
-                if not _close(m, getattr(c, m), ref[m]):
-                    problems.append(f"{label} {comp}: {m} {getattr(c, m):.6g} vs reference {ref[m]:.6g} "
+            for m, value in _values(c).items():
+                if not _close(m, value, ref[m]):
+                    problems.append(f"{label} {comp}: {m} {value:.6g} vs reference {ref[m]:.6g} "
                                     f"(tolerance rel {TOLERANCES[m][0]:g}, abs {TOLERANCES[m][1]:g})")
     return problems
 

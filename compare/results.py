@@ -12,47 +12,39 @@ from typing import Any
 
 import numpy as np
 
-from compare.metrics import SceneMetrics
+from compare.metrics import PairMetrics, pair_name, reference_of
 from compare.scenes import SceneSpec
+from compare.solvers import STATUS_FAILED, STATUS_OK, Solution
 
-STATUS_OK = "ok"
-STATUS_FAILED = "failed"
 STATUSES = (STATUS_OK, STATUS_FAILED)
-# Stage at which a failed scene stopped.
-STAGES = ("setup", "frequencies", "quasi_static", "dynamic", "metrics")
+__all__ = ["STATUSES", "STATUS_FAILED", "STATUS_OK", "RunStats", "SceneResult"]
 
 
 @dataclass(frozen=True)
 class RunStats:
-    """Cost of one scene.  Wall times [s]; ``steps`` time steps, ``newton_iterations`` total Newton
-    iterations and ``cycles`` crank cycles simulated by the dynamic solver (-1 if it did not run);
-    ``worker`` = "host:pid" that computed the scene, ``finished_utc`` ISO-8601 time."""
+    """Scene-level cost (each solver's own statistics are on its :class:`~compare.solvers.Solution`).
+    Wall times [s]; ``worker`` = "host:pid" that computed the scene, ``finished_utc`` ISO-8601 time."""
 
     frequencies_wall_s: float = 0.0
-    quasi_static_wall_s: float = 0.0
-    dynamic_wall_s: float = 0.0
     total_wall_s: float = 0.0
-    steps: int = -1
-    newton_iterations: int = -1
-    cycles: int = -1
-    converged: bool = False
-    dynamic_message: str = ""
     worker: str = ""
     finished_utc: str = ""
 
 
 @dataclass(frozen=True, eq=False)
 class SceneResult:
-    """Outcome of one scene (status ``"ok"`` or ``"failed"``; a failed scene keeps whatever was
-    computed before the failing ``stage`` and the exception's type name and message).
+    """Outcome of one scene: ``"ok"`` when every requested solver succeeded, else ``"failed"`` with the
+    first failing ``stage`` (setup, frequencies, a solver's name, metrics, worker), the exception's type
+    name and message; a failed scene keeps whatever was computed.
 
     - ``rpm`` [rev/min] resolved crank speed (nan if it could not be resolved)
     - ``omega1_min`` [rad/s] lowest first natural circular frequency over the cycle (nan if unknown)
     - ``crank_angle`` (n,) [rad]; ``coupler_point`` (n, 2) rigid P [m]
     - ``natural_frequencies`` (n, n_modes) [Hz] of the frozen structure
-    - ``quasi_static`` / ``dynamic``: component name -> (n,) history (only requested outputs)
-    - ``dynamic_settings``: fully resolved ``exudyn_models.DynamicSettings`` fields
+    - ``solutions``: solver name -> :class:`~compare.solvers.Solution`
+    - ``metrics``: pair name (``<solver>_vs_<reference>``) -> :class:`~compare.metrics.PairMetrics`
     - ``warnings``: solver warnings (e.g. near-toggle crank angles), "; "-joined
+    - ``failure_class``: why a failed scene failed (see :data:`compare.solvers.FAILURE_CLASSES`)
     """
 
     spec: SceneSpec
@@ -65,11 +57,10 @@ class SceneResult:
     crank_angle: np.ndarray | None = None
     coupler_point: np.ndarray | None = None
     natural_frequencies: np.ndarray | None = None
-    quasi_static: dict[str, np.ndarray] = field(default_factory=dict)
-    dynamic: dict[str, np.ndarray] = field(default_factory=dict)
-    dynamic_settings: dict[str, Any] = field(default_factory=dict)
-    metrics: SceneMetrics | None = None
+    solutions: dict[str, Solution] = field(default_factory=dict)
+    metrics: dict[str, PairMetrics] = field(default_factory=dict)
     warnings: str = ""
+    failure_class: str = ""
     stats: RunStats = field(default_factory=RunStats)
 
     @property
@@ -79,3 +70,43 @@ class SceneResult:
     @property
     def ok(self) -> bool:
         return self.status == STATUS_OK
+
+    # -- views -------------------------------------------------------------------------------
+    def history(self, solver: str) -> dict[str, np.ndarray]:
+        """Component -> history of one solver ({} if it did not produce one)."""
+        s = self.solutions.get(solver)
+        return s.deflection if s is not None else {}
+
+    @property
+    def quasi_static(self) -> dict[str, np.ndarray]:
+        return self.history("quasi_static")
+
+    @property
+    def dynamic(self) -> dict[str, np.ndarray]:
+        return self.history("dynamic")
+
+    def settings(self, solver: str) -> dict[str, Any]:
+        """Resolved settings of one solver ({} if it did not run)."""
+        s = self.solutions.get(solver)
+        return s.settings if s is not None else {}
+
+    @property
+    def dynamic_settings(self) -> dict[str, Any]:
+        return self.settings("dynamic")
+
+    def stat(self, solver: str, name: str, default: Any = None) -> Any:
+        """One run statistic of one solver (``default`` if absent)."""
+        s = self.solutions.get(solver)
+        return s.stats.get(name, default) if s is not None else default
+
+    @property
+    def reference(self) -> str | None:
+        """The scene's reference solver: the highest-fidelity one that succeeded."""
+        return reference_of([n for n, s in self.solutions.items() if s.ok])
+
+    @property
+    def verdict(self) -> PairMetrics | None:
+        """Quasi-static against the reference: the metrics the scene's verdict uses (None if either is
+        missing)."""
+        ref = self.reference
+        return self.metrics.get(pair_name("quasi_static", ref)) if ref else None

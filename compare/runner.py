@@ -10,7 +10,6 @@ the scenes still being computed.
 from __future__ import annotations
 
 import concurrent.futures as cf
-import json
 import multiprocessing
 import os
 import sys
@@ -18,23 +17,36 @@ import time
 import uuid
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from compare import store
+from compare import solvers, store
 from compare.config import CampaignConfig
-from compare.execute import build_settings, run_scene
+from compare.execute import run_scene
 from compare.results import STATUS_FAILED, STATUS_OK, RunStats, SceneResult
 from compare.scenes import SceneSpec, canonical_json
+from compare.solvers import Solution
+
+
+@dataclass(frozen=True)
+class Job:
+    """A scene to compute, with the stored solutions it keeps (solver name -> solution)."""
+
+    spec: SceneSpec
+    reuse: dict[str, Solution]
 
 
 @dataclass(frozen=True)
 class Plan:
     """Scenes of a campaign split into those to compute and those already stored (by key)."""
 
-    todo: tuple[SceneSpec, ...]
+    jobs: tuple[Job, ...]
     skipped: tuple[SceneSpec, ...]
+
+    @property
+    def todo(self) -> tuple[SceneSpec, ...]:
+        return tuple(j.spec for j in self.jobs)
 
 
 @dataclass(frozen=True)
@@ -51,45 +63,66 @@ class CampaignSummary:
     keys: tuple[str, ...]
 
 
-def plan(scenes: Iterable[SceneSpec], stored: dict[str, str], retry_failed: bool = False) -> Plan:
-    """Pure: which scenes still need computing given ``stored`` (key -> status)."""
-    todo, skipped = [], []
+def plan(scenes: Iterable[SceneSpec], stored: dict[str, str], retry_failed: bool = False,
+         solutions: dict[str, dict[str, Solution]] | None = None) -> Plan:
+    """Pure: which scenes still need computing given ``stored`` (key -> status) and the stored
+    ``solutions`` (key -> solver -> solution).  A stored scene is computed again when ``retry_failed``
+    and it failed (its successful solutions are kept), or when it lacks a requested solver (all its
+    stored solutions are kept); otherwise it is skipped."""
+    solutions = solutions or {}
+    jobs, skipped = [], []
     for s in scenes:
-        status = stored.get(s.key)
-        if status is None or (retry_failed and status != STATUS_OK):
-            todo.append(s)
+        status, have = stored.get(s.key), solutions.get(s.key, {})
+        mine = {n: sol for n, sol in have.items() if n in s.solvers}
+        if status is None:
+            jobs.append(Job(s, {}))
+        elif retry_failed and status != STATUS_OK:
+            jobs.append(Job(s, {n: sol for n, sol in mine.items() if sol.ok}))
+        elif have and any(n not in have for n in s.solvers):
+            jobs.append(Job(s, mine))
         else:
             skipped.append(s)
-    return Plan(tuple(todo), tuple(skipped))
+    return Plan(tuple(jobs), tuple(skipped))
 
 
 class SettingsMismatchError(ValueError):
     """Stored scenes were computed with other resolved Exudyn settings than the current ones."""
 
 
-def check_stored_settings(skipped: Iterable[SceneSpec], stored: dict[str, dict[str, Any]],
-                          resolve: Callable[[SceneSpec], dict[str, Any]]) -> None:
-    """Refuse to resume onto scenes computed with different resolved Exudyn settings.
+def resolved_settings(spec: SceneSpec, solver: str) -> dict[str, Any]:
+    """The settings the current code would use for ``solver`` on ``spec`` (as stored: JSON values)."""
+    import json
 
-    A scene's content key hashes only the ``[dynamic]`` settings given explicitly, so a stored scene
-    computed under older ``DynamicSettings`` defaults would otherwise be silently reused.
-    ``resolve``: spec -> the settings the current code would use (field -> value)."""
+    sv = solvers.get(solver)
+    return json.loads(canonical_json(sv.settings_dict(sv.make_settings(spec.settings_for(solver), spec.damping_ratio))))
+
+
+def settings_diff(old: dict[str, Any], new: dict[str, Any], legacy: dict[str, Any]) -> dict[str, tuple[Any, Any]]:
+    """Fields whose stored value differs from the current one; a field the stored settings lack (it
+    was added later) counts as its ``legacy`` value, the one that reproduces the older behaviour."""
+    old = {**{k: v for k, v in legacy.items() if k in new}, **old}
+    return {k: (old.get(k), new.get(k)) for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)}
+
+
+def check_stored_settings(specs: Iterable[SceneSpec], stored: dict[str, dict[str, Solution]]) -> None:
+    """Refuse to resume onto stored solutions computed with other resolved settings than the current
+    code would use.  A scene's content key hashes only the settings given explicitly, so a solution
+    computed under older defaults would otherwise be silently reused."""
     problems = []
-    for spec in skipped:
-        old = stored.get(spec.key)
-        if old is None:
-            continue
-        new = resolve(spec)
-        diff = {k: (old.get(k), new.get(k)) for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)}
-        if diff:
-            fields = ", ".join(f"{k}: stored {a!r} -> now {b!r}" for k, (a, b) in diff.items())
-            problems.append(f"{spec.label} [{spec.key}]: {fields}")
+    for spec in specs:
+        for name, sol in stored.get(spec.key, {}).items():
+            if name not in spec.solvers or not sol.settings:
+                continue
+            diff = settings_diff(sol.settings, resolved_settings(spec, name), solvers.get(name).legacy_defaults())
+            if diff:
+                fields = ", ".join(f"{k}: stored {a!r} -> now {b!r}" for k, (a, b) in diff.items())
+                problems.append(f"{spec.label} [{spec.key}] {name}: {fields}")
     if problems:
         shown = "\n  ".join(problems[:5]) + (f"\n  ... and {len(problems) - 5} more" if len(problems) > 5 else "")
         raise SettingsMismatchError(
-            f"{len(problems)} stored scene(s) were computed with other Exudyn settings than the current "
+            f"{len(problems)} stored solution(s) were computed with other settings than the current "
             f"defaults would give; resuming would mix them:\n  {shown}\n"
-            "Write to a new --out file, or pin these settings in the config's [dynamic] table.")
+            "Write to a new --out file, or pin these settings in the config (e.g. its [dynamic] table).")
 
 
 def default_workers() -> int:
@@ -105,27 +138,21 @@ def _worker_crashed(spec: SceneSpec, exc: BaseException | None) -> SceneResult:
         error_type, message = "WorkerCrashed", "the worker process died while computing this scene"
     else:
         error_type, message = type(exc).__name__, f"worker failed while computing the scene: {exc}"
-    return SceneResult(
-        spec=spec,
-        status=STATUS_FAILED,
-        stage="worker",
-        error_type=error_type,
-        message=message[:2000],
-        stats=RunStats(finished_utc=store.utc_now()),
-    )
+    return SceneResult(spec=spec, status=STATUS_FAILED, stage="worker", error_type=error_type,
+                       message=message[:2000], failure_class="numerical", stats=RunStats(finished_utc=store.utc_now()))
 
 
-def _drain(backend: Any, futures: dict[Any, SceneSpec],
-           store_batch: Callable[[list[SceneResult]], None]) -> list[SceneSpec]:
-    """Store results as they complete; returns the scenes lost to a broken local pool."""
-    lost: list[SceneSpec] = []
+def _drain(backend: Any, futures: dict[Any, Job],
+           store_batch: Callable[[list[SceneResult]], None]) -> list[Job]:
+    """Store results as they complete; returns the jobs lost to a broken local pool."""
+    lost: list[Job] = []
     for done in backend.batches(futures):
         batch = []
         for fut in done:
             try:
                 r = backend.result(fut)
             except Exception as exc:  # the task itself failed outside run_scene (Dask KilledWorker, ...)
-                r = _worker_crashed(futures[fut], exc)
+                r = _worker_crashed(futures[fut].spec, exc)
             if r is None:
                 lost.append(futures[fut])
             else:
@@ -135,21 +162,21 @@ def _drain(backend: Any, futures: dict[Any, SceneSpec],
     return lost
 
 
-def _isolate(specs: list[SceneSpec], store_batch: Callable[[list[SceneResult]], None]) -> list[SceneSpec]:
+def _isolate(jobs: list[Job], store_batch: Callable[[list[SceneResult]], None]) -> list[Job]:
     """After a worker process died (a crash inside a solver breaks the whole pool, so the culprit is
     unknown): rerun each scene in a fresh single-worker pool; one that kills its worker again is
     stored as failed (stage "worker", WorkerCrashed).  Returns the scenes still lost (none)."""
-    for spec in specs:
+    for job in jobs:
         iso = _LocalBackend(1)
         try:
-            (fut,) = iso.submit_all([spec])
+            (fut,) = iso.submit_all([job])
             try:
                 r = iso.result(fut)
             except Exception as exc:
-                r = _worker_crashed(spec, exc)
+                r = _worker_crashed(job.spec, exc)
         finally:
             iso.close()
-        store_batch([r if r is not None else _worker_crashed(spec, None)])
+        store_batch([r if r is not None else _worker_crashed(job.spec, None)])
     return []
 
 
@@ -171,6 +198,11 @@ def _single_threaded_children() -> Iterator[None]:
             os.environ.pop(v, None)
 
 
+def _args(job: Job) -> tuple[SceneSpec, tuple[solvers.Solver, ...], dict[str, Solution]]:
+    """Arguments of :func:`compare.execute.run_scene` for a job (solvers travel by reference)."""
+    return job.spec, tuple(solvers.get(n) for n in job.spec.solvers), job.reuse
+
+
 class _LocalBackend:
     """Process pool on this machine (spawned workers, one BLAS thread each)."""
 
@@ -179,9 +211,9 @@ class _LocalBackend:
         self.workers = workers
         self.pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
 
-    def submit_all(self, specs: Iterable[SceneSpec]) -> dict[Any, SceneSpec]:
+    def submit_all(self, jobs: Iterable[Job]) -> dict[Any, Job]:
         with _single_threaded_children():  # workers are spawned on submit
-            return {self.pool.submit(run_scene, s): s for s in specs}
+            return {self.pool.submit(run_scene, *_args(j)): j for j in jobs}
 
     def batches(self, futures: Iterable[Any]) -> Iterator[list[Any]]:
         """Completed futures, grouped: everything finished by the time the previous group is stored."""
@@ -209,10 +241,10 @@ class _DaskBackend:
 
         self.client = Client(address, set_as_default=False)
 
-    def submit_all(self, specs: Iterable[SceneSpec]) -> dict[Any, SceneSpec]:
+    def submit_all(self, jobs: Iterable[Job]) -> dict[Any, Job]:
         # unique task keys: never reuse a result another campaign left on a long-lived cluster
-        return {self.client.submit(run_scene, s, key=f"ked-scene-{s.key}-{uuid.uuid4().hex[:8]}", pure=False): s
-                for s in specs}
+        return {self.client.submit(run_scene, *_args(j), key=f"ked-scene-{j.spec.key}-{uuid.uuid4().hex[:8]}",
+                                   pure=False): j for j in jobs}
 
     def batches(self, futures: Iterable[Any]) -> Iterator[list[Any]]:
         from distributed import as_completed
@@ -255,15 +287,16 @@ def _run_locked(config: CampaignConfig, out: Path, *, workers: int | None, sched
 
     t0 = time.perf_counter()
     scenes = config.scenes()
+    store.check_ours(out)
     store.remove_stale_temp_files(out)
-    p = plan(scenes, store.stored_status(out), retry_failed)
-    check_stored_settings(p.skipped, store.stored_dynamic_settings(out),
-                          lambda spec: json.loads(canonical_json(asdict(build_settings(spec)))))
+    stored = store.stored_solutions(out)
+    p = plan(scenes, store.stored_status(out), retry_failed, stored)
+    check_stored_settings(scenes, stored)
     run = store.record_run(out, config.text, config.name, len(scenes))
     counts = {STATUS_OK: 0, STATUS_FAILED: 0}
-    lost: list[SceneSpec] = []
-    if p.todo:
-        bar = tqdm(total=len(p.todo), unit="scene", desc=config.name, disable=not progress,
+    lost: list[Job] = []
+    if p.jobs:
+        bar = tqdm(total=len(p.jobs), unit="scene", desc=config.name, disable=not progress,
                    file=sys.stderr, dynamic_ncols=True, smoothing=0.1)
         bar.set_postfix(ok=0, failed=0, skipped=len(p.skipped))
 
@@ -281,9 +314,9 @@ def _run_locked(config: CampaignConfig, out: Path, *, workers: int | None, sched
             if scheduler:
                 backend: Any = _DaskBackend(scheduler)
             else:
-                backend = _LocalBackend(min(workers or default_workers(), len(p.todo)))
+                backend = _LocalBackend(min(workers or default_workers(), len(p.jobs)))
             try:
-                lost = _drain(backend, backend.submit_all(p.todo), store_batch)
+                lost = _drain(backend, backend.submit_all(p.jobs), store_batch)
             finally:
                 backend.close()
             if lost and not scheduler:  # a worker died: retry once in a fresh pool, then one by one

@@ -1,14 +1,16 @@
-"""Immutable scene specifications, grid expansion and stable content keys.
+"""Campaign scenes: one grid point as a frozen recipe of a ``ked_quasi.Scene``, and its content key.
 
-A *scene* is one point of a campaign grid: one linkage, one mechanism (source or cognate), one mass
-model, one crank speed, one stiffness scale, one damping ratio, one direction, plus the numerical
-settings of both solvers.  A :class:`SceneSpec` is a frozen, JSON-serialisable description of it; its
-:attr:`SceneSpec.key` is the first 16 hex digits of the SHA-256 of its canonical JSON, so the same
-parameters always give the same key (this is what makes campaigns resumable).
+A :class:`SceneSpec` holds the source four-bar and mass model as the ``ked_quasi`` dataclasses
+themselves (:class:`~ked_quasi.FourBar`, :class:`~ked_quasi.MassModel`), plus what a campaign varies
+on top of them: the mechanism (source or cognate), the crank speed (absolute or as a ratio of the
+lowest first natural frequency), a stiffness scale, a damping ratio, a direction, the grid, the
+solvers and the solvers' explicit settings.  :attr:`SceneSpec.key` is the first 16 hex digits of the
+SHA-256 of :meth:`SceneSpec.key_dict` in canonical JSON: the same parameters always give the same
+key (what makes campaigns resumable).  The solver list is not part of the key: a stored scene gains
+a solver by resuming with it.
 
-Everything here is pure: building the solver objects (``ked_quasi`` scenes, Exudyn settings) happens in
-:mod:`compare.runner`.  Units are SI (m, kg, Pa, m^2, m^4, kg/m^3, rad) unless a name says otherwise
-(``step_deg`` in degrees, ``rpm`` in revolutions per minute).
+Units: SI (m, kg, Pa, m^2, m^4, kg/m^3, rad) unless a name says otherwise (``step_deg`` in degrees,
+``rpm`` in revolutions per minute).
 """
 
 from __future__ import annotations
@@ -16,106 +18,18 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
-LINKS = ("crank", "coupler", "extender", "follower")
-COMPONENTS = ("dx", "dy", "rotation")
-COMPONENT_UNITS = {"dx": "m", "dy": "m", "rotation": "rad"}
+from ked_quasi.linkage import FourBar
+from ked_quasi.massmodel import MassModel
+from ked_quasi.scene import Scene, variant
+
 MECHANISMS = ("source", "cognate")
-MASS_MODEL_NAMES = ("tip", "joints", "extender", "distributed")
-DIRECTIONS = ("ccw", "cw")
-BRANCHES = ("open", "crossed")
+DEFAULT_SOLVERS = ("quasi_static", "dynamic")
+"""The solvers of a campaign that does not name its own."""
 
-
-@dataclass(frozen=True)
-class SectionSpec:
-    """Cross-section and material of one link.
-
-    youngs_modulus [Pa], area [m^2], second_moment [m^4], density [kg/m^3].
-    """
-
-    youngs_modulus: float
-    area: float
-    second_moment: float
-    density: float
-
-    def to_dict(self) -> dict[str, float]:
-        return {
-            "youngs_modulus": self.youngs_modulus,
-            "area": self.area,
-            "second_moment": self.second_moment,
-            "density": self.density,
-        }
-
-
-@dataclass(frozen=True)
-class LinkageSpec:
-    """Dimensions of the source four-bar.
-
-    Lengths [m], ``coupler_angle`` [rad] (CCW from AB to AP), pivots [m] (M = crank pivot,
-    Q = follower pivot), ``branch`` "open"|"crossed", ``sections`` in :data:`LINKS` order.
-    """
-
-    crank: float
-    coupler: float
-    follower: float
-    extender: float
-    coupler_angle: float
-    crank_pivot: tuple[float, float]
-    follower_pivot: tuple[float, float]
-    branch: str
-    sections: tuple[SectionSpec, SectionSpec, SectionSpec, SectionSpec]
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "crank": self.crank,
-            "coupler": self.coupler,
-            "follower": self.follower,
-            "extender": self.extender,
-            "coupler_angle": self.coupler_angle,
-            "crank_pivot": list(self.crank_pivot),
-            "follower_pivot": list(self.follower_pivot),
-            "branch": self.branch,
-            "sections": [s.to_dict() for s in self.sections],
-        }
-
-    @staticmethod
-    def from_dict(d: dict[str, Any]) -> LinkageSpec:
-        return LinkageSpec(
-            crank=float(d["crank"]),
-            coupler=float(d["coupler"]),
-            follower=float(d["follower"]),
-            extender=float(d["extender"]),
-            coupler_angle=float(d["coupler_angle"]),
-            crank_pivot=(float(d["crank_pivot"][0]), float(d["crank_pivot"][1])),
-            follower_pivot=(float(d["follower_pivot"][0]), float(d["follower_pivot"][1])),
-            branch=str(d["branch"]),
-            sections=tuple(SectionSpec(**{k: float(v) for k, v in s.items()}) for s in d["sections"]),
-        )
-
-
-@dataclass(frozen=True)
-class MassModelSpec:
-    """Mass model of a scene: ``name`` in :data:`MASS_MODEL_NAMES`, ``lumps`` per link,
-    ``payload`` [kg] at the coupler point P, ``joint_split`` fraction [1] of each link's mass at its
-    root end in the ``joints`` model, ``placement`` "midpoint"|"end" (see
-    ``ked_quasi.massmodel.MassModel``)."""
-
-    name: str
-    lumps: int = 5
-    payload: float = 0.0
-    joint_split: float = 0.5
-    placement: str = "midpoint"
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "name": self.name,
-            "lumps": self.lumps,
-            "payload": self.payload,
-            "joint_split": self.joint_split,
-            "placement": self.placement,
-        }
+Items = tuple[tuple[str, Any], ...]
 
 
 @dataclass(frozen=True)
@@ -137,14 +51,16 @@ class SpeedSpec:
 class SceneSpec:
     """One immutable scene of a campaign (see module docstring for units).
 
-    ``dynamic`` holds the explicit ``exudyn_models.DynamicSettings`` overrides as sorted
-    ``(name, value)`` pairs (damping ratio included); defaults are resolved by the runner and stored
-    in the results file, but do not enter the key.
+    ``linkage``: the source four-bar (its own ``direction`` is ignored: ``direction`` is the axis);
+    ``dynamic``: the explicit Exudyn settings overrides as sorted ``(name, value)`` pairs (damping
+    ratio included); ``extra_settings``: other solvers' explicit overrides, ``(solver, pairs)``;
+    ``solvers``: the solvers to run (not hashed).  Defaults are resolved by each solver and stored in
+    the results file, but do not enter the key.
     """
 
-    linkage: LinkageSpec
+    linkage: FourBar
     mechanism: str
-    mass_model: MassModelSpec
+    mass_model: MassModel
     speed: SpeedSpec
     stiffness_scale: float
     damping_ratio: float
@@ -153,12 +69,33 @@ class SceneSpec:
     n_modes: int
     outputs: tuple[str, ...]
     tolerance: float
-    dynamic: tuple[tuple[str, Any], ...] = field(default=())
+    dynamic: Items = ()
+    extra_settings: tuple[tuple[str, Items], ...] = ()
+    solvers: tuple[str, ...] = DEFAULT_SOLVERS
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-serialisable dictionary (the canonical form hashed into :attr:`key`)."""
-        return {
-            "linkage": self.linkage.to_dict(),
+    # -- the scene itself -------------------------------------------------------------------
+    def fourbar(self) -> FourBar:
+        """The analysed four-bar (mechanism, stiffness scale and direction applied)."""
+        return variant(self.linkage, self.mechanism, self.stiffness_scale, self.direction)
+
+    def scene(self, rpm: float) -> Scene:
+        """The ``ked_quasi.Scene`` at a resolved crank speed [rev/min]."""
+        return Scene(self.fourbar(), self.mass_model, rpm=rpm, step_deg=self.step_deg)
+
+    def settings_for(self, solver: str) -> dict[str, Any]:
+        """Explicit settings overrides of one solver (``dynamic``: the Exudyn model's)."""
+        if solver == "dynamic":
+            return dict(self.dynamic)
+        return dict(dict(self.extra_settings).get(solver, ()))
+
+    # -- serialization ----------------------------------------------------------------------
+    def key_dict(self) -> dict[str, Any]:
+        """JSON-serialisable dictionary of everything that defines the scene's results (hashed into
+        :attr:`key`).  Solvers' settings other than Exudyn's appear only when given."""
+        linkage = self.linkage.to_dict()
+        del linkage["direction"]  # a grid axis of its own
+        d = {
+            "linkage": linkage,
             "mechanism": self.mechanism,
             "mass_model": self.mass_model.to_dict(),
             "speed": self.speed.to_dict(),
@@ -169,22 +106,27 @@ class SceneSpec:
             "n_modes": self.n_modes,
             "outputs": list(self.outputs),
             "tolerance": self.tolerance,
-            "dynamic": {k: v for k, v in self.dynamic},
+            "dynamic": dict(self.dynamic),
         }
+        d.update({name: dict(items) for name, items in self.extra_settings if items})
+        return d
+
+    def to_dict(self) -> dict[str, Any]:
+        """:meth:`key_dict` plus the solver list (what the results file stores)."""
+        return {**self.key_dict(), "solvers": list(self.solvers)}
 
     @staticmethod
     def from_dict(d: dict[str, Any]) -> SceneSpec:
-        mm = d["mass_model"]
+        known = {"linkage", "mechanism", "mass_model", "speed", "stiffness_scale", "damping_ratio", "direction",
+                 "step_deg", "n_modes", "outputs", "tolerance", "dynamic", "solvers"}
+        try:
+            linkage = FourBar.from_dict(d["linkage"])
+        except ValueError:  # stored as failed because it cannot assemble: read it all the same
+            linkage = FourBar.from_dict(d["linkage"], full_turn=False)
         return SceneSpec(
-            linkage=LinkageSpec.from_dict(d["linkage"]),
+            linkage=linkage,
             mechanism=str(d["mechanism"]),
-            mass_model=MassModelSpec(
-                name=str(mm["name"]),
-                lumps=int(mm["lumps"]),
-                payload=float(mm["payload"]),
-                joint_split=float(mm["joint_split"]),
-                placement=str(mm["placement"]),
-            ),
+            mass_model=MassModel.from_dict(d["mass_model"]),
             speed=SpeedSpec(kind=str(d["speed"]["kind"]), value=float(d["speed"]["value"])),
             stiffness_scale=float(d["stiffness_scale"]),
             damping_ratio=float(d["damping_ratio"]),
@@ -194,11 +136,13 @@ class SceneSpec:
             outputs=tuple(d["outputs"]),
             tolerance=float(d["tolerance"]),
             dynamic=tuple(sorted(d["dynamic"].items())),
+            extra_settings=tuple(sorted((k, tuple(sorted(v.items()))) for k, v in d.items() if k not in known)),
+            solvers=tuple(d.get("solvers", DEFAULT_SOLVERS)),
         )
 
     def canonical_json(self) -> str:
-        """Canonical JSON: sorted keys, no whitespace, floats in shortest round-trip form."""
-        return canonical_json(self.to_dict())
+        """Canonical JSON of :meth:`key_dict`: sorted keys, no whitespace, shortest round-trip floats."""
+        return canonical_json(self.key_dict())
 
     @property
     def key(self) -> str:
@@ -219,48 +163,52 @@ def canonical_json(obj: Any) -> str:
     return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False)
 
 
-def expand_grid(
-    *,
-    linkage: LinkageSpec,
-    mechanisms: tuple[str, ...],
-    mass_models: tuple[MassModelSpec, ...],
-    speeds: tuple[SpeedSpec, ...],
-    stiffness_scales: tuple[float, ...],
-    damping_ratios: tuple[float, ...],
-    directions: tuple[str, ...],
-    step_deg: float,
-    n_modes: int,
-    outputs: tuple[str, ...],
-    tolerance: float,
-    dynamic: tuple[tuple[str, Any], ...],
-    dynamic_variants: tuple[tuple[tuple[str, Any], ...], ...] = ((),),
-) -> tuple[SceneSpec, ...]:
-    """Cartesian product of the grid axes, in a fixed order, without duplicate keys.
+@dataclass(frozen=True)
+class Grid:
+    """The axes of a campaign grid and the settings every scene shares (see :class:`SceneSpec`)."""
 
-    Order: mechanism, mass model, speed, stiffness scale, damping ratio, direction, dynamic variant
-    (last varies fastest).  Each dynamic variant's overrides are merged on top of ``dynamic``.
-    """
-    scenes: list[SceneSpec] = []
-    seen: set[str] = set()
-    for mech, mm, speed, k, zeta, direction, variant in itertools.product(
-        mechanisms, mass_models, speeds, stiffness_scales, damping_ratios, directions, dynamic_variants
-    ):
-        dyn = tuple(sorted(dict(dynamic, **dict(variant), damping_ratio=zeta).items()))
-        spec = SceneSpec(
-            linkage=linkage,
-            mechanism=mech,
-            mass_model=mm,
-            speed=speed,
-            stiffness_scale=k,
-            damping_ratio=zeta,
-            direction=direction,
-            step_deg=step_deg,
-            n_modes=n_modes,
-            outputs=outputs,
-            tolerance=tolerance,
-            dynamic=dyn,
-        )
-        if spec.key not in seen:
-            seen.add(spec.key)
-            scenes.append(spec)
-    return tuple(scenes)
+    linkage: FourBar
+    mechanisms: tuple[str, ...]
+    mass_models: tuple[MassModel, ...]
+    speeds: tuple[SpeedSpec, ...]
+    stiffness_scales: tuple[float, ...]
+    damping_ratios: tuple[float, ...]
+    directions: tuple[str, ...]
+    step_deg: float
+    n_modes: int
+    outputs: tuple[str, ...]
+    tolerance: float
+    dynamic: Items
+    dynamic_variants: tuple[Items, ...] = ((),)
+    extra_settings: tuple[tuple[str, Items], ...] = ()
+    solvers: tuple[str, ...] = DEFAULT_SOLVERS
+
+    def size(self) -> int:
+        """Number of grid points (before removing duplicate keys)."""
+        n = 1
+        for axis in (self.mechanisms, self.mass_models, self.speeds, self.stiffness_scales, self.damping_ratios,
+                     self.directions, self.dynamic_variants):
+            n *= len(axis)
+        return n
+
+    def expand(self) -> tuple[SceneSpec, ...]:
+        """Cartesian product of the axes, in a fixed order, without duplicate keys.
+
+        Order: mechanism, mass model, speed, stiffness scale, damping ratio, direction, dynamic variant
+        (last varies fastest).  Each dynamic variant's overrides are merged on top of ``dynamic``.
+        """
+        scenes: list[SceneSpec] = []
+        seen: set[str] = set()
+        for mech, mm, speed, k, zeta, direction, var in itertools.product(
+            self.mechanisms, self.mass_models, self.speeds, self.stiffness_scales, self.damping_ratios,
+            self.directions, self.dynamic_variants,
+        ):
+            dyn = tuple(sorted(dict(self.dynamic, **dict(var), damping_ratio=zeta).items()))
+            spec = SceneSpec(linkage=self.linkage, mechanism=mech, mass_model=mm, speed=speed, stiffness_scale=k,
+                             damping_ratio=zeta, direction=direction, step_deg=self.step_deg, n_modes=self.n_modes,
+                             outputs=self.outputs, tolerance=self.tolerance, dynamic=dyn,
+                             extra_settings=self.extra_settings, solvers=self.solvers)
+            if spec.key not in seen:
+                seen.add(spec.key)
+                scenes.append(spec)
+        return tuple(scenes)

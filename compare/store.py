@@ -14,8 +14,6 @@ Everything is plain HDF5 (groups, numeric datasets, string/number attributes, no
 from __future__ import annotations
 
 import datetime as _dt
-import json
-import math
 import os
 import platform
 import shutil
@@ -31,41 +29,18 @@ from typing import Any
 import h5py
 import numpy as np
 
-from compare.metrics import ComponentMetrics, SceneMetrics
-from compare.results import STATUS_OK, STATUSES, RunStats, SceneResult
-from compare.scenes import COMPONENT_UNITS, COMPONENTS, LINKS, SceneSpec, canonical_json
+from compare import h5layout
+from compare.results import SceneResult
+from compare.solvers import Solution
 
 SCHEMA = "ked-harness/campaign"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+READABLE_VERSIONS = (1, 2)
+"""Schema versions this harness reads; it writes :data:`SCHEMA_VERSION` and upgrades a version-1 file
+it writes into (same scenes, same numbers, new layout)."""
 SCENES = "scenes"
 RUNS = "runs"
 TMP_MARK = ".tmp-"
-
-_METRIC_FIELDS = (
-    "max_abs_error",
-    "rms_error",
-    "relative_error",
-    "phase_shift",
-    "amplification",
-    "dynamic_peak",
-    "quasi_static_peak",
-)
-# dataclass field -> HDF5 attribute name (unit suffix where the unit is fixed)
-_METRIC_ATTR = {name: ("phase_shift_rad" if name == "phase_shift" else name) for name in _METRIC_FIELDS}
-_RUN_STAT_FIELDS = (
-    "frequencies_wall_s",
-    "quasi_static_wall_s",
-    "dynamic_wall_s",
-    "total_wall_s",
-    "steps",
-    "newton_iterations",
-    "cycles",
-    "converged",
-    "dynamic_message",
-    "worker",
-    "finished_utc",
-)
-
 
 class StoreError(ValueError):
     """A results file that does not follow the schema (or is damaged)."""
@@ -208,12 +183,66 @@ def remove_stale_temp_files(path: str | Path) -> int:
 
 
 # --------------------------------------------------------------------------------------------------
+# whose file is it
+
+
+def schema_version(f: h5py.File) -> int | None:
+    """The file's schema version if it is a harness campaign file, else None."""
+    if h5layout.text(f.attrs.get("schema", "")) != SCHEMA:
+        return None
+    try:
+        return int(f.attrs.get("schema_version", -1))
+    except (TypeError, ValueError):
+        return None
+
+
+def check_ours(path: str | Path) -> None:
+    """Refuse a file the harness did not create: it must be HDF5 with our schema attribute and a
+    readable schema version.  A missing file is fine (it will be created)."""
+    path = Path(path)
+    if not path.exists():
+        return
+    try:
+        with h5py.File(path, "r") as f:
+            version = schema_version(f)
+            if version is None:
+                raise StoreError(f"{path}: not a ked-harness results file (no schema attribute {SCHEMA!r}); "
+                                 "refusing to use it; give another --out file")
+            if version not in READABLE_VERSIONS:
+                raise StoreError(f"{path}: schema version {version} is not supported by this harness "
+                                 f"(it reads {READABLE_VERSIONS}); use the harness that wrote it or another file")
+    except OSError as exc:
+        raise StoreError(f"{path}: cannot be read as HDF5 ({_short(exc)}); refusing to use it; "
+                         "give another --out file") from exc
+
+
+def _short(exc: BaseException) -> str:
+    return str(exc).split("\n")[0][:200]
+
+
+# --------------------------------------------------------------------------------------------------
 # writing
 
 
+def _upgrade(f: h5py.File) -> None:
+    """Rewrite the scene groups of a version-1 file in the current layout (inside a transaction)."""
+    if int(f.attrs.get("schema_version", SCHEMA_VERSION)) >= SCHEMA_VERSION:
+        return
+    scenes = f.require_group(SCENES)
+    for key in list(scenes):
+        g = scenes[key]
+        if not h5layout.complete(g):
+            continue
+        r, run = h5layout.read_scene(g, 1), int(g.attrs["run"])
+        del scenes[key]
+        h5layout.write_scene(scenes.create_group(key), r, run)
+    f.attrs["schema_version"] = SCHEMA_VERSION
+
+
 def record_run(path: str | Path, config_text: str, campaign_name: str, n_scenes: int) -> int:
-    """Create the file if needed, set/refresh the file attributes and add a ``/runs/<n>`` record.
-    Returns the run number (0 for the first run into this file)."""
+    """Create the file if needed (refusing a file that is not ours), set/refresh the file attributes,
+    upgrade an older layout, and add a ``/runs/<n>`` record.  Returns the run number."""
+    check_ours(path)
     prov = provenance()
     now = utc_now()
     with transaction(path) as f:
@@ -221,6 +250,7 @@ def record_run(path: str | Path, config_text: str, campaign_name: str, n_scenes:
             f.attrs["schema"] = SCHEMA
             f.attrs["schema_version"] = SCHEMA_VERSION
             f.attrs["created_utc"] = now
+        _upgrade(f)
         for k, v in prov.items():
             f.attrs[k] = v
         f.attrs["modified_utc"] = now
@@ -249,250 +279,83 @@ def commit(path: str | Path, results: Iterable[SceneResult], run: int = -1) -> N
         for r in results:
             if r.key in scenes:
                 del scenes[r.key]
-            _write_scene(scenes.create_group(r.key), r, run)
+            h5layout.write_scene(scenes.create_group(r.key), r, run)
         f.attrs["modified_utc"] = utc_now()
-
-
-def _flag(b: bool) -> np.uint8:
-    return np.uint8(1 if b else 0)
-
-
-def _dataset(g: h5py.Group, name: str, data: np.ndarray, units: str, description: str) -> None:
-    ds = g.create_dataset(name, data=np.asarray(data, dtype=np.float64))
-    ds.attrs["units"] = units
-    ds.attrs["description"] = description
-
-
-def _write_parameters(g: h5py.Group, spec: SceneSpec) -> None:
-    lk = spec.linkage
-    a = g.attrs
-    a["json"] = spec.canonical_json()
-    a["label"] = spec.label
-    a["mechanism"] = spec.mechanism
-    a["mass_model"] = spec.mass_model.name
-    a["mass_lumps"] = spec.mass_model.lumps
-    a["payload_kg"] = spec.mass_model.payload
-    a["joint_split"] = spec.mass_model.joint_split
-    a["lump_placement"] = spec.mass_model.placement
-    a["speed_kind"] = spec.speed.kind
-    if spec.speed.kind == "rpm":
-        a["speed_rpm"] = spec.speed.value
-    else:
-        a["speed_ratio_requested"] = spec.speed.value
-    a["stiffness_scale"] = spec.stiffness_scale
-    a["damping_ratio"] = spec.damping_ratio
-    a["direction"] = spec.direction
-    a["step_deg"] = spec.step_deg
-    a["n_modes"] = spec.n_modes
-    a["outputs"] = ",".join(spec.outputs)
-    a["tolerance"] = spec.tolerance
-    a["crank_m"] = lk.crank
-    a["coupler_m"] = lk.coupler
-    a["follower_m"] = lk.follower
-    a["extender_m"] = lk.extender
-    a["coupler_angle_rad"] = lk.coupler_angle
-    a["crank_pivot_m"] = np.asarray(lk.crank_pivot, dtype=np.float64)
-    a["follower_pivot_m"] = np.asarray(lk.follower_pivot, dtype=np.float64)
-    a["branch"] = lk.branch
-    a["links"] = ",".join(LINKS)
-    a["youngs_modulus_Pa"] = np.array([s.youngs_modulus for s in lk.sections])
-    a["area_m2"] = np.array([s.area for s in lk.sections])
-    a["second_moment_m4"] = np.array([s.second_moment for s in lk.sections])
-    a["density_kg_m3"] = np.array([s.density for s in lk.sections])
-
-
-def _write_scene(g: h5py.Group, r: SceneResult, run: int) -> None:
-    spec = r.spec
-    g.attrs["key"] = r.key
-    g.attrs["label"] = spec.label
-    g.attrs["status"] = r.status
-    g.attrs["stage"] = r.stage
-    g.attrs["error_type"] = r.error_type
-    g.attrs["message"] = r.message
-    g.attrs["warnings"] = r.warnings
-    g.attrs["rpm"] = float(r.rpm)
-    g.attrs["omega1_min_rad_s"] = float(r.omega1_min)
-    g.attrs["run"] = int(run)
-    _write_parameters(g.create_group("parameters"), spec)
-
-    dyn = g.create_group("dynamic_settings")
-    dyn.attrs["json"] = canonical_json(r.dynamic_settings)
-    for k, v in r.dynamic_settings.items():
-        if v is not None:
-            dyn.attrs[k] = _flag(v) if isinstance(v, bool) else v
-
-    if r.crank_angle is not None:
-        _dataset(g, "crank_angle", r.crank_angle, "rad", "crank angle grid, CCW from M->Q")
-    if r.coupler_point is not None:
-        _dataset(g, "coupler_point", r.coupler_point, "m", "rigid coupler point P (x, y), global frame")
-    if r.natural_frequencies is not None:
-        _dataset(g, "natural_frequencies", r.natural_frequencies, "Hz",
-                 "natural frequencies of the frozen structure at each crank angle (n, n_modes)")
-    for side, data in (("quasi_static", r.quasi_static), ("dynamic", r.dynamic)):
-        if data:
-            sg = g.create_group(side)
-            for comp in COMPONENTS:
-                if comp in data:
-                    _dataset(sg, comp, data[comp], COMPONENT_UNITS[comp], f"{side} {comp} of P")
-
-    if r.metrics is not None:
-        m = r.metrics
-        mg = g.create_group("metrics")
-        mg.attrs["omega_rad_s"] = m.omega
-        mg.attrs["omega1_min_rad_s"] = m.omega1_min
-        mg.attrs["speed_ratio"] = m.speed_ratio
-        mg.attrs["tolerance"] = m.tolerance
-        mg.attrs["holds"] = _flag(m.holds)
-        mg.attrs["max_relative_error"] = m.max_relative_error
-        for c in m.components:
-            cg = mg.create_group(c.component)
-            cg.attrs["units"] = c.units
-            for name in _METRIC_FIELDS:
-                cg.attrs[_METRIC_ATTR[name]] = float(getattr(c, name))
-            cg.attrs["holds"] = _flag(c.holds)
-
-    st = g.create_group("run_stats")
-    for name in _RUN_STAT_FIELDS:
-        v = getattr(r.stats, name)
-        st.attrs[name] = _flag(v) if isinstance(v, bool) else v
-    g.attrs["complete"] = np.uint8(1)  # written last
 
 
 # --------------------------------------------------------------------------------------------------
 # reading
 
 
-def _s(v: Any) -> str:
-    return v.decode("utf-8") if isinstance(v, bytes) else str(v)
+def _scenes(f: h5py.File, path: Path) -> tuple[h5py.Group | None, int]:
+    version = schema_version(f)
+    if version is None or version not in READABLE_VERSIONS:
+        raise StoreError(f"{path}: not a ked-harness results file of a supported schema version "
+                         f"({SCHEMA!r}, versions {READABLE_VERSIONS})")
+    return f.get(SCENES), version
 
 
-def _complete(g: h5py.Group) -> bool:
-    return int(g.attrs.get("complete", 0)) == 1
+def _open(path: Path) -> h5py.File:
+    try:
+        return h5py.File(path, "r")
+    except OSError as exc:
+        raise StoreError(f"{path}: cannot be read as HDF5 ({_short(exc)})") from exc
 
 
-def _map_complete(path: str | Path, read: Callable[[h5py.Group], Any]) -> dict[str, Any]:
-    """key -> read(group) for every complete scene group (empty if the file does not exist)."""
+def _map_complete(path: str | Path, read: Callable[[h5py.Group, int], Any],
+                  keep: Callable[[str], bool] = lambda key: True) -> dict[str, Any]:
+    """key -> read(group, version) for every complete scene group whose key ``keep`` accepts (empty if
+    the file does not exist)."""
     path = Path(path)
     if not path.exists():
         return {}
-    with h5py.File(path, "r") as f:
-        scenes = f.get(SCENES)
+    with _open(path) as f:
+        scenes, version = _scenes(f, path)
         if scenes is None:
             return {}
-        return {k: read(g) for k, g in scenes.items() if _complete(g)}
+        out = {}
+        for k, g in scenes.items():
+            if keep(k) and h5layout.complete(g):
+                try:
+                    out[k] = read(g, version)
+                except (KeyError, ValueError, TypeError) as exc:
+                    raise StoreError(f"{path}: /{SCENES}/{k} is unreadable ({exc}); "
+                                     "check the file with `ked inspect FILE --verify`") from exc
+        return out
 
 
 def stored_status(path: str | Path) -> dict[str, str]:
     """key -> status of every complete scene group (empty if the file does not exist)."""
-    return _map_complete(path, lambda g: _s(g.attrs["status"]))
+    return _map_complete(path, lambda g, v: h5layout.text(g.attrs["status"]))
 
 
-def stored_dynamic_settings(path: str | Path) -> dict[str, dict[str, Any]]:
-    """key -> resolved Exudyn settings (``dynamic_settings/json``) of every complete scene group."""
-    found = _map_complete(path, lambda g: _s(g["dynamic_settings"].attrs["json"]) if "dynamic_settings" in g
-                          else None)
-    return {k: json.loads(v) for k, v in found.items() if v is not None}
+def stored_solutions(path: str | Path) -> dict[str, dict[str, Solution]]:
+    """key -> solver name -> stored :class:`~compare.solvers.Solution` of every complete scene."""
+    return _map_complete(path, lambda g, v: h5layout.read_scene(g, v).solutions)
 
 
 def file_info(path: str | Path) -> dict[str, Any]:
     """File attributes (strings/numbers) plus ``n_runs``."""
-    with h5py.File(path, "r") as f:
-        info = {k: (_s(v) if isinstance(v, (str, bytes)) else v.item() if hasattr(v, "item") else v)
+    path = Path(path)
+    with _open(path) as f:
+        _scenes(f, path)
+        info = {k: (h5layout.text(v) if isinstance(v, (str, bytes)) else v.item() if hasattr(v, "item") else v)
                 for k, v in f.attrs.items()}
         info["n_runs"] = len(f[RUNS]) if RUNS in f else 0
     return info
 
 
-def _read_scene(g: h5py.Group) -> SceneResult:
-    spec = SceneSpec.from_dict(json.loads(_s(g["parameters"].attrs["json"])))
-
-    def arr(name: str) -> np.ndarray | None:
-        return np.asarray(g[name][()]) if name in g else None
-
-    sides = {}
-    for side in ("quasi_static", "dynamic"):
-        sides[side] = {c: np.asarray(g[side][c][()]) for c in COMPONENTS if side in g and c in g[side]}
-    metrics = None
-    if "metrics" in g:
-        mg = g["metrics"]
-        comps = tuple(
-            ComponentMetrics(
-                component=c,
-                units=_s(mg[c].attrs["units"]),
-                holds=bool(mg[c].attrs["holds"]),
-                **{name: float(mg[c].attrs[_METRIC_ATTR[name]]) for name in _METRIC_FIELDS},
-            )
-            for c in COMPONENTS
-            if c in mg
-        )
-        metrics = SceneMetrics(
-            omega=float(mg.attrs["omega_rad_s"]),
-            omega1_min=float(mg.attrs["omega1_min_rad_s"]),
-            speed_ratio=float(mg.attrs["speed_ratio"]),
-            tolerance=float(mg.attrs["tolerance"]),
-            components=comps,
-        )
-    st = g["run_stats"].attrs
-    stats = RunStats(
-        frequencies_wall_s=float(st["frequencies_wall_s"]),
-        quasi_static_wall_s=float(st["quasi_static_wall_s"]),
-        dynamic_wall_s=float(st["dynamic_wall_s"]),
-        total_wall_s=float(st["total_wall_s"]),
-        steps=int(st["steps"]),
-        newton_iterations=int(st["newton_iterations"]),
-        cycles=int(st["cycles"]),
-        converged=bool(st["converged"]),
-        dynamic_message=_s(st["dynamic_message"]),
-        worker=_s(st["worker"]),
-        finished_utc=_s(st["finished_utc"]),
-    )
-    return SceneResult(
-        spec=spec,
-        status=_s(g.attrs["status"]),
-        stage=_s(g.attrs["stage"]),
-        error_type=_s(g.attrs["error_type"]),
-        message=_s(g.attrs["message"]),
-        warnings=_s(g.attrs.get("warnings", "")),
-        rpm=float(g.attrs["rpm"]),
-        omega1_min=float(g.attrs["omega1_min_rad_s"]),
-        crank_angle=arr("crank_angle"),
-        coupler_point=arr("coupler_point"),
-        natural_frequencies=arr("natural_frequencies"),
-        quasi_static=sides["quasi_static"],
-        dynamic=sides["dynamic"],
-        dynamic_settings=json.loads(_s(g["dynamic_settings"].attrs["json"])),
-        metrics=metrics,
-        stats=stats,
-    )
-
-
 def read_scenes(path: str | Path, keys: Iterable[str] | None = None) -> list[SceneResult]:
     """Complete scenes of the file (all, or those whose key starts with one of ``keys``), in key order."""
-    wanted = None if keys is None else list(keys)
-    out = []
-    with h5py.File(path, "r") as f:
-        scenes = f.get(SCENES)
-        if scenes is None:
-            return []
-        for k in sorted(scenes):
-            g = scenes[k]
-            if not _complete(g):
-                continue
-            if wanted is not None and not any(k.startswith(w) for w in wanted):
-                continue
-            try:
-                out.append(_read_scene(g))
-            except (KeyError, ValueError, TypeError) as exc:
-                raise StoreError(f"{path}: /{SCENES}/{k} is unreadable ({exc}); "
-                                 "check the file with `ked inspect FILE --verify`") from exc
-    return out
+    wanted = None if keys is None else tuple(keys)
+    found = _map_complete(path, h5layout.read_scene, lambda k: wanted is None or k.startswith(wanted))
+    return [found[k] for k in sorted(found)]
 
 
 # --------------------------------------------------------------------------------------------------
 # verification
 
 
-_SCENE_ATTRS = ("key", "label", "status", "stage", "error_type", "message", "rpm", "omega1_min_rad_s", "run")
 _FILE_ATTRS = ("schema", "schema_version", "created_utc", "modified_utc", "harness_version", "exudyn_version",
                "numpy_version", "campaign_config", "campaign_name")
 
@@ -500,101 +363,19 @@ _FILE_ATTRS = ("schema", "schema_version", "created_utc", "modified_utc", "harne
 def verify(path: str | Path) -> list[str]:
     """Integrity and schema check; returns a list of problems (empty = valid)."""
     path = Path(path)
-    problems: list[str] = []
     try:
         f = h5py.File(path, "r")
     except OSError as exc:
-        return [f"{path}: cannot open as HDF5: {exc}"]
+        return [f"{path}: cannot open as HDF5: {_short(exc)}"]
     with f:
-        for a in _FILE_ATTRS:
-            if a not in f.attrs:
-                problems.append(f"/: missing file attribute {a!r}")
-        if _s(f.attrs.get("schema", "")) != SCHEMA:
-            problems.append(f"/: schema attribute is not {SCHEMA!r}")
+        problems = [f"/: missing file attribute {a!r}" for a in _FILE_ATTRS if a not in f.attrs]
+        version = schema_version(f)
+        if version is None:
+            return problems + [f"/: schema attribute is not {SCHEMA!r}: not a ked-harness results file"]
+        if version not in READABLE_VERSIONS:
+            return problems + [f"/: schema version {version} is not one of {READABLE_VERSIONS}"]
         if SCENES not in f:
-            problems.append(f"/: missing group /{SCENES}")
-            return problems
+            return problems + [f"/: missing group /{SCENES}"]
         for name, g in f[SCENES].items():
-            problems += [f"/{SCENES}/{name}: {p}" for p in _verify_scene(name, g)]
+            problems += [f"/{SCENES}/{name}: {p}" for p in h5layout.verify_scene(name, g, version)]
     return problems
-
-
-def _verify_scene(name: str, g: Any) -> list[str]:
-    p: list[str] = []
-    if not isinstance(g, h5py.Group):
-        return ["not a group"]
-    if not _complete(g):
-        return ["incomplete (no complete=1 attribute)"]
-    for a in _SCENE_ATTRS:
-        if a not in g.attrs:
-            p.append(f"missing attribute {a!r}")
-    if p:
-        return p
-    if _s(g.attrs["key"]) != name:
-        p.append(f"key attribute {_s(g.attrs['key'])!r} differs from group name")
-    try:
-        spec = SceneSpec.from_dict(json.loads(_s(g["parameters"].attrs["json"])))
-    except (KeyError, ValueError, TypeError) as exc:
-        return p + [f"unreadable parameters/json: {exc}"]
-    if spec.key != name:
-        p.append(f"content key of parameters ({spec.key}) differs from group name")
-    status = _s(g.attrs["status"])
-    if status not in STATUSES:
-        p.append(f"unknown status {status!r}")
-    if "run_stats" not in g:
-        p.append("missing group run_stats")
-    else:
-        missing = [a for a in _RUN_STAT_FIELDS if a not in g["run_stats"].attrs]
-        if missing:
-            p.append(f"run_stats missing attributes {missing}")
-    if "dynamic_settings" not in g or "json" not in g["dynamic_settings"].attrs:
-        p.append("missing dynamic_settings/json")
-    for ds in ("crank_angle", "coupler_point", "natural_frequencies"):
-        if ds in g and "units" not in g[ds].attrs:
-            p.append(f"dataset {ds} has no units attribute")
-    if status != STATUS_OK:
-        if not _s(g.attrs["message"]):
-            p.append("failed scene without message")
-        return p
-    for ds in ("crank_angle", "coupler_point", "natural_frequencies"):
-        if ds not in g:
-            p.append(f"missing dataset {ds}")
-    if p:
-        return p
-    n = g["crank_angle"].shape[0]
-    expected_n = round(360.0 / spec.step_deg)
-    if g["crank_angle"].shape != (expected_n,):
-        p.append(f"crank_angle shape {g['crank_angle'].shape} != ({expected_n},)")
-    if g["coupler_point"].shape != (n, 2):
-        p.append(f"coupler_point shape {g['coupler_point'].shape} != ({n}, 2)")
-    if g["natural_frequencies"].shape != (n, spec.n_modes):
-        p.append(f"natural_frequencies shape {g['natural_frequencies'].shape} != ({n}, {spec.n_modes})")
-    for side in ("quasi_static", "dynamic"):
-        for c in spec.outputs:
-            if side not in g or c not in g[side]:
-                p.append(f"missing dataset {side}/{c}")
-            elif g[side][c].shape != (n,):
-                p.append(f"{side}/{c} shape {g[side][c].shape} != ({n},)")
-            elif not np.all(np.isfinite(g[side][c][()])):
-                p.append(f"{side}/{c} has non-finite values")
-            elif _s(g[side][c].attrs.get("units", "")) != COMPONENT_UNITS[c]:
-                p.append(f"{side}/{c} units attribute is not {COMPONENT_UNITS[c]!r}")
-    if "metrics" not in g:
-        p.append("missing group metrics")
-        return p
-    mg = g["metrics"]
-    for a in ("omega_rad_s", "omega1_min_rad_s", "speed_ratio", "tolerance", "holds", "max_relative_error"):
-        if a not in mg.attrs:
-            p.append(f"metrics missing attribute {a!r}")
-    for c in spec.outputs:
-        if c not in mg:
-            p.append(f"metrics missing component {c}")
-            continue
-        for a in (*_METRIC_ATTR.values(), "holds", "units"):
-            if a not in mg[c].attrs:
-                p.append(f"metrics/{c} missing attribute {a!r}")
-        if "relative_error" in mg[c].attrs and "holds" in mg[c].attrs:
-            rel = float(mg[c].attrs["relative_error"])
-            if bool(mg[c].attrs["holds"]) != (rel < spec.tolerance) and not math.isnan(rel):
-                p.append(f"metrics/{c} verdict inconsistent with relative_error and tolerance")
-    return p

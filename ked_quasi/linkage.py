@@ -15,40 +15,22 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
-from . import units
+from . import rules, units
+from .rules import check_choice
 
 LINKS = ("crank", "coupler", "extender", "follower")
+LENGTHS = ("crank", "coupler", "follower", "extender")
 BRANCHES = ("open", "crossed")
 DIRECTIONS = ("ccw", "cw")
 
 
-def _check_positive(name: str, value: float) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a positive finite number, got {value!r}") from None
-    if not math.isfinite(v) or v <= 0.0:
-        raise ValueError(f"{name} must be a positive finite number, got {value!r}")
-    return v
-
-
-def _check_finite(name: str, value: float) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a finite number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise ValueError(f"{name} must be a finite number, got {value!r}")
-    return v
-
-
-def _check_choice(name: str, value: str, allowed: tuple[str, ...]) -> str:
-    if value not in allowed:
-        raise ValueError(f"{name} must be one of {', '.join(allowed)}; got {value!r}")
-    return value
+SECTION_RULES = {"youngs_modulus": rules.YOUNGS_MODULUS, "area": rules.AREA,
+                 "second_moment": rules.SECOND_MOMENT, "density": rules.DENSITY}
+"""Field of :class:`Section` -> its rule (also the order of the serialized fields)."""
 
 
 @dataclass(frozen=True)
@@ -65,8 +47,16 @@ class Section:
     density: float
 
     def __post_init__(self) -> None:
-        for name in ("youngs_modulus", "area", "second_moment", "density"):
-            object.__setattr__(self, name, _check_positive(f"Section.{name}", getattr(self, name)))
+        for name, rule in SECTION_RULES.items():
+            object.__setattr__(self, name, rule.check(getattr(self, name), f"Section.{name}"))
+
+    def to_dict(self) -> dict[str, float]:
+        """Plain dict (TOML, JSON, HDF5 attributes); :meth:`from_dict` inverts it."""
+        return {name: getattr(self, name) for name in SECTION_RULES}
+
+    @staticmethod
+    def from_dict(d: dict[str, Any]) -> Section:
+        return Section(**{name: d[name] for name in SECTION_RULES})
 
     @property
     def mass_per_length(self) -> float:
@@ -108,18 +98,18 @@ class FourBar:
     _ground: float = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        for name in ("crank", "coupler", "follower", "extender"):
-            object.__setattr__(self, name, _check_positive(f"FourBar.{name}", getattr(self, name)))
-        object.__setattr__(self, "coupler_angle", _check_finite("FourBar.coupler_angle", self.coupler_angle))
+        for name in LENGTHS:
+            object.__setattr__(self, name, rules.LENGTH.check(getattr(self, name), f"FourBar.{name}"))
+        angle = rules.COUPLER_ANGLE.check(self.coupler_angle, "FourBar.coupler_angle")
+        object.__setattr__(self, "coupler_angle", angle)
         for name in ("crank_pivot", "follower_pivot"):
             p = getattr(self, name)
-            if len(p) != 2:
+            if not isinstance(p, (tuple, list, np.ndarray)) or len(p) != 2:
                 raise ValueError(f"FourBar.{name} must be an (x, y) pair in m, got {p!r}")
-            for i, c in enumerate(p):
-                _check_finite(f"FourBar.{name}[{i}]", c)
-            object.__setattr__(self, name, (float(p[0]), float(p[1])))
-        _check_choice("FourBar.branch", self.branch, BRANCHES)
-        _check_choice("FourBar.direction", self.direction, DIRECTIONS)
+            xy = tuple(float(rules.COORDINATE.check(c, f"FourBar.{name}[{i}]")) for i, c in enumerate(p))
+            object.__setattr__(self, name, xy)
+        check_choice("FourBar.branch", self.branch, BRANCHES)
+        check_choice("FourBar.direction", self.direction, DIRECTIONS)
         if len(self.sections) != 4 or not all(isinstance(s, Section) for s in self.sections):
             raise ValueError("FourBar.sections must be four Section objects (crank, coupler, extender, follower)")
         object.__setattr__(self, "sections", tuple(self.sections))
@@ -139,7 +129,34 @@ class FourBar:
                 "|coupler-follower| <= |ground-crank|."
             )
 
+    # -- serialization ----------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict (TOML, JSON, HDF5 attributes): lengths [m], coupler_angle [rad], pivots [m],
+        branch, direction, sections (list in :data:`LINKS` order); :meth:`from_dict` inverts it."""
+        return {
+            **{name: getattr(self, name) for name in (*LENGTHS, "coupler_angle")},
+            "crank_pivot": list(self.crank_pivot), "follower_pivot": list(self.follower_pivot),
+            "branch": self.branch, "direction": self.direction,
+            "sections": [s.to_dict() for s in self.sections],
+        }
+
+    @staticmethod
+    def from_dict(d: dict[str, Any], full_turn: bool = True) -> FourBar:
+        """Inverse of :meth:`to_dict` (``direction`` defaults to ccw when absent); ``full_turn=False``
+        reads a linkage that cannot be crank-driven (e.g. a stored failed scene) without refusing it."""
+        return FourBar(
+            **{name: d[name] for name in (*LENGTHS, "coupler_angle")},
+            crank_pivot=tuple(d["crank_pivot"]), follower_pivot=tuple(d["follower_pivot"]),
+            branch=d["branch"], direction=d.get("direction", "ccw"),
+            sections=tuple(Section.from_dict(s) for s in d["sections"]), full_turn=full_turn,
+        )
+
     # -- geometry ---------------------------------------------------------------------------
+    @property
+    def sign(self) -> int:
+        """+1 for a ccw crank, -1 for cw: the sign of the crank speed."""
+        return 1 if self.direction == "ccw" else -1
+
     @property
     def ground(self) -> float:
         """Ground length |MQ| [m]."""
@@ -153,11 +170,11 @@ class FourBar:
 
     def length(self, link: str) -> float:
         """Length of a link [m]; ``link`` in :data:`LINKS`."""
-        _check_choice("link", link, LINKS)
+        check_choice("link", link, LINKS)
         return float(getattr(self, link))
 
     def section(self, link: str) -> Section:
-        _check_choice("link", link, LINKS)
+        check_choice("link", link, LINKS)
         return self.sections[LINKS.index(link)]
 
     def link_mass(self, link: str) -> float:
@@ -180,7 +197,7 @@ class FourBar:
     # -- variants ---------------------------------------------------------------------------
     def with_stiffness_scale(self, factor: float) -> FourBar:
         """Copy with every Young's modulus multiplied by ``factor`` (> 0)."""
-        _check_positive("stiffness_scale", factor)
+        rules.STIFFNESS_SCALE.check(factor)
         secs = tuple(replace(s, youngs_modulus=s.youngs_modulus * factor) for s in self.sections)
         return replace(self, sections=secs)
 

@@ -20,15 +20,23 @@ Lumps at a ground pivot (crank s=0, follower s=0) carry no inertia load and are 
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from .linkage import LINKS, FourBar
+from . import rules
+from .linkage import LINKS, THESIS_TIP_MASS_KG, FourBar
+from .rules import check_choice
 
 MASS_MODELS = ("tip", "joints", "extender", "distributed")
 PLACEMENTS = ("midpoint", "end")
+
+
+def default_payload(name: str) -> float:
+    """Payload at P [kg] when none is given: the thesis's 2 lb for ``tip`` (massless links need one),
+    none otherwise.  The same default for every linkage, in campaigns and on the command line."""
+    return THESIS_TIP_MASS_KG if name == "tip" else 0.0
 
 
 @dataclass(frozen=True)
@@ -47,20 +55,23 @@ class MassModel:
     placement: str = "midpoint"
 
     def __post_init__(self) -> None:
-        if self.name not in MASS_MODELS:
-            raise ValueError(f"mass model must be one of {', '.join(MASS_MODELS)}; got {self.name!r}")
-        if isinstance(self.lumps, bool) or not isinstance(self.lumps, (int, np.integer)) or self.lumps < 1:
-            raise ValueError(f"MassModel.lumps must be an integer >= 1, got {self.lumps!r}")
-        p = float(self.payload)
-        if not math.isfinite(p) or p < 0:
-            raise ValueError(f"MassModel.payload must be a finite mass >= 0 kg, got {self.payload!r}")
-        if self.name == "tip" and p <= 0:
+        check_choice("mass model", self.name, MASS_MODELS)
+        object.__setattr__(self, "lumps", rules.LUMPS.check(self.lumps, "MassModel.lumps"))
+        object.__setattr__(self, "payload", rules.PAYLOAD_KG.check(self.payload, "MassModel.payload"))
+        if self.name == "tip" and self.payload <= 0:
             raise ValueError("MassModel.payload must be > 0 kg for the 'tip' mass model (massless links)")
-        js = float(self.joint_split)
-        if not math.isfinite(js) or not 0.0 <= js <= 1.0:
-            raise ValueError(f"MassModel.joint_split must be in [0, 1], got {self.joint_split!r}")
-        if self.placement not in PLACEMENTS:
-            raise ValueError(f"MassModel.placement must be one of {', '.join(PLACEMENTS)}; got {self.placement!r}")
+        object.__setattr__(self, "joint_split", rules.JOINT_SPLIT.check(self.joint_split, "MassModel.joint_split"))
+        check_choice("MassModel.placement", self.placement, PLACEMENTS)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict (TOML, JSON, HDF5 attributes); :meth:`from_dict` inverts it."""
+        return {"name": self.name, "lumps": self.lumps, "payload": self.payload,
+                "joint_split": self.joint_split, "placement": self.placement}
+
+    @staticmethod
+    def from_dict(d: dict[str, Any]) -> MassModel:
+        return MassModel(name=d["name"], lumps=int(d["lumps"]), payload=d["payload"],
+                         joint_split=d["joint_split"], placement=d["placement"])
 
 
 @dataclass(frozen=True)

@@ -2,22 +2,24 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from . import rules, units
+from .cognates import mechanism as cognate_mechanism
 from .linkage import FourBar
-from .massmodel import MassModel
+from .massmodel import MassModel, lumps
 
 
 @dataclass(frozen=True)
 class Scene:
-    """What both solvers are asked to analyse.
+    """What every solver is asked to analyse.
 
     fourbar: the mechanism (already the source or the cognate); mass_model: where its mass is;
     rpm: crank speed magnitude [rev/min] (direction from ``fourbar.direction``); step_deg: crank-angle
-    grid step [deg], dividing 360.
+    grid step [deg], dividing 360.  Ranges: :mod:`ked_quasi.rules`.
     """
 
     fourbar: FourBar
@@ -32,25 +34,47 @@ class Scene:
             raise ValueError("Scene.fourbar must be crank-drivable over a full turn (full_turn=True)")
         if not isinstance(self.mass_model, MassModel):
             raise ValueError("Scene.mass_model must be a MassModel")
-        rpm = float(self.rpm)
-        if not math.isfinite(rpm) or rpm <= 0:
-            raise ValueError(f"Scene.rpm must be a positive finite crank speed in rev/min, got {self.rpm!r}")
-        step = float(self.step_deg)
-        if not math.isfinite(step) or step <= 0 or step > 360:
-            raise ValueError(f"Scene.step_deg must be in (0, 360] deg, got {self.step_deg!r}")
-        n = 360.0 / step
-        if abs(n - round(n)) > 1e-9 * n:
-            raise ValueError(f"Scene.step_deg must divide 360 deg exactly, got {self.step_deg!r}")
-        object.__setattr__(self, "rpm", rpm)
-        object.__setattr__(self, "step_deg", step)
+        object.__setattr__(self, "rpm", rules.RPM.check(self.rpm, "Scene.rpm"))
+        object.__setattr__(self, "step_deg", rules.check_step_deg(self.step_deg, "Scene.step_deg"))
+        n_nodes = len(lumps(self.fourbar, self.mass_model).link) + 5  # lumps + joints M, A, B, Q, P
+        rules.check_work(self.n_angles, 2 * n_nodes, "Scene.step_deg and MassModel.lumps")
+
+    @property
+    def n_angles(self) -> int:
+        """Number of crank angles of the grid."""
+        return rules.steps_per_turn(self.step_deg)
 
     @property
     def crank_angles(self) -> np.ndarray:
         """Uniform grid over one turn, 0 <= theta < 2 pi [rad]."""
-        n = round(360.0 / self.step_deg)
+        n = self.n_angles
         return np.arange(n) * (2.0 * np.pi / n)
+
+    @property
+    def crank_angles_deg(self) -> np.ndarray:
+        """The grid in degrees, exact multiples of ``step_deg`` (0 <= theta < 360)."""
+        return np.arange(self.n_angles) * (360.0 / self.n_angles)
 
     @property
     def omega(self) -> float:
         """Crank speed magnitude [rad/s]."""
-        return self.rpm * 2.0 * np.pi / 60.0
+        return units.rpm_to_rad_s(self.rpm)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict (JSON, HDF5 attributes); :meth:`from_dict` inverts it."""
+        return {"fourbar": self.fourbar.to_dict(), "mass_model": self.mass_model.to_dict(),
+                "rpm": self.rpm, "step_deg": self.step_deg}
+
+    @staticmethod
+    def from_dict(d: dict[str, Any]) -> Scene:
+        return Scene(FourBar.from_dict(d["fourbar"]), MassModel.from_dict(d["mass_model"]), d["rpm"], d["step_deg"])
+
+
+def variant(source: FourBar, mechanism: str = "source", stiffness_scale: float = 1.0,
+            direction: str | None = None) -> FourBar:
+    """The four-bar a scene analyses: ``source`` or its crank-driven Roberts ``cognate``, every Young's
+    modulus times ``stiffness_scale``, crank turning in ``direction`` (None: the source's)."""
+    fb = cognate_mechanism(source, mechanism)
+    if stiffness_scale != 1.0:
+        fb = fb.with_stiffness_scale(stiffness_scale)
+    return fb.with_direction(direction) if direction is not None else fb

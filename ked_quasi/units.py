@@ -13,3 +13,8 @@ G0 = 9.80665  # m/s^2, standard gravity (1 lb weight <-> 1 lbm)
 def rpm_to_rad_s(rpm: float) -> float:
     """Crank speed in rev/min -> rad/s."""
     return rpm * 2.0 * 3.141592653589793 / 60.0
+
+
+def rad_s_to_rpm(omega: float) -> float:
+    """Crank speed in rad/s -> rev/min."""
+    return omega * 60.0 / (2.0 * 3.141592653589793)

@@ -19,6 +19,13 @@ max_cycles = 10
 sparse = false
 """
 
+def small_fourbar() -> FourBar:
+    """A small aluminium crank-rocker (lengths in m, coupler angle 1 rad) for campaign tests."""
+    sec = Section(7.0e10, 1.0e-4, 1.0e-9, 2700.0)
+    return FourBar(crank=0.1, coupler=0.3, follower=0.25, extender=0.1, coupler_angle=1.0, sections=(sec,) * 4,
+                   crank_pivot=(0.0, 0.0), follower_pivot=(0.3, 0.0), branch="open")
+
+
 MASS_MODEL_CASES = {
     "tip": MassModel("tip", payload=THESIS_TIP_MASS_KG),
     "joints": MassModel("joints"),

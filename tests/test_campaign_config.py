@@ -7,7 +7,9 @@ import math
 import pytest
 
 from compare.config import ConfigError, default_config_text, load_config, parse_config
-from compare.scenes import LinkageSpec, MassModelSpec, SceneSpec, SectionSpec, SpeedSpec
+from compare.scenes import SceneSpec, SpeedSpec
+from ked_quasi import MassModel
+from tests.conftest import small_fourbar
 
 EXPLICIT = """
 [campaign]
@@ -41,23 +43,26 @@ BAD = [
     ("unknown top-level table", "[campagin]\nname='x'", "campagin", "unknown key"),
     ("unknown key in table", "[campaign]\ntolerence = 0.1", "campaign.tolerence", "unknown key"),
     ("wrong type", "[campaign]\ntolerance = '10%'", "campaign.tolerance", "must be a number"),
-    ("out of range", "[campaign]\ntolerance = -0.1", "campaign.tolerance", "must be >"),
+    ("out of range", "[campaign]\ntolerance = -0.1", "campaign.tolerance", "must be a number in (0, 10]"),
     ("step not dividing 360", "[campaign]\nstep_deg = 7.0", "campaign.step_deg", "divide 360"),
     ("unknown output", "[campaign]\noutputs = ['dx', 'dz']", "campaign.outputs[1]", "must be one of"),
     ("bad mechanism", "[grid]\nmechanisms = ['source', 'copy']", "grid.mechanisms[1]", "must be one of"),
     ("bad mass model", "[grid]\nmass_models = ['tip', 'bulk']", "grid.mass_models[1].name", "must be one of"),
-    ("tip without payload", "[grid]\nmass_models = [{name='tip', payload_kg=0.0}]", "grid.mass_models[0].payload_kg",
-     "payload > 0"),
-    ("negative rpm", "[grid]\nrpm = [100.0, -5.0]", "grid.rpm[1]", "must be >"),
+    ("tip without payload", "[grid]\nmass_models = [{name='tip', payload_kg=0.0}]", "grid.mass_models[0]",
+     "payload must be > 0"),
+    ("negative rpm", "[grid]\nrpm = [100.0, -5.0]", "grid.rpm[1]", "must be a number in (0, 100000] rev/min"),
     ("empty speed list", "[grid]\nrpm = []", "grid.rpm", "must not be empty"),
     ("not an array", "[grid]\nrpm = 300", "grid.rpm", "must be an array"),
     ("duplicate values", "[grid]\nrpm = [300.0, 300]", "grid.rpm", "duplicate"),
     ("boolean as number", "[grid]\nstiffness_scales = [true]", "grid.stiffness_scales[0]", "must be a number"),
-    ("damping too large", "[grid]\ndamping_ratios = [1.5]", "grid.damping_ratios[0]", "must be <="),
+    ("damping too large", "[grid]\ndamping_ratios = [1.5]", "grid.damping_ratios[0]", "in [0, 0.99]"),
     ("bad direction", "[grid]\ndirections = ['clockwise']", "grid.directions[0]", "must be one of"),
     ("unknown preset", "[linkage]\npreset = 'watt'", "linkage.preset", "must be one of"),
     ("explicit linkage incomplete", "[linkage]\ncrank = 0.1", "linkage.coupler", "required"),
-    ("zero length", "[linkage]\npreset = 'thesis'\ncrank = 0.0", "linkage.crank", "must be >"),
+    ("zero length", "[linkage]\npreset = 'thesis'\ncrank = 0.0", "linkage.crank", "must be a number in (0, 1000] m"),
+    ("cannot assemble", "[linkage]\npreset = 'thesis'\nfollower = 0.1", "linkage", "cannot assemble"),
+    ("too many lumps", "[grid]\nmass_models = [{name='distributed', lumps=1000}]", "grid.mass_models[0].lumps",
+     "in [1, 100]"),
     ("bad section key", "[linkage.sections.crank]\nyoung = 1.0", "linkage.sections.crank.young", "unknown key"),
     ("unknown dynamic setting", "[dynamic]\nsteps = 10", "dynamic.steps", "unknown key"),
     ("dynamic wrong type", "[dynamic]\nsteps_per_cycle = 72.5", "dynamic.steps_per_cycle", "must be an integer"),
@@ -105,12 +110,13 @@ def test_missing_file_is_a_config_error(tmp_path):
 
 def test_default_campaign_is_valid_and_covers_the_brief():
     cfg = load_config(None)
+    g = cfg.grid
     assert cfg.text == default_config_text()
-    assert set(cfg.mechanisms) == {"source", "cognate"}
-    assert {m.name for m in cfg.mass_models} == {"tip", "joints", "extender", "distributed"}
-    rpms = [s.value for s in cfg.speeds if s.kind == "rpm"]
+    assert set(g.mechanisms) == {"source", "cognate"}
+    assert {m.name for m in g.mass_models} == {"tip", "joints", "extender", "distributed"}
+    rpms = [s.value for s in g.speeds if s.kind == "rpm"]
     assert max(rpms) == 300.0 and min(rpms) <= 60.0
-    assert len(cfg.scenes()) == len(cfg.mechanisms) * len(cfg.mass_models) * len(cfg.speeds)
+    assert len(cfg.scenes()) == len(g.mechanisms) * len(g.mass_models) * len(g.speeds) == g.size()
 
 
 def test_empty_config_is_one_thesis_scene():
@@ -149,16 +155,15 @@ def test_grid_expansion_and_speed_kinds():
     assert len(scenes) == 2 * 2 * 3 * 2 * 2
     assert len({s.key for s in scenes}) == len(scenes)
     assert {s.speed.kind for s in scenes} == {"rpm", "ratio"}
-    assert scenes[0].mass_model == MassModelSpec("tip", 5, pytest.approx(0.90718474), 0.5, "midpoint")
+    assert scenes[0].mass_model == MassModel("tip", 5, 0.90718474, 0.5, "midpoint")  # thesis 2 lb, exact
     assert dict(scenes[0].dynamic) == {"steps_per_cycle": 72, "damping_ratio": 0.02}
 
 
 def _spec(**changes) -> SceneSpec:
-    sec = SectionSpec(7.0e10, 1.0e-4, 1.0e-9, 2700.0)
     base = dict(
-        linkage=LinkageSpec(0.1, 0.3, 0.25, 0.1, 1.0, (0.0, 0.0), (0.3, 0.0), "open", (sec,) * 4),
+        linkage=small_fourbar(),
         mechanism="source",
-        mass_model=MassModelSpec("tip", payload=1.0),
+        mass_model=MassModel("tip", payload=1.0),
         speed=SpeedSpec("rpm", 300.0),
         stiffness_scale=1.0,
         damping_ratio=0.02,

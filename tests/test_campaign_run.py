@@ -59,11 +59,11 @@ def test_parallel_campaign_stores_every_scene_once_and_valid(quick_run):
     results = store.read_scenes(out)
     assert sorted(r.key for r in results) == sorted(s.key for s in cfg.scenes())
     for r in results:
-        assert r.ok and r.metrics is not None
+        assert r.ok and r.verdict is not None and r.reference == "dynamic"
         assert r.crank_angle.shape == (12,) and r.natural_frequencies.shape == (12, 2)
         assert set(r.dynamic) == {"dx", "dy", "rotation"}
-        assert r.stats.steps > 0 and r.stats.cycles >= 1 and r.stats.dynamic_wall_s > 0
-        assert r.metrics.speed_ratio == pytest.approx(2 * np.pi / r.omega1_min)  # 60 rpm = 2 pi rad/s
+        assert r.stat("dynamic", "steps") > 0 and r.stat("dynamic", "cycles") >= 1 and r.stat("dynamic", "wall_s") > 0
+        assert r.verdict.speed_ratio == pytest.approx(2 * np.pi / r.omega1_min)  # 60 rpm = 2 pi rad/s
     assert len({r.stats.worker for r in results}) >= 1
     with h5py.File(out, "r") as f:
         assert "quick" in f.attrs["campaign_config"]
@@ -96,10 +96,10 @@ def test_resume_refuses_scenes_computed_with_other_default_settings(quick_run, t
     shutil.copy(out, old)
     key = cfg.scenes()[0].key
     with h5py.File(old, "r+") as f:
-        attrs = f["scenes"][key]["dynamic_settings"].attrs
-        settings = json.loads(attrs["json"])
+        attrs = f["scenes"][key]["solutions/dynamic"].attrs
+        settings = json.loads(attrs["settings_json"])
         settings["steady_tol"] = 0.01
-        attrs["json"] = json.dumps(settings, sort_keys=True, separators=(",", ":"))
+        attrs["settings_json"] = json.dumps(settings, sort_keys=True, separators=(",", ":"))
     before = old.read_bytes()
     with pytest.raises(SettingsMismatchError, match="steady_tol: stored 0.01"):
         run_campaign(cfg, old, workers=1, progress=False)
@@ -141,7 +141,7 @@ def test_cli_run_inspect_plot(tmp_path, quick_run):
     detail = runner.invoke(main, ["inspect", str(out), key[:8]])
     assert detail.exit_code == 0 and "phase[deg]" in detail.output
     one = json.loads(runner.invoke(main, ["inspect", str(out), key, "--json"]).output)
-    assert one["key"] == key and len(one["dynamic"]["dx"]) == 12
+    assert one["key"] == key and len(one["solutions"]["dynamic"]["deflection"]["dx"]) == 12
     ver = runner.invoke(main, ["inspect", str(out), "--verify"])
     assert ver.exit_code == 0 and "valid, 4 complete scenes" in ver.output
 

@@ -9,18 +9,20 @@ import numpy as np
 import pytest
 
 from compare import store
-from compare.metrics import scene_metrics
+from compare.metrics import all_pairs
 from compare.results import RunStats, SceneResult
-from compare.scenes import LinkageSpec, MassModelSpec, SceneSpec, SectionSpec, SpeedSpec
+from compare.scenes import SceneSpec, SpeedSpec
+from compare.solvers import Solution
+from ked_quasi import MassModel
+from tests.conftest import small_fourbar
 
 THETA = np.arange(12) * (2 * np.pi / 12)
 
 
 def spec(rpm: float = 300.0, outputs=("dx", "dy", "rotation")) -> SceneSpec:
-    sec = SectionSpec(7.0e10, 1.0e-4, 1.0e-9, 2700.0)
     return SceneSpec(
-        linkage=LinkageSpec(0.1, 0.3, 0.25, 0.1, 1.0, (0.0, 0.0), (0.3, 0.0), "open", (sec,) * 4),
-        mechanism="source", mass_model=MassModelSpec("tip", payload=1.0), speed=SpeedSpec("rpm", rpm),
+        linkage=small_fourbar(),
+        mechanism="source", mass_model=MassModel("tip", payload=1.0), speed=SpeedSpec("rpm", rpm),
         stiffness_scale=1.0, damping_ratio=0.02, direction="ccw", step_deg=30.0, n_modes=2,
         outputs=tuple(outputs), tolerance=0.1, dynamic=(("damping_ratio", 0.02),),
     )
@@ -30,21 +32,29 @@ def ok_result(rpm: float = 300.0, outputs=("dx", "dy", "rotation")) -> SceneResu
     s = spec(rpm, outputs)
     qs = {c: (i + 1) * 1e-3 * np.sin(THETA) for i, c in enumerate(outputs)}
     dyn = {c: 1.05 * v for c, v in qs.items()}
+    solutions = {
+        "quasi_static": Solution("quasi_static", "ok", qs, stats={"wall_s": 0.01}),
+        "dynamic": Solution("dynamic", "ok", dyn, settings={"damping_ratio": 0.02, "damping_reference_hz": None,
+                                                            "sparse": False, "steps_per_cycle": 72},
+                            stats={"wall_s": 3.0, "steps": 400, "cycles": 4, "converged": True}),
+    }
     return SceneResult(
         spec=s, status="ok", rpm=rpm, omega1_min=100.0, crank_angle=THETA,
         coupler_point=np.column_stack([np.cos(THETA), np.sin(THETA)]),
-        natural_frequencies=np.column_stack([20 + np.cos(THETA), 50 + np.sin(THETA)]),
-        quasi_static=qs, dynamic=dyn, dynamic_settings={"damping_ratio": 0.02, "damping_reference_hz": None,
-                                                       "sparse": False, "steps_per_cycle": 72},
-        metrics=scene_metrics(THETA, qs, dyn, omega=rpm * np.pi / 30, omega1_min=100.0, tolerance=0.1),
-        stats=RunStats(1.0, 2.0, 3.0, 6.5, 400, 900, 4, True, "steady", "host:1", "2026-01-01T00:00:00+00:00"),
+        natural_frequencies=np.column_stack([20 + np.cos(THETA), 50 + np.sin(THETA)]), solutions=solutions,
+        metrics=all_pairs(THETA, {"quasi_static": qs, "dynamic": dyn}, omega=rpm * np.pi / 30, omega1_min=100.0,
+                          tolerance=0.1),
+        stats=RunStats(1.0, 6.5, "host:1", "2026-01-01T00:00:00+00:00"),
     )
 
 
 def failed_result() -> SceneResult:
-    return SceneResult(spec=spec(1000.0), status="failed", stage="dynamic", error_type="SimulationError",
-                       message="Newton iteration did not converge", rpm=1000.0, crank_angle=THETA,
-                       quasi_static={"dx": np.zeros(12)})
+    sols = {"quasi_static": Solution("quasi_static", "ok", {"dx": np.zeros(12)}),
+            "dynamic": Solution("dynamic", "failed", message="Newton iteration did not converge",
+                                error_type="SimulationError", failure_class="numerical")}
+    return SceneResult(spec=spec(1000.0, outputs=("dx",)), status="failed", stage="dynamic",
+                       error_type="SimulationError", message="Newton iteration did not converge", rpm=1000.0,
+                       crank_angle=THETA, solutions=sols, failure_class="numerical")
 
 
 def test_round_trip_preserves_everything(tmp_path):
@@ -59,10 +69,12 @@ def test_round_trip_preserves_everything(tmp_path):
         for c in ("dx", "dy", "rotation"):
             np.testing.assert_array_equal(getattr(ra, side)[c], getattr(a, side)[c])
     np.testing.assert_array_equal(ra.natural_frequencies, a.natural_frequencies)
-    assert ra.metrics == a.metrics
+    assert ra.metrics == a.metrics  # recomputed on reading from the stored histories
     assert ra.stats == a.stats
     assert ra.dynamic_settings == a.dynamic_settings
-    assert rb.status == "failed" and rb.stage == "dynamic" and "Newton" in rb.message and rb.metrics is None
+    assert ra.solutions["dynamic"].stats == a.solutions["dynamic"].stats
+    assert rb.status == "failed" and rb.stage == "dynamic" and "Newton" in rb.message and rb.verdict is None
+    assert rb.failure_class == "numerical" and rb.solutions["dynamic"].failure_class == "numerical"
     assert store.verify(f) == []
 
 
@@ -73,9 +85,9 @@ def test_only_requested_outputs_are_stored(tmp_path):
     store.commit(f, [r])
     with h5py.File(f, "r") as h:
         g = h["scenes"][r.key]
-        assert list(g["quasi_static"]) == ["dy"] and list(g["dynamic"]) == ["dy"]
-        assert list(g["metrics"]) == ["dy"]
-        assert g["dynamic/dy"].attrs["units"] == "m"
+        assert list(g["solutions/quasi_static"]) == ["dy"] and list(g["solutions/dynamic"]) == ["dy"]
+        assert list(g["metrics/quasi_static_vs_dynamic"]) == ["dy"]
+        assert g["solutions/dynamic/dy"].attrs["units"] == "m"
         assert g["parameters"].attrs["crank_m"] == 0.1
     assert store.verify(f) == []
 
@@ -121,9 +133,11 @@ def test_verify_detects_damage_and_readers_skip_incomplete_groups(tmp_path):
     cases = {
         "incomplete": lambda g: g.attrs.__delitem__("complete"),
         "content key": lambda g: g["parameters"].attrs.__setitem__("json", spec(123.0).canonical_json()),
-        "missing dataset dynamic/dx": lambda g: g["dynamic"].__delitem__("dx"),
-        "shape": lambda g: (g["quasi_static"].__delitem__("dy"), g["quasi_static"].create_dataset("dy", data=[1.0])),
-        "verdict inconsistent": lambda g: g["metrics/dx"].attrs.__setitem__("holds", np.uint8(0)),
+        "missing history dynamic/dx": lambda g: g["solutions/dynamic"].__delitem__("dx"),
+        "shape": lambda g: (g["solutions/quasi_static"].__delitem__("dy"),
+                            g["solutions/quasi_static"].create_dataset("dy", data=[1.0])),
+        "differ from the histories": lambda g: g["metrics/quasi_static_vs_dynamic/dx"].attrs.__setitem__(
+            "holds", np.uint8(0)),
     }
     for words, damage in cases.items():
         bad = tmp_path / f"bad_{words.split()[0]}.h5"

@@ -8,14 +8,16 @@ import numpy as np
 import pytest
 
 from compare.metrics import (
+    all_pairs,
     amplification,
     component_metrics,
+    history_error,
     max_abs_error,
+    pair_metrics,
     peak_angle,
+    peak_error,
     phase_shift,
-    relative_error,
     rms_error,
-    scene_metrics,
     wrap_angle,
 )
 
@@ -25,7 +27,7 @@ THETA = np.arange(72) * (2 * np.pi / 72)
 def test_identical_histories_agree_perfectly():
     y = 1e-3 * np.sin(THETA)
     m = component_metrics("dx", THETA, y, y, tolerance=0.1)
-    assert m.max_abs_error == 0 and m.rms_error == 0 and m.relative_error == 0
+    assert m.max_abs_error == 0 and m.rms_error == 0 and m.history_error == 0
     assert m.amplification == 1 and m.phase_shift == 0 and m.holds and m.units == "m"
 
 
@@ -34,7 +36,7 @@ def test_scaled_history():
     dyn = 1.25 * qs
     assert max_abs_error(qs, dyn) == pytest.approx(0.5e-3)
     assert rms_error(qs, dyn) == pytest.approx(0.5e-3 / math.sqrt(2))
-    assert relative_error(qs, dyn) == pytest.approx(0.2)
+    assert history_error(qs, dyn) == pytest.approx(0.2)
     assert amplification(qs, dyn) == pytest.approx(1.25)
     m = component_metrics("dy", THETA, qs, dyn, tolerance=0.1)
     assert not m.holds
@@ -61,9 +63,9 @@ def test_phase_shift_wraps_across_zero():
 
 def test_degenerate_peaks():
     zero = np.zeros_like(THETA)
-    assert relative_error(zero, zero) == 0.0
+    assert history_error(zero, zero) == 0.0
     assert amplification(zero, np.ones_like(THETA)) == math.inf
-    assert relative_error(np.ones_like(THETA), zero) == math.inf
+    assert history_error(np.ones_like(THETA), zero) == math.inf
 
 
 def test_bad_inputs_are_rejected():
@@ -78,10 +80,33 @@ def test_bad_inputs_are_rejected():
 def test_scene_metrics_verdict_and_speed_ratio():
     qs = {"dx": np.sin(THETA), "rotation": np.cos(THETA)}
     dyn = {"dx": 1.05 * np.sin(THETA), "rotation": 1.5 * np.cos(THETA)}
-    m = scene_metrics(THETA, qs, dyn, omega=-10.0, omega1_min=40.0, tolerance=0.1)
+    m = pair_metrics("quasi_static", "dynamic", THETA, qs, dyn, omega=-10.0, omega1_min=40.0, tolerance=0.1)
     assert m.speed_ratio == pytest.approx(0.25) and m.omega == 10.0
-    assert [c.component for c in m.components] == ["dx", "rotation"]
+    assert [c.component for c in m.components] == ["dx", "rotation"]  # no vector without dy
     assert m.component("dx").holds and not m.component("rotation").holds
     assert not m.holds
     assert m.max_relative_error == pytest.approx(1 / 3)
     assert m.max_amplification == pytest.approx(1.5)
+
+
+def test_vector_history_and_peak_errors_have_closed_forms():
+    # a = (cos, sin) traces the unit circle; b is the same circle turned by 60 deg and scaled by 2:
+    # |a - b| is constant, |a - b|^2 = 1 + 4 - 4 cos 60 deg = 3, peak |b| = 2 -> history error sqrt(3)/2,
+    # peak error |1 - 2| / 2 = 1/2, amplification 2
+    a = {"dx": np.cos(THETA), "dy": np.sin(THETA)}
+    b = {"dx": 2 * np.cos(THETA + math.pi / 3), "dy": 2 * np.sin(THETA + math.pi / 3)}
+    m = pair_metrics("quasi_static", "dynamic", THETA, a, b, omega=1.0, omega1_min=1.0, tolerance=0.1)
+    v = m.component("vector")
+    assert v.history_error == pytest.approx(math.sqrt(3) / 2) and v.peak_error == pytest.approx(0.5)
+    assert v.amplification == pytest.approx(2.0) and v.units == "m"
+    assert peak_error(np.ones(4), 1.25 * np.ones(4)) == pytest.approx(0.2)
+    assert m.verdict_error == max(m.component("dx").history_error, m.component("dy").history_error)
+
+
+def test_every_pair_is_measured_against_the_higher_fidelity_solver():
+    h = {"dynamic": {"dx": np.sin(THETA)}, "quasi_static": {"dx": 0.5 * np.sin(THETA)},
+         "linear": {"dx": 0.9 * np.sin(THETA)}}
+    pairs = all_pairs(THETA, h, omega=1.0, omega1_min=10.0, tolerance=0.1)
+    assert set(pairs) == {"quasi_static_vs_dynamic", "quasi_static_vs_linear", "linear_vs_dynamic"} or \
+        set(pairs) == {"quasi_static_vs_dynamic"} | {p for p in pairs if "linear" in p}
+    assert pairs["quasi_static_vs_dynamic"].component("dx").history_error == pytest.approx(0.5)

@@ -139,7 +139,7 @@ def test_section_rejects_bad_values(field, value):
 
 
 def test_mass_model_and_scene_reject_bad_input(thesis):
-    with pytest.raises(ValueError, match="mass model must be one of"):
+    with pytest.raises(ValueError, match="mass model: must be one of"):
         MassModel("lumpy")
     with pytest.raises(ValueError, match="payload"):
         MassModel("tip")

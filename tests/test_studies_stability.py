@@ -10,10 +10,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.config import load_config, parse_config
+from compare.config import ConfigError, load_config, parse_config
 from compare.execute import run_scene
 from compare.studies.stability import CONFIG_DIR, case_of_keys
 from compare.studies.stability_analysis import check, quasi_report
+from compare.studies.study_io import refused_configs
 
 STIFF = """
 [campaign]
@@ -40,8 +41,8 @@ def test_stiff_case_converges_at_the_default_step() -> None:
     r = run_scene(_scene(STIFF))
     assert r.ok, r.message
     assert r.dynamic_settings["steps_per_cycle"] == DynamicSettings().steps_per_cycle
-    assert r.stats.converged and r.stats.cycles <= 6
-    assert r.metrics.speed_ratio < 0.01
+    assert r.stat("dynamic", "converged") and r.stat("dynamic", "cycles") <= 6
+    assert r.verdict.speed_ratio < 0.01
     for c in ("dx", "dy"):
         dyn, qs = r.dynamic[c], r.quasi_static[c]
         assert np.all(np.isfinite(dyn))
@@ -51,7 +52,7 @@ def test_stiff_case_converges_at_the_default_step() -> None:
 def test_newton_failure_raises_simulation_error_and_is_recorded() -> None:
     """Massless links (tip model) at 90 steps per cycle: Newton fails; simulate_steady_state raises
     SimulationError with time and crank angle, and a campaign records it (stage dynamic)."""
-    from compare.execute import build_settings
+    from compare.solvers.dynamic import settings_for as build_settings
     from compare.studies.work_precision import ked_scene
     from exudyn_models import SimulationError, simulate_steady_state
 
@@ -70,7 +71,8 @@ def test_no_steady_state_is_recorded_as_failed() -> None:
                          "rpm = [300.0]\n[dynamic]\nelements_per_link = 1\nsteps_per_cycle = 90\nmax_cycles = 2\n"
                          "steady_tol = 1.0e-9\nextrapolate = false\n"))
     assert (r.status, r.stage, r.error_type) == ("failed", "dynamic", "NoSteadyState")
-    assert "no periodic steady state" in r.message and r.stats.cycles == 2 and not r.stats.converged
+    assert "no periodic steady state" in r.message and r.stat("dynamic", "cycles") == 2
+    assert not r.stat("dynamic", "converged")
 
 
 def test_linkage_past_the_grashof_limit_fails_at_setup_with_value_error() -> None:
@@ -80,10 +82,11 @@ def test_linkage_past_the_grashof_limit_fails_at_setup_with_value_error() -> Non
 
     with pytest.raises(ValueError, match="cannot assemble"):
         dataclasses.replace(thesis_fourbar(), coupler=0.635, follower=0.3809)
-    (spec,) = load_config(CONFIG_DIR / "07_cannot_assemble.toml").scenes()
-    r = run_scene(spec)
-    assert (r.status, r.stage, r.error_type) == ("failed", "setup", "ValueError")
-    assert "Grashof" in r.message
+    # refused when the campaign is loaded (before anything runs), with the Grashof class in the message
+    with pytest.raises(ConfigError, match="Grashof"):
+        load_config(CONFIG_DIR / "07_cannot_assemble.toml")
+    refused = refused_configs([CONFIG_DIR / "07_cannot_assemble.toml", CONFIG_DIR / "01_baseline.toml"])
+    assert list(refused) == ["07_cannot_assemble.toml"] and "cannot assemble" in refused["07_cannot_assemble.toml"]
 
 
 def test_near_toggle_is_flagged_by_the_quasi_static_solver() -> None:
@@ -135,5 +138,7 @@ def test_stability_configs_cover_the_required_cases() -> None:
     for required in ("stiff", "flexible", "supercritical", "near-toggle", "slender", "massless", "heavy-tip",
                      "small-step", "large-step", "spectral-radius"):
         assert required in names
-    scales = {s.stiffness_scale for c in configs for s in load_config(c).scenes()}
+    refused = refused_configs(configs)
+    assert set(refused) == {"07_cannot_assemble.toml"}  # the cannot-assemble case is refused at load
+    scales = {s.stiffness_scale for c in configs if c.name not in refused for s in load_config(c).scenes()}
     assert {1000.0, 0.01} <= scales

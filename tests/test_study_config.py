@@ -11,7 +11,7 @@ BASE = "[grid]\nmass_models = ['extender']\n"
 
 def test_no_variants_keeps_scenes_and_keys() -> None:
     plain = parse_config(BASE + "[dynamic]\nsteps_per_cycle = 90\n")
-    assert plain.dynamic_variants == ((),)
+    assert plain.grid.dynamic_variants == ((),)
     same = parse_config(BASE + "dynamic_variants = [{steps_per_cycle = 90}]\n")
     assert [s.key for s in plain.scenes()] == [s.key for s in same.scenes()]
 

@@ -25,9 +25,10 @@ import numpy as np
 
 from compare import store
 from compare.config import load_config
-from compare.execute import build_settings
+from compare.inspect import speed_ratio
 from compare.results import SceneResult
-from compare.scenes import COMPONENTS
+from compare.solvers import COMPONENTS
+from compare.solvers.dynamic import settings_for as build_settings
 from compare.studies import study_io
 from compare.studies.sections import write_section
 from compare.studies.stability_analysis import check, deviation, peak, quasi_report
@@ -79,9 +80,12 @@ class CaseRow:
 
 
 def case_of_keys(configs: Sequence[Path]) -> dict[str, tuple[str, str]]:
-    """Scene key -> (case name = campaign.name, config file name)."""
+    """Scene key -> (case name = campaign.name, config file name); configs refused at load have no scenes."""
     out = {}
+    refused = study_io.refused_configs(configs)
     for c in configs:
+        if c.name in refused:
+            continue
         cfg = load_config(c)
         for s in cfg.scenes():
             out.setdefault(s.key, (cfg.name, c.name))
@@ -140,6 +144,18 @@ def step_ladder(r: SceneResult) -> tuple[int, str]:
     return -1, "; ".join(log)
 
 
+def refused_row(config: str, message: str) -> CaseRow:
+    """The row of a case whose config is refused at load (nothing runs; the reason is the result)."""
+    nan = math.nan
+    return CaseRow(case=config.split("_", 1)[-1].removesuffix(".toml").replace("_", "-"), config=config, key="",
+                   label="", variant="", speed_ratio=nan, rpm=nan, status="refused", stage="load",
+                   error_type="ConfigError", message=message[:400], qs_peak_m=nan, qs_peak_unflagged_m=nan,
+                   qs_condition_max=nan, qs_flagged_deg="", qs_toggle_distance_deg=nan, qs_nonfinite=-1,
+                   qs_warning="", dyn_converged=False, dyn_cycles=-1, dyn_newton_iterations=-1, dyn_steps=-1,
+                   dyn_wall_s=0.0, dyn_peak_m=nan, amplification=nan, deviation_from_default=nan, check="-",
+                   stable_steps_per_cycle=-1, ladder="")
+
+
 def case_rows(results: Sequence[SceneResult], cases: dict[str, tuple[str, str]], ladder: bool = True) -> list[CaseRow]:
     """One row per stored scene of the stability campaign (in config order)."""
     from ked_quasi.solver import solve_quasi_static
@@ -164,17 +180,16 @@ def case_rows(results: Sequence[SceneResult], cases: dict[str, tuple[str, str]],
         amp = dyn_peak / qs.peak_unflagged_m if (qs is not None and qs.peak_unflagged_m > 0) else math.nan
         base = defaults.get(family_key(r.spec))
         dev = deviation(d, _dyn(base)) if (d is not None and base is not None and base.key != r.key) else None
-        ratio = r.metrics.speed_ratio if r.metrics else (r.rpm * 2 * math.pi / 60 / r.omega1_min
-                                                         if math.isfinite(r.omega1_min) else math.nan)
+        ratio = speed_ratio(r)
         finite = d is not None and bool(np.all(np.isfinite(d)))
-        verdict = check(r.ok, finite, r.stats.converged, ratio, amp, dev,
+        verdict = check(r.ok, finite, bool(r.stat("dynamic", "converged", False)), ratio, amp, dev,
                         near_toggle=bool(qs is not None and qs.flagged_deg))
         stable, log = -1, ""
         if ladder and r.error_type == "SimulationError":
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 stable, log = step_ladder(r)
-        elif r.stats.cycles >= 0 and r.error_type != "SimulationError":
+        elif r.stat("dynamic", "cycles", -1) >= 0 and r.error_type != "SimulationError":
             stable = int(r.dynamic_settings.get("steps_per_cycle", -1))
         rows.append(CaseRow(
             case=case, config=config, key=key, label=r.spec.label, variant=variant_text(r), speed_ratio=ratio,
@@ -185,9 +200,9 @@ def case_rows(results: Sequence[SceneResult], cases: dict[str, tuple[str, str]],
             qs_flagged_deg=",".join(f"{x:g}" for x in qs.flagged_deg) if qs else "",
             qs_toggle_distance_deg=qs.toggle_distance_deg if qs else math.nan,
             qs_nonfinite=qs.nonfinite if qs else -1, qs_warning=warn,
-            dyn_converged=bool(r.stats.converged), dyn_cycles=r.stats.cycles,
-            dyn_newton_iterations=r.stats.newton_iterations, dyn_steps=r.stats.steps,
-            dyn_wall_s=r.stats.dynamic_wall_s, dyn_peak_m=dyn_peak, amplification=amp,
+            dyn_converged=bool(r.stat("dynamic", "converged", False)), dyn_cycles=r.stat("dynamic", "cycles", -1),
+            dyn_newton_iterations=r.stat("dynamic", "newton_iterations", -1), dyn_steps=r.stat("dynamic", "steps", -1),
+            dyn_wall_s=r.stat("dynamic", "wall_s", 0.0), dyn_peak_m=dyn_peak, amplification=amp,
             deviation_from_default=math.nan if dev is None else dev, check=verdict,
             stable_steps_per_cycle=stable, ladder=log))
     return rows
@@ -202,6 +217,7 @@ def run_study(out: Path = OUT, *, workers: int | None = 2, fresh: bool = True, r
     t_campaign = time.perf_counter() - t0
     results = store.read_scenes(out)
     rows = case_rows(results, case_of_keys(configs), ladder=ladder)
+    rows += [refused_row(c, m) for c, m in study_io.refused_configs(configs).items()]
     from exudyn_models import DynamicSettings
 
     attrs = {"name": SECTION, "created_utc": store.utc_now(), "defaults": asdict(DynamicSettings()),

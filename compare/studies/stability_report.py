@@ -28,6 +28,8 @@ def _qs_peak(r: dict) -> str:
 def _dynamic(r: dict) -> str:
     if r["status"] == "ok":
         return "converged"
+    if r["status"] == "refused":
+        return "not run (refused at load)"
     if r["stage"] in ("setup", "frequencies", "quasi_static"):
         return f"not run ({r['stage']})"
     return f"**failed** ({r['stage']}: {r['error_type']})"

@@ -18,20 +18,34 @@ import h5py
 import numpy as np
 
 from compare import store
-from compare.config import load_config
+from compare.config import ConfigError, load_config
 from compare.runner import CampaignSummary, run_campaign
 
 STUDY = "study"
 _STR = h5py.string_dtype("utf-8")
 
 
+def refused_configs(configs: Sequence[Path]) -> dict[str, str]:
+    """Config file name -> why it is refused at load (a case of a study may be exactly that)."""
+    out = {}
+    for c in configs:
+        try:
+            load_config(c)
+        except ConfigError as exc:
+            out[c.name] = "; ".join(exc.problems)
+    return out
+
+
 def run_configs(configs: Sequence[Path], out: Path, *, workers: int | None, fresh: bool,
                 progress: bool = True) -> list[CampaignSummary]:
     """Run each campaign config into ``out`` (scenes already stored are skipped, so scenes shared by
-    two configs run once). ``fresh``: delete ``out`` first (the study regenerates it)."""
+    two configs run once; configs refused at load are left out, see :func:`refused_configs`).
+    ``fresh``: delete ``out`` first (the study regenerates it)."""
     if fresh and out.exists():
         out.unlink()
-    return [run_campaign(load_config(c), out, workers=workers, progress=progress) for c in configs]
+    refused = refused_configs(configs)
+    return [run_campaign(load_config(c), out, workers=workers, progress=progress) for c in configs
+            if c.name not in refused]
 
 
 def _flatten(row: Any) -> dict[str, Any]:

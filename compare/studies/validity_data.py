@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from compare import store
+from compare.inspect import speed_ratio
 from compare.results import SceneResult
 from compare.scenes import SceneSpec
 
@@ -89,13 +90,9 @@ def _xy(side: dict[str, np.ndarray]) -> np.ndarray | None:
 
 
 def _speed_ratio(r: SceneResult) -> float:
-    if r.metrics is not None:
-        return float(r.metrics.speed_ratio)
-    if r.spec.speed.kind == "ratio":
-        return float(r.spec.speed.value)
-    if math.isfinite(r.rpm) and math.isfinite(r.omega1_min) and r.omega1_min > 0:
-        return r.rpm * 2.0 * math.pi / 60.0 / r.omega1_min
-    return float("nan")
+    if r.verdict is not None or r.spec.speed.kind != "ratio":
+        return float(speed_ratio(r))
+    return float(r.spec.speed.value)
 
 
 def to_point(r: SceneResult, linkage: str, refined: bool, source: str = "") -> Point:
@@ -111,7 +108,7 @@ def to_point(r: SceneResult, linkage: str, refined: bool, source: str = "") -> P
         refined=refined, elements_per_link=int(ds.get("elements_per_link", -1)),
         steps_per_cycle=int(ds.get("steps_per_cycle", -1)),
         theta=r.crank_angle, qs=_xy(r.quasi_static), dyn=_xy(r.dynamic) if r.ok else None,
-        wall_s=float(r.stats.total_wall_s), cycles=int(r.stats.cycles), spec=r.spec, source=source,
+        wall_s=float(r.stats.total_wall_s), cycles=int(r.stat("dynamic", "cycles", -1)), spec=r.spec, source=source,
         finished_utc=r.stats.finished_utc,
     )
 
@@ -142,18 +139,16 @@ def linkage_json(spec: SceneSpec) -> str:
     """Canonical JSON of a scene's source linkage (identifies the four-bar across files)."""
     from compare.scenes import canonical_json
 
-    return canonical_json(spec.linkage.to_dict())
+    return canonical_json(spec.key_dict()["linkage"])
 
 
 def quasi_static_loads(spec: SceneSpec) -> tuple[np.ndarray, np.ndarray]:
     """Recompute the scene's quasi-static solution at 1 rad/s-equivalent shape: returns
     (loads (n, N, 2) [N], deflection (n, 2) [m]) at the scene's grid and an arbitrary speed.  The shape
     of both is independent of the speed (they scale with Omega^2), which is all the harmonic rule needs."""
-    from compare.execute import build_fourbar, build_mass_model
-    from ked_quasi.scene import Scene
     from ked_quasi.solver import solve_quasi_static
 
-    scene = Scene(build_fourbar(spec), build_mass_model(spec), rpm=100.0, step_deg=spec.step_deg)
+    scene = spec.scene(100.0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         qs = solve_quasi_static(scene)

@@ -22,9 +22,10 @@ import click
 import numpy as np
 
 from compare import store
-from compare.execute import build_fourbar, build_mass_model, build_settings
 from compare.results import SceneResult
-from compare.scenes import COMPONENTS, SceneSpec, canonical_json
+from compare.scenes import SceneSpec, canonical_json
+from compare.solvers import COMPONENTS
+from compare.solvers.dynamic import settings_for as build_settings
 from compare.studies import study_io
 from compare.studies.sections import write_section
 from compare.studies.wp_analysis import (
@@ -71,9 +72,7 @@ def discretization(settings: dict) -> Discretization:
 
 def ked_scene(r: SceneResult):
     """The ked_quasi Scene a stored result was computed on (resolved crank speed)."""
-    from ked_quasi.solver import Scene
-
-    return Scene(build_fourbar(r.spec), build_mass_model(r.spec), rpm=r.rpm, step_deg=r.spec.step_deg)
+    return r.spec.scene(r.rpm)
 
 
 def median_time(fn: Callable[[], object], repeats: int) -> float:
@@ -94,10 +93,10 @@ def retime(results: Sequence[SceneResult], below_s: float, extra: int) -> dict[s
 
     out = {}
     for r in results:
-        if not r.ok or r.stats.dynamic_wall_s >= below_s:
+        if not r.ok or r.stat("dynamic", "wall_s") >= below_s:
             continue
         scene, settings = ked_scene(r), build_settings(r.spec)
-        walls = [r.stats.dynamic_wall_s]
+        walls = [r.stat("dynamic", "wall_s")]
         for _ in range(extra):
             t0 = time.perf_counter()
             simulate_steady_state(scene, settings)
@@ -117,14 +116,14 @@ def dynamic_points(results: Sequence[SceneResult], timings: dict[str, tuple[floa
             continue
         if r.key != ref.key and r.dynamic_settings.get("steady_tol") == REFERENCE["steady_tol"]:
             continue  # a check of the reference itself (reference_check), not a discretization to rank
-        wall, n, spread = timings.get(r.key, (r.stats.dynamic_wall_s, 1, 0.0))
+        wall, n, spread = timings.get(r.key, (r.stat("dynamic", "wall_s"), 1, 0.0))
         ok = r.ok and bool(r.dynamic)
         err = cycle_error(deflection(r.dynamic), deflection(ref.dynamic)) if ok else math.nan
         points.append(WPPoint(
             family=family_label(r.spec), disc=discretization(r.dynamic_settings),
             reference=r.key == ref.key, ok=ok, wall_s=float(wall), repeats=n, error=err,
-            cycles=r.stats.cycles, newton_iterations=r.stats.newton_iterations,
-            message=(r.message or r.stats.dynamic_message)[:300], wall_spread=float(spread)))
+            cycles=r.stat("dynamic", "cycles", -1), newton_iterations=r.stat("dynamic", "newton_iterations", -1),
+            message=(r.message or r.stat("dynamic", "dynamic_message", ""))[:300], wall_spread=float(spread)))
     return points
 
 
@@ -138,7 +137,7 @@ def reference_check(results: Sequence[SceneResult]) -> list[dict]:
                 or s["elements_per_link"] <= REFERENCE["elements_per_link"]):
             continue
         out.append({"family": family_label(r.spec), "elements_per_link": s["elements_per_link"],
-                    "steps_per_cycle": s["steps_per_cycle"], "wall_s": r.stats.dynamic_wall_s,
+                    "steps_per_cycle": s["steps_per_cycle"], "wall_s": r.stat("dynamic", "wall_s"),
                     "error": cycle_error(deflection(ref.dynamic), deflection(r.dynamic))})
     return out
 
@@ -150,7 +149,7 @@ def quasi_points(results: Sequence[SceneResult], repeats: int) -> list[dict]:
 
     out = []
     for r in results:
-        if not (r.ok and is_reference(r.dynamic_settings) and r.metrics is not None):
+        if not (r.ok and is_reference(r.dynamic_settings) and r.verdict is not None):
             continue
         scene = ked_scene(r)
         with warnings.catch_warnings():
@@ -158,8 +157,8 @@ def quasi_points(results: Sequence[SceneResult], repeats: int) -> list[dict]:
             wall = median_time(lambda scene=scene: solve_quasi_static(scene), repeats)
         qs, dyn = deflection(r.quasi_static), deflection(r.dynamic)
         out.append({"mass_model": r.spec.mass_model.name, "lumps": r.spec.mass_model.lumps,
-                    "speed_ratio": float(r.metrics.speed_ratio), "rpm": float(r.rpm),
-                    "error": cycle_error(qs, dyn), "wall_s": wall, "dynamic_wall_s": r.stats.dynamic_wall_s,
+                    "speed_ratio": float(r.verdict.speed_ratio), "rpm": float(r.rpm),
+                    "error": cycle_error(qs, dyn), "wall_s": wall, "dynamic_wall_s": r.stat("dynamic", "wall_s"),
                     "qs_peak_m": float(np.max(np.abs(qs[:, :2]))), "dyn_peak_m": float(np.max(np.abs(dyn[:, :2])))})
     return sorted(out, key=lambda d: (d["mass_model"], d["speed_ratio"]))
 

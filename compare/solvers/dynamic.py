@@ -1,0 +1,51 @@
+"""The nonlinear dynamic reference: Exudyn flexible multibody model to periodic steady state."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from compare.solvers import COMPONENTS, STATUS_FAILED, STATUS_OK, Solution, Solver, register
+
+
+def settings_class() -> type:
+    from exudyn_models.settings import DynamicSettings
+
+    return DynamicSettings
+
+
+def make_settings(overrides: dict[str, Any], damping_ratio: float) -> Any:
+    """``DynamicSettings`` from the explicit overrides (the scene's damping ratio included in them)."""
+    return settings_class()(**overrides)
+
+
+def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Solution:
+    """Exudyn steady state of the scene; a run without a periodic steady state is a failed solution
+    that keeps its last cycle."""
+    from exudyn_models.simulate import simulate_steady_state
+
+    res = simulate_steady_state(scene, settings)
+    if not np.allclose(np.asarray(res.crank_angle, dtype=float), scene.crank_angles, rtol=0.0, atol=1e-9):
+        raise ValueError("dynamic result is not on the scene's crank-angle grid")
+    stats = {"wall_s": float(res.wall_s), "steps": int(res.steps), "newton_iterations": int(res.newton_iterations),
+             "cycles": int(res.cycles), "converged": bool(res.converged), "dynamic_message": str(res.message)[:2000],
+             "damping_reference_hz": float(res.damping_reference_hz)}
+    d = np.asarray(res.deflection, dtype=float)
+    deflection = {c: d[:, COMPONENTS.index(c)].copy() for c in outputs}
+    if res.converged:
+        return Solution(SOLVER.name, STATUS_OK, deflection, stats=stats)
+    return Solution(SOLVER.name, STATUS_FAILED, deflection, stats=stats, error_type="NoSteadyState",
+                    message=f"no periodic steady state: {res.message}"[:2000])
+
+
+SOLVER = register(Solver(
+    name="dynamic", label="dynamic (Exudyn)", fidelity=10, settings_class=settings_class,
+    make_settings=make_settings, run=run,
+    description="Exudyn flexible multibody model (ANCF or geometrically exact beams), periodic steady state",
+))
+
+
+def settings_for(spec: Any) -> Any:
+    """The ``DynamicSettings`` a campaign scene (``compare.scenes.SceneSpec``) runs with."""
+    return make_settings(spec.settings_for(SOLVER.name), spec.damping_ratio)

@@ -1,0 +1,135 @@
+"""The validation rules of every scene parameter, defined once.
+
+The dataclasses (:class:`~ked_quasi.linkage.Section`, :class:`~ked_quasi.linkage.FourBar`,
+:class:`~ked_quasi.massmodel.MassModel`, :class:`~ked_quasi.scene.Scene`), the campaign TOML loader
+and the command line all check a value with the same :class:`Rule`, so a value accepted by one is
+accepted by all, and every refusal says what is allowed and why.  Units: SI unless the rule's
+``unit`` says otherwise (rpm, deg).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Rule:
+    """An allowed range for one parameter.
+
+    ``name``: the parameter as users know it; ``unit``: its unit (text); ``lo``/``hi``: bounds (None =
+    unbounded); ``lo_open``/``hi_open``: strict bounds; ``integer``: whole numbers only; ``why``: the
+    reason for the bounds, quoted in every refusal.
+    """
+
+    name: str
+    unit: str
+    lo: float | None
+    hi: float | None
+    why: str
+    lo_open: bool = False
+    hi_open: bool = False
+    integer: bool = False
+
+    def allowed(self) -> str:
+        """The allowed range as text, e.g. ``a number in (0, 1e+05] rpm``."""
+        kind = "an integer" if self.integer else "a number"
+        if self.lo is None and self.hi is None:
+            return f"{kind} (finite)"
+        lo = "-inf" if self.lo is None else f"{self.lo:g}"
+        hi = "inf" if self.hi is None else f"{self.hi:g}"
+        left = "(" if self.lo_open or self.lo is None else "["
+        right = ")" if self.hi_open or self.hi is None else "]"
+        unit = f" {self.unit}" if self.unit else ""
+        return f"{kind} in {left}{lo}, {hi}{right}{unit}"
+
+    def check(self, value: object, label: str | None = None) -> float | int:
+        """``value`` as float (int for integer rules); ValueError naming ``label`` (default: the rule's
+        name), the value, the allowed range and the reason."""
+        label = label or self.name
+        v = self._number(value, label)
+        below = self.lo is not None and (v < self.lo or (self.lo_open and v == self.lo))
+        above = self.hi is not None and (v > self.hi or (self.hi_open and v == self.hi))
+        if below or above:
+            raise ValueError(f"{label}: must be {self.allowed()} ({self.why}); got {value!r}")
+        return v
+
+    def _number(self, value: object, label: str) -> float | int:
+        if isinstance(value, bool):
+            raise ValueError(f"{label}: must be {self.allowed()}; got the boolean {value!r}")
+        if self.integer:
+            if isinstance(value, int) or (hasattr(value, "__index__") and not isinstance(value, float)):
+                return int(value)  # type: ignore[call-overload]
+            raise ValueError(f"{label}: must be {self.allowed()}; got {value!r}")
+        try:
+            v = float(value)  # type: ignore[arg-type]
+        except (TypeError, ValueError):
+            raise ValueError(f"{label}: must be {self.allowed()}; got {value!r}") from None
+        if not math.isfinite(v):
+            raise ValueError(f"{label}: must be {self.allowed()}; got {value!r}")
+        return v
+
+
+def check_choice(label: str, value: object, allowed: tuple[str, ...]) -> str:
+    """``value`` if it is one of ``allowed``; ValueError naming ``label`` and the choices otherwise."""
+    if not isinstance(value, str) or value not in allowed:
+        raise ValueError(f"{label}: must be one of {', '.join(allowed)}; got {value!r}")
+    return value
+
+
+# -- linkage ------------------------------------------------------------------------------------
+LENGTH = Rule("length", "m", 0.0, 1e3, "a link of a planar linkage, from micrometres to 1 km", lo_open=True)
+COORDINATE = Rule("pivot coordinate", "m", -1e3, 1e3, "pivots within 1 km of the origin")
+COUPLER_ANGLE_DEG = Rule("coupler_angle_deg", "deg", -360.0, 360.0, "one turn either way")
+COUPLER_ANGLE = Rule("coupler_angle", "rad", -2.0 * math.pi, 2.0 * math.pi, "one turn either way")
+YOUNGS_MODULUS = Rule("youngs_modulus", "Pa", 0.0, 1e18, "any material, times a stiffness scale of up to 1e6",
+                      lo_open=True)
+AREA = Rule("area", "m^2", 0.0, 1.0, "a slender link's cross-section", lo_open=True)
+SECOND_MOMENT = Rule("second_moment", "m^4", 0.0, 1.0, "a slender link's cross-section", lo_open=True)
+DENSITY = Rule("density", "kg/m^3", 0.0, 1e5, "up to 4x the densest metal", lo_open=True)
+STIFFNESS_SCALE = Rule("stiffness_scale", "", 0.0, 1e6, "a factor on every Young's modulus", lo_open=True)
+
+# -- mass model ---------------------------------------------------------------------------------
+LUMPS = Rule("lumps", "per link", 1, 100, "the lumped models converge well before 100 lumps per link; "
+             "each lump adds two coordinates to every frozen structure", integer=True)
+PAYLOAD_KG = Rule("payload_kg", "kg", 0.0, 1e4, "a point mass a linkage can carry, up to 10 t")
+JOINT_SPLIT = Rule("joint_split", "", 0.0, 1.0, "the fraction of a link's mass at its root end")
+
+# -- speed and grid -----------------------------------------------------------------------------
+RPM = Rule("rpm", "rev/min", 0.0, 1e5, "crank speeds of real machinery, up to 100 000 rpm", lo_open=True)
+SPEED_RATIO = Rule("speed_ratio", "", 0.0, 10.0,
+                   "crank speed over the lowest first natural frequency of the frozen linkage", lo_open=True)
+STEP_DEG = Rule("step_deg", "deg", 0.01, 45.0,
+                "at least 8 samples per turn to resolve peaks and harmonics, at most 36 000 angles; "
+                "it must divide 360")
+DAMPING_RATIO = Rule("damping_ratio", "", 0.0, 0.99, "a modal damping ratio below critical")
+N_MODES = Rule("n_modes", "", 1, 20, "natural frequencies stored per crank angle", integer=True)
+TOLERANCE = Rule("tolerance", "", 0.0, 10.0, "the relative error of a verdict", lo_open=True)
+
+MAX_WORK = 4e8
+"""Bound on crank angles x (coordinates of the frozen structure)^2 in one solve: the flexibility and
+frequency arrays hold that many numbers (8 bytes each, 3.2 GB at the bound)."""
+
+
+def check_step_deg(value: object, label: str = "step_deg") -> float:
+    """A crank-angle step [deg] within :data:`STEP_DEG` that divides 360 into whole steps."""
+    step = float(STEP_DEG.check(value, label))
+    n = 360.0 / step
+    if abs(n - round(n)) > 1e-9 * n:
+        raise ValueError(f"{label}: must divide 360 deg into whole steps (e.g. 1, 2.5, 5, 10); got {value!r}")
+    return step
+
+
+def steps_per_turn(step_deg: float) -> int:
+    """Number of grid angles of a full turn at ``step_deg`` (already checked to divide 360)."""
+    return round(360.0 / step_deg)
+
+
+def check_work(n_angles: int, n_coordinates: int, label: str = "step_deg and lumps") -> None:
+    """Refuse a solve whose per-angle matrices would not fit in memory (see :data:`MAX_WORK`)."""
+    work = float(n_angles) * float(n_coordinates) ** 2
+    if work > MAX_WORK:
+        raise ValueError(
+            f"{label}: {n_angles} crank angles x {n_coordinates} structural coordinates is too large a problem "
+            f"(angles x coordinates^2 = {work:.3g} > {MAX_WORK:.0e}, about {8 * work / 1e9:.1f} GB); "
+            "use a coarser step_deg or fewer lumps")
