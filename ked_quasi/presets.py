@@ -1,11 +1,9 @@
-"""Named linkages and the default scene construction used by the command line and campaigns."""
+"""Named linkages, and scenes built from a linkage's name (:func:`ked_quasi.scene.build_scene`)."""
 
 from __future__ import annotations
 
-from .cognates import mechanism
-from .linkage import THESIS_TIP_MASS_KG, FourBar, thesis_fourbar
-from .massmodel import MassModel
-from .scene import Scene
+from .linkage import FourBar, thesis_fourbar
+from .scene import Scene, build_scene
 
 LINKAGES = {"thesis": thesis_fourbar}
 
@@ -17,27 +15,9 @@ def linkage(name: str) -> FourBar:
     return LINKAGES[name]()
 
 
-def default_payload(linkage_name: str, mass_model: str) -> float:
-    """Payload at P [kg] a preset uses by default: the thesis's 2 lb in Case I (tip), none otherwise."""
-    return THESIS_TIP_MASS_KG if (linkage_name == "thesis" and mass_model == "tip") else 0.0
-
-
-def make_scene(
-    linkage_name: str = "thesis",
-    mechanism_name: str = "source",
-    mass_model: str = "tip",
-    rpm: float = 300.0,
-    step_deg: float = 10.0,
-    lumps: int = 5,
-    payload: float | None = None,
-    stiffness_scale: float = 1.0,
-    direction: str | None = None,
-) -> Scene:
-    """Scene from plain parameters (what the CLI and campaign configs speak)."""
-    fb = mechanism(linkage(linkage_name), mechanism_name)
-    if stiffness_scale != 1.0:
-        fb = fb.with_stiffness_scale(stiffness_scale)
-    if direction is not None:
-        fb = fb.with_direction(direction)
-    pay = default_payload(linkage_name, mass_model) if payload is None else payload
-    return Scene(fb, MassModel(mass_model, lumps=lumps, payload=pay), rpm, step_deg)
+def make_scene(linkage_name: str = "thesis", mechanism_name: str = "source", mass_model: str = "tip",
+               rpm: float = 300.0, step_deg: float = 10.0, lumps: int = 5, payload: float | None = None,
+               stiffness_scale: float = 1.0, direction: str | None = None) -> Scene:
+    """:func:`~ked_quasi.scene.build_scene` of a named linkage."""
+    return build_scene(linkage(linkage_name), mechanism_name, mass_model, rpm, step_deg, lumps, payload,
+                       stiffness_scale, direction)

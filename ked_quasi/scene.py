@@ -78,3 +78,15 @@ def variant(source: FourBar, mechanism: str = "source", stiffness_scale: float =
     if stiffness_scale != 1.0:
         fb = fb.with_stiffness_scale(stiffness_scale)
     return fb.with_direction(direction) if direction is not None else fb
+
+
+def build_scene(source: FourBar, mechanism: str = "source", mass_model: str = "tip", rpm: float = 300.0,
+                step_deg: float = 10.0, lumps: int = 5, payload: float | None = None, stiffness_scale: float = 1.0,
+                direction: str | None = None) -> Scene:
+    """A scene from plain parameters, the way campaigns and the command line build it: the
+    :func:`variant` of ``source``, the named mass model (payload [kg] default:
+    :func:`~ked_quasi.massmodel.default_payload`), ``rpm`` [rev/min], ``step_deg`` [deg]."""
+    from .massmodel import default_payload
+
+    mm = MassModel(mass_model, lumps=lumps, payload=default_payload(mass_model) if payload is None else payload)
+    return Scene(variant(source, mechanism, stiffness_scale, direction), mm, rpm, step_deg)

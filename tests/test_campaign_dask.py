@@ -8,9 +8,9 @@ import pytest
 from click.testing import CliRunner
 
 from compare import store
-from compare.cli import main
 from compare.config import parse_config
 from compare.runner import run_campaign
+from ked_cli.main import cli as main
 
 from .conftest import QUICK_DYNAMIC
 

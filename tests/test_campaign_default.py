@@ -13,7 +13,7 @@ from compare.config import load_config
 
 @pytest.mark.slow
 def test_ked_run_without_arguments(tmp_path):
-    cmd = [sys.executable, "-c", "from compare.cli import main; main()", "run", "--no-progress"]
+    cmd = [sys.executable, "-c", "from ked_cli.main import main; main()", "run", "--no-progress"]
     res = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=1200)
     assert res.returncode == 0, res.stderr[-2000:]
     out = tmp_path / "ked_results" / "thesis-default.h5"

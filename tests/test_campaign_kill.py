@@ -34,7 +34,7 @@ rpm = [30.0, 45.0, 60.0, 75.0]
 
 
 def _start(cfg_file, out):
-    cmd = [sys.executable, "-c", "from compare.cli import main; main()", "run", str(cfg_file), "--out", str(out),
+    cmd = [sys.executable, "-c", "from ked_cli.main import main; main()", "run", str(cfg_file), "--out", str(out),
            "--workers", "1", "--no-figures", "--no-progress"]
     return subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
 

@@ -15,8 +15,8 @@ import pytest
 from click.testing import CliRunner
 from scipy.optimize import minimize_scalar
 
-from compare.cli import main as ked
 from exudyn_models import DynamicSettings, simulate_steady_state
+from ked_cli.main import cli as ked
 from ked_quasi.kinematics import coupler_point
 from ked_quasi.massmodel import MassModel
 from ked_quasi.presets import make_scene

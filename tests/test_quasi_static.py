@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from compare.cli import main
+from ked_cli.main import cli as main
 from ked_quasi import FourBar, MassModel, Scene, Section, natural_frequencies, solve_quasi_static
 from ked_quasi.massmodel import lumps
 from ked_quasi.solver import ToggleWarning, flexibility_at_masses
@@ -140,7 +140,7 @@ def test_cli_quasi_json_contract():
 
 
 @pytest.mark.parametrize("args, word", [(["--mass-model", "lumpy"], "mass-model"), (["--rpm", "-3"], "rpm"),
-                                        (["--step-deg", "7"], "step_deg"), (["--rpm", "nan"], "rpm")])
+                                        (["--step-deg", "7"], "step-deg"), (["--rpm", "nan"], "rpm")])
 def test_cli_quasi_bad_input(args, word):
     out = CliRunner().invoke(main, ["quasi", *args])
     assert out.exit_code != 0

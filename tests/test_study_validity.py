@@ -11,11 +11,12 @@ import pytest
 from click.testing import CliRunner
 
 from compare import store
-from compare.cli import main
-from compare.studies.validity import CONFIGS, REFINE_FILE, load_study, replace_section, section_of
+from compare.studies.sections import section_of
+from compare.studies.validity import CONFIGS, REFINE_FILE, load_study
 from compare.studies.validity_analysis import Limit, crossing, errors, one_mode_curves, one_mode_errors, validity_limit
 from compare.studies.validity_figures import FIGURES
 from compare.studies.validity_report import render_section
+from ked_cli.main import cli as main
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -84,33 +85,25 @@ def test_vectorized_one_mode_equals_ked_quasi_estimate():
         assert curves["amplification"][i] == pytest.approx(e.amplification, rel=1e-12)
 
 
-def test_replace_section_keeps_the_rest():
-    text = "# T\n\nintro\n\n<!-- BEGIN other -->\nx\n<!-- END other -->\n"
-    once = replace_section(text, "A 1")
-    twice = replace_section(once, "B 2")
-    assert "<!-- BEGIN other -->\nx\n<!-- END other -->" in twice and section_of(twice) == "B 2"
-    assert twice.startswith("# T\n\nintro")
-
-
 def test_validity_study_quick(tmp_path):
     cfg = tmp_path / "validity_tiny.toml"
     cfg.write_text(TINY, encoding="utf-8")
     readme = tmp_path / "README.md"
     figs = tmp_path / "figures"
-    args = ["study", "validity", "--config", str(cfg), "--studies-dir", str(tmp_path), "--figures-dir", str(figs),
-            "--readme", str(readme), "--workers", "2"]
+    studies = tmp_path / "studies"
+    args = ["study", "validity", "--config", str(cfg), "--results-dir", str(tmp_path), "--workers", "2"]
     res = CliRunner().invoke(main, args, catch_exceptions=False)
     assert res.exit_code == 0, res.output
-    h5 = tmp_path / "validity_tiny.h5"
+    h5 = studies / "validity_tiny.h5"
     assert store.verify(h5) == []
-    assert (tmp_path / REFINE_FILE).exists() and store.verify(tmp_path / REFINE_FILE) == []
+    assert (studies / REFINE_FILE).exists() and store.verify(studies / REFINE_FILE) == []
     assert (figs / "validity_error.png").stat().st_size > 1000
-    section = section_of(readme.read_text(encoding="utf-8"))
+    section = section_of(readme.read_text(encoding="utf-8"), "validity")
     assert "### The answer" in section
     # the section is exactly what the stored files give
-    points, summaries = load_study([h5], tmp_path / REFINE_FILE)
+    points, summaries = load_study([h5], studies / REFINE_FILE)
     figures = [figs / n for n in FIGURES if (figs / n).exists()]
-    again = render_section(points, summaries, files=[h5], refine_file=tmp_path / REFINE_FILE, figures=figures,
+    again = render_section(points, summaries, files=[h5], refine_file=studies / REFINE_FILE, figures=figures,
                            readme=readme, configs=[cfg])
     assert section == again.strip("\n")
     # and its headline number follows from the raw datasets
@@ -121,8 +114,8 @@ def test_validity_study_quick(tmp_path):
     assert f"**{r10:.3f}**" in row
     # rerun: everything stored, nothing computed, same section
     res = CliRunner().invoke(main, args, catch_exceptions=False)
-    assert res.exit_code == 0 and "0 computed" in res.output
-    assert section_of(readme.read_text(encoding="utf-8")) == section
+    assert res.exit_code == 0 and '"computed": 0' in res.output
+    assert section_of(readme.read_text(encoding="utf-8"), "validity") == section
 
 
 @pytest.mark.slow
@@ -134,7 +127,7 @@ def test_committed_validity_study_matches_readme():
         res = CliRunner().invoke(main, ["inspect", str(f), "--verify"])
         assert res.exit_code == 0, res.output
     readme = ROOT / "results" / "README.md"
-    section = section_of(readme.read_text(encoding="utf-8"))
+    section = section_of(readme.read_text(encoding="utf-8"), "validity")
     points, summaries = load_study(files, studies / REFINE_FILE)
     figdir = ROOT / "results" / "figures"
     figures = [figdir / n for n in FIGURES if (figdir / n).exists()]

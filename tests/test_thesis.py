@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from ked_cli.thesis import thesis
 from ked_quasi.thesis import (
     QUIRKS_BY_TABLE,
     ThesisQuirks,
@@ -16,7 +17,6 @@ from ked_quasi.thesis import (
     published_table,
     quirk_walk,
 )
-from ked_quasi.thesis_cli import thesis
 from ked_quasi.thesis_tables import COLUMNS, TABLE_KEYS, TABLES, TYPOS, is_typo, published
 
 DEFLECTIONS = ("source_dx_in", "source_dy_in", "cognate_dx_in", "cognate_dy_in")

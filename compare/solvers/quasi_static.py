@@ -25,6 +25,7 @@ def make_settings(overrides: dict[str, Any], damping_ratio: float) -> QuasiStati
 
 def run(scene: Any, settings: QuasiStaticSettings, outputs: tuple[str, ...] = COMPONENTS) -> Solution:
     """Quasi-static deflection of P on the scene grid (near-toggle warnings kept)."""
+    from ked_quasi import limits
     from ked_quasi.solver import solve_quasi_static
 
     t0 = time.perf_counter()
@@ -33,10 +34,12 @@ def run(scene: Any, settings: QuasiStaticSettings, outputs: tuple[str, ...] = CO
         res = solve_quasi_static(scene)
     wall = time.perf_counter() - t0
     d = res.deflection
+    flags = limits.flags(d, scene.fourbar)
+    notes = sorted({str(w.message) for w in caught}) + ([limits.describe(flags, d, scene.fourbar)] if flags else [])
     return Solution(
         solver=SOLVER.name, status=STATUS_OK,
         deflection={c: d[:, COMPONENTS.index(c)].copy() for c in outputs},
-        stats={"wall_s": wall}, warnings="; ".join(sorted({str(w.message) for w in caught})),
+        stats={"wall_s": wall}, flags=flags, warnings="; ".join(notes),
     )
 
 

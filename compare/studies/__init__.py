@@ -1,25 +1,64 @@
-"""Studies that answer the harness's questions (issue 6): each one a checked-in campaign config under
-``results/studies/`` plus one ``ked study <name>`` command that regenerates its HDF5 file(s), figures
-and its own section of ``results/README.md``."""
+"""Studies that answer the harness's questions: each one checked-in campaign configs under
+``results/studies/`` plus one :func:`run` that regenerates its HDF5 file(s), figures and its own
+section of ``results/README.md``.
+
+Every study has the same signature (:func:`run`): it resumes what is stored (nothing is deleted
+unless ``fresh``), writes into one results directory (HDF5 files in ``studies/``, PNG figures in
+``figures/``, the README section in ``README.md``), and ``report_only`` redraws figures and README
+from the stored files without computing.
+"""
 
 from __future__ import annotations
 
-import click
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[2]
+CONFIG_DIR = ROOT / "results" / "studies"
+"""The checked-in study configs."""
+STUDIES = ("validity", "work-precision", "stability")
 
 
-@click.group("study")
-def study() -> None:
-    """Regenerate a study: campaigns, HDF5 files, figures and its section of results/README.md."""
+@dataclass(frozen=True)
+class StudyPaths:
+    """Where a study writes: ``results`` holds ``studies/`` (HDF5), ``figures/`` and ``README.md``."""
+
+    results: Path = ROOT / "results"
+
+    @property
+    def studies(self) -> Path:
+        return self.results / "studies"
+
+    @property
+    def figures(self) -> Path:
+        return self.results / "figures"
+
+    @property
+    def readme(self) -> Path:
+        return self.results / "README.md"
 
 
-def _register() -> None:
-    from compare.studies.stability import stability
-    from compare.studies.validity import validity
-    from compare.studies.work_precision import work_precision
+def run(name: str, paths: StudyPaths = StudyPaths(), *, workers: int = 2, fresh: bool = False,
+        report_only: bool = False, progress: bool = False, echo: Callable[[str], Any] = print,
+        **options: Any) -> dict[str, Any]:
+    """Run (resume) study ``name`` into ``paths`` and regenerate its figures and README section;
+    ``fresh`` deletes the study's stored HDF5 files first; ``report_only`` computes nothing.
+    ``options``: the study's own (validity: ``configs``, ``retry``, ``refine``; work-precision:
+    ``retime_below_s``; stability: ``ladder``).  Returns a summary (JSON-able)."""
+    if name not in STUDIES:
+        raise ValueError(f"study must be one of {', '.join(STUDIES)}; got {name!r}")
+    from compare.studies import stability, validity, work_precision
 
-    study.add_command(validity)
-    study.add_command(work_precision)
-    study.add_command(stability)
+    module = {"validity": validity, "work-precision": work_precision, "stability": stability}[name]
+    return module.run(paths, workers=workers, fresh=fresh, report_only=report_only, progress=progress, echo=echo,
+                      **options)
 
 
-_register()
+def remove_outputs(files: list[Path], echo: Callable[[str], Any]) -> None:
+    """Delete a study's stored HDF5 files (only on an explicit ``fresh``)."""
+    for f in files:
+        if f.exists():
+            f.unlink()
+            echo(f"removed {f} (--fresh)")

@@ -42,3 +42,11 @@ def write_section(path: str | Path, name: str, body: str) -> Path:
     tmp.write_text(new, encoding="utf-8")
     os.replace(tmp, path)
     return path
+
+
+def section_of(text: str, name: str) -> str:
+    """The content of section ``name`` ("" if absent)."""
+    begin, end = markers(name)
+    if begin not in text or end not in text:
+        return ""
+    return text[text.index(begin) + len(begin):text.index(end)].strip("\n")

@@ -12,15 +12,13 @@ table goes to ``/study/cases`` and to the ``stability`` section of ``results/REA
 
 from __future__ import annotations
 
-import json
 import math
 import time
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
-import click
 import numpy as np
 
 from compare import store
@@ -29,7 +27,7 @@ from compare.inspect import speed_ratio
 from compare.results import SceneResult
 from compare.solvers import COMPONENTS
 from compare.solvers.dynamic import settings_for as build_settings
-from compare.studies import study_io
+from compare.studies import StudyPaths, remove_outputs, study_io
 from compare.studies.sections import write_section
 from compare.studies.stability_analysis import check, deviation, peak, quasi_report
 from compare.studies.work_precision import family_key, ked_scene
@@ -238,20 +236,12 @@ def report(out: Path = OUT, readme: Path = README) -> Path:
     return write_section(readme, SECTION, stability_report.markdown(tables, attrs))
 
 
-@click.command("stability")
-@click.option("--out", type=click.Path(path_type=Path), default=OUT, show_default=True, help="results file")
-@click.option("--workers", type=int, default=2, show_default=True, help="campaign worker processes")
-@click.option("--resume", is_flag=True, help="keep scenes already in the results file (default: regenerate)")
-@click.option("--readme", type=click.Path(path_type=Path), default=README, show_default=True)
-@click.option("--no-ladder", is_flag=True, help="skip the search for the step needed after a Newton failure")
-@click.option("--no-progress", is_flag=True)
-@click.option("--report-only", is_flag=True, help="only rewrite the README section from the stored table")
-def stability(out: Path, workers: int, resume: bool, readme: Path, no_ladder: bool, no_progress: bool,
-              report_only: bool) -> None:
-    """Numerical stability of both solvers on stiff and extreme scenes (issue 6, part 3)."""
+def run(paths: StudyPaths, *, workers: int = 2, fresh: bool = False, report_only: bool = False,
+        progress: bool = False, echo: Callable[[str], object] = print, ladder: bool = True) -> dict:
+    """The study with the common signature (see :func:`compare.studies.run`)."""
+    out = paths.studies / OUT.name
     if report_only:
-        click.echo(str(report(out, readme)))
-        return
-    summary = run_study(out, workers=workers, fresh=not resume, readme=readme, ladder=not no_ladder,
-                        progress=not no_progress)
-    click.echo(json.dumps(summary, indent=2))
+        return {"out": str(out), "readme": str(report(out, paths.readme))}
+    if fresh:
+        remove_outputs([out], echo)
+    return run_study(out, workers=workers, fresh=False, readme=paths.readme, ladder=ladder, progress=progress)

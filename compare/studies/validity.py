@@ -9,17 +9,16 @@ rewrites the ``validity`` section of ``results/README.md`` from the HDF5 data al
 
 from __future__ import annotations
 
-import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, fields
 from pathlib import Path
 
-import click
-
-from compare.config import CampaignConfig, ConfigError, load_config
+from compare.config import CampaignConfig, load_config
 from compare.runner import run_campaign
 from compare.scenes import SceneSpec
+from compare.studies import CONFIG_DIR, StudyPaths, remove_outputs
+from compare.studies.sections import write_section
 from compare.studies.validity_analysis import ERROR_KINDS, TOLERANCES
 from compare.studies.validity_data import (
     RETRY_MAX_RATIO,
@@ -38,7 +37,7 @@ REFINE_FILE = "validity_refine.h5"
 REFERENCE_DAMPING = 0.02
 REFERENCE_DIRECTION = "ccw"
 REFINE_FACTOR = 2
-BEGIN, END = "<!-- BEGIN validity -->", "<!-- END validity -->"
+SECTION = "validity"
 
 
 @dataclass(frozen=True)
@@ -175,25 +174,6 @@ def run_study(configs: Sequence[Path], studies_dir: Path, *, workers: int = 2, r
     return StudyRun(tuple(files), refine_file, computed, time.perf_counter() - t0)
 
 
-def replace_section(text: str, section: str, title: str = "# ked-harness results\n") -> str:
-    """``text`` with the part between the validity markers replaced by ``section`` (markers kept);
-    appended (after a title if ``text`` is empty) when the markers are missing."""
-    block = f"{BEGIN}\n{section.rstrip()}\n{END}"
-    if BEGIN in text and END in text:
-        a, b = text.index(BEGIN), text.index(END) + len(END)
-        return text[:a] + block + text[b:]
-    if not text.strip():
-        text = title
-    return text.rstrip() + "\n\n" + block + "\n"
-
-
-def section_of(text: str) -> str:
-    """The content between the validity markers ("" if absent)."""
-    if BEGIN not in text or END not in text:
-        return ""
-    return text[text.index(BEGIN) + len(BEGIN):text.index(END)].strip("\n")
-
-
 def write_outputs(files: Sequence[Path], refine_file: Path, figures_dir: Path, readme: Path,
                   config_paths: Sequence[Path]) -> tuple[list[Path], str]:
     """Figures and README section from the HDF5 files; returns (figure paths, section text)."""
@@ -204,56 +184,32 @@ def write_outputs(files: Sequence[Path], refine_file: Path, figures_dir: Path, r
     figs = write_figures(summaries, figures_dir)
     section = render_section(points, summaries, files=files, refine_file=refine_file, figures=figs,
                              readme=readme, configs=config_paths)
-    old = readme.read_text(encoding="utf-8") if readme.exists() else ""
     readme.parent.mkdir(parents=True, exist_ok=True)
-    readme.write_text(replace_section(old, section), encoding="utf-8")
+    write_section(readme, SECTION, section)
     return figs, section
 
 
-@click.command("validity")
-@click.option("--config", "configs", multiple=True, type=click.Path(dir_okay=False, path_type=Path),
-              help="Campaign config(s) [default: the checked-in results/studies/validity_*.toml].")
-@click.option("--studies-dir", type=click.Path(file_okay=False, path_type=Path), default=Path("results/studies"),
-              show_default=True, help="Directory of the configs and HDF5 files.")
-@click.option("--figures-dir", type=click.Path(file_okay=False, path_type=Path), default=Path("results/figures"),
-              show_default=True, help="Directory for the PNG figures.")
-@click.option("--readme", type=click.Path(dir_okay=False, path_type=Path), default=Path("results/README.md"),
-              show_default=True, help="README whose validity section is rewritten.")
-@click.option("--workers", type=click.IntRange(min=1), default=2, show_default=True, help="Worker processes.")
-@click.option("--retry/--no-retry", default=True, show_default=True,
-              help=f"Retry Newton failures with {RETRY_STEP_FACTOR}x steps per cycle.")
-@click.option("--refine/--no-refine", default=True, show_default=True,
-              help="Rerun the bracketing scenes at a doubled discretization.")
-@click.option("--no-run", is_flag=True, help="Do not compute: figures and README from the stored files only.")
-@click.option("--progress/--no-progress", default=False, show_default=True, help="Progress bars.")
-def validity(configs: tuple[Path, ...], studies_dir: Path, figures_dir: Path, readme: Path, workers: int,
-             retry: bool, refine: bool, no_run: bool, progress: bool) -> None:
-    """Validity map: when does the quasi-static (instantaneous-structure) assumption hold?
-
-    Resumable: rerunning skips every stored scene.  Writes <studies-dir>/validity_*.h5, PNG figures
-    and the section between <!-- BEGIN validity --> and <!-- END validity --> of the README.
-    """
-    paths = list(configs) or [studies_dir / c for c in CONFIGS]
-    try:
-        for p in paths:
-            load_config(p)
-    except ConfigError as exc:
-        raise click.ClickException(str(exc)) from exc
+def run(paths: StudyPaths, *, workers: int = 2, fresh: bool = False, report_only: bool = False,
+        progress: bool = False, echo: Callable[[str], object] = print, configs: Sequence[Path] = (),
+        retry: bool = True, refine: bool = True) -> dict:
+    """The study with the common signature (see :func:`compare.studies.run`); ``configs`` default to
+    the checked-in ``results/studies/validity_*.toml``."""
+    config_paths = list(configs) or [CONFIG_DIR / c for c in CONFIGS]
+    for p in config_paths:
+        load_config(p)  # every config valid before anything runs (ConfigError otherwise)
     t0 = time.perf_counter()
-    files = [studies_dir / (p.stem + ".h5") for p in paths]
-    refine_file = studies_dir / REFINE_FILE
-    if not no_run:
-        run = run_study(paths, studies_dir, workers=workers, retry=retry, refine=refine, progress=progress,
-                        echo=click.echo)
-        files, refine_file = list(run.files), run.refine_file
+    files = [paths.studies / (p.stem + ".h5") for p in config_paths]
+    refine_file = paths.studies / REFINE_FILE
+    if fresh and not report_only:
+        remove_outputs([*files, refine_file], echo)
+    computed = 0
+    if not report_only:
+        r = run_study(config_paths, paths.studies, workers=workers, retry=retry, refine=refine, progress=progress,
+                      echo=echo)
+        files, refine_file, computed = list(r.files), r.refine_file, r.computed
     missing = [str(f) for f in files if not f.exists()]
     if missing:
-        raise click.ClickException(f"no results file: {', '.join(missing)} (run without --no-run)")
-    figs, _ = write_outputs(files, refine_file, figures_dir, readme, paths)
-    click.echo(f"{len(figs)} figures in {figures_dir}; section 'validity' of {readme} rewritten; "
-               f"{time.perf_counter() - t0:.0f} s")
-
-
-def fmt_r(x: float, digits: int = 3) -> str:
-    """A ratio for the report ("-" if unknown)."""
-    return f"{x:.{digits}f}" if math.isfinite(x) else "-"
+        raise FileNotFoundError(f"no results file: {', '.join(missing)} (run the study without --report-only)")
+    figs, _ = write_outputs(files, refine_file, paths.figures, paths.readme, config_paths)
+    return {"files": [str(f) for f in files], "computed": computed, "figures": [str(f) for f in figs],
+            "readme": str(paths.readme), "wall_s": time.perf_counter() - t0}

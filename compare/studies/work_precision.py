@@ -9,7 +9,6 @@ and writes the ``work-precision`` section of ``results/README.md`` from the stor
 
 from __future__ import annotations
 
-import json
 import math
 import statistics
 import time
@@ -18,7 +17,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import asdict
 from pathlib import Path
 
-import click
 import numpy as np
 
 from compare import store
@@ -26,7 +24,7 @@ from compare.results import SceneResult
 from compare.scenes import SceneSpec, canonical_json
 from compare.solvers import COMPONENTS
 from compare.solvers.dynamic import settings_for as build_settings
-from compare.studies import study_io
+from compare.studies import StudyPaths, remove_outputs, study_io
 from compare.studies.sections import write_section
 from compare.studies.wp_analysis import (
     REFERENCE,
@@ -226,22 +224,13 @@ def report(out: Path = OUT, figures: Path = FIGURES, readme: Path = README) -> l
     return paths
 
 
-@click.command("work-precision")
-@click.option("--out", type=click.Path(path_type=Path), default=OUT, show_default=True, help="results file")
-@click.option("--workers", type=int, default=2, show_default=True, help="campaign worker processes")
-@click.option("--resume", is_flag=True, help="keep scenes already in the results file (default: regenerate)")
-@click.option("--figures", type=click.Path(path_type=Path), default=FIGURES, show_default=True)
-@click.option("--readme", type=click.Path(path_type=Path), default=README, show_default=True)
-@click.option("--retime-below", type=float, default=5.0, show_default=True,
-              help="re-time dynamic runs faster than this [s] twice more (median of 3)")
-@click.option("--no-progress", is_flag=True)
-@click.option("--report-only", is_flag=True, help="only redraw figures and the README section from the stored tables")
-def work_precision(out: Path, workers: int, resume: bool, figures: Path, readme: Path, retime_below: float,
-                   no_progress: bool, report_only: bool) -> None:
-    """Error against run time of the dynamic and quasi-static solvers (issue 6, part 2)."""
+def run(paths: StudyPaths, *, workers: int = 2, fresh: bool = False, report_only: bool = False,
+        progress: bool = False, echo: Callable[[str], object] = print, retime_below_s: float = 5.0) -> dict:
+    """The study with the common signature (see :func:`compare.studies.run`)."""
+    out = paths.studies / OUT.name
     if report_only:
-        click.echo("\n".join(str(p) for p in report(out, figures, readme)))
-        return
-    summary = run_study(out, workers=workers, fresh=not resume, figures=figures, readme=readme,
-                        retime_below_s=retime_below, progress=not no_progress)
-    click.echo(json.dumps(summary, indent=2))
+        return {"out": str(out), "figures": [str(p) for p in report(out, paths.figures, paths.readme)]}
+    if fresh:
+        remove_outputs([out], echo)
+    return run_study(out, workers=workers, fresh=False, figures=paths.figures, readme=paths.readme,
+                     retime_below_s=retime_below_s, progress=progress)

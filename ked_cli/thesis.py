@@ -7,7 +7,7 @@ import json
 import click
 import numpy as np
 
-from .thesis import (
+from ked_quasi.thesis import (
     QUIRKS_BY_TABLE,
     ThesisQuirks,
     ThesisTable,
@@ -18,7 +18,7 @@ from .thesis import (
     quirk_effects,
     quirk_walk,
 )
-from .thesis_tables import TABLE_KEYS, TABLE_TITLES, TABLES, is_typo
+from ked_quasi.thesis_tables import TABLE_KEYS, TABLE_TITLES, TABLES, is_typo
 
 GROUPS = ("published", "as_printed", "corrected")
 _HEAD = ("X", "Y", "src dX", "src dY", "cog dX", "cog dY")

@@ -5,29 +5,15 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
+from typing import Any
 
 import click
 
-from compare import store
-from compare.config import ConfigError, load_config
-from compare.inspect import (
-    find_scene,
-    format_counts,
-    format_detail,
-    format_table,
-    scene_detail,
-    sort_key,
-    summary_row,
-)
-
 DEFAULT_DIR = Path("ked_results")
-
-
-def _read(file: Path) -> list:
-    try:
-        return store.read_scenes(file)
-    except (store.StoreError, OSError) as exc:
-        raise click.ClickException(str(exc)) from exc
+LARGE_GRID = 1000
+"""A grid this large gets a warning with its estimated run time before anything runs."""
+SECONDS_PER_SCENE = 2.5
+"""Rough cost of one scene with the Exudyn model on one core (the default campaign's median)."""
 
 
 def _figures_dir(out: Path) -> Path:
@@ -36,6 +22,25 @@ def _figures_dir(out: Path) -> Path:
 
 def _safe_name(name: str) -> str:
     return "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name) or "campaign"
+
+
+def _load(config: Path | None) -> Any:
+    from compare.config import ConfigError, load_config
+
+    try:
+        return load_config(config)
+    except ConfigError as exc:
+        raise click.UsageError(str(exc).replace("\n", " ")) from None
+
+
+def _results(file: Path) -> list:
+    from compare import store
+    from compare.inspect import sort_key
+
+    try:
+        return sorted(store.read_scenes(file), key=sort_key)
+    except store.StoreError as exc:
+        raise click.ClickException(str(exc)) from None
 
 
 @click.command("run")
@@ -57,31 +62,29 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
     """Run a comparison campaign (CONFIG: TOML file; none = the embedded default campaign).
 
     Scenes already stored in the results file are skipped, so rerunning resumes an interrupted
-    campaign.  Prints a summary table and writes figures at the end.
+    campaign (a stored scene missing one of the campaign's solvers gets just that solver).  Prints a
+    summary table and writes figures at the end.
     """
-    from compare.runner import SettingsMismatchError, default_workers, plan, run_campaign
-
-    try:
-        cfg = load_config(config)
-    except ConfigError as exc:
-        click.echo(str(exc), err=True)
-        sys.exit(2)
+    cfg = _load(config)
     out = out or DEFAULT_DIR / f"{_safe_name(cfg.name)}.h5"
-    scenes = cfg.scenes()
+    n = cfg.grid.size()
+    if n > LARGE_GRID:
+        hours = n * SECONDS_PER_SCENE / (workers or 2) / 3600 if "dynamic" in cfg.solvers else 0.0
+        click.echo(f"warning: {n} scenes" + (f", roughly {hours:.1f} h with the Exudyn model on "
+                                             f"{workers or 2} workers" if hours else ""), err=True)
     if dry_run:
-        p = plan(scenes, store.stored_status(out), retry_failed, store.stored_solutions(out))
-        todo = {s.key for s in p.todo}
-        click.echo(f"campaign {cfg.name!r}: {len(scenes)} scenes, {len(p.todo)} to run, "
-                   f"{len(p.skipped)} already in {out}")
-        for s in scenes:
-            click.echo(f"  {s.key}  {'run ' if s.key in todo else 'skip'}  {s.label}")
+        _dry_run(cfg, out, retry_failed)
         return
-    click.echo(f"campaign {cfg.name!r}: {len(scenes)} scenes -> {out}", err=True)
+    from compare import store
+    from compare.inspect import format_counts, format_table, summary_row
+    from compare.runner import SettingsMismatchError, default_workers, run_campaign
+
+    click.echo(f"campaign {cfg.name!r}: {n} scenes, solvers {', '.join(cfg.solvers)} -> {out}", err=True)
     try:
         summary = run_campaign(cfg, out, workers=workers, scheduler=scheduler, retry_failed=retry_failed,
                                progress=progress)
-    except (store.LockedError, SettingsMismatchError) as exc:
-        raise click.ClickException(str(exc)) from exc
+    except (store.LockedError, SettingsMismatchError, store.StoreError) as exc:
+        raise click.ClickException(str(exc)) from None
     order = {k: i for i, k in enumerate(summary.keys)}
     results = sorted((r for r in store.read_scenes(out) if r.key in order), key=lambda r: order[r.key])
     click.echo(format_table([summary_row(r) for r in results]))
@@ -94,7 +97,23 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
 
         fig_dir = figures or _figures_dir(out)
         paths = write_figures(results, fig_dir, workers=1 if scheduler else (workers or default_workers()))
-        click.echo(f"figures: {len(paths)} PNG files in {fig_dir}")
+        click.echo(f"figures: {len(paths)} PNG files (re)drawn in {fig_dir} (index.json: file -> scene)")
+
+
+def _dry_run(cfg: Any, out: Path, retry_failed: bool) -> None:
+    from compare import store
+    from compare.runner import plan
+
+    scenes = cfg.scenes()
+    try:
+        p = plan(scenes, store.stored_status(out), retry_failed, store.stored_solutions(out))
+    except store.StoreError as exc:
+        raise click.ClickException(str(exc)) from None
+    todo = {s.key for s in p.todo}
+    click.echo(f"campaign {cfg.name!r}: {len(scenes)} scenes, {len(p.todo)} to run, "
+               f"{len(p.skipped)} already in {out}; solvers {', '.join(cfg.solvers)}")
+    for s in scenes:
+        click.echo(f"  {s.key}  {'run ' if s.key in todo else 'skip'}  {s.label}")
 
 
 @click.command("inspect")
@@ -105,39 +124,51 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
 def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool) -> None:
     """Show a results FILE: summary table of its scenes, or one SCENE (key prefix or label) in detail."""
     if verify:
-        problems = store.verify(file)
-        stale = store.stale_temp_files(file)
-        n = len(store.stored_status(file)) if not any("cannot open" in p for p in problems) else 0
-        if as_json:
-            click.echo(json.dumps({"file": str(file), "valid": not problems, "scenes": n,
-                                   "problems": problems, "stale_temp_files": [str(p) for p in stale]}, indent=2))
-        else:
-            for p in problems:
-                click.echo(f"PROBLEM {p}")
-            for p in stale:
-                click.echo(f"note: stale temporary file (ignored, removed by the next run): {p}")
-            click.echo(f"{file}: {'INVALID' if problems else 'valid'}, {n} complete scenes"
-                       + (f", {len(problems)} problem(s)" if problems else ""))
-        sys.exit(1 if problems else 0)
-    results = sorted(_read(file), key=sort_key)
+        _verify(file, as_json)
+        return
+    from compare import store
+    from compare.inspect import find_scene, format_counts, format_detail, format_table, scene_detail, summary_row
+
+    results = _results(file)
     if scene:
         try:
             r = find_scene(results, scene)
         except ValueError as exc:
-            raise click.ClickException(str(exc)) from exc
+            raise click.ClickException(str(exc)) from None
         click.echo(json.dumps(scene_detail(r), indent=2) if as_json else format_detail(r))
         return
     rows = [summary_row(r) for r in results]
+    info = store.file_info(file)
     if as_json:
-        info = store.file_info(file)
         click.echo(json.dumps({"file": str(file), "attributes": info, "scenes": rows}, indent=2, default=str))
+        return
+    click.echo(f"{file}: campaign {info.get('campaign_name')!r}, created {info.get('created_utc')}, "
+               f"harness {info.get('harness_version')} ({info.get('git_commit', '')[:10] or 'no git'}), "
+               f"exudyn {info.get('exudyn_version')}, schema version {info.get('schema_version')}")
+    click.echo(format_table(rows))
+    click.echo(format_counts(results))
+
+
+def _verify(file: Path, as_json: bool) -> None:
+    from compare import store
+
+    problems = store.verify(file)
+    stale = store.stale_temp_files(file)
+    try:
+        n = len(store.stored_status(file))
+    except store.StoreError:
+        n = 0
+    if as_json:
+        click.echo(json.dumps({"file": str(file), "valid": not problems, "scenes": n, "problems": problems,
+                               "stale_temp_files": [str(p) for p in stale]}, indent=2))
     else:
-        info = store.file_info(file)
-        click.echo(f"{file}: campaign {info.get('campaign_name')!r}, created {info.get('created_utc')}, "
-                   f"harness {info.get('harness_version')} ({info.get('git_commit', '')[:10] or 'no git'}), "
-                   f"exudyn {info.get('exudyn_version')}")
-        click.echo(format_table(rows))
-        click.echo(format_counts(results))
+        for p in problems:
+            click.echo(f"PROBLEM {p}")
+        for p in stale:
+            click.echo(f"note: stale temporary file (ignored, removed by the next run): {p}")
+        click.echo(f"{file}: {'INVALID' if problems else 'valid'}, {n} complete scenes"
+                   + (f", {len(problems)} problem(s)" if problems else ""))
+    sys.exit(1 if problems else 0)
 
 
 @click.command("plot")
@@ -151,7 +182,7 @@ def plot_cmd(file: Path, out_dir: Path | None, workers: int | None) -> None:
     from compare.plots import write_figures
     from compare.runner import default_workers
 
-    results = sorted(_read(file), key=sort_key)
+    results = _results(file)
     target = out_dir or _figures_dir(file)
     paths = write_figures(results, target, workers=workers or default_workers())
-    click.echo(f"{len(paths)} PNG files in {target}")
+    click.echo(f"{len(paths)} PNG files (re)drawn in {target} ({len(results)} scenes; index.json: file -> scene)")

@@ -1,0 +1,79 @@
+"""One line, never a traceback: how every ``ked`` command ends when something goes wrong.
+
+Bad input (click's usage errors, invalid configs, values outside the rules), files that are not
+ours or not readable, OS failures (permissions, read-only or full disks) and interrupts each end
+in one line on stderr naming the parameter or file, what is wrong and what is allowed, with a
+non-zero exit status: 2 for bad input, 1 for a failure while working, 130 for an interrupt.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import signal
+import sys
+from collections.abc import Callable
+
+import click
+
+EXIT_FAILURE = 1
+EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
+
+
+class UserError(click.ClickException):
+    """A problem the user can fix, with its one-line message (exit status 1)."""
+
+
+def first_line(text: str) -> str:
+    return str(text).strip().split("\n")[0]
+
+
+def os_message(exc: OSError) -> str:
+    """An OS error as one line: the file, what happened, what to do."""
+    where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+    hints = {errno.ENOSPC: "the disk is full; free space and rerun",
+             errno.EROFS: "the file system is read-only; choose a writable location",
+             errno.EACCES: "permission denied; choose a location you may write to",
+             errno.EPERM: "operation not permitted (an immutable file?); choose another location"}
+    what = exc.strerror or first_line(str(exc))
+    return f"{where}{what}" + (f" ({hints[exc.errno]})" if exc.errno in hints else "")
+
+
+def _terminate(signum: int, frame: object) -> None:
+    """SIGTERM is handled like Ctrl-C: the command stops cleanly (stored results are kept)."""
+    raise KeyboardInterrupt
+
+
+def run_guarded(command: Callable[..., object]) -> None:
+    """Run a click command as a script; map every failure to one line and an exit status."""
+    signal.signal(signal.SIGTERM, _terminate)
+    try:
+        command.main(standalone_mode=False, prog_name="ked")
+    except click.exceptions.Exit as exc:
+        sys.exit(exc.exit_code)
+    except click.Abort:
+        click.echo("ked: interrupted; results committed so far are kept (rerun to resume)", err=True)
+        sys.exit(EXIT_INTERRUPTED)
+    except click.UsageError as exc:
+        hint = f" (try '{exc.ctx.command_path} --help')" if exc.ctx is not None else ""
+        click.echo(f"ked: {first_line(exc.format_message())}{hint}", err=True)
+        sys.exit(EXIT_USAGE)
+    except click.ClickException as exc:
+        click.echo(f"ked: {exc.format_message()}", err=True)
+        sys.exit(exc.exit_code)
+    except KeyboardInterrupt:
+        click.echo("ked: interrupted; results committed so far are kept (rerun to resume)", err=True)
+        sys.exit(EXIT_INTERRUPTED)
+    except BrokenPipeError:
+        os._exit(0)  # the reader went away (ked ... | head): nothing left to say
+    except OSError as exc:
+        click.echo(f"ked: {os_message(exc)}", err=True)
+        sys.exit(EXIT_FAILURE)
+    except MemoryError:
+        click.echo("ked: out of memory; use a coarser step_deg or fewer lumps", err=True)
+        sys.exit(EXIT_FAILURE)
+    except Exception as exc:  # noqa: BLE001 - the last line of defence: still one line, with where to look
+        click.echo(f"ked: internal error ({type(exc).__name__}: {first_line(str(exc))}); please report it with "
+                   "the command line", err=True)
+        sys.exit(EXIT_FAILURE)

@@ -1,0 +1,134 @@
+"""The options every single-scene command shares, checked by the same rules as campaigns.
+
+``--linkage`` takes ``thesis`` or a TOML file holding a ``[linkage]`` table in exactly the campaign
+schema, so every campaign config is also a linkage file.  Values are checked by
+:mod:`ked_quasi.rules` (the same bounds and reasons as the campaign loader and the dataclasses).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import click
+
+from ked_quasi import rules
+from ked_quasi.linkage import DIRECTIONS
+from ked_quasi.massmodel import MASS_MODELS
+
+MECHANISMS = ("source", "cognate")
+
+
+class RuleType(click.ParamType):
+    """A number checked by a :class:`ked_quasi.rules.Rule` (or a check function)."""
+
+    def __init__(self, rule: rules.Rule | None = None, check: Callable[[object, str], Any] | None = None) -> None:
+        self.rule = rule
+        self.check = check or (rule.check if rule else None)
+        self.name = "integer" if rule is not None and rule.integer else "number"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if not isinstance(value, str):
+            return value
+        text = value.strip()
+        try:
+            number: Any = int(text) if self.name == "integer" else float(text)
+        except ValueError:
+            if self.name == "integer":
+                try:
+                    number = float(text)  # "5.0" reads, "5.5" is refused by the rule
+                except ValueError:
+                    self.fail(f"{value!r} is not a number", param, ctx)
+                number = int(number) if number == int(number) else number
+            else:
+                self.fail(f"{value!r} is not a number", param, ctx)
+        try:
+            return self.check(number, "value")
+        except ValueError as exc:
+            self.fail(str(exc).removeprefix("value: "), param, ctx)
+
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
+        return self.name.upper()
+
+
+def linkage_option(default: str = "thesis") -> Callable:
+    return click.option("--linkage", default=default, show_default=True, metavar="thesis|FILE.toml",
+                        help="The four-bar: 'thesis' or a TOML file with a [linkage] table (campaign schema).")
+
+
+def scene_options(f: Callable) -> Callable:
+    """Decorate a command with the scene options (see :class:`SceneOptions`)."""
+    opts = [
+        linkage_option(),
+        click.option("--mechanism", type=click.Choice(MECHANISMS), default="source", show_default=True,
+                     help="The source four-bar or its crank-driven Roberts cognate."),
+        click.option("--mass-model", type=click.Choice(MASS_MODELS), default="tip", show_default=True,
+                     help="tip (Case I), joints (Case II), extender (Case III), distributed."),
+        click.option("--rpm", type=RuleType(rules.RPM), default=300.0, show_default=True,
+                     help=f"Crank speed: {rules.RPM.allowed()}."),
+        click.option("--step-deg", type=RuleType(check=rules.check_step_deg), default=10.0, show_default=True,
+                     help=f"Crank-angle grid step: {rules.STEP_DEG.allowed()}, dividing 360."),
+        click.option("--lumps", type=RuleType(rules.LUMPS), default=5, show_default=True,
+                     help=f"Lumps per distributed link (extender, distributed models): {rules.LUMPS.allowed()}."),
+        click.option("--payload-kg", type=RuleType(rules.PAYLOAD_KG), default=None,
+                     help=f"Point mass at P: {rules.PAYLOAD_KG.allowed()} [default: 2 lb for tip, else 0]."),
+        click.option("--stiffness-scale", type=RuleType(rules.STIFFNESS_SCALE), default=1.0, show_default=True,
+                     help=f"Multiply every Young's modulus: {rules.STIFFNESS_SCALE.allowed()}."),
+        click.option("--direction", type=click.Choice(DIRECTIONS), default=None,
+                     help="Crank direction [default: the linkage's, ccw for a TOML linkage]."),
+    ]
+    for o in reversed(opts):
+        f = o(f)
+    return f
+
+
+@dataclass(frozen=True)
+class SceneOptions:
+    """The scene options as given (SI apart from rpm and deg)."""
+
+    linkage: str
+    mechanism: str
+    mass_model: str
+    rpm: float
+    step_deg: float
+    lumps: int
+    payload_kg: float | None
+    stiffness_scale: float
+    direction: str | None
+
+    @staticmethod
+    def pop(kw: dict[str, Any]) -> SceneOptions:
+        """Take the scene options out of a command's keyword arguments."""
+        return SceneOptions(**{k: kw.pop(k) for k in SceneOptions.__dataclass_fields__})
+
+    def describe(self) -> str:
+        """One line naming the scene."""
+        return (f"{self.linkage} linkage, {self.mechanism}, mass model {self.mass_model}, {self.rpm:g} rpm, "
+                f"step {self.step_deg:g} deg, stiffness x{self.stiffness_scale:g}")
+
+
+def load_source(linkage: str) -> Any:
+    """The source four-bar of ``--linkage``; a UsageError naming the option and the file otherwise."""
+    from compare.config import ConfigError, load_linkage
+    from ked_quasi.linkage import thesis_fourbar
+
+    if linkage == "thesis":
+        return thesis_fourbar()
+    try:
+        return load_linkage(linkage)
+    except ConfigError as exc:
+        problems = "; ".join(exc.problems)
+        raise click.BadParameter(f"{linkage}: {problems}", param_hint="--linkage") from None
+
+
+def build_scene(o: SceneOptions, mechanism: str | None = None, mass_model: str | None = None) -> Any:
+    """The ``ked_quasi.Scene`` the options describe (the campaign's construction: the same numbers)."""
+    from ked_quasi.scene import build_scene as build
+
+    source = load_source(o.linkage)
+    try:
+        return build(source, mechanism or o.mechanism, mass_model or o.mass_model, o.rpm, o.step_deg, o.lumps,
+                     o.payload_kg, o.stiffness_scale, o.direction)
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None

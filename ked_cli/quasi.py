@@ -1,0 +1,119 @@
+"""``ked quasi``: the quasi-static solve of one scene, or a summary over mechanisms and mass models."""
+
+from __future__ import annotations
+
+import json
+import warnings
+from typing import Any
+
+import click
+
+from ked_cli.options import SceneOptions, build_scene, scene_options
+
+
+@click.command("quasi")
+@scene_options
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object with the arrays.")
+@click.option("--summary", is_flag=True,
+              help="Ignore --mechanism/--mass-model: solve source and cognate in every mass model, print a table.")
+def quasi(as_json: bool, summary: bool, **kw: Any) -> None:
+    """Quasi-static KED solve (instantaneous-structure flexibility method) of one scene.
+
+    JSON keys: crank_angle_deg, dx_m, dy_m, rotation_rad (elastic deflection of P, global frame),
+    f1_hz (first natural frequency of the frozen structure), transmission_angle_deg, flagged
+    (near-toggle angles), flags (validity flags of the whole answer, e.g. large_deflection), valid.
+    """
+    opts = SceneOptions.pop(kw)
+    if summary:
+        _summary(opts, as_json)
+        return
+    scene = build_scene(opts)
+    out, caught = solve(scene)
+    for w in caught:
+        click.echo(f"warning: {w}", err=True)
+    if as_json:
+        click.echo(json.dumps(out))
+        return
+    _table(opts, scene, out)
+
+
+def solve(scene: Any) -> tuple[dict[str, Any], list[str]]:
+    """The JSON record of one quasi-static solve and its warnings (validity flags included)."""
+    import numpy as np
+
+    from ked_quasi import limits
+    from ked_quasi.solver import natural_frequencies, solve_quasi_static
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = solve_quasi_static(scene)
+        f1 = natural_frequencies(scene, n_modes=1)[:, 0]
+    flags = limits.flags(res.deflection, scene.fourbar)
+    msgs = [str(w.message) for w in caught] + ([limits.describe(flags, res.deflection, scene.fourbar)] if flags else [])
+    out = {
+        "crank_angle_deg": scene.crank_angles_deg.tolist(),
+        "dx_m": res.deflection[:, 0].tolist(), "dy_m": res.deflection[:, 1].tolist(),
+        "rotation_rad": res.deflection[:, 2].tolist(), "f1_hz": f1.tolist(),
+        "transmission_angle_deg": np.degrees(res.transmission_angle).tolist(),
+        "flagged": res.flagged.tolist(), "flags": list(flags), "valid": not flags,
+    }
+    return out, msgs
+
+
+def _decimals(step_deg: float) -> int:
+    """Decimals that show every grid angle exactly (at least one)."""
+    for d in range(1, 7):
+        if abs(round(step_deg, d) - step_deg) < 1e-9:
+            return d
+    return 6
+
+
+def _table(opts: SceneOptions, scene: Any, out: dict[str, Any]) -> None:
+    mm = scene.mass_model
+    click.echo(f"Quasi-static deflection of the coupler point P: {opts.describe()}"
+               + (f", payload {mm.payload:g} kg" if mm.payload else ""))
+    click.echo("theta: crank angle CCW from the ground line M->Q; dx, dy: elastic displacement of P in the global "
+               "frame; rot: elastic rotation of the section at P (CCW +); f1: first natural frequency of the frozen "
+               "linkage; mu: transmission angle (FLAGGED within 1 deg of a toggle)")
+    if not out["valid"]:
+        click.echo("NOT VALID: " + ", ".join(out["flags"]) + " (see the warning above)")
+    d = _decimals(scene.step_deg)
+    w = max(9, d + 5)
+    click.echo(f"{'theta deg':>{w}} {'dx mm':>10} {'dy mm':>10} {'rot mrad':>10} {'f1 Hz':>8} {'mu deg':>7}")
+    for i, theta in enumerate(out["crank_angle_deg"]):
+        click.echo(f"{theta:{w}.{d}f} {1e3 * out['dx_m'][i]:10.4g} {1e3 * out['dy_m'][i]:10.4g} "
+                   f"{1e3 * out['rotation_rad'][i]:10.4g} {out['f1_hz'][i]:8.3f} "
+                   f"{out['transmission_angle_deg'][i]:7.1f}" + ("  FLAGGED" if out["flagged"][i] else ""))
+
+
+def _summary(opts: SceneOptions, as_json: bool) -> None:
+    import numpy as np
+
+    from ked_quasi.massmodel import MASS_MODELS
+    from ked_quasi.solver import natural_frequencies, solve_quasi_static
+
+    rows = []
+    for mech in ("source", "cognate"):
+        for mm in MASS_MODELS:
+            scene = build_scene(opts, mechanism=mech, mass_model=mm)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                res = solve_quasi_static(scene)
+            f1 = natural_frequencies(scene, n_modes=1)[:, 0]
+            mag = np.hypot(res.deflection[:, 0], res.deflection[:, 1])
+            rows.append({"mechanism": mech, "mass_model": mm, "mass_kg": scene.mass_model.payload,
+                         "peak_deflection_m": float(mag.max()),
+                         "peak_at_deg": float(scene.crank_angles_deg[mag.argmax()]),
+                         "peak_rotation_rad": float(np.abs(res.deflection[:, 2]).max()),
+                         "f1_min_hz": float(f1.min()), "f1_max_hz": float(f1.max()),
+                         "speed_ratio": float(scene.omega / (2 * np.pi * f1.min()))})
+    if as_json:
+        click.echo(json.dumps(rows))
+        return
+    click.echo(f"Quasi-static KED summary: {opts.linkage} linkage, {opts.rpm:g} rpm, step {opts.step_deg:g} deg")
+    click.echo(f"{'mechanism':<9} {'mass model':<11} {'peak |d| mm':>11} {'at deg':>7} {'peak rot mrad':>13} "
+               f"{'f1 min..max Hz':>15} {'Omega/w1min':>11}")
+    for r in rows:
+        click.echo(f"{r['mechanism']:<9} {r['mass_model']:<11} {1e3 * r['peak_deflection_m']:11.3f} "
+                   f"{r['peak_at_deg']:7.1f} {1e3 * r['peak_rotation_rad']:13.3f} "
+                   f"{r['f1_min_hz']:7.2f}..{r['f1_max_hz']:<7.2f} {r['speed_ratio']:11.3f}")

@@ -1,0 +1,108 @@
+"""``ked simulate``: Exudyn flexible-multibody steady state of one scene (same scene options as
+``ked quasi``)."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import click
+
+from ked_cli.options import SceneOptions, build_scene, scene_options
+
+ELEMENT_TYPES = ("ancf", "gebeam")
+
+
+def dynamic_options(f: Any) -> Any:
+    """The Exudyn settings options (defaults: ``exudyn_models.DynamicSettings``)."""
+    opts = [
+        click.option("--element", type=click.Choice(ELEMENT_TYPES), default="ancf", show_default=True,
+                     help="Beam element: ANCF cable or geometrically exact beam."),
+        click.option("--elements-per-link", type=click.IntRange(1, 64), default=None,
+                     help="Finite elements per link, 1..64 [default: 4]."),
+        click.option("--steps-per-cycle", type=click.IntRange(8, 1_000_000), default=None,
+                     help="Fixed time steps per crank revolution, 8..1e6 [default: 720]."),
+        click.option("--spectral-radius", type=click.FloatRange(0.0, 1.0), default=None,
+                     help="Generalized-alpha spectral radius, 0..1 [default: 0.9]."),
+        click.option("--damping-ratio", type=click.FloatRange(0.0, 0.99), default=None,
+                     help="Modal damping ratio at the reference frequency, 0..0.99 [default: 0.02]."),
+        click.option("--damping-reference-hz", type=click.FloatRange(0.0, 1e6, min_open=True), default=None,
+                     help="Reference frequency [Hz] of the damping ratio [default: mean f1 of the frozen linkage]."),
+        click.option("--ramp-cycles", type=click.FloatRange(0.0, 1000.0, min_open=True), default=None,
+                     help="Start-up ramp duration [crank revolutions] [default: 0.5]."),
+        click.option("--steady-tol", type=click.FloatRange(0.0, 1.0, min_open=True), default=None,
+                     help="Steady state: change between successive cycles < tol * peak [default: 2e-3]."),
+        click.option("--max-cycles", type=click.IntRange(1, 10_000), default=None,
+                     help="Give up after this many constant-speed cycles, 1..1e4 [default: 80]."),
+        click.option("--extrapolate/--no-extrapolate", default=None,
+                     help="Accept the steady cycle extrapolated from the last 4 cycles [default: on]."),
+        click.option("--sparse/--dense", default=None, help="Exudyn linear solver [default: sparse]."),
+    ]
+    for o in reversed(opts):
+        f = o(f)
+    return f
+
+
+def dynamic_settings(kw: dict[str, Any]) -> Any:
+    """``DynamicSettings`` from the options given (unset ones keep their defaults)."""
+    from exudyn_models.settings import DynamicSettings
+
+    names = ("element", "elements_per_link", "steps_per_cycle", "spectral_radius", "damping_ratio",
+             "damping_reference_hz", "ramp_cycles", "steady_tol", "max_cycles", "extrapolate", "sparse")
+    given = {n: kw.pop(n) for n in names if n in kw}
+    given = {n: v for n, v in given.items() if v is not None}
+    if "max_cycles" in given:
+        given["min_cycles"] = min(DynamicSettings().min_cycles, given["max_cycles"])
+    try:
+        return DynamicSettings(**given)
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None
+
+
+@click.command("simulate")
+@scene_options
+@dynamic_options
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object with the arrays and run statistics.")
+def simulate(as_json: bool, **kw: Any) -> None:
+    """Flexible-multibody (Exudyn) run of one scene to periodic steady state.
+
+    JSON keys: crank_angle_deg, dx_m, dy_m, rotation_rad (elastic deflection of P over one steady
+    cycle, global frame, same meaning as `ked quasi`), wall_s, cycles, converged, steps,
+    newton_iterations, damping_reference_hz, message.  Exit status 1 when no steady state was reached
+    (the JSON still says converged=false and holds the last cycle).
+    """
+    opts = SceneOptions.pop(kw)
+    settings = dynamic_settings(kw)
+    scene = build_scene(opts)
+    from exudyn_models.simulate import SimulationError, simulate_steady_state
+
+    try:
+        res = simulate_steady_state(scene, settings)
+    except SimulationError as exc:
+        raise click.ClickException(f"simulation failed: {exc}") from None
+    d = res.deflection
+    out = {
+        "crank_angle_deg": scene.crank_angles_deg.tolist(),
+        "dx_m": d[:, 0].tolist(), "dy_m": d[:, 1].tolist(), "rotation_rad": d[:, 2].tolist(),
+        "wall_s": res.wall_s, "cycles": res.cycles, "converged": res.converged, "steps": res.steps,
+        "newton_iterations": res.newton_iterations, "damping_reference_hz": res.damping_reference_hz,
+        "message": res.message,
+    }
+    if as_json:
+        click.echo(json.dumps(out))
+    else:
+        _table(opts, res, out)
+    if not res.converged:
+        raise click.ClickException(f"no periodic steady state: {res.message} (the last cycle is not an answer)")
+
+
+def _table(opts: SceneOptions, res: Any, out: dict[str, Any]) -> None:
+    click.echo(f"Dynamic (Exudyn) steady-state deflection of P: {opts.describe()}")
+    click.echo(f"{res.message}; {res.steps} steps, {res.newton_iterations} Newton iterations, "
+               f"{res.wall_s:.2f} s wall; damping reference {res.damping_reference_hz:.3g} Hz")
+    if not res.converged:
+        return
+    click.echo(f"{'theta deg':>9} {'dx mm':>10} {'dy mm':>10} {'rot mrad':>10}")
+    for i, theta in enumerate(out["crank_angle_deg"]):
+        click.echo(f"{theta:9.1f} {1e3 * out['dx_m'][i]:10.4g} {1e3 * out['dy_m'][i]:10.4g} "
+                   f"{1e3 * out['rotation_rad'][i]:10.4g}")

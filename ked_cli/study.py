@@ -1,0 +1,80 @@
+"""``ked study NAME``: regenerate a study (campaigns, HDF5 files, figures, README section).
+
+One signature for every study: resume by default (stored results are never deleted unless
+``--fresh``), the same results directory, workers and report-only options."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import click
+
+_DEFAULT_RESULTS = "<harness>/results"
+
+
+def common_options(f: Any) -> Any:
+    opts = [
+        click.option("--results-dir", type=click.Path(file_okay=False, path_type=Path), default=None,
+                     help=f"Where to write: studies/ (HDF5), figures/, README.md [default: {_DEFAULT_RESULTS}, "
+                          "the committed results of this checkout]."),
+        click.option("--workers", type=click.IntRange(min=1), default=2, show_default=True,
+                     help="Campaign worker processes."),
+        click.option("--fresh", is_flag=True, help="Delete this study's stored HDF5 files first and recompute "
+                                                    "everything (default: resume, computing only what is missing)."),
+        click.option("--report-only", is_flag=True, help="Compute nothing: figures and README section from the "
+                                                          "stored files only."),
+        click.option("--progress/--no-progress", default=False, show_default=True, help="Progress bars."),
+    ]
+    for o in reversed(opts):
+        f = o(f)
+    return f
+
+
+def _run(name: str, results_dir: Path | None, workers: int, fresh: bool, report_only: bool, progress: bool,
+         **options: Any) -> None:
+    from compare.studies import StudyPaths, run
+
+    paths = StudyPaths(results_dir) if results_dir is not None else StudyPaths()
+    if fresh and report_only:
+        raise click.UsageError("--fresh and --report-only exclude each other")
+    summary = run(name, paths, workers=workers, fresh=fresh, report_only=report_only, progress=progress,
+                  echo=lambda text: click.echo(text, err=True), **options)
+    click.echo(json.dumps(summary, indent=2, default=str))
+
+
+@click.group("study")
+def study() -> None:
+    """Regenerate a study: campaigns, HDF5 files, figures and its section of results/README.md."""
+
+
+@study.command("validity")
+@common_options
+@click.option("--config", "configs", multiple=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="Campaign config(s) [default: the checked-in results/studies/validity_*.toml].")
+@click.option("--retry/--no-retry", default=True, show_default=True,
+              help="Retry Newton failures with 4x the steps per cycle.")
+@click.option("--refine/--no-refine", default=True, show_default=True,
+              help="Rerun the scenes bracketing each crossing at a doubled discretization.")
+def validity(configs: tuple[Path, ...], retry: bool, refine: bool, **common: Any) -> None:
+    """Validity map: when does the quasi-static (instantaneous-structure) assumption hold?"""
+    _run("validity", configs=configs, retry=retry, refine=refine, **common)
+
+
+@study.command("work-precision")
+@common_options
+@click.option("--retime-below", type=click.FloatRange(min=0.0), default=5.0, show_default=True,
+              help="Re-time dynamic runs faster than this [s] twice more (median of 3).")
+def work_precision(retime_below: float, **common: Any) -> None:
+    """Error against run time of the dynamic and quasi-static solvers."""
+    _run("work-precision", retime_below_s=retime_below, **common)
+
+
+@study.command("stability")
+@common_options
+@click.option("--ladder/--no-ladder", default=True, show_default=True,
+              help="Search the step a Newton failure needs (x2, x4, x8 steps per cycle).")
+def stability(ladder: bool, **common: Any) -> None:
+    """Numerical stability of the solvers on stiff and extreme scenes."""
+    _run("stability", ladder=ladder, **common)
