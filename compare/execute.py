@@ -70,15 +70,15 @@ def solve_one(solver: Solver, spec: SceneSpec, scene: object) -> Solution:
         settings = solver.make_settings(spec.settings_for(solver.name), spec.damping_ratio)
     except (TypeError, ValueError) as exc:
         return Solution(solver.name, STATUS_FAILED, message=message_of(exc), error_type=type(exc).__name__,
-                        failure_class="input", stats={"wall_s": time.perf_counter() - t0})
+                        failure_class="input", stats={"wall_s": time.perf_counter() - t0}, fidelity=solver.fidelity)
     try:
         sol = solver.run(scene, settings, spec.outputs)
     except Exception as exc:  # a solver's own failure: record it, keep the scene going
         return Solution(solver.name, STATUS_FAILED, settings=solver.settings_dict(settings),
                         message=message_of(exc), error_type=type(exc).__name__,
                         failure_class=str(getattr(exc, "failure_class", "") or ""),
-                        stats={"wall_s": time.perf_counter() - t0})
-    return replace(sol, settings=sol.settings or solver.settings_dict(settings))
+                        stats={"wall_s": time.perf_counter() - t0}, fidelity=solver.fidelity)
+    return replace(sol, settings=sol.settings or solver.settings_dict(settings), fidelity=solver.fidelity)
 
 
 def run_scene(spec: SceneSpec, solvers: Sequence[Solver] | None = None,
@@ -112,7 +112,9 @@ def run_scene(spec: SceneSpec, solvers: Sequence[Solver] | None = None,
                 warnings="; ".join(s.warnings for s in solutions.values() if s.warnings)[:_MAX_MESSAGE])
     failed = [s for s in solutions.values() if not s.ok]
     try:
-        metrics = all_pairs(theta, {n: s.deflection for n, s in solutions.items() if s.ok}, omega=fr.scene.omega,
+        ok = {n: s for n, s in solutions.items() if s.ok}
+        metrics = all_pairs(theta, {n: s.deflection for n, s in ok.items()}, {n: s.fidelity for n, s in ok.items()},
+                            omega=fr.scene.omega,
                             omega1_min=fr.omega1_min, tolerance=spec.tolerance, direction_sign=fr.scene.fourbar.sign)
     except Exception as exc:
         return SceneResult(**base, status=STATUS_FAILED, stage="metrics", error_type=type(exc).__name__,

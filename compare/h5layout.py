@@ -84,6 +84,7 @@ def write_solution(g: h5py.Group, s: Solution) -> None:
     a = g.attrs
     a["status"], a["message"], a["error_type"] = s.status, s.message, s.error_type
     a["failure_class"], a["flags"], a["warnings"] = s.failure_class, ",".join(s.flags), s.warnings
+    a["fidelity"] = int(s.fidelity)
     a["settings_json"] = canonical_json(s.settings)
     a["stats_json"] = json.dumps(s.stats, sort_keys=True, allow_nan=True)
     for comp in COMPONENTS:
@@ -153,7 +154,7 @@ def read_solution(name: str, g: h5py.Group) -> Solution:
                     settings=json.loads(text(a["settings_json"])), stats=json.loads(text(a["stats_json"])),
                     message=text(a.get("message", "")), error_type=text(a.get("error_type", "")),
                     failure_class=text(a.get("failure_class", "")), flags=tuple(flags.split(",")) if flags else (),
-                    warnings=text(a.get("warnings", "")))
+                    warnings=text(a.get("warnings", "")), fidelity=int(a.get("fidelity", 0)))
 
 
 def _solutions_v1(g: h5py.Group) -> dict[str, Solution]:
@@ -166,7 +167,7 @@ def _solutions_v1(g: h5py.Group) -> dict[str, Solution]:
     if "quasi_static" in g or qs_failed:
         out["quasi_static"] = Solution(
             "quasi_static", STATUS_FAILED if qs_failed else STATUS_OK, _histories(g["quasi_static"]) if "quasi_static"
-            in g else {}, stats={"wall_s": float(st["quasi_static_wall_s"])},
+            in g else {}, stats={"wall_s": float(st["quasi_static_wall_s"])}, fidelity=0,
             message=text(g.attrs["message"]) if qs_failed else "", error_type=text(g.attrs["error_type"]) if qs_failed
             else "")
     dyn_failed = status != STATUS_OK and stage == "dynamic"
@@ -176,7 +177,7 @@ def _solutions_v1(g: h5py.Group) -> dict[str, Solution]:
                  "converged": bool(st["converged"]), "dynamic_message": str(st["dynamic_message"])}
         out["dynamic"] = Solution(
             "dynamic", STATUS_FAILED if dyn_failed else STATUS_OK, _histories(g["dynamic"]) if "dynamic" in g else {},
-            settings=json.loads(text(g["dynamic_settings"].attrs["json"])), stats=stats,
+            settings=json.loads(text(g["dynamic_settings"].attrs["json"])), stats=stats, fidelity=10,
             message=text(g.attrs["message"]) if dyn_failed else "",
             error_type=text(g.attrs["error_type"]) if dyn_failed else "")
     return out
@@ -198,10 +199,11 @@ def read_scene(g: h5py.Group, version: int) -> SceneResult:
     rpm, omega1_min = float(g.attrs["rpm"]), float(g.attrs["omega1_min_rad_s"])
     theta = _array(g, "crank_angle")
     metrics: dict[str, PairMetrics] = {}
-    ok = {n: s.deflection for n, s in solutions.items() if s.ok and s.deflection}
+    ok = {n: s for n, s in solutions.items() if s.ok and s.deflection}
     if theta is not None and ok:
         try:
-            metrics = all_pairs(theta, ok, omega=rpm_to_rad_s(rpm), omega1_min=omega1_min, tolerance=spec.tolerance,
+            metrics = all_pairs(theta, {n: s.deflection for n, s in ok.items()}, {n: s.fidelity for n, s in ok.items()},
+                                omega=rpm_to_rad_s(rpm), omega1_min=omega1_min, tolerance=spec.tolerance,
                                 direction_sign=1 if spec.direction == "ccw" else -1)
         except ValueError:
             metrics = {}

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from compare.solvers import COMPONENT_UNITS, COMPONENTS, fidelity
+from compare.solvers import COMPONENT_UNITS, COMPONENTS
 
 VECTOR = "vector"
 VERDICT_METRIC = "history_error, worst of dx, dy and rotation"
@@ -215,10 +215,11 @@ def pair_metrics(solver: str, reference: str, crank_angle: np.ndarray, a: Mappin
                        components=tuple(comps))
 
 
-def all_pairs(crank_angle: np.ndarray, histories: Mapping[str, Mapping[str, np.ndarray]], *, omega: float,
-              omega1_min: float, tolerance: float, direction_sign: int = 1) -> dict[str, PairMetrics]:
-    """Metrics of every pair of solvers (lower fidelity measured against higher), by pair name."""
-    order = sorted(histories, key=lambda n: (fidelity(n), n))
+def all_pairs(crank_angle: np.ndarray, histories: Mapping[str, Mapping[str, np.ndarray]],
+              fidelity: Mapping[str, int], *, omega: float, omega1_min: float, tolerance: float,
+              direction_sign: int = 1) -> dict[str, PairMetrics]:
+    """Metrics of every pair of solvers (lower ``fidelity`` measured against higher), by pair name."""
+    order = sorted(histories, key=lambda n: (fidelity.get(n, 0), n))
     out = {}
     for i, s in enumerate(order):
         for ref in order[i + 1:]:
@@ -228,6 +229,6 @@ def all_pairs(crank_angle: np.ndarray, histories: Mapping[str, Mapping[str, np.n
     return out
 
 
-def reference_of(solvers: list[str] | tuple[str, ...]) -> str | None:
-    """The reference of a set of solvers: the one with the highest fidelity."""
-    return max(solvers, key=lambda n: (fidelity(n), n)) if solvers else None
+def reference_of(fidelity: Mapping[str, int]) -> str | None:
+    """The reference of a set of solvers (name -> fidelity): the one with the highest fidelity."""
+    return max(fidelity, key=lambda n: (fidelity[n], n)) if fidelity else None

@@ -102,7 +102,7 @@ class SceneResult:
     @property
     def reference(self) -> str | None:
         """The scene's reference solver: the highest-fidelity one that succeeded."""
-        return reference_of([n for n, s in self.solutions.items() if s.ok])
+        return reference_of({n: s.fidelity for n, s in self.solutions.items() if s.ok})
 
     @property
     def verdict(self) -> PairMetrics | None:

@@ -33,17 +33,17 @@ def ok_result(rpm: float = 300.0, outputs=("dx", "dy", "rotation")) -> SceneResu
     qs = {c: (i + 1) * 1e-3 * np.sin(THETA) for i, c in enumerate(outputs)}
     dyn = {c: 1.05 * v for c, v in qs.items()}
     solutions = {
-        "quasi_static": Solution("quasi_static", "ok", qs, stats={"wall_s": 0.01}),
+        "quasi_static": Solution("quasi_static", "ok", qs, stats={"wall_s": 0.01}, fidelity=0),
         "dynamic": Solution("dynamic", "ok", dyn, settings={"damping_ratio": 0.02, "damping_reference_hz": None,
                                                             "sparse": False, "steps_per_cycle": 72},
-                            stats={"wall_s": 3.0, "steps": 400, "cycles": 4, "converged": True}),
+                            stats={"wall_s": 3.0, "steps": 400, "cycles": 4, "converged": True}, fidelity=10),
     }
     return SceneResult(
         spec=s, status="ok", rpm=rpm, omega1_min=100.0, crank_angle=THETA,
         coupler_point=np.column_stack([np.cos(THETA), np.sin(THETA)]),
         natural_frequencies=np.column_stack([20 + np.cos(THETA), 50 + np.sin(THETA)]), solutions=solutions,
-        metrics=all_pairs(THETA, {"quasi_static": qs, "dynamic": dyn}, omega=rpm * np.pi / 30, omega1_min=100.0,
-                          tolerance=0.1),
+        metrics=all_pairs(THETA, {"quasi_static": qs, "dynamic": dyn}, {"quasi_static": 0, "dynamic": 10},
+                          omega=rpm * np.pi / 30, omega1_min=100.0, tolerance=0.1),
         stats=RunStats(1.0, 6.5, "host:1", "2026-01-01T00:00:00+00:00"),
     )
 

@@ -42,7 +42,8 @@ class Solution:
     if the solver failed before producing one); ``settings``: the resolved settings (JSON-able
     scalars); ``stats``: run statistics (JSON-able scalars, ``wall_s`` [s] always); ``flags``: names of
     validity checks the answer failed (it is outside the range where the model holds);
-    ``warnings``: the solver's warnings, "; "-joined.
+    ``warnings``: the solver's warnings, "; "-joined; ``fidelity``: the solver's (travels with the
+    answer, so that a file read where the solver is not registered keeps its pairs).
     """
 
     solver: str
@@ -55,6 +56,7 @@ class Solution:
     failure_class: str = ""
     flags: tuple[str, ...] = ()
     warnings: str = ""
+    fidelity: int = 0
 
     @property
     def ok(self) -> bool:
@@ -142,7 +144,12 @@ def fidelity(name: str) -> int:
     return REGISTRY[name].fidelity if name in REGISTRY else 0
 
 
+BUILTIN = ("quasi_static", "dynamic")
+
+
 def _builtins() -> None:
     """Register the built-in solvers (imports are light: each solver loads its package on first run)."""
-    if "quasi_static" not in REGISTRY:
-        from compare.solvers import dynamic, quasi_static  # noqa: F401  (they register themselves)
+    import importlib
+
+    for name in BUILTIN:
+        importlib.import_module(f"compare.solvers.{name}")  # registers itself on first import
