@@ -19,7 +19,8 @@ from compare.metrics import PairMetrics, all_pairs
 from compare.results import STATUS_OK, RunStats, SceneResult
 from compare.scenes import SceneSpec, canonical_json
 from compare.solvers import COMPONENT_UNITS, COMPONENTS, STATUS_FAILED, Solution
-from ked_quasi.linkage import LINKS
+from ked_quasi.linkage import LINKS, direction_sign
+from ked_quasi.rules import steps_per_turn
 from ked_quasi.units import rpm_to_rad_s
 
 SOLUTIONS = "solutions"
@@ -204,7 +205,7 @@ def read_scene(g: h5py.Group, version: int) -> SceneResult:
         try:
             metrics = all_pairs(theta, {n: s.deflection for n, s in ok.items()}, {n: s.fidelity for n, s in ok.items()},
                                 omega=rpm_to_rad_s(rpm), omega1_min=omega1_min, tolerance=spec.tolerance,
-                                direction_sign=1 if spec.direction == "ccw" else -1)
+                                direction_sign=direction_sign(spec.direction))
         except ValueError:
             metrics = {}
     return SceneResult(
@@ -251,7 +252,7 @@ def _verify_ok_scene(g: h5py.Group, r: SceneResult) -> list[str]:
     p += [f"dataset {ds} has no units attribute" for ds in ("crank_angle", "coupler_point", "natural_frequencies")
           if "units" not in g[ds].attrs]
     spec = r.spec
-    n = round(360.0 / spec.step_deg)
+    n = steps_per_turn(spec.step_deg)
     shapes = {"crank_angle": (n,), "coupler_point": (n, 2), "natural_frequencies": (n, spec.n_modes)}
     p += [f"{ds} shape {g[ds].shape} != {shape}" for ds, shape in shapes.items() if g[ds].shape != shape]
     for solver in spec.solvers:

@@ -124,7 +124,7 @@ def crank_speed(fourbar: FourBar, rpm: float) -> float:
     """Signed crank speed [rad/s] for a speed in rev/min (> 0) and the four-bar's direction."""
     if not np.isfinite(rpm) or rpm <= 0:
         raise ValueError(f"rpm must be a positive finite crank speed in rev/min, got {rpm!r}")
-    return rpm_to_rad_s(rpm) * (1.0 if fourbar.direction == "ccw" else -1.0)
+    return rpm_to_rad_s(rpm) * fourbar.sign
 
 
 def kinematics(fourbar: FourBar, crank_angle: np.ndarray | float, rpm: float) -> Kinematics:

@@ -155,7 +155,7 @@ class FourBar:
     @property
     def sign(self) -> int:
         """+1 for a ccw crank, -1 for cw: the sign of the crank speed."""
-        return 1 if self.direction == "ccw" else -1
+        return direction_sign(self.direction)
 
     @property
     def ground(self) -> float:
@@ -207,6 +207,11 @@ class FourBar:
     def with_sections(self, section: Section) -> FourBar:
         """Copy with the same section on every link."""
         return replace(self, sections=(section,) * 4)
+
+
+def direction_sign(direction: str) -> int:
+    """+1 for "ccw", -1 for "cw": the sign of the crank speed (theta grows / falls with time)."""
+    return 1 if check_choice("direction", direction, DIRECTIONS) == "ccw" else -1
 
 
 def grashof_class(crank: float, coupler: float, follower: float, ground: float) -> str:

@@ -14,7 +14,7 @@ import numpy as np
 from .massmodel import lumps
 from .scene import Scene
 from .solver import inertia_loads
-from .structure import geometry, topology
+from .structure import Topology, geometry, topology
 
 
 def _frame_element(xi: np.ndarray, xj: np.ndarray, EA: float, EI: float) -> np.ndarray:
@@ -41,12 +41,10 @@ def _frame_element(xi: np.ndarray, xj: np.ndarray, EA: float, EI: float) -> np.n
     return np.einsum("nji,njk,nkl->nil", T, k, T)
 
 
-def stiffness_deflections(scene: Scene, crank_angle: np.ndarray | None = None) -> np.ndarray:
-    """Deflections (n, N, 2) [m] of all structural nodes and (n,) rotation of P, by direct stiffness.
-
-    Returns an array (n, 2N + 1): x, y of each node in topology order, then the rotation of P.
-    """
-    theta = scene.crank_angles if crank_angle is None else np.atleast_1d(np.asarray(crank_angle, float))
+def assemble(scene: Scene, theta: np.ndarray) -> tuple[np.ndarray, int, Topology]:
+    """Global stiffness (n, ndof, ndof) of the frozen frame at the crank angles ``theta`` [rad]: dofs
+    0..2N-1 are x, y of the structural nodes in topology order, then rotation dofs (pins give each
+    element end its own); also the index of the rotation dof of P, and the topology."""
     lm = lumps(scene.fourbar, scene.mass_model)
     topo = topology(lm)
     geo = geometry(scene.fourbar, topo, theta)
@@ -65,18 +63,17 @@ def stiffness_deflections(scene: Scene, crank_angle: np.ndarray | None = None) -
 
     p_rot = rot_dof(("node", "P"))
     elements = []  # (xi, xj, dofs(6), section)
-    positions = {"M": None, "Q": geo.Q}
     for lk in ("crank", "coupler", "extender", "follower"):
         sel = [e for e, l2 in enumerate(topo.elem_link) if l2 == lk]
         for e in sel:
             s0, s1 = topo.elem_s0[e], topo.elem_s1[e]
 
-            def point(s: float, end: str, lk: str = lk) -> tuple[np.ndarray, list[int]]:
+            def point(s: float, lk: str = lk) -> tuple[np.ndarray, list[int]]:
                 if lk == "crank" and s == 0.0:
                     M = np.tile(scene.fourbar.crank_pivot, (n, 1))
                     return M, [-1, -1, -1]  # clamped
                 if lk == "follower" and s == 0.0:
-                    return positions["Q"], [-1, -1, rot_dof(("follower", "Q"))]  # pinned
+                    return geo.Q, [-1, -1, rot_dof(("follower", "Q"))]  # pinned
                 k = topo.node_of(lk, s)
                 tr = [2 * k, 2 * k + 1]
                 label = topo.node_label[k]
@@ -90,8 +87,8 @@ def stiffness_deflections(scene: Scene, crank_angle: np.ndarray | None = None) -
                     r = rot_dof(("node", label))
                 return geo.nodes[:, k], [*tr, r]
 
-            xi, di = point(s0, "i")
-            xj, dj = point(s1, "j")
+            xi, di = point(s0)
+            xj, dj = point(s1)
             elements.append((xi, xj, di + dj, scene.fourbar.section(lk)))
 
     K = np.zeros((n, ndof, ndof))
@@ -103,8 +100,34 @@ def stiffness_deflections(scene: Scene, crank_angle: np.ndarray | None = None) -
             for b, db in enumerate(dofs):
                 if db >= 0:
                     K[:, da, db] += ke[:, a, b]
-    loads = inertia_loads(scene, topo, lm, theta)
-    rhs = np.zeros((n, ndof))
+    return K, p_rot, topo
+
+
+def stiffness_deflections(scene: Scene, crank_angle: np.ndarray | None = None) -> np.ndarray:
+    """Deflections of all structural nodes and the rotation of P under the inertia loads, by direct
+    stiffness: an array (n, 2N + 1), x, y of each node in topology order, then the rotation of P."""
+    theta = scene.crank_angles if crank_angle is None else np.atleast_1d(np.asarray(crank_angle, float))
+    K, p_rot, topo = assemble(scene, theta)
+    n, N = theta.size, topo.n_nodes
+    loads = inertia_loads(scene, topo, lumps(scene.fourbar, scene.mass_model), theta)
+    rhs = np.zeros((n, K.shape[1]))
     rhs[:, : 2 * N] = loads.reshape(n, -1)
     u = np.linalg.solve(K, rhs[..., None])[..., 0]
     return np.concatenate([u[:, : 2 * N], u[:, p_rot : p_rot + 1]], axis=1)
+
+
+def unit_load_flexibility(scene: Scene, crank_angle: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Flexibility on the translational coordinates of the lumped masses by unit-load solves of the
+    stiffness model: (D (n, 2K, 2K) [m/N] in the order (x1, y1, x2, y2, ...), m (2K,) [kg]).  The
+    independent counterpart of :func:`ked_quasi.solver.flexibility_at_masses`."""
+    from .solver import node_masses
+
+    theta = scene.crank_angles if crank_angle is None else np.atleast_1d(np.asarray(crank_angle, float))
+    K, _, topo = assemble(scene, theta)
+    mass = node_masses(topo, lumps(scene.fourbar, scene.mass_model))
+    nodes = np.flatnonzero(mass > 0)
+    cols = np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel()
+    unit = np.zeros((K.shape[1], cols.size))
+    unit[cols, np.arange(cols.size)] = 1.0
+    U = np.linalg.solve(K, np.broadcast_to(unit, (theta.size, *unit.shape)))
+    return U[:, cols, :], np.repeat(mass[nodes], 2)

@@ -26,9 +26,6 @@ from .kinematics import Loop, loop
 from .linkage import LINKS, FourBar
 from .massmodel import Lumps
 
-#: chain of each link: (root joint, end joint)
-CHAINS = {"crank": ("M", "A"), "coupler": ("A", "B"), "extender": ("A", "P"), "follower": ("Q", "B")}
-
 
 def _canonical(link: str, s: float) -> tuple[str, float]:
     """Map a point on a link to its structural node (joints belong to the coupler body)."""
@@ -203,12 +200,7 @@ def force_transformation(topo: Topology, geo: Geometry) -> np.ndarray:
     TA[:, -1] = 1.0  # a moment at P acts on the body
     TQ[:, 0:2 * N:2] = -armQ[..., 1] * fol
     TQ[:, 1:2 * N:2] = armQ[..., 0] * fol
-    u = geo.B - geo.A
-    w = geo.B - geo.Q
-    det = _cross(u, w)[:, None]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        Rx = (-TA * w[:, 0:1] - u[:, 0:1] * TQ) / det
-        Ry = (-u[:, 1:2] * TQ - w[:, 1:2] * TA) / det
+    Rx, Ry = np.einsum("aij,ajd->aid", _pin_force_map(geo), np.stack([TA, TQ], axis=1)).transpose(1, 0, 2)
 
     # resultant force (Fx, Fy) and moment about each element's outer end, per unit load
     Fx = np.zeros((n, E, D))

@@ -15,6 +15,7 @@ from compare.studies.validity_analysis import TOLERANCES, one_mode_curves, peak_
 from compare.studies.validity_data import RETRY_MAX_RATIO, RETRY_STEP_FACTOR, Point, run_starts
 from compare.studies.validity_figures import reference
 from compare.studies.validity_summary import FamilySummary, Slot
+from ked_quasi.units import rad_s_to_rpm
 
 THESIS_RPM = (300.0, 400.0)
 
@@ -54,7 +55,7 @@ def limit_text(fs: FamilySummary, kind: str, tol: float) -> str:
 
 
 def _rpm_at(fs: FamilySummary, r: float) -> float:
-    return r * fs.omega1_min * 60.0 / (2.0 * math.pi) if math.isfinite(r) else math.nan
+    return rad_s_to_rpm(r * fs.omega1_min) if math.isfinite(r) else math.nan
 
 
 def _name(fs: FamilySummary) -> str:

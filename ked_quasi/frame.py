@@ -1,0 +1,176 @@
+"""The frozen structure's stiffness condensed on the lumped masses, with optional geometric stiffness.
+
+The same instantaneous structure as :mod:`ked_quasi.structure` (crank clamped at M and pinned at A,
+coupler + extender one rigid-jointed body, pins at B and Q), built as a direct-stiffness model of
+2-node Euler-Bernoulli frame elements with a node at every lump (the formulation of
+:mod:`ked_quasi.stiffness`, assembled with index arrays).  Optionally each element also gets the
+consistent geometric stiffness of its axial force N (tension > 0):
+
+    K_G = N / (30 L) [[36, 3L, -36, 3L], [3L, 4L^2, -3L, -L^2], [-36, -3L, 36, -3L], [3L, -L^2, -3L, 4L^2]]
+
+on its transverse dofs (v_i, th_i, v_j, th_j); for a pinned two-force member its rigid lateral
+rotation costs exactly N/L, the truss geometric stiffness.  Static condensation on the translational
+dofs of the mass nodes gives K_c (the inverse of :func:`ked_quasi.solver.flexibility_at_masses` when
+N = 0) and the map from those displacements to (dx, dy, rotation) of the coupler point P.
+
+Everything is vectorized over crank angles; units SI.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import sparse
+
+from .kinematics import loop
+from .massmodel import lumps
+from .scene import Scene
+from .solver import inertia_loads, node_masses
+from .structure import Topology, element_forces, geometry, topology
+
+
+@dataclass(frozen=True)
+class FrameDofs:
+    """Angle-independent dof numbering of the frame model.
+
+    elem_dofs (E, 6): global dof of (u_i, v_i, th_i, u_j, v_j, th_j) of each element in topology
+    order, -1 where fixed (clamp at M, pin at Q); n_dofs: number of free dofs (node k: x at 2k, y at
+    2k + 1; rotations after the translations); p_rotation: dof of the section rotation at P.
+    """
+
+    elem_dofs: np.ndarray
+    n_dofs: int
+    p_rotation: int
+
+
+def frame_dofs(topo: Topology) -> FrameDofs:
+    """Dof numbering: own rotation at interior nodes and P; at A one for the crank end and one for the
+    coupler body; at B one per link end; a free rotation at the pin Q; M clamped."""
+    rot: dict[tuple[str, str], int] = {}
+
+    def rot_dof(key: tuple[str, str]) -> int:
+        return rot.setdefault(key, 2 * topo.n_nodes + len(rot))
+
+    p_rot = rot_dof(("node", "P"))
+
+    def end(link: str, s: float) -> list[int]:
+        if link == "crank" and s == 0.0:
+            return [-1, -1, -1]
+        if link == "follower" and s == 0.0:
+            return [-1, -1, rot_dof(("follower", "Q"))]
+        k = topo.node_of(link, s)
+        label = topo.node_label[k]
+        if label == "A":
+            key = ("crank", "A") if link == "crank" else ("body", "A")
+        elif label == "B":
+            key = (link, "B")
+        else:
+            key = ("node", label)
+        return [2 * k, 2 * k + 1, rot_dof(key)]
+
+    dofs = [end(lk, s0) + end(lk, s1) for lk, s0, s1 in zip(topo.elem_link, topo.elem_s0, topo.elem_s1)]
+    return FrameDofs(elem_dofs=np.array(dofs, dtype=int), n_dofs=2 * topo.n_nodes + len(rot), p_rotation=p_rot)
+
+
+def _local_stiffness(L: np.ndarray, EA: np.ndarray, EI: np.ndarray, N: np.ndarray) -> np.ndarray:
+    """Local 6x6 elastic + geometric stiffness, (n, E, 6, 6), dofs (u_i, v_i, th_i, u_j, v_j, th_j)."""
+    k = np.zeros(np.broadcast_shapes(L.shape, N.shape) + (6, 6))
+    a = EA / L
+    k[..., 0, 0] = k[..., 3, 3] = a
+    k[..., 0, 3] = k[..., 3, 0] = -a
+    bend = np.array([[12, 6, -12, 6], [6, 4, -6, 2], [-12, -6, 12, -6], [6, 2, -6, 4]], float)
+    geo = np.array([[36, 3, -36, 3], [3, 4, -3, -1], [-36, -3, 36, -3], [3, -1, -3, 4]], float)
+    Ls = np.stack([np.ones_like(L), L, np.ones_like(L), L], axis=-1)
+    scale = Ls[..., :, None] * Ls[..., None, :]
+    idx = np.ix_([1, 2, 4, 5], [1, 2, 4, 5])
+    k[(..., *idx)] = (EI / L**3)[..., None, None] * bend * scale + (N / (30.0 * L))[..., None, None] * geo * scale
+    return k
+
+
+def _rotate(k: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """Local -> global: T^T k T with T the rotation to the element axis (complex unit, (n, E))."""
+    c, s = axis.real, axis.imag
+    T = np.zeros(axis.shape + (6, 6))
+    for o in (0, 3):
+        T[..., o, o], T[..., o, o + 1] = c, s
+        T[..., o + 1, o], T[..., o + 1, o + 1] = -s, c
+        T[..., o + 2, o + 2] = 1.0
+    return np.einsum("...ji,...jk,...kl->...il", T, k, T)
+
+
+def assemble(fourbar, topo: Topology, dofs: FrameDofs, crank_angle: np.ndarray,
+             axial_force: np.ndarray | None = None) -> np.ndarray:
+    """Global stiffness (n, n_dofs, n_dofs) [N/m, N, N m] at the crank angles [rad]; ``axial_force``
+    (n, E) [N, tension > 0] adds the geometric stiffness (None: the unstressed structure)."""
+    geo = geometry(fourbar, topo, crank_angle, loop(fourbar, crank_angle))
+    lengths = np.array([(s1 - s0) * fourbar.length(lk) for lk, s0, s1 in
+                        zip(topo.elem_link, topo.elem_s0, topo.elem_s1)])
+    EA = np.array([fourbar.section(lk).axial_stiffness for lk in topo.elem_link])
+    EI = np.array([fourbar.section(lk).bending_stiffness for lk in topo.elem_link])
+    N = np.zeros((crank_angle.size, lengths.size)) if axial_force is None else axial_force
+    ke = _rotate(_local_stiffness(lengths, EA, EI, N), geo.z_axis)  # (n, E, 6, 6)
+    d = dofs.elem_dofs
+    keep = (d[:, :, None] >= 0) & (d[:, None, :] >= 0)  # (E, 6, 6)
+    e, a, b = np.nonzero(keep)
+    flat = d[e, a] * dofs.n_dofs + d[e, b]
+    scatter = sparse.csr_matrix((np.ones(flat.size), (flat, np.arange(flat.size))),
+                                shape=(dofs.n_dofs**2, flat.size))  # sums coincident entries
+    K = (scatter @ ke[:, e, a, b].T).T
+    return K.reshape(crank_angle.size, dofs.n_dofs, dofs.n_dofs)
+
+
+@dataclass(frozen=True)
+class CondensedStructure:
+    """The frozen structure condensed on the mass coordinates, at n crank angles.
+
+    stiffness (n, k, k) [N/m] on the translations of the mass nodes in the order (x1, y1, x2, y2, ...)
+    of :func:`ked_quasi.solver.flexibility_at_masses`; mass (k,) [kg] the matching diagonal mass;
+    output (n, 3, k): (dx [m], dy [m], rotation [rad]) of P per unit mass-node displacement (static
+    condensation: the massless dofs follow the mass nodes statically); mass_node: structural node of
+    each mass (topology order).
+    """
+
+    stiffness: np.ndarray
+    mass: np.ndarray
+    output: np.ndarray
+    mass_node: np.ndarray
+
+
+def axial_forces(scene: Scene, crank_angle: np.ndarray) -> np.ndarray:
+    """Axial force (n, E) [N, tension > 0] of every element under the scene's quasi-static inertia loads."""
+    lm = lumps(scene.fourbar, scene.mass_model)
+    topo = topology(lm)
+    lp = loop(scene.fourbar, crank_angle)
+    geo = geometry(scene.fourbar, topo, crank_angle, lp)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return element_forces(topo, geo, inertia_loads(scene, topo, lm, crank_angle, geo, lp))[..., 0]
+
+
+def condensed_structure(scene: Scene, crank_angle: np.ndarray | None = None,
+                        prestress: bool = False) -> CondensedStructure:
+    """Static condensation of the frame model on the mass coordinates (``prestress``: with the geometric
+    stiffness of the axial forces of the quasi-static inertia loads at the scene's speed)."""
+    theta = scene.crank_angles if crank_angle is None else np.atleast_1d(np.asarray(crank_angle, float))
+    lm = lumps(scene.fourbar, scene.mass_model)
+    topo = topology(lm)
+    dofs = frame_dofs(topo)
+    K = assemble(scene.fourbar, topo, dofs, theta, axial_forces(scene, theta) if prestress else None)
+    mass = node_masses(topo, lm)
+    nodes = np.flatnonzero(mass > 0)
+    master = np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel()
+    slave = np.setdiff1d(np.arange(dofs.n_dofs), master)
+    Kss = K[:, slave[:, None], slave]
+    Ksm = K[:, slave[:, None], master]
+    T = -np.linalg.solve(Kss, Ksm)  # slave displacements per unit master displacement
+    Kc = K[:, master[:, None], master] + np.einsum("nsm,nsk->nmk", Ksm, T)
+    Kc = 0.5 * (Kc + np.swapaxes(Kc, 1, 2))
+    p = topo.p_index
+    psi = np.zeros((theta.size, dofs.n_dofs, master.size))
+    psi[:, master, np.arange(master.size)] = 1.0
+    psi[:, slave] = T
+    out = psi[:, [2 * p, 2 * p + 1, dofs.p_rotation]]
+    return CondensedStructure(stiffness=Kc, mass=np.repeat(mass[nodes], 2), output=out, mass_node=nodes)
+
+
+__all__ = ["CondensedStructure", "FrameDofs", "assemble", "axial_forces", "condensed_structure", "frame_dofs"]
