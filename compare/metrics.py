@@ -232,3 +232,22 @@ def all_pairs(crank_angle: np.ndarray, histories: Mapping[str, Mapping[str, np.n
 def reference_of(fidelity: Mapping[str, int]) -> str | None:
     """The reference of a set of solvers (name -> fidelity): the one with the highest fidelity."""
     return max(fidelity, key=lambda n: (fidelity[n], n)) if fidelity else None
+
+
+def translation_error(a: np.ndarray, b: np.ndarray) -> float:
+    """max_k max(|dx_a - dx_b|, |dy_a - dy_b|) / max_k max(|dx_b|, |dy_b|) [1] of (n, >=2) histories: the
+    translation components against their common peak (the work-precision and stability studies)."""
+    a, b = np.asarray(a, dtype=float)[:, :2], np.asarray(b, dtype=float)[:, :2]
+    return safe_ratio(float(np.max(np.abs(a - b))), float(np.max(np.abs(b))))
+
+
+def cycle_error(a: np.ndarray, b: np.ndarray) -> float:
+    """The worse of :func:`translation_error` and the rotation's :func:`history_error` [1] of (n, 3)
+    histories (dx, dy [m], rotation [rad]); inf if ``a`` has non-finite values.  The Exudyn model's
+    steady-state test compares successive cycles the same way."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if not np.all(np.isfinite(a)):
+        return math.inf
+    parts = [translation_error(a, b) if np.max(np.abs(b[:, :2])) > 0 else 0.0,
+             history_error(a[:, 2], b[:, 2]) if np.max(np.abs(b[:, 2])) > 0 else 0.0]
+    return max(parts)

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from compare.config import load_config
+from compare.metrics import cycle_error
 from compare.studies.sections import markers, replace_section
 from compare.studies.work_precision import CONFIGS, STUDIES, family_key, lump_convergence
 from compare.studies.wp_analysis import (
@@ -18,7 +19,6 @@ from compare.studies.wp_analysis import (
     WPPoint,
     choose,
     coarsest_failures,
-    cycle_error,
     is_reference,
     observed_order,
     pareto_mask,

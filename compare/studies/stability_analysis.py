@@ -11,6 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from compare.metrics import translation_error
+
 #: speed ratio below which the dynamic peak must be within AMPLIFICATION_BAND of the quasi-static one
 SUBCRITICAL = 0.8
 AMPLIFICATION_BAND = (0.5, 3.0)
@@ -57,10 +59,8 @@ def peak(deflection: np.ndarray) -> float:
     return float(np.nanmax(xy)) if np.isfinite(xy).any() else math.nan
 
 
-def deviation(d: np.ndarray, base: np.ndarray) -> float:
-    """max |d - base| of (dx, dy) relative to the peak of base [1]."""
-    d, base = np.asarray(d, dtype=float), np.asarray(base, dtype=float)
-    return float(np.max(np.abs(d[:, :2] - base[:, :2])) / np.max(np.abs(base[:, :2])))
+deviation = translation_error
+"""max |d - base| of (dx, dy) relative to the peak of base [1] (:func:`compare.metrics.translation_error`)."""
 
 
 def check(ok: bool, finite: bool, converged: bool, speed_ratio: float, amplification: float,

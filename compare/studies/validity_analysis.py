@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from compare import metrics
 from ked_quasi.harmonics import harmonic_amplitudes, one_mode_dynamic_estimate
 
 TOLERANCES = (0.05, 0.10)
@@ -41,13 +42,13 @@ def magnitude(d: np.ndarray) -> np.ndarray:
 
 
 def errors(qs: np.ndarray, dyn: np.ndarray) -> Errors:
-    """Peak and history errors and the amplification of ``dyn`` against ``qs`` (both (n, 2) [m])."""
-    p_qs, p_dyn = float(magnitude(qs).max()), float(magnitude(dyn).max())
-    if p_dyn <= 0.0:
+    """Peak and history errors (:mod:`compare.metrics`, vector |d|) and the amplification of ``dyn``
+    against ``qs`` (both (n, 2) [m])."""
+    if metrics.peak(dyn) <= 0.0:
         return Errors(math.nan, math.nan, math.nan)
-    return Errors(peak=abs(p_qs - p_dyn) / p_dyn,
-                  history=float(magnitude(qs - dyn).max()) / p_dyn,
-                  amplification=p_dyn / p_qs if p_qs > 0 else math.nan)
+    amp = metrics.amplification(qs, dyn)
+    return Errors(peak=metrics.peak_error(qs, dyn), history=metrics.history_error(qs, dyn),
+                  amplification=amp if math.isfinite(amp) else math.nan)
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from datetime import datetime
 from pathlib import Path
 
@@ -342,17 +342,35 @@ def busy_seconds(starts: Sequence[str], ends: Sequence[str], longest_s: float) -
 
 def render_section(points: Sequence[Point], summaries: Sequence[FamilySummary], *, files: Sequence[Path],
                    refine_file: Path, figures: Sequence[Path], readme: Path, configs: Sequence[Path]) -> str:
-    """The whole Markdown section (without markers)."""
-    base = next((p for p in points if not p.refined), None)
-    dyn = dict(base.spec.dynamic) if base else {}
-    dyn.pop("damping_ratio", None)
-    ref_groups = reference(summaries)
-    ref = [fs for fams in ref_groups.values() for fs in fams]
+    """The whole Markdown section (without markers): header and setup, the answer, the harmonic rule,
+    the thesis's claims, damping and direction, failures, run time, figures."""
     rel = readme.resolve().parent
 
     def link(p: Path) -> str:
         return os.path.relpath(p.resolve(), rel)
 
+    ref_groups = reference(summaries)
+    ref = [fs for fams in ref_groups.values() for fs in fams]
+    L = _setup_part(points, files, refine_file, configs, link)
+    L += ["", "### The answer", ""] + plain_answer(ref)
+    L += _families_part(ref) + _rule_part(ref) + _claims_part(summaries) + _variants_part(summaries)
+    L += _failures_part(summaries) + _run_time_part(points, files, refine_file)
+    L += ["", "### Figures", ""] + [f"![{p.stem}]({link(p)})" for p in figures]
+    return "\n".join(L) + "\n"
+
+
+def _lumps_text(points: Sequence[Point]) -> str:
+    """How many lumps the lumped models used (from the stored scenes)."""
+    n = sorted({p.spec.mass_model.lumps for p in points if p.mass_model in ("extender", "distributed")})
+    return " or ".join(str(k) for k in n) or "-"
+
+
+def _setup_part(points: Sequence[Point], files: Sequence[Path], refine_file: Path, configs: Sequence[Path],
+                link: Callable[[Path], str]) -> list[str]:
+    lumps = _lumps_text([p for p in points if not p.refined])
+    base = next((p for p in points if not p.refined), None)
+    dyn = dict(base.spec.dynamic) if base else {}
+    dyn.pop("damping_ratio", None)
     L: list[str] = ["## Validity map: when does the quasi-static (instantaneous-structure) assumption hold?", ""]
     L += ["Regenerate (resumable; runs the campaigns, retries, refinement scenes, figures and this section):",
           "", "    ked study validity", "",
@@ -366,7 +384,7 @@ def render_section(points: Sequence[Point], summaries: Sequence[FamilySummary], 
           + f"; scenes below r = {RETRY_MAX_RATIO:g} whose Newton iteration failed are retried once with "
           f"{RETRY_STEP_FACTOR}x the steps per cycle. "
           "Mass models: tip (payload at P, massless links), joints (half of each link's mass at each end), "
-          "extender (extender mass in 5 lumps), distributed (quasi-static: 5 lumps per link; dynamic: the "
+          f"extender (extender mass in {lumps} lumps), distributed (quasi-static: {lumps} lumps per link; dynamic: the "
           "beams' consistent mass).", ""]
     L += ["Errors of the quasi-static deflection d = (dx, dy) of the coupler point P against the dynamic "
           "periodic steady state: **peak error** |max|d_qs| - max|d_dyn|| / max|d_dyn| (what the brief "
@@ -379,14 +397,24 @@ def render_section(points: Sequence[Point], summaries: Sequence[FamilySummary], 
           "kg/m^3, tip payload in kg):", ""]
     L += _table(["linkage", "crank", "coupler", "follower", "ground", "extender", "coupler angle [deg]", "E", "A",
                  "I", "rho", "tip payload"], linkage_rows([p for p in points if not p.refined]))
-    L += ["", "### The answer", ""]
-    L += plain_answer(ref)
+    return L
+
+
+def _families_part(ref: Sequence[FamilySummary]) -> list[str]:
+    L: list[str] = []
     L += ["", "Per family (f1: first frozen frequency over the cycle, min-max; rpm at r = 1; the error at the "
           "smallest ratio is the floor that is not dynamics: mass discretization of the quasi-static model, "
           "geometric nonlinearity, steady-state tolerance):", ""]
     L += _table(["linkage", "mass model", "f1 [Hz]", "rpm at r=1", "history error at smallest r",
                  "peak 5 %", "peak 10 %", "history 5 %",
                  "history 10 %"], answer_rows(ref))
+    return L
+
+
+def _rule_part(ref: Sequence[FamilySummary]) -> list[str]:
+    crossings = [lim.r_cross for fs in ref for lim in fs.limits.values() if lim.status == "crossed"]
+    beyond = max(crossings, default=math.nan)
+    L: list[str] = []
     L += ["", "### Does a harmonic rule explain it?", ""]
     L += ["Harmonic content of the quasi-static inertia loads (all nodes, amplitudes of crank harmonics 1-6 "
           "normalized by the largest), k_sig = highest harmonic above 1 % / 5 % of the largest, the one-mode "
@@ -405,10 +433,15 @@ def render_section(points: Sequence[Point], summaries: Sequence[FamilySummary], 
           "depends on how fast the load spectrum decays, so it is only a conservative bound (use the smallest c "
           "above). The estimate fails (i) for the peak-only error, which is not monotonic: the dynamic and "
           "quasi-static peaks occur at different crank angles and can match by chance (dips in the dashed "
-          "lines of the error figure), and (ii) beyond the limits (r > 0.2), where omega1 varies over the "
+          f"lines of the error figure), and (ii) beyond the limits (r > {beyond:.2g}), where omega1 varies over the "
           "cycle (f1 max/min up to the value in the table), the resonances k r = 1 are smeared over the "
           "range of omega1, higher modes and the geometric nonlinearity of large deflections matter, and "
           "the dynamic model itself often has no periodic steady state."]
+    return L
+
+
+def _claims_part(summaries: Sequence[FamilySummary]) -> list[str]:
+    L: list[str] = []
     dbl, cog = claims_rows(summaries)
     if dbl:
         L += ["", "### The thesis's claims, checked with dynamics", ""]
@@ -423,18 +456,32 @@ def render_section(points: Sequence[Point], summaries: Sequence[FamilySummary], 
         L += _table(["mass model", "rpm", "source qs", "cognate qs", "qs cognate/source", "source dyn",
                      "cognate dyn", "dyn cognate/source"], cog)
     L += cognate_text(cog)
+    return L
+
+
+def _variants_part(summaries: Sequence[FamilySummary]) -> list[str]:
+    L: list[str] = []
     var = variant_rows(summaries)
     if var:
         L += ["", "### Damping and crank direction", ""]
         L += _table(["linkage", "mass model", "damping", "direction", "history 5 %", "history 10 %",
                      "error r=0.1", "error r=0.25", "error r=0.5"], var)
+    return L
+
+
+def _failures_part(summaries: Sequence[FamilySummary]) -> list[str]:
+    L: list[str] = []
     lines, failed, retried, rescued = failure_lines(summaries)
     L += ["", "### Failures of the dynamic model (recorded in the HDF5 files)", ""]
     L += [f"{failed} grid slots have no dynamic steady state; {retried} slots were retried with "
           f"{RETRY_STEP_FACTOR}x the steps per cycle, {rescued} of them solved by the retry "
           "(open markers in the figures).", ""]
     L += lines
-    L += ["", "### Run time", ""]
+    return L
+
+
+def _run_time_part(points: Sequence[Point], files: Sequence[Path], refine_file: Path) -> list[str]:
+    L = ["", "### Run time", ""]
     rows = []
     for f in (*files, refine_file):
         pts = [p for p in points if p.source == f.name]
@@ -446,13 +493,11 @@ def render_section(points: Sequence[Point], summaries: Sequence[FamilySummary], 
     ends = [p.finished_utc for p in points if p.finished_utc]
     if starts and ends:
         busy = busy_seconds(starts, ends, max(p.wall_s for p in points))
-        L += ["", f"Elapsed compute time of the stored runs: {busy / 60:.1f} min ({len(points)} scenes, 2 worker "
-              "processes on 2 cores shared with other jobs; from the runs' start times and the scenes' finish "
+        L += ["", f"Elapsed compute time of the stored runs: {busy / 60:.1f} min ({len(points)} scenes; "
+              "from the runs' start times and the scenes' finish "
               "times, idle gaps longer than the slowest scene left out). Tests: "
               "`pytest tests/test_study_validity.py -m 'not slow'` runs the whole pipeline on a tiny campaign; "
               "`pytest tests/test_study_validity.py -m slow` checks that the committed files verify and that "
               "this section is exactly what they give."]
-    L += ["", "### Figures", ""]
-    for p in figures:
-        L += [f"![{p.stem}]({link(p)})"]
-    return "\n".join(L) + "\n"
+    return L
+

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from compare import store
+from compare.metrics import cycle_error
 from compare.results import SceneResult
 from compare.scenes import SceneSpec, canonical_json
 from compare.solvers import COMPONENTS
@@ -31,7 +32,6 @@ from compare.studies.wp_analysis import (
     Discretization,
     LumpPoint,
     WPPoint,
-    cycle_error,
     is_reference,
 )
 

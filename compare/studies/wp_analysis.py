@@ -3,7 +3,7 @@
 A *point* is one dynamic discretization (element type, elements per link, steps per cycle, spectral
 radius) of one scene *family* (a scene with its Exudyn settings left out), or the quasi-static solver
 on a family. Error of a steady cycle against the reference cycle on the scene's crank-angle grid
-(:func:`cycle_error`): max over the grid of |d - d_ref| for dx, dy together relative to the reference
+(:func:`compare.metrics.cycle_error`): max over the grid of |d - d_ref| for dx, dy together relative to the reference
 peak of |dx|, |dy|, and the same for the rotation relative to its peak; the larger of the two [1].
 Wall time [s]: the dynamic solver's whole run (build, ramp, cycles, post-processing).
 """
@@ -56,17 +56,6 @@ class WPPoint:
     newton_iterations: int
     message: str
     wall_spread: float = 0.0
-
-
-def cycle_error(d: np.ndarray, ref: np.ndarray) -> float:
-    """Relative error [1] of a cycle ``d`` (n, 3: dx [m], dy [m], rotation [rad]) against ``ref``."""
-    d, ref = np.asarray(d, dtype=float), np.asarray(ref, dtype=float)
-    out = 0.0
-    for cols in (slice(0, 2), slice(2, 3)):
-        peak = float(np.max(np.abs(ref[:, cols])))
-        if peak > 0.0:
-            out = max(out, float(np.max(np.abs(d[:, cols] - ref[:, cols]))) / peak)
-    return out if np.all(np.isfinite(d)) else math.inf
 
 
 def is_reference(settings: dict) -> bool:
