@@ -1,4 +1,4 @@
-"""Stability study (issue 6, part 3): the solvers' behaviour on extreme scenes, pinned on cheap scenes
+"""Stability study: the solvers' behaviour on extreme scenes, pinned on cheap scenes
 with the real solvers (no mocks), plus the study's pure helpers and checked-in configs."""
 
 from __future__ import annotations

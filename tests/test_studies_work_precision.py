@@ -1,4 +1,4 @@
-"""Work-precision study (issue 6, part 2): pure helpers, README sections, checked-in configs; the full
+"""Work-precision study: pure helpers, README sections, checked-in configs; the full
 study runs are slow tests."""
 
 from __future__ import annotations

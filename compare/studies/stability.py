@@ -1,4 +1,4 @@
-"""`ked study stability`: numerical stability on stiff and extreme scenes (issue 6, part 3).
+"""`ked study stability`: numerical stability on stiff and extreme scenes.
 
 Runs every campaign config in ``results/studies/stability/`` (one extreme case each, named by its
 ``campaign.name``) into ``results/studies/stability.h5``. A scene's failure never stops the campaign:

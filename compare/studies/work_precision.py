@@ -1,4 +1,4 @@
-"""`ked study work-precision`: error against run time of both solvers (issue 6, part 2).
+"""`ked study work-precision`: error against run time of both solvers.
 
 Regenerates ``results/studies/work_precision.h5`` from the checked-in configs
 ``results/studies/work_precision*.toml`` (one file; scenes shared by two configs run once), re-times
