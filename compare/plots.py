@@ -228,7 +228,8 @@ def write_figures(results: Sequence[SceneResult], out_dir: str | Path, dpi: int 
     if jobs or not p.exists() or set(old) != set(index):
         amplification_figure(results).savefig(p, dpi=dpi)
         paths.append(p)
-    tmp = index_path.with_name(index_path.name + ".tmp")
-    tmp.write_text(json.dumps(index, indent=1, sort_keys=True))
-    tmp.replace(index_path)
+    if index != old:
+        tmp = index_path.with_name(index_path.name + ".tmp")
+        tmp.write_text(json.dumps(index, indent=1, sort_keys=True))
+        tmp.replace(index_path)
     return paths

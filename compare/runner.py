@@ -125,6 +125,43 @@ def check_stored_settings(specs: Iterable[SceneSpec], stored: dict[str, dict[str
             "Write to a new --out file, or pin these settings in the config (e.g. its [dynamic] table).")
 
 
+def _rescued(exc: store.CommitError, unsaved: list[SceneResult], out: Path, config: CampaignConfig) -> Exception:
+    """The error to raise after a failed commit, once the scenes computed in this run are saved."""
+    if not unsaved:
+        return exc
+    try:
+        path = store.rescue(unsaved, out, config.text, config.name)
+    except store.CommitError as exc2:
+        return store.CommitError(f"{exc}; {exc2}")
+    return store.CommitError(
+        f"{exc}. The {len(unsaved)} scene(s) computed in this run are kept in {path}; once {out} can be written "
+        f"again, `ked merge {path} {out}` adds them, and rerunning the campaign resumes the rest.")
+
+
+def _worker_init() -> None:
+    """In every local worker: die with the parent (no orphans after kill -9 of ``ked run``), and leave
+    SIGINT/SIGTERM handling to the parent."""
+    import signal
+    import threading
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    parent = os.getppid()
+    try:
+        import ctypes
+
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+    def watch() -> None:  # portable fallback: the parent is gone when we are re-parented
+        while os.getppid() == parent:
+            time.sleep(1.0)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()
+
+
 def default_workers() -> int:
     """Worker processes used when none are given: the CPUs available to this process."""
     try:
@@ -149,6 +186,8 @@ def _drain(backend: Any, futures: dict[Any, Job],
     for done in backend.batches(futures):
         batch = []
         for fut in done:
+            if fut.cancelled():
+                continue  # cancelled after a failed commit: never started, nothing computed
             try:
                 r = backend.result(fut)
             except Exception as exc:  # the task itself failed outside run_scene (Dask KilledWorker, ...)
@@ -209,11 +248,19 @@ class _LocalBackend:
     def __init__(self, workers: int):
         ctx = multiprocessing.get_context("spawn")
         self.workers = workers
-        self.pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
+        self.pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init)
+        self.futures: list[Any] = []
 
     def submit_all(self, jobs: Iterable[Job]) -> dict[Any, Job]:
         with _single_threaded_children():  # workers are spawned on submit
-            return {self.pool.submit(run_scene, *_args(j)): j for j in jobs}
+            out = {self.pool.submit(run_scene, *_args(j)): j for j in jobs}
+        self.futures += list(out)
+        return out
+
+    def cancel(self) -> None:
+        """Cancel the scenes not started yet (running ones finish and are still delivered)."""
+        for f in self.futures:
+            f.cancel()
 
     def batches(self, futures: Iterable[Any]) -> Iterator[list[Any]]:
         """Completed futures, grouped: everything finished by the time the previous group is stored."""
@@ -233,18 +280,37 @@ class _LocalBackend:
         self.pool.shutdown(wait=True, cancel_futures=True)
 
 
+SCHEDULER_TIMEOUT_S = 10.0
+"""How long ``--scheduler ADDRESS`` waits for the scheduler to answer."""
+
+
+class SchedulerError(ValueError):
+    """The Dask scheduler address is malformed or nothing answers there."""
+
+
 class _DaskBackend:
     """Dask distributed cluster at ``address`` (scheduler address, e.g. ``tcp://host:8786``)."""
 
-    def __init__(self, address: str):
+    def __init__(self, address: str, timeout_s: float = SCHEDULER_TIMEOUT_S):
         from distributed import Client
 
-        self.client = Client(address, set_as_default=False)
+        try:
+            self.client = Client(address, set_as_default=False, timeout=timeout_s)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise SchedulerError(f"--scheduler {address!r}: no Dask scheduler answered within {timeout_s:g} s "
+                                 f"({type(exc).__name__}: {str(exc).splitlines()[0][:160] if str(exc) else ''}); "
+                                 "give the address printed by `dask scheduler`, e.g. tcp://127.0.0.1:8786") from None
+        self.futures: list[Any] = []
 
     def submit_all(self, jobs: Iterable[Job]) -> dict[Any, Job]:
         # unique task keys: never reuse a result another campaign left on a long-lived cluster
-        return {self.client.submit(run_scene, *_args(j), key=f"ked-scene-{j.spec.key}-{uuid.uuid4().hex[:8]}",
-                                   pure=False): j for j in jobs}
+        out = {self.client.submit(run_scene, *_args(j), key=f"ked-scene-{j.spec.key}-{uuid.uuid4().hex[:8]}",
+                                  pure=False): j for j in jobs}
+        self.futures += list(out)
+        return out
+
+    def cancel(self) -> None:
+        self.client.cancel([f for f in self.futures if not f.done()])
 
     def batches(self, futures: Iterable[Any]) -> Iterator[list[Any]]:
         from distributed import as_completed
@@ -274,7 +340,17 @@ def run_campaign(
     ``retry_failed``: recompute stored failed scenes too.  ``progress``: tqdm bar on stderr.
     Raises :class:`compare.store.LockedError` if another campaign is writing ``out``.
     """
-    out = Path(out)
+    t0 = time.perf_counter()
+    out = store.target(out)
+    store.check_ours(out)
+    scenes = config.scenes()
+    stored = store.stored_solutions(out)
+    p = plan(scenes, store.stored_status(out), retry_failed, stored)
+    check_stored_settings(scenes, stored)
+    if not p.jobs:  # nothing to compute: nothing is written (works on a read-only file system)
+        return CampaignSummary(out=out, total=len(scenes), skipped=len(p.skipped), ok=0, failed=0, lost=0,
+                               wall_s=time.perf_counter() - t0, keys=tuple(s.key for s in scenes))
+    store.check_writable(out)
     with store.writer_lock(out):
         return _run_locked(config, out, workers=workers, scheduler=scheduler, retry_failed=retry_failed,
                            progress=progress, on_result=on_result)
@@ -287,21 +363,31 @@ def _run_locked(config: CampaignConfig, out: Path, *, workers: int | None, sched
 
     t0 = time.perf_counter()
     scenes = config.scenes()
-    store.check_ours(out)
-    store.remove_stale_temp_files(out)
     stored = store.stored_solutions(out)
     p = plan(scenes, store.stored_status(out), retry_failed, stored)
     check_stored_settings(scenes, stored)
-    run = store.record_run(out, config.text, config.name, len(scenes))
     counts = {STATUS_OK: 0, STATUS_FAILED: 0}
     lost: list[Job] = []
-    if p.jobs:
+    unsaved: list[SceneResult] = []
+    failure: list[store.CommitError] = []
+    if p.jobs:  # nothing to compute: nothing is written
+        # the cluster first: an unreachable scheduler is reported before anything is written
+        backend: Any = _DaskBackend(scheduler) if scheduler else None
+        store.remove_stale_temp_files(out)
+        run = store.record_run(out, config.text, config.name, len(scenes))
         bar = tqdm(total=len(p.jobs), unit="scene", desc=config.name, disable=not progress,
                    file=sys.stderr, dynamic_ncols=True, smoothing=0.1)
         bar.set_postfix(ok=0, failed=0, skipped=len(p.skipped))
 
         def store_batch(batch: list[SceneResult]) -> None:
-            store.commit(out, batch, run)
+            if not failure:
+                try:
+                    store.commit(out, batch, run)
+                except store.CommitError as exc:  # keep what is computed; stop starting new scenes
+                    failure.append(exc)
+                    backend.cancel()
+            if failure:
+                unsaved.extend(batch)
             for r in batch:
                 counts[STATUS_OK if r.status == STATUS_OK else STATUS_FAILED] += 1
                 if on_result is not None:
@@ -311,15 +397,13 @@ def _run_locked(config: CampaignConfig, out: Path, *, workers: int | None, sched
             bar.update(len(batch))
 
         try:
-            if scheduler:
-                backend: Any = _DaskBackend(scheduler)
-            else:
+            if backend is None:
                 backend = _LocalBackend(min(workers or default_workers(), len(p.jobs)))
             try:
                 lost = _drain(backend, backend.submit_all(p.jobs), store_batch)
             finally:
                 backend.close()
-            if lost and not scheduler:  # a worker died: retry once in a fresh pool, then one by one
+            if lost and not scheduler and not failure:  # a worker died: retry in a fresh pool, then one by one
                 retry = _LocalBackend(min(workers or default_workers(), len(lost)))
                 try:
                     lost = _drain(retry, retry.submit_all(lost), store_batch)
@@ -329,6 +413,8 @@ def _run_locked(config: CampaignConfig, out: Path, *, workers: int | None, sched
                     lost = _isolate(lost, store_batch)
         finally:
             bar.close()
+    if failure:
+        raise _rescued(failure[0], unsaved, out, config)
     ok, failed = counts[STATUS_OK], counts[STATUS_FAILED]
     return CampaignSummary(
         out=out,

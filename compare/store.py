@@ -107,28 +107,84 @@ def _fsync_path(path: Path, directory: bool = False) -> None:
         os.close(fd)
 
 
+class CommitError(OSError):
+    """A results file could not be written (permissions, full disk, immutable file, ...); the file is
+    unchanged."""
+
+
+def target(path: str | Path) -> Path:
+    """The file a results path means: a symbolic link is followed (the link stays, its target is
+    written), relative paths are made absolute."""
+    return Path(path).resolve()
+
+
+def check_writable(path: str | Path) -> None:
+    """Refuse before any computation a results file that may not be replaced: an existing file without
+    write permission (read-only means: leave it alone) or a directory where no file can be created."""
+    path = target(path)
+    if path.exists() and not os.access(path, os.W_OK):
+        raise CommitError(f"{path}: the file is read-only (no write permission); refusing to change it; "
+                          "make it writable or give another --out file")
+    parent = next((p for p in (path.parent, *path.parent.parents) if p.exists()), None)
+    if parent is not None and not os.access(parent, os.W_OK | os.X_OK):
+        raise CommitError(f"{parent}: directory is not writable; give an --out file in a writable directory")
+
+
 @contextmanager
 def transaction(path: str | Path) -> Iterator[h5py.File]:
-    """Open a private copy of ``path`` for writing; on success atomically replace ``path`` by it.
+    """Open a private copy of ``path`` for writing; on success atomically replace ``path`` by it (its
+    permissions kept; a symbolic link's target is replaced, the link stays).
 
     On any exception (or kill) the results file is untouched and the copy is removed (or left as a
-    stale temp file that nothing reads).
+    stale temp file that nothing reads).  Failures of the file system (full disk, permissions, an
+    immutable file) raise :class:`CommitError`.
     """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    path = target(path)
     tmp = path.with_name(f"{path.name}{TMP_MARK}{os.getpid()}-{uuid.uuid4().hex[:8]}")
     try:
-        if path.exists():
-            shutil.copyfile(path, tmp)
-        with h5py.File(tmp, "a") as f:
+        f = _open_copy(path, tmp)
+        try:
             yield f
+        except BaseException:
+            _close_quietly(f)
+            raise
+        try:
             f.flush()
-        _fsync_path(tmp)
-        os.replace(tmp, path)
+            f.close()
+        except (OSError, RuntimeError) as exc:  # HDF5 reports a full disk as either
+            _close_quietly(f)
+            raise CommitError(f"{path}: cannot be written ({_short(exc)}; is the disk full?)") from exc
+        try:
+            _fsync_path(tmp)
+            os.replace(tmp, path)
+        except OSError as exc:
+            raise CommitError(f"{path}: cannot be replaced ({exc.strerror or _short(exc)})") from exc
         _fsync_path(path.parent, directory=True)
     finally:
         if tmp.exists():
-            tmp.unlink()
+            try:
+                tmp.unlink()
+            except OSError:
+                pass
+
+
+def _open_copy(path: Path, tmp: Path) -> h5py.File:
+    """A writable HDF5 file at ``tmp``: a copy of ``path`` (mode kept) or a new file."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if path.exists():
+            shutil.copyfile(path, tmp)
+            shutil.copymode(path, tmp)
+        return h5py.File(tmp, "a")
+    except (OSError, RuntimeError) as exc:
+        raise CommitError(f"{path}: cannot be written ({getattr(exc, 'strerror', None) or _short(exc)})") from exc
+
+
+def _close_quietly(f: h5py.File) -> None:
+    try:
+        f.close()
+    except (OSError, RuntimeError):
+        pass
 
 
 class LockedError(RuntimeError):
@@ -141,10 +197,14 @@ def writer_lock(path: str | Path) -> Iterator[None]:
     the kernel if the process dies.  Raises :class:`LockedError` if another process holds it."""
     import fcntl
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    path = target(path)
     lock = path.with_name(path.name + ".lock")
-    fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError as exc:
+        raise CommitError(f"{lock}: cannot create the writer lock ({exc.strerror}); "
+                          "give an --out file in a writable directory") from exc
     try:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -163,7 +223,7 @@ def writer_lock(path: str | Path) -> Iterator[None]:
 
 def stale_temp_files(path: str | Path) -> list[Path]:
     """Temporary files left next to ``path`` by killed writers."""
-    path = Path(path)
+    path = target(path)
     if not path.parent.exists():
         return []
     return sorted(path.parent.glob(f"{path.name}{TMP_MARK}*"))
@@ -199,7 +259,7 @@ def schema_version(f: h5py.File) -> int | None:
 def check_ours(path: str | Path) -> None:
     """Refuse a file the harness did not create: it must be HDF5 with our schema attribute and a
     readable schema version.  A missing file is fine (it will be created)."""
-    path = Path(path)
+    path = target(path)
     if not path.exists():
         return
     try:
@@ -379,3 +439,50 @@ def verify(path: str | Path) -> list[str]:
         for name, g in f[SCENES].items():
             problems += [f"/{SCENES}/{name}: {p}" for p in h5layout.verify_scene(name, g, version)]
     return problems
+
+
+# --------------------------------------------------------------------------------------------------
+# rescue and merge: nothing computed is lost
+
+
+def rescue(results: list[SceneResult], out: str | Path, config_text: str, campaign_name: str) -> Path:
+    """Write ``results`` (scenes computed but not committed to ``out``) into a new results file beside
+    ``out``, else in the temporary directory, else in the home directory; returns its path.  Raises
+    CommitError if no location can take it."""
+    import tempfile
+    import time
+
+    out = target(out)
+    stamp = time.strftime("%Y%m%dT%H%M%S")
+    name = f"{out.stem}.rescue-{stamp}-{os.getpid()}.h5"
+    reasons = []
+    for directory in (out.parent, Path(tempfile.gettempdir()), Path.home() / ".cache" / "ked-harness"):
+        path = directory / name
+        try:
+            record_run(path, config_text, campaign_name, len(results))
+            commit(path, results)
+            return path
+        except (CommitError, OSError) as exc:
+            reasons.append(str(exc))
+            try:
+                path.unlink()
+            except OSError:
+                pass
+    raise CommitError("the computed scenes could not be saved anywhere: " + "; ".join(reasons))
+
+
+def merge(src: str | Path, dest: str | Path) -> tuple[int, int]:
+    """Add the scenes of results file ``src`` that ``dest`` lacks (or holds only as failed) to ``dest``
+    (created if missing); returns (added, kept).  Both files must be harness files; ``src`` is not
+    changed."""
+    check_ours(src)
+    check_ours(dest)
+    check_writable(dest)
+    have = stored_status(dest)
+    new = [r for r in read_scenes(src) if have.get(r.key) in (None, "failed") and not (have.get(r.key) == "failed"
+                                                                                      and not r.ok)]
+    if new or not target(dest).exists():
+        info = file_info(src)
+        record_run(dest, str(info.get("campaign_config", "")), f"merge of {target(src).name}", len(new))
+        commit(dest, new)
+    return len(new), len(read_scenes(src)) - len(new)

@@ -77,13 +77,13 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
         return
     from compare import store
     from compare.inspect import format_counts, format_table, summary_row
-    from compare.runner import SettingsMismatchError, default_workers, run_campaign
+    from compare.runner import SchedulerError, SettingsMismatchError, default_workers, run_campaign
 
     click.echo(f"campaign {cfg.name!r}: {n} scenes, solvers {', '.join(cfg.solvers)} -> {out}", err=True)
     try:
         summary = run_campaign(cfg, out, workers=workers, scheduler=scheduler, retry_failed=retry_failed,
                                progress=progress)
-    except (store.LockedError, SettingsMismatchError, store.StoreError) as exc:
+    except (store.LockedError, SettingsMismatchError, store.StoreError, store.CommitError, SchedulerError) as exc:
         raise click.ClickException(str(exc)) from None
     order = {k: i for i, k in enumerate(summary.keys)}
     results = sorted((r for r in store.read_scenes(out) if r.key in order), key=lambda r: order[r.key])
@@ -169,6 +169,20 @@ def _verify(file: Path, as_json: bool) -> None:
         click.echo(f"{file}: {'INVALID' if problems else 'valid'}, {n} complete scenes"
                    + (f", {len(problems)} problem(s)" if problems else ""))
     sys.exit(1 if problems else 0)
+
+
+@click.command("merge")
+@click.argument("src", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("dest", type=click.Path(dir_okay=False, path_type=Path))
+def merge_cmd(src: Path, dest: Path) -> None:
+    """Add the scenes of results file SRC (e.g. a rescue file) that DEST lacks to DEST (SRC unchanged)."""
+    from compare import store
+
+    try:
+        added, kept = store.merge(src, dest)
+    except (store.StoreError, store.CommitError, store.LockedError) as exc:
+        raise click.ClickException(str(exc)) from None
+    click.echo(f"{added} scene(s) added to {dest}; {kept} already there (kept)")
 
 
 @click.command("plot")
