@@ -158,6 +158,8 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
         dynamic=_dynamic(c, dynamic_raw), dynamic_variants=_dynamic_variants(c, grid, dynamic_raw),
         extra_settings=_extra_settings(c, doc, extra_tables), solvers=tuple(x for x in solver_registry.names()
                                                                             if x in solvers))
+    _distinct_labels(c, "grid.stiffness_scales", fields["stiffness_scales"])
+    _distinct_labels(c, "grid.damping_ratios", fields["damping_ratios"])
     if not c.problems:
         _check_mechanisms(c, fields["linkage"], fields["mechanisms"])
     if c.problems:
@@ -169,9 +171,22 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
 # sections of the document
 
 
+def _distinct_labels(c: _Checker, path: str, values: tuple[float, ...]) -> None:
+    """Values that print alike (scene labels use %g) would give two scenes one label: refused."""
+    seen: dict[str, float] = {}
+    for v in values:
+        text = f"{v:g}"
+        if text in seen:
+            c.err(path, f"values {seen[text]!r} and {v!r} are both shown as {text} in scene labels and figure "
+                        "names; use values that differ in their first 6 significant digits")
+        seen[text] = v
+
+
 def _speeds(c: _Checker, grid: dict[str, Any]) -> tuple[SpeedSpec, ...]:
     rpms = c.rules(grid, "grid.rpm", rules.RPM, default=())
     ratios = c.rules(grid, "grid.speed_ratios", rules.SPEED_RATIO, default=())
+    _distinct_labels(c, "grid.rpm", rpms)
+    _distinct_labels(c, "grid.speed_ratios", ratios)
     if "rpm" not in grid and "speed_ratios" not in grid:
         rpms = (THESIS_RPM,)
     elif not rpms and not ratios and not any(b.startswith(("grid.rpm", "grid.speed_ratios")) for b in c.bad):

@@ -15,6 +15,7 @@ Units: SI (m, kg, Pa, m^2, m^4, kg/m^3, rad) unless a name says otherwise (``ste
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import itertools
 import json
@@ -92,12 +93,10 @@ class SceneSpec:
     def key_dict(self) -> dict[str, Any]:
         """JSON-serialisable dictionary of everything that defines the scene's results (hashed into
         :attr:`key`).  Solvers' settings other than Exudyn's appear only when given."""
-        linkage = self.linkage.to_dict()
-        del linkage["direction"]  # a grid axis of its own
         d = {
-            "linkage": linkage,
+            "linkage": _linkage_dict(self.linkage),
             "mechanism": self.mechanism,
-            "mass_model": self.mass_model.to_dict(),
+            "mass_model": _mass_model_dict(self.mass_model),
             "speed": self.speed.to_dict(),
             "stiffness_scale": self.stiffness_scale,
             "damping_ratio": self.damping_ratio,
@@ -144,7 +143,7 @@ class SceneSpec:
         """Canonical JSON of :meth:`key_dict`: sorted keys, no whitespace, shortest round-trip floats."""
         return canonical_json(self.key_dict())
 
-    @property
+    @functools.cached_property
     def key(self) -> str:
         """Stable content key: 16 hex digits of SHA-256 of :meth:`canonical_json`."""
         return hashlib.sha256(self.canonical_json().encode("utf-8")).hexdigest()[:16]
@@ -156,6 +155,20 @@ class SceneSpec:
             f"{self.mechanism}/{self.mass_model.name}/{self.speed.label()}"
             f"/k{self.stiffness_scale:g}/z{self.damping_ratio:g}/{self.direction}"
         )
+
+
+@functools.lru_cache(maxsize=64)
+def _linkage_dict(fourbar: FourBar) -> dict[str, Any]:
+    """The source linkage as hashed into keys (its direction is a grid axis of its own); cached: a
+    grid shares one linkage (callers must not modify the result)."""
+    d = fourbar.to_dict()
+    del d["direction"]
+    return d
+
+
+@functools.lru_cache(maxsize=256)
+def _mass_model_dict(mass_model: MassModel) -> dict[str, Any]:
+    return mass_model.to_dict()
 
 
 def canonical_json(obj: Any) -> str:
