@@ -81,6 +81,31 @@ def _render(table: str, tabs: dict[str, ThesisTable], diff: bool) -> str:
     return "\n".join(lines)
 
 
+def _render_narrow(table: str, tabs: dict[str, ThesisTable], diff: bool) -> str:
+    """The same numbers for a 100-column terminal: one group after the other, differences as their
+    largest magnitude per column (``--wide`` prints the rows side by side and every difference)."""
+    w = 9
+    head = f"{'deg':>5} |" + "".join(f"{h:>{w - 1}} " for h in _HEAD)
+    lines = [f"TABLE {table}  {TABLE_TITLES[table]}  (inches; * = printed entry listed as a typo)"]
+    ref = next(iter(tabs.values()))
+    for g, tab in tabs.items():
+        lines += [f"  {g.replace('_', '-')}", head]
+        for i, deg in enumerate(ref.crank_angle_deg):
+            cells = "".join(f"{float(tab.column(k)[i]):{w - 1}.3f}"
+                            + ("*" if g == "published" and is_typo(table, float(deg), k) else " ")
+                            for k in TABLE_KEYS[1:])
+            lines.append(f"{deg:5.0f} |{cells}")
+    pairs = [(a, b) for a, b in (("as_printed", "published"), ("corrected", "published"), ("corrected", "as_printed"))
+             if diff and a in tabs and b in tabs]
+    if pairs:
+        lines += ["  largest |difference| per column (rows: --wide)",
+                  f"{'':>24} |" + "".join(f"{h:>{w}}" for h in _HEAD)]
+    for a, b in pairs:
+        dev = [float(np.max(np.abs(tabs[a].column(k) - tabs[b].column(k)))) for k in TABLE_KEYS[1:]]
+        lines.append(f"{a.replace('_', '-') + ' - ' + b.replace('_', '-'):>24} |" + "".join(f"{v:{w}.4f}" for v in dev))
+    return "\n".join(lines)
+
+
 def _effect_cell(v: object, kind: str) -> str:
     if v is None:
         return "-"
@@ -106,8 +131,9 @@ def _effect_cell(v: object, kind: str) -> str:
               help="Markdown table of each quirk's measured effect (max change of dX, dY [in]).")
 @click.option("--json", "as_json", is_flag=True,
               help='Print {"I": {"published": {...}, "as_printed": {...}, "corrected": {...}}, ...}.')
+@click.option("--wide", is_flag=True, help="Groups side by side and every row of the differences (176 columns).")
 def thesis(tables: tuple[str, ...], groups: tuple[str, ...], quirks: tuple[str, ...], diff: bool, walk: bool,
-           list_quirks: bool, effects: bool, as_json: bool) -> None:
+           list_quirks: bool, effects: bool, as_json: bool, wide: bool) -> None:
     """Reproduce the thesis's Tables I-III (Ali 1977): published, as printed, corrected."""
     q = _parse_quirks(quirks)
     tables = tables or TABLES
@@ -146,6 +172,7 @@ def thesis(tables: tuple[str, ...], groups: tuple[str, ...], quirks: tuple[str, 
         click.echo(f"as-printed quirks off: {', '.join(n for n in ThesisQuirks.names() if not getattr(q, n))}")
     for t in tables:
         mm = corrected_mass_model(t)
-        click.echo(_render(t, _groups(t, groups, q), diff))
-        click.echo(f"  corrected: solve_quasi_static, mass model {mm.name!r} (payload {mm.payload:.6g} kg, "
-                   f"joint_split {mm.joint_split:g}, lumps {mm.lumps}, placement {mm.placement!r}), 300 rpm\n")
+        click.echo((_render if wide else _render_narrow)(t, _groups(t, groups, q), diff))
+        note = (f"  corrected: solve_quasi_static, mass model {mm.name!r} (payload {mm.payload:.6g} kg, "
+                f"joint_split {mm.joint_split:g}, lumps {mm.lumps}, placement {mm.placement!r}), 300 rpm")
+        click.echo(note + "\n" if wide else note.replace(", joint_split", ",\n  joint_split") + "\n")

@@ -161,6 +161,19 @@ def test_cli_text_and_quirk_toggle():
     assert walk.exit_code == 0 and "case3_block_diagonal_beta" in walk.output
 
 
+def test_cli_fits_a_100_column_terminal_and_wide_keeps_every_number():
+    runner = CliRunner()
+    narrow, wide = runner.invoke(thesis, []), runner.invoke(thesis, ["--wide"])
+    assert narrow.exit_code == 0 and wide.exit_code == 0
+    assert max(len(line) for line in narrow.output.splitlines()) <= 100
+    # every table entry (published, as printed, corrected; three groups side by side in --wide) is printed
+    def entries(text: str, bars: int) -> list[str]:
+        return sorted(tok for line in text.splitlines() if line[:5].strip().isdigit() and line.count("|") == bars
+                      for tok in line.split("|", 1)[1].replace("|", " ").split())
+
+    assert len(entries(wide.output, 3)) == 3 * 18 * 6 * 3 and entries(wide.output, 3) == entries(narrow.output, 1)
+
+
 def test_errata_effects_table_is_current():
     """results/thesis_errata.md's effects table is exactly what `ked thesis --effects` prints now."""
     from pathlib import Path
