@@ -141,18 +141,22 @@ def _rescued(exc: store.CommitError, unsaved: list[SceneResult], out: Path, conf
 def _worker_init() -> None:
     """In every local worker: die with the parent (no orphans after kill -9 of ``ked run``), and leave
     SIGINT/SIGTERM handling to the parent."""
+    import multiprocessing
     import signal
     import threading
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    parent = os.getppid()
     try:
         import ctypes
 
-        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
     except (OSError, AttributeError):
         pass
+    parent_process = multiprocessing.parent_process()
+    parent = parent_process.pid if parent_process is not None else os.getppid()
+    if os.getppid() != parent:  # the parent died while this worker was starting
+        os._exit(1)
 
     def watch() -> None:  # portable fallback: the parent is gone when we are re-parented
         while os.getppid() == parent:
@@ -288,18 +292,40 @@ class SchedulerError(ValueError):
     """The Dask scheduler address is malformed or nothing answers there."""
 
 
+def probe_scheduler(address: str, timeout_s: float = SCHEDULER_TIMEOUT_S) -> None:
+    """Check that ``address`` is a TCP scheduler address something listens on, before any Dask client
+    exists (a client that cannot connect lingers and times out again at exit)."""
+    import socket
+
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    hint = "give the address printed by `dask scheduler`, e.g. tcp://127.0.0.1:8786"
+    try:
+        scheme, loc = parse_address(address if "://" in address else f"tcp://{address}")
+        host, port = parse_host_port(loc)
+    except (ValueError, TypeError) as exc:
+        raise SchedulerError(f"--scheduler {address!r}: not a scheduler address ({exc}); {hint}") from None
+    if scheme not in ("tcp", "tls"):
+        return  # other transports (inproc, ucx): left to the client
+    try:
+        socket.create_connection((host, int(port)), timeout=timeout_s).close()
+    except OSError as exc:
+        raise SchedulerError(f"--scheduler {address!r}: no scheduler answers there within {timeout_s:g} s "
+                             f"({exc.strerror or exc}); {hint}") from None
+
+
 class _DaskBackend:
     """Dask distributed cluster at ``address`` (scheduler address, e.g. ``tcp://host:8786``)."""
 
     def __init__(self, address: str, timeout_s: float = SCHEDULER_TIMEOUT_S):
         from distributed import Client
 
+        probe_scheduler(address, timeout_s)
         try:
             self.client = Client(address, set_as_default=False, timeout=timeout_s)
         except (OSError, TimeoutError, ValueError) as exc:
-            raise SchedulerError(f"--scheduler {address!r}: no Dask scheduler answered within {timeout_s:g} s "
-                                 f"({type(exc).__name__}: {str(exc).splitlines()[0][:160] if str(exc) else ''}); "
-                                 "give the address printed by `dask scheduler`, e.g. tcp://127.0.0.1:8786") from None
+            raise SchedulerError(f"--scheduler {address!r}: the Dask scheduler did not answer within {timeout_s:g} s "
+                                 f"({type(exc).__name__})") from None
         self.futures: list[Any] = []
 
     def submit_all(self, jobs: Iterable[Job]) -> dict[Any, Job]:
@@ -333,6 +359,7 @@ def run_campaign(
     retry_failed: bool = False,
     progress: bool = True,
     on_result: Callable[[SceneResult], None] | None = None,
+    on_start: Callable[[Plan], None] | None = None,
 ) -> CampaignSummary:
     """Run every scene of ``config`` not yet stored in ``out`` and store the results there.
 
@@ -353,12 +380,12 @@ def run_campaign(
     store.check_writable(out)
     with store.writer_lock(out):
         return _run_locked(config, out, workers=workers, scheduler=scheduler, retry_failed=retry_failed,
-                           progress=progress, on_result=on_result)
+                           progress=progress, on_result=on_result, on_start=on_start)
 
 
 def _run_locked(config: CampaignConfig, out: Path, *, workers: int | None, scheduler: str | None,
-                retry_failed: bool, progress: bool,
-                on_result: Callable[[SceneResult], None] | None) -> CampaignSummary:
+                retry_failed: bool, progress: bool, on_result: Callable[[SceneResult], None] | None,
+                on_start: Callable[[Plan], None] | None = None) -> CampaignSummary:
     from tqdm import tqdm
 
     t0 = time.perf_counter()
@@ -375,6 +402,8 @@ def _run_locked(config: CampaignConfig, out: Path, *, workers: int | None, sched
         backend: Any = _DaskBackend(scheduler) if scheduler else None
         store.remove_stale_temp_files(out)
         run = store.record_run(out, config.text, config.name, len(scenes))
+        if on_start is not None:
+            on_start(p)
         bar = tqdm(total=len(p.jobs), unit="scene", desc=config.name, disable=not progress,
                    file=sys.stderr, dynamic_ncols=True, smoothing=0.1)
         bar.set_postfix(ok=0, failed=0, skipped=len(p.skipped))

@@ -79,10 +79,11 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
     from compare.inspect import format_counts, format_table, summary_row
     from compare.runner import SchedulerError, SettingsMismatchError, default_workers, run_campaign
 
-    click.echo(f"campaign {cfg.name!r}: {n} scenes, solvers {', '.join(cfg.solvers)} -> {out}", err=True)
     try:
         summary = run_campaign(cfg, out, workers=workers, scheduler=scheduler, retry_failed=retry_failed,
-                               progress=progress)
+                               progress=progress, on_start=lambda p: click.echo(
+                                   f"campaign {cfg.name!r}: {n} scenes ({len(p.jobs)} to compute, {len(p.skipped)} "
+                                   f"stored), solvers {', '.join(cfg.solvers)} -> {out}", err=True))
     except (store.LockedError, SettingsMismatchError, store.StoreError, store.CommitError, SchedulerError) as exc:
         raise click.ClickException(str(exc)) from None
     order = {k: i for i, k in enumerate(summary.keys)}
