@@ -62,12 +62,20 @@ def frame(spec: SceneSpec) -> Frame:
     return Frame(spec.scene(rpm), rpm, omega1_min, freqs, time.perf_counter() - t0)
 
 
+def settings_of(solver: Solver, spec: SceneSpec) -> object:
+    """The settings ``solver`` runs with on ``spec``: the scene's shared physical settings the solver
+    knows, its own explicit overrides, the damping ratio."""
+    fields = solver.setting_fields()
+    shared = {k: v for k, v in spec.shared_settings().items() if k in fields}
+    return solver.make_settings({**shared, **spec.settings_for(solver.name)}, spec.damping_ratio)
+
+
 def solve_one(solver: Solver, spec: SceneSpec, scene: object) -> Solution:
     """One solver on the scene; an exception becomes a failed :class:`Solution` (class and evidence
     taken from the exception when it carries them)."""
     t0 = time.perf_counter()
     try:
-        settings = solver.make_settings(spec.settings_for(solver.name), spec.damping_ratio)
+        settings = settings_of(solver, spec)
     except (TypeError, ValueError) as exc:
         return Solution(solver.name, STATUS_FAILED, message=message_of(exc), error_type=type(exc).__name__,
                         failure_class="input", stats={"wall_s": time.perf_counter() - t0}, fidelity=solver.fidelity)

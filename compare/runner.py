@@ -93,8 +93,10 @@ def resolved_settings(spec: SceneSpec, solver: str) -> dict[str, Any]:
     """The settings the current code would use for ``solver`` on ``spec`` (as stored: JSON values)."""
     import json
 
+    from compare.execute import settings_of
+
     sv = solvers.get(solver)
-    return json.loads(canonical_json(sv.settings_dict(sv.make_settings(spec.settings_for(solver), spec.damping_ratio))))
+    return json.loads(canonical_json(sv.settings_dict(settings_of(sv, spec))))
 
 
 def settings_diff(old: dict[str, Any], new: dict[str, Any], legacy: dict[str, Any]) -> dict[str, tuple[Any, Any]]:

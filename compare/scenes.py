@@ -89,6 +89,12 @@ class SceneSpec:
             return dict(self.dynamic)
         return dict(dict(self.extra_settings).get(solver, ()))
 
+    def shared_settings(self) -> dict[str, Any]:
+        """Physical settings every dynamic model of the scene shares: the damping reference frequency
+        when the campaign pins it (in ``[dynamic]``), so that all models are damped alike."""
+        ref = dict(self.dynamic).get("damping_reference_hz")
+        return {} if ref is None else {"damping_reference_hz": ref}
+
     # -- serialization ----------------------------------------------------------------------
     def key_dict(self) -> dict[str, Any]:
         """JSON-serialisable dictionary of everything that defines the scene's results (hashed into
