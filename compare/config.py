@@ -48,6 +48,11 @@ _DYNAMIC_RULES: dict[str, tuple[str, float | None, float | None, bool]] = {
     "newton_rel_tol": ("float", 0.0, 1.0, True),
     "newton_max_iterations": ("int", 1, 1000, False),
     "sparse": ("bool", None, None, False),
+    "start": ("str:ramp|quasi_static", None, None, False),
+    "periodic": ("str:off|anderson", None, None, False),
+    "anderson_memory": ("int", 1, 20, False),
+    "refine": ("bool", None, None, False),
+    "refine_budget_s": ("float", 0.0, 1e6, True),
 }
 class ConfigError(ValueError):
     """Invalid campaign configuration; ``problems`` lists ``"toml.path: message"`` strings."""

@@ -1,18 +1,26 @@
 """Exudyn flexible-multibody models of the four-bar (issue 4).
 
-Every link is an elastic beam (ANCF cable by default), the crank is driven at constant speed after a
-smooth start-up ramp, and the coupler-point deflection is returned over one periodic steady cycle,
-on the same scene definition and kinematics as ked_quasi.
+Every link is an elastic beam (ANCF cable by default), the crank is driven at constant speed (from the
+quasi-static state, or after a smooth start-up ramp), and the coupler-point deflection is returned over
+one periodic steady cycle (solved directly or marched to), on the same scene definition and kinematics
+as ked_quasi. Newton failures are retried along a refinement ladder; failures are classified.
 """
 
 from .builder import BuiltModel, build_model
 from .damping import rayleigh_beta, reference_frequency
+from .errors import FAILURE_CLASSES, SimulationError
 from .modal import frozen_natural_frequencies
-from .settings import ELEMENT_TYPES, DynamicSettings
-from .simulate import DynamicResult, SimulationError, simulate_steady_state
+from .refine import Attempt
+from .settings import ELEMENT_TYPES, LEGACY_DEFAULTS, PERIODIC_METHODS, STARTS, DynamicSettings
+from .simulate import DynamicResult, simulate_steady_state
 
 __all__ = [
     "ELEMENT_TYPES",
+    "FAILURE_CLASSES",
+    "LEGACY_DEFAULTS",
+    "PERIODIC_METHODS",
+    "STARTS",
+    "Attempt",
     "BuiltModel",
     "DynamicResult",
     "DynamicSettings",

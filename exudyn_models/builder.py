@@ -119,8 +119,8 @@ def build_model(scene, settings: DynamicSettings | None = None, *,
     """Build and assemble the Exudyn model of `scene` (a ked_quasi.solver.Scene).
 
     frozen_angle: if given [rad], the crank is held at that angle (frozen structure, e.g. for
-        eigenvalues or static checks); otherwise it is driven by the ramp drive of `settings`
-        starting from rest at Drive.start_angle.
+        eigenvalues or static checks); otherwise it is driven by the drive of `settings` (make_drive):
+        from rest at Drive.start_angle through the ramp, or at full speed from crank angle 0.
     damping_beta: stiffness-proportional damping coefficient [s]; None -> from settings
         (damping_ratio at damping_reference_hz, see exudyn_models.damping).
     massless_link_mass_per_length [kg/m]: mass per length given to links that are massless in the
@@ -132,148 +132,188 @@ def build_model(scene, settings: DynamicSettings | None = None, *,
         raise TypeError("settings must be a DynamicSettings")
     if massless_link_mass_per_length < 0.0:
         raise ValueError("massless_link_mass_per_length must be non-negative")
-    fourbar, mass_model = scene.fourbar, scene.mass_model
+    fourbar = scene.fourbar
     if not fourbar.extender > 0.0:
         raise ValueError("extender must be positive: the coupler point P is the extender tip")
     if damping_beta is None:
         damping_beta = rayleigh_beta(settings.damping_ratio, reference_frequency(scene, settings)) \
             if settings.damping_ratio > 0.0 else 0.0
-
-    drive = None
-    if frozen_angle is None:
-        if not scene.rpm > 0.0:
-            raise ValueError(f"rpm must be positive, got {scene.rpm!r}")
-        omega = 2.0 * math.pi * scene.rpm / 60.0
-        sign = 1.0 if fourbar.direction == "ccw" else -1.0
-        ramp_steps = max(1, round(settings.ramp_cycles * settings.steps_per_cycle))  # whole steps
-        ramp_time = ramp_steps / settings.steps_per_cycle * 2.0 * math.pi / omega
-        drive = Drive(omega=omega, ramp_time=ramp_time, sign=sign)
-        start_angle = drive.start_angle
-    else:
-        start_angle = float(frozen_angle)
-    joints = {k: np.asarray(v, dtype=float)[0] for k, v in
-              joint_positions(fourbar, np.array([start_angle])).items()}
+    drive = None if frozen_angle is not None else make_drive(scene, settings)
+    start_angle = float(frozen_angle) if drive is None else drive.start_angle
+    joints = rigid_joints(fourbar, start_angle)
 
     SC = exu.SystemContainer()
     mbs = SC.AddSystem()
-    element, n_el = settings.element, settings.elements_per_link
+    link_nodes, link_elements = _add_links(mbs, scene, settings, joints, damping_beta,
+                                           massless_link_mass_per_length)
+    mass_objects = _add_point_masses(mbs, scene, settings, link_nodes)
+    _add_joints(mbs, settings.element, joints, drive, link_nodes, link_elements)
+    p_node = link_nodes["extender"][-1]
+    sensor = _add_p_sensor(mbs, p_node) if p_sensor else None
+    mbs.Assemble()
+    ap = joints["P"] - joints["A"]
+    p_reference = np.array([joints["P"][0], joints["P"][1], math.atan2(ap[1], ap[0])])
+    return BuiltModel(system_container=SC, mbs=mbs, settings=settings, start_angle=start_angle,
+                      drive=drive, damping_beta=float(damping_beta), p_node=int(p_node),
+                      p_sensor=sensor, p_reference=p_reference, link_nodes=link_nodes,
+                      link_elements=link_elements, mass_objects=mass_objects)
 
-    distributed = mass_model.name == "distributed"
+
+def make_drive(scene, settings: DynamicSettings) -> Drive:
+    """The crank drive of a driven model: the smooth ramp over ramp_cycles (in whole time steps) for
+    settings.start = "ramp", constant speed from crank angle 0 at t = 0 (ramp_time 0) otherwise."""
+    if not scene.rpm > 0.0:
+        raise ValueError(f"rpm must be positive, got {scene.rpm!r}")
+    omega = 2.0 * math.pi * scene.rpm / 60.0
+    sign = 1.0 if scene.fourbar.direction == "ccw" else -1.0
+    if settings.start != "ramp":
+        return Drive(omega=omega, ramp_time=0.0, sign=sign)
+    ramp_steps = max(1, round(settings.ramp_cycles * settings.steps_per_cycle))  # whole steps
+    ramp_time = ramp_steps / settings.steps_per_cycle * 2.0 * math.pi / omega
+    return Drive(omega=omega, ramp_time=ramp_time, sign=sign)
+
+
+def rigid_joints(fourbar, crank_angle: float) -> dict[str, np.ndarray]:
+    """Rigid-kinematics joint positions (M, A, B, Q, P -> (2,) [m]) at one crank angle [rad]."""
+    return {k: np.asarray(v, dtype=float)[0] for k, v in
+            joint_positions(fourbar, np.array([crank_angle])).items()}
+
+
+def _add_links(mbs, scene, settings: DynamicSettings, joints: dict[str, np.ndarray], damping_beta: float,
+               massless_link_mass_per_length: float) -> tuple[dict[str, list[int]], dict[str, list[int]]]:
+    """Every link as a straight beam of elements_per_link elements from its root to its tip joint;
+    returns link -> node numbers and link -> element (object) numbers, both from the root."""
+    distributed = scene.mass_model.name == "distributed"
     link_nodes: dict[str, list[int]] = {}
     link_elements: dict[str, list[int]] = {}
     for link, (root, tip) in LINK_ENDS.items():
-        section = fourbar.section(link)
+        section = scene.fourbar.section(link)
         mu = section.mass_per_length if distributed else massless_link_mass_per_length
-        template = beam_template(element, section, mu, damping_beta)
+        template = beam_template(settings.element, section, mu, damping_beta)
         p0, p1 = joints[root], joints[tip]
-        created = GenerateBeamElementsAlongLine(mbs, [p0[0], p0[1], 0.0], [p1[0], p1[1], 0.0], n_el,
-                                                template)
+        created = GenerateBeamElementsAlongLine(mbs, [p0[0], p0[1], 0.0], [p1[0], p1[1], 0.0],
+                                                settings.elements_per_link, template)
         link_nodes[link] = [int(n) for n in created["nodes"]]
         link_elements[link] = [int(o) for o in created["elements"]]
         for n in link_nodes[link]:
             mbs.SetNodeParameter(n, "VdrawSize", 0.0)
+    return link_nodes, link_elements
 
-    # point masses (lumps), one ObjectGenericODE2 per element that carries lumps
-    mass_objects: list[int] = []
+
+def _point_mass_items(scene) -> list[tuple[str, float, float]]:
+    """(link, s, mass [kg]) of every lump carried as a point mass: the mass model's lumps, or for
+    "distributed" only the payload at P (the beams carry the rest)."""
+    mass_model = scene.mass_model
+    if mass_model.name == "distributed":
+        return [("extender", 1.0, float(mass_model.payload))] if mass_model.payload > 0.0 else []
+    lp = mass_lumps(scene.fourbar, mass_model)
+    return [(str(k), float(s), float(m)) for k, s, m in zip(lp.link, lp.s, lp.mass)]
+
+
+def _add_point_masses(mbs, scene, settings: DynamicSettings, link_nodes: dict[str, list[int]]) -> list[int]:
+    """One ObjectGenericODE2 per element that carries lumps, mass matrix sum of m S(xi)^T S(xi)."""
+    element, n_el = settings.element, settings.elements_per_link
     per_element: dict[tuple[str, int], np.ndarray] = {}
-    if distributed:
-        items = [("extender", 1.0, float(mass_model.payload))] if mass_model.payload > 0.0 else []
-    else:
-        lp = mass_lumps(fourbar, mass_model)
-        items = [(str(k), float(s), float(m)) for k, s, m in zip(lp.link, lp.s, lp.mass)]
-    for link, s, m in items:
+    for link, s, m in _point_mass_items(scene):
         if m == 0.0 or (s <= 1e-12 and link in ("crank", "follower")):
             continue  # no mass, or a lump at a fixed pivot (M or Q): it never moves
         j = min(int(s * n_el), n_el - 1)
         xi = s * n_el - j
-        S = _shape_matrix(element, xi, fourbar.length(link) / n_el)
+        S = _shape_matrix(element, xi, scene.fourbar.length(link) / n_el)
         key = (link, j)
         per_element[key] = per_element.get(key, 0.0) + m * S.T @ S
+    mass_objects: list[int] = []
     for (link, j), M_e in per_element.items():
         nodes = link_nodes[link][j:j + 2]
         o = mbs.AddObject(eii.ObjectGenericODE2(
             name=f"point masses {link} element {j}", nodeNumbers=nodes, massMatrix=M_e,
             visualization=eii.VObjectGenericODE2(show=False)))
         mass_objects.append(int(o))
+    return mass_objects
 
-    # ground and pins
-    n_ground = mbs.AddNode(eii.NodePointGround(visualization=eii.VNodePointGround(show=False)))
-    m_ground = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=n_ground, coordinate=0))
-    hidden = {"visualization": eii.VCoordinateConstraint(show=False)}
 
-    def fix(node: int, coordinate: int, **kw) -> int:
-        m = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=node, coordinate=coordinate))
-        return int(mbs.AddObject(eii.CoordinateConstraint(markerNumbers=[m_ground, m], **hidden, **kw)))
+def _fix(mbs, m_ground: int, node: int, coordinate: int, **kw) -> int:
+    """CoordinateConstraint of one node coordinate to ground (kw: offset user functions)."""
+    m = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=node, coordinate=coordinate))
+    return int(mbs.AddObject(eii.CoordinateConstraint(markerNumbers=[m_ground, m],
+                                                      visualization=eii.VCoordinateConstraint(show=False), **kw)))
 
-    q_node = link_nodes["follower"][0]
-    fix(q_node, 0)
-    fix(q_node, 1)
 
-    # drive hub at M: x, y fixed, rotation prescribed (or frozen); crank clamped to it
+def _add_drive_hub(mbs, m_ground: int, joints: dict[str, np.ndarray], drive: Drive | None) -> int:
+    """Rigid hub node at M: x, y fixed, rotation prescribed by the drive (or held for a frozen model)."""
     crank_dir = joints["A"] - joints["M"]
     n_hub = mbs.AddNode(eii.NodeRigidBody2D(
         referenceCoordinates=[joints["M"][0], joints["M"][1], math.atan2(crank_dir[1], crank_dir[0])],
         visualization=eii.VNodeRigidBody2D(show=False)))
     mbs.AddObject(eii.ObjectRigidBody2D(nodeNumber=n_hub, mass=HUB_MASS_KG, inertia=HUB_INERTIA_KGM2,
                                         visualization=eii.VObjectRigidBody2D(show=False)))
-    fix(n_hub, 0)
-    fix(n_hub, 1)
+    _fix(mbs, m_ground, n_hub, 0)
+    _fix(mbs, m_ground, n_hub, 1)
     if drive is None:
-        fix(n_hub, 2)
+        _fix(mbs, m_ground, n_hub, 2)
     else:
         offset, offset_t = drive.user_functions()
-        fix(n_hub, 2, offsetUserFunction=offset, offsetUserFunction_t=offset_t)
+        _fix(mbs, m_ground, n_hub, 2, offsetUserFunction=offset, offsetUserFunction_t=offset_t)
+    return int(n_hub)
 
-    def rigid_marker_at_root(link: str, rotation=None) -> int:
-        """Rigid frame at the link root: the ANCF element's (slope-based) frame, or the geometrically
-        exact beam's rigid root node (its element does not provide body-rigid marker velocities);
-        optionally rotated by the 3x3 `rotation` (local frame of the marker)."""
-        ht = None if rotation is None else exu.HT(rotation=rotation, translation=[0.0, 0.0, 0.0])
-        if element == "ancf":
-            if ht is None:
-                return int(mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=link_elements[link][0],
-                                                             localPosition=[0.0, 0.0, 0.0])))
-            return int(mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=link_elements[link][0], localHT=ht)))
+
+def _rigid_marker_at_root(mbs, element: str, node: int, body: int, rotation=None) -> int:
+    """Rigid frame at a link root: the ANCF element's (slope-based) frame (`body`), or the geometrically
+    exact beam's rigid root `node` (its element does not provide body-rigid marker velocities);
+    optionally rotated by the 3x3 `rotation` (local frame of the marker)."""
+    ht = None if rotation is None else exu.HT(rotation=rotation, translation=[0.0, 0.0, 0.0])
+    if element == "ancf":
         if ht is None:
-            return int(mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=link_nodes[link][0])))
-        return int(mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=link_nodes[link][0], localHT=ht)))
+            return int(mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=body, localPosition=[0.0, 0.0, 0.0])))
+        return int(mbs.AddMarker(eii.MarkerBodyRigid(bodyNumber=body, localHT=ht)))
+    if ht is None:
+        return int(mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=node)))
+    return int(mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=node, localHT=ht)))
 
-    hidden_generic = eii.VObjectJointGeneric(show=False)
-    mbs.AddObject(eii.ObjectJointGeneric(
-        markerNumbers=[mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=n_hub)), rigid_marker_at_root("crank")],
-        constrainedAxes=[1, 1, 0, 0, 0, 1], visualization=hidden_generic))
 
-    def pin(node0: int, node1: int) -> None:
-        m0 = mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=node0))
-        m1 = mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=node1))
-        mbs.AddObject(eii.ObjectJointRevolute2D(markerNumbers=[m0, m1],
-                                                visualization=eii.VObjectJointRevolute2D(show=False)))
+def _clamp(mbs, marker0: int, marker1: int) -> None:
+    """JointGeneric locking x, y and the rotation between two rigid markers."""
+    mbs.AddObject(eii.ObjectJointGeneric(markerNumbers=[marker0, marker1], constrainedAxes=[1, 1, 0, 0, 0, 1],
+                                         visualization=eii.VObjectJointGeneric(show=False)))
 
-    pin(link_nodes["crank"][-1], link_nodes["coupler"][0])       # A
-    pin(link_nodes["coupler"][-1], link_nodes["follower"][-1])   # B
 
+def _pin(mbs, node0: int, node1: int) -> None:
+    """Revolute joint between two node positions."""
+    m0 = mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=node0))
+    m1 = mbs.AddMarker(eii.MarkerNodePosition(nodeNumber=node1))
+    mbs.AddObject(eii.ObjectJointRevolute2D(markerNumbers=[m0, m1],
+                                            visualization=eii.VObjectJointRevolute2D(show=False)))
+
+
+def _add_joints(mbs, element: str, joints: dict[str, np.ndarray], drive: Drive | None,
+                link_nodes: dict[str, list[int]], link_elements: dict[str, list[int]]) -> None:
+    """Ground pin Q, drive hub and crank clamp at M, pins A and B, rigid extender joint at A."""
+    n_ground = mbs.AddNode(eii.NodePointGround(visualization=eii.VNodePointGround(show=False)))
+    m_ground = mbs.AddMarker(eii.MarkerNodeCoordinate(nodeNumber=n_ground, coordinate=0))
+    q_node = link_nodes["follower"][0]
+    _fix(mbs, m_ground, q_node, 0)
+    _fix(mbs, m_ground, q_node, 1)
+    n_hub = _add_drive_hub(mbs, m_ground, joints, drive)
+
+    def root_marker(link: str, rotation=None) -> int:
+        return _rigid_marker_at_root(mbs, element, link_nodes[link][0], link_elements[link][0], rotation)
+
+    _clamp(mbs, mbs.AddMarker(eii.MarkerNodeRigid(nodeNumber=n_hub)), root_marker("crank"))
+    _pin(mbs, link_nodes["crank"][-1], link_nodes["coupler"][0])       # A
+    _pin(mbs, link_nodes["coupler"][-1], link_nodes["follower"][-1])   # B
     # extender rigidly joined to the coupler at A, at the rigid angle gamma (AB -> AP, CCW)
     ab, ap = joints["B"] - joints["A"], joints["P"] - joints["A"]
     gamma = math.atan2(ab[0] * ap[1] - ab[1] * ap[0], ab @ ap)
     c, s = math.cos(gamma), math.sin(gamma)
-    mbs.AddObject(eii.ObjectJointGeneric(
-        markerNumbers=[rigid_marker_at_root("coupler", np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])),
-                       rigid_marker_at_root("extender")],
-        constrainedAxes=[1, 1, 0, 0, 0, 1], visualization=hidden_generic))
+    _clamp(mbs, root_marker("coupler", np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])),
+           root_marker("extender"))
 
-    p_node = link_nodes["extender"][-1]
-    sensor = None
-    if p_sensor:
-        sensor = int(mbs.AddSensor(eii.SensorNode(
-            nodeNumber=p_node, outputVariableType=exu.OutputVariableType.Coordinates,
-            storeInternal=True, writeToFile=False, visualization=eii.VSensorNode(show=False))))
 
-    mbs.Assemble()
-    p_reference = np.array([joints["P"][0], joints["P"][1], math.atan2(ap[1], ap[0])])
-    return BuiltModel(system_container=SC, mbs=mbs, settings=settings, start_angle=start_angle,
-                      drive=drive, damping_beta=float(damping_beta), p_node=int(p_node),
-                      p_sensor=sensor, p_reference=p_reference, link_nodes=link_nodes,
-                      link_elements=link_elements, mass_objects=mass_objects)
+def _add_p_sensor(mbs, p_node: int) -> int:
+    """Internal-storage coordinate sensor of the node at P (no file)."""
+    return int(mbs.AddSensor(eii.SensorNode(
+        nodeNumber=p_node, outputVariableType=exu.OutputVariableType.Coordinates,
+        storeInternal=True, writeToFile=False, visualization=eii.VSensorNode(show=False))))
 
 
 def p_pose(model: BuiltModel, coordinates: np.ndarray) -> np.ndarray:

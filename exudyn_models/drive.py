@@ -10,7 +10,8 @@ Omega * T_ramp / 2. The signed crank angle is
 
 with s = +1 for "ccw", -1 for "cw". theta_start = -s * Omega * T / 2 makes theta(T_ramp) = 0, so
 every steady cycle k >= 1 spans t in [T + (k-1) Tc, T + k Tc] with theta = 0 at its start
-(Tc = 2 pi / Omega). Crank angles are measured as in ked_quasi (CCW from M->Q).
+(Tc = 2 pi / Omega). Crank angles are measured as in ked_quasi (CCW from M->Q). ramp_time = 0 (settings
+.start = "quasi_static") is constant speed from t = 0 at crank angle 0: cycle k spans [k Tc, (k+1) Tc].
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from dataclasses import dataclass
 
 @dataclass(frozen=True)
 class Drive:
-    """Ramp-then-constant-speed crank drive. omega [rad/s] > 0, ramp_time [s] > 0, sign = +-1."""
+    """Ramp-then-constant-speed crank drive. omega [rad/s] > 0, ramp_time [s] >= 0 (0: no ramp), sign = +-1."""
 
     omega: float
     ramp_time: float

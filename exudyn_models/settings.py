@@ -9,6 +9,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 ELEMENT_TYPES = ("ancf", "gebeam")
+STARTS = ("ramp", "quasi_static")
+PERIODIC_METHODS = ("off", "anderson")
 
 
 @dataclass(frozen=True)
@@ -41,6 +43,22 @@ class DynamicSettings:
         very stiff links (exudyn_models.simulate.newton_abs_tolerance).
     newton_max_iterations: Newton iterations per step before the step counts as failed.
     sparse: use Exudyn's sparse (Eigen) linear solver instead of the dense one.
+    start: how the constant-speed phase begins. "ramp": from rest through the smooth start-up ramp
+        of ramp_cycles (the original behaviour); "quasi_static": at full speed from crank angle 0, every
+        node on its rigid-kinematics position, velocity and acceleration plus the quasi-static deflected
+        shape (Exudyn static solve of the frozen linkage under the d'Alembert loads -M a_rigid) and its
+        rate; ramp_cycles is then unused. See exudyn_models.start.
+    periodic: "off": march cycle after cycle (steady-state test and extrapolation as above);
+        "anderson": solve the periodic orbit directly: the full Exudyn state at the start of a cycle is
+        the unknown of the fixed point x = Phi(x) (Phi = one simulated crank cycle), accelerated by
+        Anderson mixing; steady only when a plain continuation cycle passes the steady_tol test
+        (exudyn_models.periodic).
+    anderson_memory: previous cycles kept by the Anderson mixing (periodic = "anderson").
+    refine: on a Newton failure, retry with the refinement ladder of exudyn_models.refine (more Newton
+        iterations, then 2x/4x/8x the steps per cycle, then 2x the elements per link) until a run goes
+        through or refine_budget_s is spent. False keeps the original behaviour (raise at once).
+    refine_budget_s: wall-time budget [s] of all attempts of one run together (the first included);
+        a rung whose estimated cost exceeds what is left is skipped and recorded as such.
     """
 
     element: str = "ancf"
@@ -58,6 +76,11 @@ class DynamicSettings:
     newton_rel_tol: float = 1e-6
     newton_max_iterations: int = 12
     sparse: bool = True
+    start: str = "ramp"
+    periodic: str = "off"
+    anderson_memory: int = 5
+    refine: bool = True
+    refine_budget_s: float = 120.0
 
     def __post_init__(self) -> None:
         if self.element not in ELEMENT_TYPES:
@@ -67,6 +90,17 @@ class DynamicSettings:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        if self.start not in STARTS:
+            raise ValueError(f"start must be one of {STARTS}, got {self.start!r}")
+        if self.periodic not in PERIODIC_METHODS:
+            raise ValueError(f"periodic must be one of {PERIODIC_METHODS}, got {self.periodic!r}")
+        if isinstance(self.anderson_memory, bool) or not isinstance(self.anderson_memory, int) \
+                or not 1 <= self.anderson_memory <= 20:
+            raise ValueError(f"anderson_memory must be an integer in 1..20, got {self.anderson_memory!r}")
+        if not isinstance(self.refine, bool):
+            raise ValueError(f"refine must be True or False, got {self.refine!r}")
+        if isinstance(self.refine_budget_s, bool) or not self.refine_budget_s > 0.0:
+            raise ValueError(f"refine_budget_s must be positive [s], got {self.refine_budget_s!r}")
         if self.min_cycles > self.max_cycles:
             raise ValueError(f"min_cycles ({self.min_cycles}) must not exceed max_cycles ({self.max_cycles})")
         if not 0.0 <= self.spectral_radius <= 1.0:
@@ -80,3 +114,17 @@ class DynamicSettings:
         for name in ("steady_tol", "newton_abs_tol", "newton_rel_tol"):
             if not getattr(self, name) > 0.0:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)!r}")
+
+
+LEGACY_DEFAULTS: dict[str, object] = {
+    "start": "ramp",
+    "periodic": "off",
+    "anderson_memory": 5,
+    "refine": False,
+    "refine_budget_s": 120.0,
+}
+"""For every DynamicSettings field added after results were first stored: the value that reproduces the
+older behaviour exactly (stored settings without the field count as this value when a campaign checks
+whether it may resume). start="ramp", periodic="off" and refine=False give the original algorithm bit for
+bit; anderson_memory and refine_budget_s are unused under those values, so their legacy value is their
+default (a stored scene is not refused for a field that did not act)."""

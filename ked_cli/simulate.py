@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from typing import Any
 
@@ -37,6 +38,17 @@ def dynamic_options(f: Any) -> Any:
         click.option("--extrapolate/--no-extrapolate", default=None,
                      help="Accept the steady cycle extrapolated from the last 4 cycles [default: on]."),
         click.option("--sparse/--dense", default=None, help="Exudyn linear solver [default: sparse]."),
+        click.option("--start", type=click.Choice(("ramp", "quasi_static")), default=None,
+                     help="Start of the constant-speed phase: from rest through the ramp, or at full speed "
+                          "from the quasi-static deflected state [default: ramp]."),
+        click.option("--periodic", type=click.Choice(("off", "anderson")), default=None,
+                     help="off: march cycle after cycle; anderson: solve the periodic orbit directly "
+                          "(Anderson-accelerated fixed point of one cycle) [default: off]."),
+        click.option("--refine/--no-refine", default=None,
+                     help="On a Newton failure retry along the refinement ladder (more Newton iterations, "
+                          "2x/4x/8x steps, 2x elements) [default: on]; --no-refine fails at once."),
+        click.option("--refine-budget-s", type=click.FloatRange(0.0, 1e6, min_open=True), default=None,
+                     help="Wall-time budget [s] of all attempts of the ladder together [default: 120]."),
     ]
     for o in reversed(opts):
         f = o(f)
@@ -48,7 +60,8 @@ def dynamic_settings(kw: dict[str, Any]) -> Any:
     from exudyn_models.settings import DynamicSettings
 
     names = ("element", "elements_per_link", "steps_per_cycle", "spectral_radius", "damping_ratio",
-             "damping_reference_hz", "ramp_cycles", "steady_tol", "max_cycles", "extrapolate", "sparse")
+             "damping_reference_hz", "ramp_cycles", "steady_tol", "max_cycles", "extrapolate", "sparse",
+             "start", "periodic", "refine", "refine_budget_s")
     given = {n: kw.pop(n) for n in names if n in kw}
     given = {n: v for n, v in given.items() if v is not None}
     if "max_cycles" in given:
@@ -68,8 +81,11 @@ def simulate(as_json: bool, **kw: Any) -> None:
 
     JSON keys: crank_angle_deg, dx_m, dy_m, rotation_rad (elastic deflection of P over one steady
     cycle, global frame, same meaning as `ked quasi`), wall_s, cycles, converged, steps,
-    newton_iterations, damping_reference_hz, message.  Exit status 1 when no steady state was reached
-    (the JSON still says converged=false and holds the last cycle).
+    newton_iterations, damping_reference_hz, message, failure_class ("" or numerical / physical),
+    evidence, solved_settings (the settings that produced the history: the requested ones unless the
+    refinement ladder was needed) and attempts (every run: rung, outcome, wall_s, cycles,
+    elements_per_link, steps_per_cycle, message).  Exit status 1 when no steady state was reached (the
+    JSON still says converged=false and holds the last cycle).
     """
     opts = SceneOptions.pop(kw)
     settings = dynamic_settings(kw)
@@ -79,27 +95,39 @@ def simulate(as_json: bool, **kw: Any) -> None:
     try:
         res = simulate_steady_state(scene, settings)
     except SimulationError as exc:
-        raise click.ClickException(f"simulation failed: {exc}") from None
+        raise click.ClickException(f"simulation failed ({exc.failure_class}): {exc}") from None
     d = res.deflection
     out = {
         "crank_angle_deg": scene.crank_angles_deg.tolist(),
         "dx_m": d[:, 0].tolist(), "dy_m": d[:, 1].tolist(), "rotation_rad": d[:, 2].tolist(),
         "wall_s": res.wall_s, "cycles": res.cycles, "converged": res.converged, "steps": res.steps,
         "newton_iterations": res.newton_iterations, "damping_reference_hz": res.damping_reference_hz,
-        "message": res.message,
+        "message": res.message, "failure_class": res.failure_class, "evidence": res.evidence,
+        "solved_settings": dataclasses.asdict(res.solved_settings or res.settings),
+        "attempts": [attempt_dict(a) for a in res.attempts],
     }
     if as_json:
         click.echo(json.dumps(out))
     else:
         _table(opts, res, out)
     if not res.converged:
-        raise click.ClickException(f"no periodic steady state: {res.message} (the last cycle is not an answer)")
+        raise click.ClickException(f"no periodic steady state ({res.failure_class or 'numerical'}): {res.message}"
+                                   f"{'; ' + res.evidence if res.evidence else ''} (the last cycle is not an answer)")
+
+
+def attempt_dict(a: Any) -> dict[str, Any]:
+    """One attempt of the refinement ladder as JSON."""
+    return {"rung": a.rung, "outcome": a.outcome, "wall_s": a.wall_s, "cycles": a.cycles,
+            "elements_per_link": a.settings.elements_per_link, "steps_per_cycle": a.settings.steps_per_cycle,
+            "newton_max_iterations": a.settings.newton_max_iterations, "message": a.message}
 
 
 def _table(opts: SceneOptions, res: Any, out: dict[str, Any]) -> None:
     click.echo(f"Dynamic (Exudyn) steady-state deflection of P: {opts.describe()}")
     click.echo(f"{res.message}; {res.steps} steps, {res.newton_iterations} Newton iterations, "
                f"{res.wall_s:.2f} s wall; damping reference {res.damping_reference_hz:.3g} Hz")
+    if len(res.attempts) > 1:
+        click.echo("refinement ladder: " + "; ".join(a.text() for a in res.attempts))
     if not res.converged:
         return
     click.echo(f"{'theta deg':>9} {'dx mm':>10} {'dy mm':>10} {'rot mrad':>10}")

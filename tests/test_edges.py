@@ -326,10 +326,10 @@ step_deg = 30.0
 n_modes = 1
 [grid]
 mass_models = ["joints", "extender"]
-rpm = [30.0, 40.0, 50.0, 60.0, 70.0, 80.0]
+rpm = [30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0, 100.0, 110.0, 120.0]
 [dynamic]
-elements_per_link = 2
-steps_per_cycle = 360
+elements_per_link = 4
+steps_per_cycle = 1440
 """
 
 
@@ -360,4 +360,4 @@ def test_signals_leave_no_orphan_workers(tmp_path, sig):
     assert store.verify(out) == []
     done = len(store.read_scenes(out))
     summary = run_campaign(parse_config(SLOW), out, workers=2, progress=False)
-    assert summary.skipped == done and done + summary.ok + summary.failed == 12
+    assert summary.skipped == done and done + summary.ok + summary.failed == 20

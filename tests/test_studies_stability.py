@@ -57,13 +57,26 @@ def test_newton_failure_raises_simulation_error_and_is_recorded() -> None:
     from exudyn_models import SimulationError, simulate_steady_state
 
     spec = _scene("[campaign]\nstep_deg = 30.0\nn_modes = 1\n[grid]\nmass_models = ['tip']\n"
-                  "speed_ratios = [0.3]\n[dynamic]\nelements_per_link = 1\nsteps_per_cycle = 90\n")
+                  "speed_ratios = [0.3]\n[dynamic]\nelements_per_link = 1\nsteps_per_cycle = 90\nrefine = false\n")
     r = run_scene(spec)
     assert (r.status, r.stage, r.error_type) == ("failed", "dynamic", "SimulationError")
     assert "Newton" in r.message and "crank angle" in r.message
     with pytest.raises(SimulationError) as err:
         simulate_steady_state(ked_scene(r), build_settings(spec))
     assert 0.0 <= err.value.crank_angle < 2 * math.pi and err.value.time > 0.0
+
+
+def test_campaign_keeps_the_refinement_ladder_record() -> None:
+    """The same scene with the ladder on (the default): solved, and the stored stats say by which
+    settings and after which attempts; the content key is that of the requested settings."""
+    text = ("[campaign]\nstep_deg = 30.0\nn_modes = 1\n[grid]\nmass_models = ['tip']\n"
+            "speed_ratios = [0.3]\n[dynamic]\nelements_per_link = 1\nsteps_per_cycle = 90\n")
+    spec = _scene(text)
+    r = run_scene(spec)
+    assert r.status == "ok" and r.key == spec.key
+    assert r.stat("dynamic", "n_attempts") >= 2 and r.stat("dynamic", "attempts").startswith("requested")
+    solved = (r.stat("dynamic", "solved_steps_per_cycle"), r.stat("dynamic", "solved_newton_max_iterations"))
+    assert solved != (90, 12)
 
 
 def test_no_steady_state_is_recorded_as_failed() -> None:

@@ -108,11 +108,14 @@ def _dyn(r: SceneResult) -> np.ndarray | None:
 
 
 def is_default(r: SceneResult) -> bool:
-    """Resolved Exudyn settings equal to the defaults (damping ratio aside)."""
+    """Resolved Exudyn settings equal to the defaults (damping ratio aside; a field the stored settings
+    lack counts as its legacy value, see ``compare.solvers.dynamic.legacy_defaults``)."""
+    from compare.solvers.dynamic import legacy_defaults
     from exudyn_models import DynamicSettings
 
+    stored = {**legacy_defaults(), **r.dynamic_settings}
     d = asdict(DynamicSettings())
-    return all(r.dynamic_settings.get(k) == v for k, v in d.items() if k != "damping_ratio")
+    return all(stored.get(k) == v for k, v in d.items() if k != "damping_ratio")
 
 
 def step_ladder(r: SceneResult) -> tuple[int, str]:
