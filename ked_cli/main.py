@@ -16,7 +16,9 @@ COMMANDS = {
     "plot": ("ked_cli.campaign", "plot_cmd", "Draw the PNG figures of a results file."),
     "merge": ("ked_cli.campaign", "merge_cmd", "Add the scenes of one results file (e.g. a rescue file) to another."),
     "quasi": ("ked_cli.quasi", "quasi", "Quasi-static KED solve of one scene."),
+    "linear": ("ked_cli.linear", "linear", "Linear time-periodic KED steady state and Floquet stability of one scene."),
     "simulate": ("ked_cli.simulate", "simulate", "Exudyn flexible-multibody steady state of one scene."),
+    "check": ("ked_cli.check", "check", "Design check: how wrong is quasi-static here, and which model is needed."),
     "thesis": ("ked_cli.thesis", "thesis", "Tables I-III of the thesis: published / as printed / corrected."),
     "study": ("ked_cli.study", "study", "Regenerate a study: campaigns, HDF5 files, figures, README section."),
 }

@@ -71,6 +71,13 @@ def work_precision(retime_below: float, **common: Any) -> None:
     _run("work-precision", retime_below_s=retime_below, **common)
 
 
+@study.command("tiers")
+@common_options
+def tiers(**common: Any) -> None:
+    """Where the quasi-static error comes from (dynamics or nonlinearity); how far each model holds."""
+    _run("tiers", **common)
+
+
 @study.command("stability")
 @common_options
 @click.option("--ladder/--no-ladder", default=True, show_default=True,
@@ -78,3 +85,24 @@ def work_precision(retime_below: float, **common: Any) -> None:
 def stability(ladder: bool, **common: Any) -> None:
     """Numerical stability of the solvers on stiff and extreme scenes."""
     _run("stability", ladder=ladder, **common)
+
+
+@study.command("atlas")
+@common_options
+@click.option("--linkages", type=click.IntRange(min=1), default=1000, show_default=True,
+              help="Linkages in the atlas (the first N accepted of the seeded sample; more resumes and extends).")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Seed of the linkage sample.")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="Dask scheduler address (e.g. tcp://10.0.0.5:8786) [default: a local cluster of --workers].")
+@click.option("--confirm", type=click.IntRange(min=0), default=200, show_default=True,
+              help="Scenes of the stratified sample confirmed with Exudyn (0: none).")
+def atlas(linkages: int, seed: int, scheduler: str | None, confirm: int, **common: Any) -> None:
+    """Validity atlas: the quasi-static and linear models' limits over a sample of four-bars."""
+    from compare.atlas.store import AtlasFileError
+    from compare.runner import SchedulerError
+    from ked_cli.errors import UserError
+
+    try:
+        _run("atlas", linkages=linkages, seed=seed, scheduler=scheduler, confirm=confirm, **common)
+    except (AtlasFileError, SchedulerError) as exc:
+        raise UserError(str(exc)) from None

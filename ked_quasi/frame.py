@@ -24,10 +24,11 @@ import numpy as np
 from scipy import sparse
 
 from .kinematics import loop
+from .linkage import FourBar
 from .massmodel import lumps
 from .scene import Scene
 from .solver import inertia_loads, node_masses
-from .structure import Topology, element_forces, geometry, topology
+from .structure import Geometry, Topology, element_forces, geometry, topology
 
 
 @dataclass(frozen=True)
@@ -96,19 +97,20 @@ def _rotate(k: np.ndarray, axis: np.ndarray) -> np.ndarray:
         T[..., o, o], T[..., o, o + 1] = c, s
         T[..., o + 1, o], T[..., o + 1, o + 1] = -s, c
         T[..., o + 2, o + 2] = 1.0
-    return np.einsum("...ji,...jk,...kl->...il", T, k, T)
+    return np.swapaxes(T, -1, -2) @ k @ T
 
 
-def assemble(fourbar, topo: Topology, dofs: FrameDofs, crank_angle: np.ndarray,
-             axial_force: np.ndarray | None = None) -> np.ndarray:
-    """Global stiffness (n, n_dofs, n_dofs) [N/m, N, N m] at the crank angles [rad]; ``axial_force``
-    (n, E) [N, tension > 0] adds the geometric stiffness (None: the unstressed structure)."""
-    geo = geometry(fourbar, topo, crank_angle, loop(fourbar, crank_angle))
+def assemble(fourbar: FourBar, topo: Topology, dofs: FrameDofs, geo: Geometry,
+             axial_force: np.ndarray | None = None, elastic: bool = True) -> np.ndarray:
+    """Global stiffness (n, n_dofs, n_dofs) [N/m, N, N m] in the frozen geometry ``geo`` (n crank
+    angles): the elastic part (``elastic``) plus the geometric stiffness of ``axial_force`` (n, E)
+    [N, tension > 0] if given."""
+    n = geo.z_axis.shape[0]
     lengths = np.array([(s1 - s0) * fourbar.length(lk) for lk, s0, s1 in
                         zip(topo.elem_link, topo.elem_s0, topo.elem_s1)])
-    EA = np.array([fourbar.section(lk).axial_stiffness for lk in topo.elem_link])
-    EI = np.array([fourbar.section(lk).bending_stiffness for lk in topo.elem_link])
-    N = np.zeros((crank_angle.size, lengths.size)) if axial_force is None else axial_force
+    EA = np.array([fourbar.section(lk).axial_stiffness for lk in topo.elem_link]) * elastic
+    EI = np.array([fourbar.section(lk).bending_stiffness for lk in topo.elem_link]) * elastic
+    N = np.zeros((n, lengths.size)) if axial_force is None else axial_force
     ke = _rotate(_local_stiffness(lengths, EA, EI, N), geo.z_axis)  # (n, E, 6, 6)
     d = dofs.elem_dofs
     keep = (d[:, :, None] >= 0) & (d[:, None, :] >= 0)  # (E, 6, 6)
@@ -117,60 +119,74 @@ def assemble(fourbar, topo: Topology, dofs: FrameDofs, crank_angle: np.ndarray,
     scatter = sparse.csr_matrix((np.ones(flat.size), (flat, np.arange(flat.size))),
                                 shape=(dofs.n_dofs**2, flat.size))  # sums coincident entries
     K = (scatter @ ke[:, e, a, b].T).T
-    return K.reshape(crank_angle.size, dofs.n_dofs, dofs.n_dofs)
+    return K.reshape(n, dofs.n_dofs, dofs.n_dofs)
 
 
 @dataclass(frozen=True)
 class CondensedStructure:
     """The frozen structure condensed on the mass coordinates, at n crank angles.
 
-    stiffness (n, k, k) [N/m] on the translations of the mass nodes in the order (x1, y1, x2, y2, ...)
-    of :func:`ked_quasi.solver.flexibility_at_masses`; mass (k,) [kg] the matching diagonal mass;
-    output (n, 3, k): (dx [m], dy [m], rotation [rad]) of P per unit mass-node displacement (static
-    condensation: the massless dofs follow the mass nodes statically); mass_node: structural node of
-    each mass (topology order).
+    Coordinates: translations of the mass nodes in the order (x1, y1, x2, y2, ...) of
+    :func:`ked_quasi.solver.flexibility_at_masses`.  stiffness (n, k, k) [N/m]: static condensation of
+    the frame (with the geometric stiffness if prestressed); material_stiffness (n, k, k) [N/m]: the
+    unstressed (elastic) part on the same static modes, Psi^T K_E Psi (equal to ``stiffness`` without
+    prestress); mass (k,) [kg]: the diagonal mass; load (n, k) [N]: d'Alembert loads -m a of the rigid
+    motion at the scene's speed; output (n, 3, k): (dx [m], dy [m], rotation [rad]) of P per unit
+    mass-node displacement (the massless dofs follow the masses statically); mass_node (K,): structural
+    node of each mass (topology order).
     """
 
     stiffness: np.ndarray
+    material_stiffness: np.ndarray
     mass: np.ndarray
+    load: np.ndarray
     output: np.ndarray
     mass_node: np.ndarray
 
 
-def axial_forces(scene: Scene, crank_angle: np.ndarray) -> np.ndarray:
-    """Axial force (n, E) [N, tension > 0] of every element under the scene's quasi-static inertia loads."""
-    lm = lumps(scene.fourbar, scene.mass_model)
-    topo = topology(lm)
-    lp = loop(scene.fourbar, crank_angle)
-    geo = geometry(scene.fourbar, topo, crank_angle, lp)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return element_forces(topo, geo, inertia_loads(scene, topo, lm, crank_angle, geo, lp))[..., 0]
-
-
 def condensed_structure(scene: Scene, crank_angle: np.ndarray | None = None,
                         prestress: bool = False) -> CondensedStructure:
-    """Static condensation of the frame model on the mass coordinates (``prestress``: with the geometric
-    stiffness of the axial forces of the quasi-static inertia loads at the scene's speed)."""
+    """Static condensation of the frame model on the mass coordinates at the crank angles [rad] (default
+    ``scene.crank_angles``); ``prestress``: add the geometric stiffness of the axial forces of the
+    quasi-static inertia loads at the scene's speed (tension stiffens)."""
     theta = scene.crank_angles if crank_angle is None else np.atleast_1d(np.asarray(crank_angle, float))
     lm = lumps(scene.fourbar, scene.mass_model)
     topo = topology(lm)
     dofs = frame_dofs(topo)
-    K = assemble(scene.fourbar, topo, dofs, theta, axial_forces(scene, theta) if prestress else None)
+    lp = loop(scene.fourbar, theta)
+    geo = geometry(scene.fourbar, topo, theta, lp)
+    loads = inertia_loads(scene, topo, lm, theta, geo, lp)
+    K_E = assemble(scene.fourbar, topo, dofs, geo)
+    K = K_E
+    if prestress:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            axial = element_forces(topo, geo, loads)[..., 0]
+        K = K_E + assemble(scene.fourbar, topo, dofs, geo, axial, elastic=False)
     mass = node_masses(topo, lm)
     nodes = np.flatnonzero(mass > 0)
     master = np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel()
-    slave = np.setdiff1d(np.arange(dofs.n_dofs), master)
-    Kss = K[:, slave[:, None], slave]
-    Ksm = K[:, slave[:, None], master]
-    T = -np.linalg.solve(Kss, Ksm)  # slave displacements per unit master displacement
-    Kc = K[:, master[:, None], master] + np.einsum("nsm,nsk->nmk", Ksm, T)
-    Kc = 0.5 * (Kc + np.swapaxes(Kc, 1, 2))
+    psi = _static_modes(K, master)
+    Kc = _congruence(psi, K)
+    Km = Kc if not prestress else _congruence(psi, K_E)
     p = topo.p_index
-    psi = np.zeros((theta.size, dofs.n_dofs, master.size))
-    psi[:, master, np.arange(master.size)] = 1.0
-    psi[:, slave] = T
     out = psi[:, [2 * p, 2 * p + 1, dofs.p_rotation]]
-    return CondensedStructure(stiffness=Kc, mass=np.repeat(mass[nodes], 2), output=out, mass_node=nodes)
+    return CondensedStructure(stiffness=Kc, material_stiffness=Km, mass=np.repeat(mass[nodes], 2),
+                              load=loads[:, nodes].reshape(theta.size, -1), output=out, mass_node=nodes)
 
 
-__all__ = ["CondensedStructure", "FrameDofs", "assemble", "axial_forces", "condensed_structure", "frame_dofs"]
+def _static_modes(K: np.ndarray, master: np.ndarray) -> np.ndarray:
+    """Psi (n, n_dofs, k): all dofs per unit master displacement, the slaves carrying no load."""
+    slave = np.setdiff1d(np.arange(K.shape[-1]), master)
+    psi = np.zeros((K.shape[0], K.shape[-1], master.size))
+    psi[:, master, np.arange(master.size)] = 1.0
+    psi[:, slave] = -np.linalg.solve(K[:, slave[:, None], slave], K[:, slave[:, None], master])
+    return psi
+
+
+def _congruence(psi: np.ndarray, K: np.ndarray) -> np.ndarray:
+    """Psi^T K Psi, symmetrized."""
+    Kc = np.swapaxes(psi, 1, 2) @ K @ psi
+    return 0.5 * (Kc + np.swapaxes(Kc, 1, 2))
+
+
+__all__ = ["CondensedStructure", "FrameDofs", "assemble", "condensed_structure", "frame_dofs"]

@@ -37,9 +37,20 @@ def exudyn_dynamic(scene: Scene) -> np.ndarray:
     return res.deflection
 
 
+def linear_dynamic(scene: Scene) -> np.ndarray:
+    from ked_linear import solve_linear
+
+    res = solve_linear(scene)
+    assert res.stable, res.message
+    return res.deflection
+
+
 # (solver, relative tolerance on the peak) - the dynamic model carries discretization and residual
-# dynamic content at these low speeds (speed ratio ~0.05)
-SOLVERS = {"quasi": (quasi_static, 1e-10), "exudyn": (exudyn_dynamic, 0.02)}
+# dynamic content at these low speeds (speed ratio ~0.05).  The linear KED model (exact mirror symmetry)
+# departs from rpm^2 and 1/E scaling by its dynamic content: ~(k r)^2 per harmonic plus the damping lag
+# 2 zeta k r, 1.3 % of the peak for the tip scene at r = 0.055 (and the change between r and r/2 is below
+# that), so the same 2 % as the Exudyn model.
+SOLVERS = {"quasi": (quasi_static, 1e-10), "exudyn": (exudyn_dynamic, 0.02), "linear": (linear_dynamic, 0.02)}
 
 SCENES = {
     "tip-source": lambda fb: Scene(fb, MassModel("tip", payload=THESIS_TIP_MASS_KG), rpm=30.0, step_deg=10.0),

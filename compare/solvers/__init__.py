@@ -144,12 +144,13 @@ def fidelity(name: str) -> int:
     return REGISTRY[name].fidelity if name in REGISTRY else 0
 
 
-BUILTIN = ("quasi_static", "dynamic")
+BUILTIN_MODULES = ("quasi_static", "linear", "dynamic")
+"""Modules of the built-in solvers (``linear`` registers ``linear`` and ``linear_classic``)."""
 
 
 def _builtins() -> None:
     """Register the built-in solvers (imports are light: each solver loads its package on first run)."""
     import importlib
 
-    for name in BUILTIN:
-        importlib.import_module(f"compare.solvers.{name}")  # registers itself on first import
+    for module in BUILTIN_MODULES:
+        importlib.import_module(f"compare.solvers.{module}")  # registers itself on first import

@@ -18,7 +18,7 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[2]
 CONFIG_DIR = ROOT / "results" / "studies"
 """The checked-in study configs."""
-STUDIES = ("validity", "work-precision", "stability")
+STUDIES = ("validity", "work-precision", "stability", "tiers", "atlas")
 
 
 @dataclass(frozen=True)
@@ -46,12 +46,14 @@ def run(name: str, paths: StudyPaths = StudyPaths(), *, workers: int = 2, fresh:
     """Run (resume) study ``name`` into ``paths`` and regenerate its figures and README section;
     ``fresh`` deletes the study's stored HDF5 files first; ``report_only`` computes nothing.
     ``options``: the study's own (validity: ``configs``, ``retry``, ``refine``; work-precision:
-    ``retime_below_s``; stability: ``ladder``).  Returns a summary (JSON-able)."""
+    ``retime_below_s``; stability: ``ladder``; atlas: ``linkages``, ``seed``, ``scheduler``, ``confirm``).
+    Returns a summary (JSON-able)."""
     if name not in STUDIES:
         raise ValueError(f"study must be one of {', '.join(STUDIES)}; got {name!r}")
-    from compare.studies import stability, validity, work_precision
+    from compare.studies import atlas, stability, tiers, validity, work_precision
 
-    module = {"validity": validity, "work-precision": work_precision, "stability": stability}[name]
+    module = {"validity": validity, "work-precision": work_precision, "stability": stability, "tiers": tiers,
+              "atlas": atlas}[name]
     return module.run(paths, workers=workers, fresh=fresh, report_only=report_only, progress=progress, echo=echo,
                       **options)
 

@@ -1,0 +1,98 @@
+"""Benchmark of ked_linear.solve_linear beside exudyn_models.simulate_steady_state on the same scenes.
+
+Per mass model and speed (thesis source four-bar, 10 deg grid; 100 and 300 rpm by default) it times
+  linear  : solve_linear(scene) with default LinearSettings (prestress on, automatic resolution)
+  exudyn  : simulate_steady_state(scene) with default DynamicSettings
+and reports the median wall seconds over --runs runs, the speed ratio r, the resolution the linear model
+chose (harmonics H, Floquet steps, max |mu|), and the error of each history against a fine Exudyn
+reference (8 elements per link, 5760 steps per cycle, plain cycles steady to 1e-6): max |d - d_ref| over
+(dx, dy) relative to the reference peak.  The quasi-static error is printed beside them.  Case I (tip)
+at 300 rpm uses --tip-damping (default 0.1) for every model: the Exudyn runs diverge there at 2 %
+(see bench_exudyn.py).  Then the cost of solve_linear alone versus lumps per link and grid step.
+
+Usage: .venv/bin/python benchmarks/bench_linear.py [--runs 3] [--mass-models tip,joints,...] [--rpm 100,300]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+import warnings
+from dataclasses import replace
+
+import numpy as np
+
+from exudyn_models import DynamicSettings, simulate_steady_state
+from ked_linear import LinearSettings, solve_linear
+from ked_quasi import solve_quasi_static
+from ked_quasi.massmodel import MASS_MODELS
+from ked_quasi.presets import make_scene
+
+
+def reference_settings(base: DynamicSettings) -> DynamicSettings:
+    return replace(base, elements_per_link=8, steps_per_cycle=5760, steady_tol=1e-6, max_cycles=200,
+                   extrapolate=False)
+
+
+def error(d: np.ndarray, ref: np.ndarray) -> float:
+    return float(np.linalg.norm(d[:, :2] - ref[:, :2], axis=1).max() / np.linalg.norm(ref[:, :2], axis=1).max())
+
+
+def timed(fn, runs: int, *fn_args):
+    walls, res = [], None
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        res = fn(*fn_args)
+        walls.append(time.perf_counter() - t0)
+    return statistics.median(walls), res
+
+
+def side_by_side(args) -> None:
+    print(f"linear KED vs Exudyn: thesis source, median of {args.runs} runs, errors vs fine Exudyn reference")
+    print(f"{'mass model':<12}{'rpm':>5}{'r':>7}{'zeta':>6}{'lin s':>8}{'exu s':>8}{'ratio':>8}{'H':>4}{'steps':>6}"
+          f"{'max|mu|':>9}{'lin %':>8}{'exu %':>8}{'qs %':>8}")
+    for mm in args.mass_models.split(","):
+        for rpm in (float(x) for x in args.rpm.split(",")):
+            scene = make_scene(mass_model=mm, rpm=rpm)
+            zeta = args.tip_damping if (mm == "tip" and rpm >= 300) else 0.02
+            dyn = DynamicSettings(damping_ratio=zeta)
+            lin_settings = LinearSettings(damping_ratio=zeta)
+            ref = simulate_steady_state(scene, reference_settings(dyn))
+            t_lin, lin = timed(solve_linear, args.runs, scene, lin_settings)
+            t_exu, exu = timed(simulate_steady_state, args.runs, scene, dyn)
+            qs = solve_quasi_static(scene).deflection
+            errs = [100 * error(d, ref.deflection) for d in (lin.deflection, exu.deflection, qs)]
+            print(f"{mm:<12}{rpm:5.0f}{lin.speed_ratio:7.3f}{zeta:6.2f}{t_lin:8.3f}{t_exu:8.3f}{t_exu / t_lin:8.0f}"
+                  f"{lin.harmonics:4d}{lin.floquet_steps:6d}{lin.floquet_max_abs:9.3f}"
+                  f"{errs[0]:8.2f}{errs[1]:8.2f}{errs[2]:8.2f}")
+
+
+def scaling(args) -> None:
+    print("\nsolve_linear cost (distributed, 100 rpm): median wall s by lumps per link and grid step")
+    print(f"{'lumps':>6}{'coords':>7}{'10 deg':>9}{'2 deg':>9}{'H':>4}")
+    for n in (1, 2, 3, 5):
+        row = []
+        for step in (10.0, 2.0):
+            scene = make_scene(mass_model="distributed", rpm=100.0, lumps=n, step_deg=step)
+            wall, res = timed(solve_linear, args.runs, scene)
+            row.append(wall)
+        print(f"{n:6d}{8 * n:7d}{row[0]:9.3f}{row[1]:9.3f}{res.harmonics:4d}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--mass-models", default=",".join(MASS_MODELS))
+    ap.add_argument("--rpm", default="100,300")
+    ap.add_argument("--tip-damping", type=float, default=0.1)
+    ap.add_argument("--no-scaling", action="store_true")
+    args = ap.parse_args()
+    warnings.simplefilter("ignore")
+    side_by_side(args)
+    if not args.no_scaling:
+        scaling(args)
+
+
+if __name__ == "__main__":
+    main()

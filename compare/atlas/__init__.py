@@ -1,0 +1,11 @@
+"""The KED validity atlas: the quasi-static and linear models' speed-ratio limits over a seeded sample of
+four-bars (``generate``), computed on a Dask cluster (``run``), confirmed on a stratified Exudyn sample
+(``confirm``), stored compactly (``store``: ``results/atlas/atlas.h5``) and reported (``report``).
+
+:func:`limits` gives the design check the atlas's tier limits of a mass model.
+"""
+
+from compare.atlas.analysis import TierLimits, limits
+from compare.atlas.generate import Linkage, Reject, Sample, generate
+
+__all__ = ["Linkage", "Reject", "Sample", "TierLimits", "generate", "limits"]

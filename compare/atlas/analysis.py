@@ -1,0 +1,154 @@
+"""What the atlas says, from its stored tables only (pure functions of column arrays).
+
+* per mass model, the distribution of the quasi-static 5 %/10 % limits r* (the dynamic part: quasi-static
+  against the linear model) and their median with a spread;
+* the linear model's own limits, from the Exudyn sample: per confirmed family the walk up its ratios of
+  the linear-vs-Exudyn history error (a family whose error never reached the tolerance gives a lower
+  bound: its largest confirmed ratio);
+* how well the one-mode estimate and the rule k_sig r <= c predict r*.
+
+A tier limit is the **median** over the families, with the **spread** median - 10th percentile: the
+limit minus its spread is exceeded by 90 % of the atlas's families (a design check counts it against
+the limit).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from compare.studies.validity_analysis import validity_limit
+
+TOLERANCE_TAGS = ("r5", "r10")
+
+
+@dataclass(frozen=True)
+class TierLimits:
+    """Speed-ratio limits r = Omega/omega1_min of a mass model from the atlas: the quasi-static and the
+    linear model within 5 % / 10 % (history error of the coupler-point deflection), each with its spread
+    (median - 10th percentile over the families) and the number of families behind it."""
+
+    mass_model: str
+    quasi_static_r5: float
+    quasi_static_r5_spread: float
+    quasi_static_r10: float
+    quasi_static_r10_spread: float
+    linear_r5: float
+    linear_r5_spread: float
+    linear_r10: float
+    linear_r10_spread: float
+    families: int
+    confirmed_families: int
+
+
+def median_spread(values: Sequence[float]) -> tuple[float, float]:
+    """(median, median - 10th percentile) of the finite values; (nan, nan) if none."""
+    v = np.asarray([x for x in values if math.isfinite(x)], float)
+    if not v.size:
+        return math.nan, math.nan
+    med = float(np.median(v))
+    return med, med - float(np.percentile(v, 10))
+
+
+def crossed(fam: dict[str, np.ndarray], tag: str, mass_model: str | None = None) -> np.ndarray:
+    """Row mask: the family's limit ``tag`` (r5, r10) was crossed on the grid (and its mass model)."""
+    m = np.asarray(fam.get(f"{tag}_status", []), dtype=object) == "crossed"
+    if mass_model is not None:
+        m &= np.asarray(fam["mass_model"], dtype=object) == mass_model
+    return m
+
+
+@dataclass(frozen=True)
+class LinearLimit:
+    """The linear model's limit of one confirmed family: status as in the validity walk, r (crossed:
+    interpolated; above_grid: the largest confirmed ratio, a lower bound)."""
+
+    family: tuple[int, str, str]
+    tag: str
+    status: str
+    r: float
+
+
+def linear_limits(confirm: dict[str, np.ndarray]) -> list[LinearLimit]:
+    """Per confirmed family and tolerance, the linear model's limit against Exudyn."""
+    out = []
+    fams: dict[tuple[int, str, str], list[int]] = {}
+    for i in range(len(confirm.get("key", []))):
+        fams.setdefault((int(confirm["linkage"][i]), str(confirm["mechanism"][i]), str(confirm["mass_model"][i])),
+                        []).append(i)
+    for fam, rows in fams.items():
+        r = [float(confirm["r"][i]) for i in rows]
+        e = [float(confirm["linear_vs_dyn"][i]) for i in rows]
+        ok = [confirm["status"][i] == "ok" and math.isfinite(e[j]) for j, i in enumerate(rows)]
+        for tag, tol in zip(TOLERANCE_TAGS, (0.05, 0.10)):
+            lim = validity_limit(r, e, ok, tol)
+            val = {"crossed": lim.r_cross, "above_grid": lim.r_pass}.get(lim.status, math.nan)
+            out.append(LinearLimit(fam, tag, lim.status, float(val)))
+    return out
+
+
+def tier_limits(fam: dict[str, np.ndarray], confirm: dict[str, np.ndarray], mass_model: str) -> TierLimits:
+    """The :class:`TierLimits` of one mass model."""
+    qs = {t: median_spread(np.asarray(fam[t], float)[crossed(fam, t, mass_model)]) for t in TOLERANCE_TAGS}
+    lin_all = [x for x in linear_limits(confirm) if x.family[2] == mass_model]
+    lin = {t: median_spread([x.r for x in lin_all if x.tag == t and x.status in ("crossed", "above_grid")])
+           for t in TOLERANCE_TAGS}
+    n = int(np.sum(np.asarray(fam.get("mass_model", []), dtype=object) == mass_model))
+    return TierLimits(mass_model, *qs["r5"], *qs["r10"], *lin["r5"], *lin["r10"], families=n,
+                      confirmed_families=len({x.family for x in lin_all}))
+
+
+def default_path() -> Path:
+    """The committed atlas file of this checkout."""
+    from compare.studies import ROOT
+
+    return ROOT / "results" / "atlas" / "atlas.h5"
+
+
+def limits(mass_model: str, path: str | Path | None = None) -> TierLimits:
+    """The atlas's tier limits for ``mass_model`` (tip, joints, extender, distributed), read from the
+    stored atlas (default: ``results/atlas/atlas.h5``).  FileNotFoundError if there is no atlas file,
+    ValueError if it holds no family of that mass model."""
+    from compare.atlas import store
+
+    p = Path(path) if path is not None else default_path()
+    if not p.exists():
+        raise FileNotFoundError(f"{p}: no atlas file; run `ked study atlas` to compute it")
+    store.check_atlas(p)
+    fam = store.read(p, "families")
+    if not np.any(np.asarray(fam.get("mass_model", []), dtype=object) == mass_model):
+        raise ValueError(f"the atlas {p} has no family of mass model {mass_model!r}")
+    return tier_limits(fam, store.read(p, "confirm"), mass_model)
+
+
+# --------------------------------------------------------------------------------------------------
+# predictors
+
+
+def within(pred: np.ndarray, actual: np.ndarray, band: float = 0.25) -> np.ndarray:
+    """|pred / actual - 1| <= band, elementwise."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.abs(np.asarray(pred, float) / np.asarray(actual, float) - 1.0) <= band
+
+
+def rule_constant(k_sig: np.ndarray, r_lim: np.ndarray) -> float:
+    """c of the rule k_sig r <= c: the median of k_sig r* over the families."""
+    v = np.asarray(k_sig, float) * np.asarray(r_lim, float)
+    v = v[np.isfinite(v)]
+    return float(np.median(v)) if v.size else math.nan
+
+
+def spearman(x: np.ndarray, y: np.ndarray) -> float:
+    """Spearman rank correlation of the finite pairs (nan with fewer than 3)."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    m = np.isfinite(x) & np.isfinite(y)
+    if m.sum() < 3:
+        return math.nan
+    rx, ry = (np.argsort(np.argsort(v[m])).astype(float) for v in (x, y))
+    if rx.std() == 0 or ry.std() == 0:
+        return math.nan
+    return float(np.corrcoef(rx, ry)[0, 1])

@@ -1,0 +1,343 @@
+"""The atlas's README section and figures, generated from the stored atlas file only (the two coupler
+curves are recomputed: two scenes, the atlas stores no histories)."""
+
+from __future__ import annotations
+
+import math
+import os
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from compare.atlas import figures
+from compare.atlas import store as atlas_store
+from compare.atlas.analysis import (
+    crossed,
+    linear_limits,
+    rule_constant,
+    spearman,
+    tier_limits,
+    within,
+)
+from compare.atlas.compute import RATIOS, spec_of, xy
+from compare.atlas.generate import candidate
+from ked_quasi.massmodel import MASS_MODELS
+
+SECTION = "atlas"
+DESIGN_FEATURES = {"crank_ratio": "crank / ground", "coupler_ratio": "coupler / ground",
+                   "follower_ratio": "follower / ground", "extender_ratio": "extender / coupler",
+                   "slenderness": "ground slenderness (ground / radius of gyration)"}
+"""Design parameters of /linkages -> their names in tables and figures."""
+FIGURES = ("atlas_limits.png", "atlas_features.png", "atlas_prediction.png", "atlas_map.png", "atlas_confirm.png",
+           "atlas_coupler_curves.png")
+
+
+def features(fam: dict[str, np.ndarray], links: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Per family: the features that may move its limit (design parameters joined from /linkages)."""
+    row = {int(i): j for j, i in enumerate(links["index"])}
+    idx = np.array([row[int(i)] for i in fam["linkage"]])
+    out = {"k_sig (1 %)": fam["k_sig_1"], "k_sig (5 %)": fam["k_sig_5"],
+           "f1 max / f1 min": fam["f1_max_hz"] / fam["f1_min_hz"],
+           "min transmission angle [deg]": fam["min_transmission_deg"],
+           "cognate (1) / source (0)": (np.asarray(fam["mechanism"], dtype=object) == "cognate").astype(float)}
+    out.update({label: np.asarray(links[name], float)[idx] for name, label in DESIGN_FEATURES.items()})
+    out["abs(coupler angle) [deg]"] = np.abs(np.asarray(links["coupler_angle_deg"], float)[idx])
+    carried = (np.asarray(fam["mass_model"], dtype=object) == "tip") | np.asarray(links["payload_all"], bool)[idx]
+    out["payload at P / link mass"] = np.where(carried, np.asarray(links["payload_ratio"], float)[idx], 0.0)
+    return out
+
+
+def _pct(values: np.ndarray) -> str:
+    v = np.asarray(values, float)
+    v = v[np.isfinite(v)]
+    if not v.size:
+        return "-"
+    p10, p50, p90 = np.percentile(v, [10, 50, 90])
+    return f"**{p50:.3f}** [{p10:.3f}-{p90:.3f}]"
+
+
+def distribution_table(fam: dict[str, np.ndarray]) -> list[str]:
+    L = ["| mass model | families | r* 5 %: median [P10-P90] | r* 10 %: median [P10-P90] | min-max (10 %) | "
+         "10 % status: crossed / above grid / below grid / linear unstable first / failed |", "|---" * 6 + "|"]
+    for mm in (*MASS_MODELS, None):
+        sel = np.ones(len(fam["mass_model"]), bool) if mm is None else np.asarray(fam["mass_model"], dtype=object) == mm
+        st = Counter(np.asarray(fam["r10_status"], dtype=object)[sel])
+        r10 = np.asarray(fam["r10"], float)[sel & crossed(fam, "r10")]
+        span = f"{r10.min():.3f}-{r10.max():.3f}" if r10.size else "-"
+        r5 = np.asarray(fam["r5"], float)[sel & crossed(fam, "r5")]
+        L.append(f"| {mm or 'all'} | {sel.sum()} | {_pct(r5)} | {_pct(r10)} | {span} | {st['crossed']} / "
+                 f"{st['above_grid']} / {st['below_grid']} / {st['failure']} / {st['no_data']} |")
+    return L
+
+
+def flags_text(fam: dict[str, np.ndarray], ratios: np.ndarray) -> str:
+    """How often the linear model's answer leaves its small-deflection range at or below the 10 % limit."""
+    below = np.asarray(ratios, float)[None, :] <= np.nan_to_num(np.asarray(fam["r10"], float), nan=np.inf)[:, None]
+    flags = np.asarray(fam["flags"], int)
+    any_flag = (flags > 0).any(axis=1)
+    early = ((flags > 0) & below).any(axis=1)
+    mu = np.nanmax(np.where(below, fam["floquet_max_abs"], np.nan), axis=1)
+    return (f"Linear model's large-deflection / large-rotation flags (`ked_quasi.limits`): on {int(any_flag.sum())} "
+            f"families somewhere on the computed sweep, on {int(early.sum())} at or below their r* (10 %). Largest "
+            f"Floquet |mu| at or below r* (10 %): median {np.nanmedian(mu):.3f}, max {np.nanmax(mu):.3f} "
+            f"({'all stable' if np.nanmax(mu) < 1 else 'some unstable'}).")
+
+
+def correlation_table(fam: dict[str, np.ndarray], feats: dict[str, np.ndarray]) -> list[str]:
+    L = ["| feature | " + " | ".join((*MASS_MODELS, "all")) + " |", "|---" * 6 + "|"]
+    for name, x in feats.items():
+        cells = []
+        for mm in (*MASS_MODELS, None):
+            m = crossed(fam, "r10", mm)
+            cells.append(f"{spearman(np.asarray(x, float)[m], np.asarray(fam['r10'], float)[m]):+.2f}")
+        L.append(f"| {name} | " + " | ".join(cells) + " |")
+    return L
+
+
+def rule_predictions(fam: dict[str, np.ndarray]) -> tuple[np.ndarray, dict[str, float]]:
+    """r10 predicted by k_sig(1 %) r <= c, c fitted per mass model (median of k_sig r10); and the c's."""
+    pred = np.full(len(fam["r10"]), math.nan)
+    cs = {}
+    for mm in MASS_MODELS:
+        m = crossed(fam, "r10", mm)
+        cs[mm] = rule_constant(fam["k_sig_1"][m], fam["r10"][m])
+        sel = np.asarray(fam["mass_model"], dtype=object) == mm
+        pred[sel] = cs[mm] / fam["k_sig_1"][sel]
+    m = crossed(fam, "r10")
+    cs["all"] = rule_constant(fam["k_sig_1"][m], fam["r10"][m])
+    return pred, cs
+
+
+def _family_name(fam: dict[str, np.ndarray], i: int) -> str:
+    return f"#{int(fam['linkage'][i])} {fam['mechanism'][i]} {fam['mass_model'][i]}"
+
+
+def prediction_text(fam: dict[str, np.ndarray], rule: np.ndarray, cs: dict[str, float]) -> list[str]:
+    L = []
+    for tag, tol in (("r5", "5 %"), ("r10", "10 %")):
+        m = crossed(fam, tag)
+        ok = within(fam[f"one_mode_{tag}"][m], fam[tag][m])
+        L.append(f"* one-mode estimate of the {tol} limit: {ok.mean():.0%} of {m.sum()} families within +-25 % "
+                 f"(median ratio predicted/atlas {np.nanmedian(fam[f'one_mode_{tag}'][m] / fam[tag][m]):.3f}).")
+    m = crossed(fam, "r10")
+    glob = within(cs["all"] / fam["k_sig_1"][m], fam["r10"][m])
+    L.append(f"* rule k_sig r <= c (k_sig at 1 %), one c = {cs['all']:.3f} for all: {glob.mean():.0%} within +-25 %; "
+             f"c per mass model ({', '.join(f'{k} {v:.3f}' for k, v in cs.items() if k != 'all')}): "
+             f"{within(rule[m], fam['r10'][m]).mean():.0%} within +-25 %.")
+    return L
+
+
+def worst_table(fam: dict[str, np.ndarray], rule: np.ndarray, n: int = 6) -> list[str]:
+    m = np.flatnonzero(crossed(fam, "r10"))
+    dev = np.abs(np.log(fam["one_mode_r10"][m] / fam["r10"][m]))
+    L = ["| family | r* 10 % | one-mode | rule | k_sig 1 % / 5 % | f1 max/min | min transmission [deg] |",
+         "|---" * 7 + "|"]
+    for i in m[np.argsort(-dev)][:n]:
+        f1 = fam["f1_max_hz"][i] / fam["f1_min_hz"][i]
+        L.append(f"| {_family_name(fam, i)} | {fam['r10'][i]:.3f} | {fam['one_mode_r10'][i]:.3f} | {rule[i]:.3f} | "
+                 f"{int(fam['k_sig_1'][i])} / {int(fam['k_sig_5'][i])} | {f1:.2f} | "
+                 f"{fam['min_transmission_deg'][i]:.0f} |")
+    return L
+
+
+def tier_table(fam: dict[str, np.ndarray], conf: dict[str, np.ndarray]) -> list[str]:
+    L = ["| mass model | quasi-static 5 % | quasi-static 10 % | linear 5 % | linear 10 % | families / confirmed |",
+         "|---" * 6 + "|"]
+    for mm in MASS_MODELS:
+        t = tier_limits(fam, conf, mm)
+        cells = [f"{v:.3f} - {s:.3f}" if math.isfinite(v) else "-" for v, s in (
+            (t.quasi_static_r5, t.quasi_static_r5_spread), (t.quasi_static_r10, t.quasi_static_r10_spread),
+            (t.linear_r5, t.linear_r5_spread), (t.linear_r10, t.linear_r10_spread))]
+        L.append(f"| {mm} | " + " | ".join(cells) + f" | {t.families} / {t.confirmed_families} |")
+    return L
+
+
+def linear_limit_table(conf: dict[str, np.ndarray]) -> list[str]:
+    """The linear model's own limits against Exudyn per mass model (confirmed families)."""
+    lims = linear_limits(conf)
+    L = ["| mass model | tolerance | families | crossed: median [P10-P90] | not reached up to r (median lower bound) | "
+         "below the smallest / Exudyn failed first |", "|---" * 6 + "|"]
+    for mm in MASS_MODELS:
+        for tag, tol in (("r5", "5 %"), ("r10", "10 %")):
+            x = [v for v in lims if v.family[2] == mm and v.tag == tag]
+            cr = np.array([v.r for v in x if v.status == "crossed"])
+            above = np.array([v.r for v in x if v.status == "above_grid"])
+            low = f"{above.size} ({np.median(above):.3f})" if above.size else "0"
+            other = sum(v.status == "below_grid" for v in x), sum(v.status == "failure" for v in x)
+            L.append(f"| {mm} | {tol} | {len(x)} | {cr.size}: {_pct(cr)} | {low} | {other[0]} / {other[1]} |")
+    return L
+
+
+def headline(fam: dict[str, np.ndarray], conf: dict[str, np.ndarray], feats: dict[str, np.ndarray]) -> str:
+    """The section's answer in a few sentences."""
+    m = crossed(fam, "r10")
+    r10 = fam["r10"][m]
+    rho = {k: spearman(np.asarray(v, float)[m], r10) for k, v in feats.items()}
+    top = sorted(rho, key=lambda k: -abs(np.nan_to_num(rho[k])))[:3]
+    one = within(fam["one_mode_r10"][m], r10).mean()
+    per_mm = [fam["r10"][crossed(fam, "r10", mm)] for mm in MASS_MODELS]
+    meds = [float(np.median(v)) for v in per_mm if v.size]
+    widths = [float(np.ptp(np.percentile(v, [10, 90]))) for v in per_mm if v.size]
+    text = (f"**In short:** over {m.sum()} families the quasi-static coupler-point history stays within 10 % of the "
+            f"linear KED model up to r* = {np.median(r10):.3f} (median; 10-90 % of the families: "
+            f"{np.percentile(r10, 10):.3f}-{np.percentile(r10, 90):.3f}) and within 5 % up to "
+            f"{np.median(fam['r5'][crossed(fam, 'r5')]):.3f}. The medians of the four mass models differ by "
+            f"{np.ptp(meds):.3f}, the linkages of one mass model by up to {max(widths):.3f} (10-90 %): strongest rank "
+            "correlations with r* "
+            + ", ".join(f"{k} ({rho[k]:+.2f})" for k in top)
+            + f". The one-mode estimate predicts r* within +-25 % for {one:.0%} of the families.")
+    ok = np.asarray(conf.get("status", []), dtype=object) == "ok"
+    if ok.any():
+        agree = ((conf["qs_vs_linear"][ok] < 0.10) == (conf["qs_vs_dyn"][ok] < 0.10)).mean()
+        text += (f" On the {ok.sum()} Exudyn-confirmed scenes the atlas's 10 % verdict agrees with Exudyn's on "
+                 f"{agree:.0%}.")
+    return text
+
+
+def confirm_text(conf: dict[str, np.ndarray]) -> list[str]:
+    n = len(conf.get("key", []))
+    if not n:
+        return ["No scene confirmed with Exudyn yet (`ked study atlas --confirm N`)."]
+    ok = np.asarray(conf["status"], dtype=object) == "ok"
+    qd, ql, ld = conf["qs_vs_dyn"][ok], conf["qs_vs_linear"][ok], conf["linear_vs_dyn"][ok]
+    agree = ((ql < 0.10) == (qd < 0.10)).mean()
+    lin_ok = {tol: (ld < tol).mean() for tol in (0.05, 0.10)}
+    lims = linear_limits(conf)
+    st = Counter(x.status for x in lims if x.tag == "r10")
+    reasons = Counter(str(r).split(":")[0] + ": " + str(r).split(":")[1][:60] if ":" in str(r) else str(r)
+                      for r in np.asarray(conf["reason"], dtype=object)[~ok])
+    L = [f"* {n} scenes ({len({k.rsplit('/', 1)[0] for k in conf['key']})} families), {ok.sum()} with an Exudyn "
+         f"steady state, {n - ok.sum()} failed; Exudyn wall time median {np.nanmedian(conf['dyn_wall_s']):.1f} s.",
+         f"* The atlas's tier (quasi-static vs linear) and the reference (quasi-static vs Exudyn) give the same 10 % "
+         f"verdict on {agree:.0%} of the scenes; |difference of the two errors| median "
+         f"{np.nanmedian(np.abs(ql - qd)):.3f}, 90th percentile {np.nanpercentile(np.abs(ql - qd), 90):.3f}.",
+         f"* The linear model is within 5 % of Exudyn on {lin_ok[0.05]:.0%} and within 10 % on {lin_ok[0.10]:.0%} of "
+         f"the scenes (which reach {np.max(conf['factor']):g} x the quasi-static limit); its 10 % limit per "
+         f"family: {st['crossed']} crossed, {st['above_grid']} not reached (lower bound: the largest confirmed r), "
+         f"{st['below_grid']} already at the smallest, {st['failure']} ended by an Exudyn failure."]
+    L += [f"* Exudyn failures: {k} ({v})" for k, v in reasons.most_common(5)]
+    return L
+
+
+def coupler_curve_data(atlas: Path, fam: dict[str, np.ndarray], seed: int) -> list[dict[str, Any]]:
+    """Recompute the most and the least forgiving families (largest / smallest r10) at r = 0.1."""
+    from compare import solvers
+    from compare.execute import frame, solve_one
+    from ked_quasi.kinematics import coupler_point
+
+    m = np.flatnonzero(crossed(fam, "r10"))
+    out = []
+    for label, i in (("most forgiving", m[np.argmax(fam["r10"][m])]), ("least forgiving", m[np.argmin(fam["r10"][m])])):
+        lk = candidate(seed, int(fam["linkage"][i]))
+        mm = next(x for x in lk.mass_models if x.name == fam["mass_model"][i])
+        spec = spec_of(lk, str(fam["mechanism"][i]), mm, 0.1)
+        fr = frame(spec)
+        qs, lin = (solve_one(solvers.get(n), spec, fr.scene) for n in ("quasi_static", "linear"))
+        rigid = np.asarray(coupler_point(fr.scene.fourbar, fr.scene.crank_angles))
+        size = float(np.ptp(rigid, axis=0).max())
+        mag = 0.15 * size / max(float(np.hypot(*xy(lin).T).max()), 1e-30)
+        out.append({"title": f"{label}: {_family_name(fam, i)}, r* (10 %) = {fam['r10'][i]:.3f}; at r = 0.1",
+                    "rigid": rigid, "quasi_static": xy(qs), "linear": xy(lin), "magnification": mag})
+    return out
+
+
+def sample_text(links: dict[str, np.ndarray], info: dict[str, Any]) -> list[str]:
+    acc = np.asarray(links["accepted"]).astype(bool)
+    reasons = Counter(str(r).split(":")[0].split(" (")[0] for r in np.asarray(links["reason"], dtype=object)[~acc])
+    cog = sum(1 for m in np.asarray(links["mechanisms"], dtype=object)[acc] if "cognate" in str(m))
+    rg = info.get("ranges", {})
+
+    def span(key: str) -> str:
+        lo, hi = rg.get(key, (math.nan, math.nan))
+        return f"{lo:g}-{hi:g}"
+
+    return [f"**Sample** (`compare.atlas.generate`, seed {info.get('seed')}): {int(acc.sum())} linkages accepted of "
+            f"{acc.size} candidates drawn; {cog} of them with a crank-drivable crossed Roberts cognate. Rejected, with "
+            "their reasons stored in `/linkages`: " + "; ".join(f"{v} {k}" for k, v in reasons.most_common()) + ".",
+            "",
+            f"Ranges: ground {span('ground_m')} m (log-uniform); crank/ground {span('crank_ratio')}, coupler/ground "
+            f"{span('coupler_ratio')}, follower/ground {span('follower_ratio')} (uniform; Grashof crank-rockers with "
+            f"margin {rg.get('grashof_margin')} of the ground); extender/coupler {span('extender_ratio')}, coupler "
+            f"angle {span('coupler_angle_deg')} deg; branch open or crossed; steel or aluminium round rods and "
+            f"rectangular bars (depth/width aspect {span('bar_aspect')}), ground slenderness ground / radius of "
+            f"gyration {span('slenderness')} (log-uniform); payload at P {span('payload_ratio')} x the link mass "
+            "(tip; the other mass models carry it on half the linkages); minimum transmission angle "
+            f">= {rg.get('min_transmission_deg')} deg (nearer a toggle: rejected)."]
+
+
+def markdown(atlas: Path, readme: Path, figs: dict[str, Path], cs_rule: tuple[np.ndarray, dict[str, float]]) -> str:
+    """The README section (stored data only; figure paths relative to the README)."""
+    info = atlas_store.attrs(atlas)
+    fam, links, conf = (atlas_store.read(atlas, t) for t in ("families", "linkages", "confirm"))
+    rel = {k: os.path.relpath(v.resolve(), readme.resolve().parent) for k, v in figs.items()}
+    rule, cs = cs_rule
+    feats = features(fam, links)
+    st = info.get("settings", {})
+    L = ["## Atlas: the quasi-static limit over the design space", "", headline(fam, conf, feats), "",
+         "Regenerate (resumable; computes what is missing, then redraws): `ked study atlas --linkages N --confirm M` "
+         f"(stored: `{os.path.relpath(atlas.resolve(), readme.resolve().parent)}`, "
+         f"{atlas.stat().st_size / 1e6:.1f} MB; figures `figures/atlas_*.png`).", "",
+         *sample_text(links, info), "",
+         f"**Setup.** Every family (linkage x mechanism x mass model: {len(fam['linkage'])} families) is swept over "
+         f"r = Omega/omega1_min in {', '.join(f'{r:g}' for r in info.get('ratios', RATIOS))} (omega1_min: lowest "
+         "first frozen natural frequency over the cycle), each scene a campaign scene solved by the registered "
+         f"quasi-static and linear solvers (default settings, {st.get('damping_ratio', 0.02):g} damping, ccw, "
+         f"{st.get('step_deg', 10):g} deg grid). Error: vector history error max|d_qs - d_lin| / max|d_lin| of the "
+         "coupler point (`compare.metrics`), the dynamic part of the quasi-static error. A sweep stops after the "
+         f"first r whose error reaches {st.get('stop_error', 0.2):g} (the limits are known by then). Limit r*: the "
+         "validity study's walk up the grid, interpolated at the crossing; its uncertainty is the grid half-bracket "
+         f"(median {np.nanmedian(fam['r10_half_bracket']):.4f} for 10 %).", "",
+         "### Distribution of the quasi-static limit", "", *distribution_table(fam), "",
+         flags_text(fam, np.asarray(info.get("ratios", RATIOS))), "", f"![limits]({rel['limits']})", "",
+         "### What moves it", "",
+         "Spearman rank correlation of r* (10 %) with each feature, per mass model (k_sig: highest crank harmonic of "
+         "the inertia loads above 1 % / 5 % of the largest; f1 max/min: variation of the first frozen frequency over "
+         "the cycle):", "", *correlation_table(fam, feats), "",
+         f"![features]({rel['features']})", "",
+         f"![map]({rel['map']})", "",
+         "### How well the one-mode estimate and the harmonic rule predict it", "",
+         *prediction_text(fam, rule, cs), "", "Worst one-mode predictions (10 %):", "", *worst_table(fam, rule), "",
+         f"![prediction]({rel['prediction']})", "",
+         "### Tier limits (`compare.atlas.limits(mass_model)`, used by `ked check`)", "",
+         "Median over the families - spread (median minus the 10th percentile). Quasi-static: the atlas; linear: its "
+         "own limit against Exudyn from the confirmed sample (a family whose linear error never reached the tolerance "
+         "counts with its largest confirmed r, a lower bound).", "", *tier_table(fam, conf), "",
+         "### Exudyn-confirmed sample", "",
+         "Stratified (`compare.atlas.confirm`): per mass model, families drawn from equal strata of their r* (10 %), "
+         "each at r = 0.6, 1, 1.4, 2, 3 x r* (capped at 0.5); quasi-static, linear and Exudyn (default settings).", "",
+         *confirm_text(conf), "", "The linear model's own limit (linear vs Exudyn history error) per confirmed "
+         "family:", "", *(linear_limit_table(conf) if conf else []), "", f"![confirm]({rel['confirm']})", "",
+         f"![coupler curves]({rel['coupler_curves']})"]
+    return "\n".join(L) + "\n"
+
+
+def write_report(atlas: Path, figures_dir: Path, readme: Path) -> dict[str, Any]:
+    """Figures and the README section from the stored atlas."""
+    from compare.studies.sections import write_section
+
+    info = atlas_store.attrs(atlas)
+    fam, links, conf = (atlas_store.read(atlas, t) for t in ("families", "linkages", "confirm"))
+    feats = features(fam, links)
+    rule_cs = rule_predictions(fam)
+    pick = {k: feats[k] for k in ("k_sig (1 %)", "f1 max / f1 min", "min transmission angle [deg]",
+                                  "extender / coupler", "crank / ground", DESIGN_FEATURES["slenderness"])}
+    figs = {"limits": figures.limits_histogram(fam, figures_dir / FIGURES[0]),
+            "features": figures.features(fam, pick, figures_dir / FIGURES[1]),
+            "prediction": figures.predictions(fam, rule_cs[0], figures_dir / FIGURES[2]),
+            "map": figures.design_map(fam, *_map_axes(fam, feats), figures_dir / FIGURES[3]),
+            "confirm": figures.confirm(conf, figures_dir / FIGURES[4]) if conf else figures_dir / FIGURES[4],
+            "coupler_curves": figures.coupler_curves(coupler_curve_data(atlas, fam, int(info["seed"])),
+                                                     figures_dir / FIGURES[5])}
+    write_section(readme, SECTION, markdown(atlas, readme, figs, rule_cs))
+    return {"figures": [str(p) for p in figs.values()], "readme": str(readme), "families": len(fam["linkage"]),
+            "confirmed": len(conf.get("key", []))}
+
+
+def _map_axes(fam: dict[str, np.ndarray], feats: dict[str, np.ndarray]) -> tuple[tuple[str, np.ndarray], ...]:
+    """The two design parameters with the strongest rank correlation with r* (10 %) over the atlas."""
+    m = crossed(fam, "r10")
+    names = [*DESIGN_FEATURES.values(), "abs(coupler angle) [deg]"]
+    best = sorted(names, key=lambda n: -abs(np.nan_to_num(spearman(feats[n][m], fam["r10"][m]))))[:2]
+    return tuple((n, feats[n]) for n in best)

@@ -1,0 +1,188 @@
+"""Run (resume) the atlas: one Dask task per linkage, compact records committed atomically in batches.
+
+The cluster is a real ``distributed.LocalCluster`` (``workers`` processes, one thread each) unless
+``scheduler`` gives the address of a running one (checked first with
+:func:`compare.runner.probe_scheduler`).  Only this process writes the atlas file; a linkage whose
+families are stored is skipped, so rerunning resumes.
+"""
+
+from __future__ import annotations
+
+import time
+import uuid
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from compare import store
+from compare.atlas import store as atlas_store
+from compare.atlas.compute import (
+    DAMPING,
+    RATIOS,
+    STEP_DEG,
+    STOP_ERROR,
+    TOLERANCES,
+    FamilyRecord,
+    compute_linkage,
+    failed_record,
+)
+from compare.atlas.generate import Linkage, Sample, generate, ranges_dict
+
+COMMIT_EVERY_S = 10.0
+"""Completed linkages are committed together at most this often (each commit copies the file)."""
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    """What one run did; ``wall_s`` [s]."""
+
+    linkages: int
+    rejects: int
+    skipped: int
+    computed: int
+    families: int
+    wall_s: float
+
+
+def meta(seed: int, ratios: Sequence[float]) -> dict[str, Any]:
+    """The file attributes of an atlas run (JSON-able)."""
+    return {"seed": seed, "ratios": list(ratios), "ranges": ranges_dict(),
+            "settings": {"damping_ratio": DAMPING, "step_deg": STEP_DEG, "stop_error": STOP_ERROR,
+                         "tolerances": list(TOLERANCES), "direction": "ccw", "solvers": ["quasi_static", "linear"]}}
+
+
+def linkage_columns(sample: Sample) -> dict[str, list[Any]]:
+    """The /linkages table: every candidate drawn, accepted or not, by index."""
+    rows = sorted([*sample.linkages, *sample.rejects], key=lambda c: c.index)
+    names = ("index", "accepted", "reason", *asdict(rows[0].design)) if rows else ()
+    cols: dict[str, list[Any]] = {k: [] for k in names}
+    for c in rows:
+        ok = isinstance(c, Linkage)
+        for k, v in asdict(c.design).items():
+            cols[k].append(v)
+        cols["accepted"].append(ok)
+        cols["reason"].append("" if ok else c.reason)
+    for name, get in (("mechanisms", lambda c: ",".join(c.mechanisms)), ("cognate_reason", lambda c: c.cognate_reason),
+                      ("min_transmission_deg", lambda c: c.min_transmission_deg),
+                      ("cognate_min_transmission_deg", lambda c: c.cognate_min_transmission_deg)):
+        cols[name] = [get(c) if isinstance(c, Linkage) else ("" if name in ("mechanisms", "cognate_reason") else np.nan)
+                      for c in rows]
+    return cols
+
+
+def family_columns(records: Sequence[FamilyRecord]) -> dict[str, list[Any]]:
+    """The /families rows of ``records`` (limits flattened to r5_*, r10_*)."""
+    cols: dict[str, list[Any]] = {}
+    for rec in records:
+        row = {k: v for k, v in asdict(rec).items() if k not in ("limits", "one_mode_limits")}
+        for tol, lim, om in zip(TOLERANCES, rec.limits, rec.one_mode_limits):
+            tag = f"r{round(100 * tol)}"
+            row.update({f"{tag}_status": lim.status, tag: lim.r, f"{tag}_half_bracket": lim.half_bracket,
+                        f"one_mode_{tag}": om})
+        for k, v in row.items():
+            cols.setdefault(k, []).append(v)
+    return cols
+
+
+def crashed(linkage: Linkage, exc: BaseException, ratios: Sequence[float]) -> tuple[FamilyRecord, ...]:
+    """Records of a linkage whose task died (worker killed, ...): every family failed with the reason."""
+    reason = f"task failed: {type(exc).__name__}: {exc}"
+    return tuple(failed_record(linkage.index, mech, mm, reason, len(ratios))
+                 for mech in linkage.mechanisms for mm in linkage.mass_models)
+
+
+def stored_linkages(path: Path) -> set[int]:
+    """Indices of the linkages whose families are stored."""
+    if not path.exists():
+        return set()
+    fam = atlas_store.read(path, "families")
+    return {int(i) for i in fam.get("linkage", [])}
+
+
+@contextmanager
+def client(workers: int, scheduler: str | None) -> Iterator[Any]:
+    """A Dask client: to ``scheduler`` (probed first) or to a fresh LocalCluster of ``workers`` processes."""
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        from compare.runner import probe_scheduler
+
+        probe_scheduler(scheduler)
+        with Client(scheduler, set_as_default=False, timeout=10) as c:
+            yield c
+        return
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                      silence_logs=40) as cluster, Client(cluster, set_as_default=False) as c:
+        yield c
+
+
+def drain(c: Any, futures: dict[Any, Any], commit: Callable[[list[Any]], None],
+          on_crash: Callable[[Any, BaseException], Sequence[Any]], *, progress: bool = False,
+          label: str = "atlas") -> None:
+    """Collect the tasks' records as they complete and commit them at most every :data:`COMMIT_EVERY_S`
+    (and at the end); a task that died is recorded by ``on_crash(item, exception)``."""
+    import sys
+
+    from distributed import as_completed
+    from tqdm import tqdm
+
+    pending: list[Any] = []
+    last = time.monotonic()
+    with tqdm(total=len(futures), disable=not progress, file=sys.stderr, desc=label) as bar:
+        for batch in as_completed(list(futures), loop=c.loop).batches():
+            for fut in batch:
+                try:
+                    res = fut.result()
+                    pending.extend(res if isinstance(res, tuple) else [res])
+                except Exception as exc:  # the task died outside the worker function (KilledWorker, ...)
+                    pending.extend(on_crash(futures[fut], exc))
+            bar.update(len(batch))
+            if pending and time.monotonic() - last >= COMMIT_EVERY_S:
+                commit(pending)
+                pending, last = [], time.monotonic()
+    if pending:
+        commit(pending)
+
+
+def run_atlas(path: Path, *, linkages: int = 1000, seed: int = 0, workers: int = 2, scheduler: str | None = None,
+              ratios: Sequence[float] = RATIOS, progress: bool = False,
+              echo: Callable[[str], Any] = print) -> RunSummary:
+    """Compute every linkage of ``generate(linkages, seed)`` not yet stored in ``path`` (see module docstring)."""
+    t0 = time.perf_counter()
+    path = store.target(path)
+    info = meta(seed, ratios)
+    atlas_store.check_atlas(path, info)
+    if scheduler:  # an unreachable cluster is reported before anything is written
+        from compare.runner import probe_scheduler
+
+        probe_scheduler(scheduler)
+    done = stored_linkages(path)
+    sample = generate(max(linkages, len(done)), seed)  # a prefix of the same draws: keeps every stored linkage
+    todo = [lk for lk in sample.linkages[:linkages] if lk.index not in done]
+    store.check_writable(path)
+    with store.writer_lock(path):
+        atlas_store.write(path, info, replaces={"linkages": linkage_columns(sample)})
+        if todo:
+            _compute(path, todo, info, workers=workers, scheduler=scheduler, ratios=tuple(ratios),
+                     progress=progress, echo=echo)
+            atlas_store.compact(path)
+    n_fam = len(atlas_store.read(path, "families").get("linkage", []))
+    return RunSummary(len(sample.linkages), len(sample.rejects), len(sample.linkages) - len(todo), len(todo), n_fam,
+                      time.perf_counter() - t0)
+
+
+def _compute(path: Path, todo: list[Linkage], info: dict[str, Any], *, workers: int, scheduler: str | None,
+             ratios: tuple[float, ...], progress: bool, echo: Callable[[str], Any]) -> None:
+    where = f"the scheduler {scheduler}" if scheduler else f"{workers} local workers"
+    echo(f"atlas: {len(todo)} linkage(s) to compute on {where}")
+    t0 = time.perf_counter()
+    with client(workers, scheduler) as c:
+        futures = {c.submit(compute_linkage, lk, ratios, key=f"ked-atlas-{lk.index}-{uuid.uuid4().hex[:8]}",
+                            pure=False): lk for lk in todo}
+        drain(c, futures, lambda recs: atlas_store.write(path, info, appends={"families": family_columns(recs)}),
+              lambda lk, exc: crashed(lk, exc, ratios), progress=progress)
+    echo(f"atlas: computed {len(todo)} linkage(s) in {time.perf_counter() - t0:.0f} s")

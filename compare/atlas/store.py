@@ -1,0 +1,150 @@
+"""The atlas file (``results/atlas/atlas.h5``, schema ``ked-harness/atlas`` version 1).
+
+Plain HDF5, columnar tables (one dataset per column, text as UTF-8, per-ratio columns as (rows, ratios)
+arrays), written only through :func:`compare.store.transaction` (a private copy renamed atomically onto
+the file), appended in batches, so a killed run loses only the linkages still being computed.
+
+```
+/                 attrs schema, schema_version, created_utc, modified_utc, seed, ratios (json),
+                  ranges (json: the generator's), settings (json: damping, step, stop error), provenance
+/linkages         one row per candidate drawn: index, accepted (uint8), reason, the drawn design,
+                  mechanisms, cognate_reason, min_transmission_deg (source and cognate)
+/families         one row per family (linkage, mechanism, mass model): see compute.FamilyRecord;
+                  per-ratio columns history_error, peak_error, floquet_max_abs, linear_error_estimate,
+                  one_mode_error (float, (rows, ratios)), flags (bits), code (0 ok, 1 unstable, 2 failed,
+                  3 not computed); limits r5_status, r5, r5_half_bracket, r10_*; one_mode_r5, one_mode_r10
+/confirm          one row per Exudyn-confirmed scene (compare.atlas.confirm.ConfirmRecord)
+```
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from compare import store
+
+SCHEMA = "ked-harness/atlas"
+SCHEMA_VERSION = 1
+_STR = h5py.string_dtype("utf-8")
+
+
+class AtlasFileError(ValueError):
+    """A file that is not an atlas file, or an atlas of another seed or ratio grid."""
+
+
+def check_atlas(path: Path, meta: dict[str, Any] | None = None) -> None:
+    """Refuse a file that is not an atlas (or, given ``meta``, one made with another seed / grid)."""
+    if not path.exists():
+        return
+    try:
+        with h5py.File(path, "r") as f:
+            schema, attrs = f.attrs.get("schema"), dict(f.attrs)
+    except OSError as exc:
+        raise AtlasFileError(f"{path}: not an HDF5 file ({exc}); refusing to write into it") from None
+    if schema != SCHEMA:
+        raise AtlasFileError(f"{path}: not an atlas file (schema {schema!r}, expected {SCHEMA!r}); refusing to "
+                             "write into it")
+    for key, value in (meta or {}).items():
+        if key in ("seed", "ratios") and key in attrs and json.loads(attrs[key]) != value:
+            raise AtlasFileError(f"{path}: an atlas of {key} {attrs[key]}, not {json.dumps(value)}; use --fresh "
+                                 "or another results directory")
+
+
+def _column(values: Sequence[Any]) -> np.ndarray:
+    if all(isinstance(v, str) for v in values):
+        return np.array(values, dtype=object)
+    if all(isinstance(v, (bool, np.bool_)) for v in values):
+        return np.array(values, dtype=np.uint8)
+    return np.array([np.nan if v is None else v for v in values], dtype=float)
+
+
+def append(f: h5py.File, table: str, columns: dict[str, Sequence[Any]]) -> None:
+    """Append rows (column -> values, equal lengths; 2D values for per-ratio columns) to ``table``."""
+    g = f.require_group(table)
+    n_old = int(g.attrs.get("rows", 0))
+    n_new = len(next(iter(columns.values()))) if columns else 0
+    for name, values in columns.items():
+        data = _column(values) if not (len(values) and isinstance(values[0], (tuple, list))) else np.array(values)
+        if name not in g:
+            dtype = _STR if data.dtype == object else data.dtype
+            g.create_dataset(name, data=data, dtype=dtype, maxshape=(None, *data.shape[1:]), chunks=True,
+                             compression="gzip", compression_opts=4, shuffle=data.dtype != object)
+            continue
+        ds = g[name]
+        ds.resize(n_old + n_new, axis=0)
+        ds[n_old:] = data
+    g.attrs["rows"] = n_old + n_new
+
+
+def replace(f: h5py.File, table: str, columns: dict[str, Sequence[Any]]) -> None:
+    """Replace ``table`` by the given columns."""
+    if table in f:
+        del f[table]
+    append(f, table, columns)
+
+
+def write(path: Path, meta: dict[str, Any], *, appends: dict[str, dict[str, Sequence[Any]]] | None = None,
+          replaces: dict[str, dict[str, Sequence[Any]]] | None = None) -> None:
+    """One atomic commit: file attributes, replaced tables, appended rows."""
+    with store.transaction(path) as f:
+        if "schema" not in f.attrs:
+            f.attrs.update({"schema": SCHEMA, "schema_version": SCHEMA_VERSION, "created_utc": store.utc_now()})
+        f.attrs["modified_utc"] = store.utc_now()
+        for k, v in {**meta, **store.provenance()}.items():
+            f.attrs[k] = json.dumps(v) if k in meta else v
+        for table, cols in (replaces or {}).items():
+            replace(f, table, cols)
+        for table, cols in (appends or {}).items():
+            if cols and len(next(iter(cols.values()))):
+                append(f, table, cols)
+
+
+def compact(path: Path) -> None:
+    """Rewrite the file in one piece (appending in small batches leaves small chunks, and HDF5 does not give
+    back the space of replaced tables): a new file is written with :func:`compare.store.transaction`
+    next to it and renamed onto it atomically."""
+    tables = {t: read(path, t) for t in ("linkages", "families", "confirm")}
+    with h5py.File(path, "r") as f:
+        file_attrs = dict(f.attrs)
+    fresh = path.with_name(path.name + ".compact")
+    fresh.unlink(missing_ok=True)
+    with store.transaction(fresh) as f:
+        f.attrs.update(file_attrs)
+        for name, cols in tables.items():
+            if cols:
+                replace(f, name, {k: list(v) if v.ndim == 1 else [tuple(row) for row in v] for k, v in cols.items()})
+    os.replace(fresh, path)
+
+
+def read(path: Path, table: str) -> dict[str, np.ndarray]:
+    """One table, column -> array (text as str objects); empty if absent."""
+    with h5py.File(path, "r") as f:
+        if table not in f:
+            return {}
+        out = {}
+        for name, ds in f[table].items():
+            data = ds[()]
+            if ds.dtype.kind == "O":
+                data = np.array([x.decode() if isinstance(x, bytes) else str(x) for x in data], dtype=object)
+            out[name] = data
+        return out
+
+
+def attrs(path: Path) -> dict[str, Any]:
+    """File attributes, JSON ones decoded."""
+    with h5py.File(path, "r") as f:
+        out = {}
+        for k, v in f.attrs.items():
+            v = v.decode() if isinstance(v, bytes) else v
+            try:
+                out[k] = json.loads(v) if isinstance(v, str) else v
+            except json.JSONDecodeError:
+                out[k] = v
+        return out

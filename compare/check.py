@@ -1,0 +1,167 @@
+"""The design check: for one linkage at one or more crank speeds, how wrong is the quasi-static answer,
+and which model is needed.
+
+Every speed is one campaign scene computed by :func:`compare.execute.run_scene` (the same code path,
+hence the same numbers a campaign stores) with the quasi-static and the linear solver, and Exudyn too
+when asked to confirm.  The tier rule (:func:`tier`):
+
+* **quasi-static** when the linear model is stable, inside its small-deflection range, and the
+  quasi-static history differs from it by less than the tolerance (that difference is the dynamic
+  part of the quasi-static error);
+* **linear** when the linear model is needed (or the quasi-static answer is flagged) and the speed
+  ratio is below the linear model's own limit from the atlas (its agreement with Exudyn), the
+  atlas's uncertainty counting against it;
+* **nonlinear** otherwise (no stable linear steady state, large deflections, or beyond the linear
+  model's limit): the Exudyn model is the answer (``--confirm`` runs it).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from compare import metrics
+from compare.execute import run_scene
+from compare.results import SceneResult
+from compare.scenes import SceneSpec, SpeedSpec
+from compare.solvers import get as get_solver
+from ked_quasi.harmonics import one_mode_dynamic_estimate
+from ked_quasi.linkage import FourBar
+from ked_quasi.massmodel import MassModel
+
+TIERS = ("quasi-static", "linear", "nonlinear")
+DEFAULT_DYNAMIC = (("element", "ancf"), ("elements_per_link", 4), ("spectral_radius", 0.9), ("steps_per_cycle", 720))
+"""The Exudyn settings of the default campaign (so that a confirmed check is that campaign's scene)."""
+
+
+@dataclass(frozen=True)
+class LinearRange:
+    """Where the linear model agrees with the nonlinear one (from the atlas): speed ratio limits for
+    5 % and 10 % history error, each with its spread; ``source`` says where the numbers come from."""
+
+    r5: float = math.nan
+    r5_spread: float = math.nan
+    r10: float = math.nan
+    r10_spread: float = math.nan
+    source: str = "no atlas"
+
+
+@dataclass(frozen=True)
+class CheckRow:
+    """The check at one crank speed.  Peaks [m] of the deflection vector |d| of P; errors [1]."""
+
+    rpm: float
+    speed_ratio: float
+    quasi_static_peak_m: float
+    linear_peak_m: float
+    linear_vs_quasi_static: float
+    quasi_static_error_estimate: float
+    floquet_max_abs: float
+    tier: str
+    verdict: str
+    flags: tuple[str, ...] = ()
+    confirmed: dict[str, float] = field(default_factory=dict)
+    key: str = ""
+
+
+def spec_for(source: FourBar, mechanism: str, mass_model: MassModel, rpm: float, *, stiffness_scale: float = 1.0,
+             damping_ratio: float = 0.02, direction: str = "ccw", step_deg: float = 10.0, tolerance: float = 0.10,
+             confirm: bool = False) -> SceneSpec:
+    """The campaign scene of one check (the default campaign's grid settings: 3 modes, all outputs)."""
+    solvers = ("quasi_static", "linear", "dynamic") if confirm else ("quasi_static", "linear")
+    dyn = tuple(sorted(dict(DEFAULT_DYNAMIC, damping_ratio=damping_ratio).items()))
+    return SceneSpec(linkage=source, mechanism=mechanism, mass_model=mass_model, speed=SpeedSpec("rpm", float(rpm)),
+                     stiffness_scale=stiffness_scale, damping_ratio=damping_ratio, direction=direction,
+                     step_deg=step_deg, n_modes=3, outputs=("dx", "dy", "rotation"), tolerance=tolerance, dynamic=dyn,
+                     solvers=solvers)
+
+
+def _xy(h: dict[str, np.ndarray]) -> np.ndarray:
+    return np.column_stack([h["dx"], h["dy"]])
+
+
+def tier(r: SceneResult, linear_range: LinearRange, tolerance: float) -> tuple[str, str]:
+    """(tier, one-line verdict) of a checked scene (see the module docstring)."""
+    qs, lin = r.solutions.get("quasi_static"), r.solutions.get("linear")
+    ratio = r.verdict.speed_ratio if r.verdict is not None else math.nan
+    if lin is None or not lin.ok:
+        why = lin.message if lin is not None else "the linear model did not run"
+        return "nonlinear", f"no stable linear steady state ({why}): use the nonlinear model (--confirm)"
+    if lin.flags:
+        return "nonlinear", (f"deflections beyond the small-deflection range ({', '.join(lin.flags)}): "
+                             "use the nonlinear model (--confirm)")
+    err = metrics.history_error(_xy(qs.deflection), _xy(lin.deflection))
+    if err < tolerance and not qs.flags:
+        return "quasi-static", f"quasi-static holds: it differs from the linear model by {err:.1%} < {tolerance:.0%}"
+    limit = linear_range.r10 if tolerance >= 0.10 else linear_range.r5
+    spread = linear_range.r10_spread if tolerance >= 0.10 else linear_range.r5_spread
+    if math.isfinite(limit) and ratio > limit - (spread if math.isfinite(spread) else 0.0):
+        return "nonlinear", (f"quasi-static is {err:.0%} off, and r = {ratio:.3g} is beyond the linear model's limit "
+                             f"r = {limit:.3g} +- {spread:.2g} ({linear_range.source}): use the nonlinear model")
+    bound = f"valid up to r = {limit:.3g} ({linear_range.source})" if math.isfinite(limit) else \
+        "its own limit unknown without an atlas: confirm with --confirm"
+    return "linear", f"quasi-static is {err:.0%} off: use the linear model ({bound})"
+
+
+def check_row(r: SceneResult, linear_range: LinearRange, tolerance: float) -> CheckRow:
+    """The check's numbers of one computed scene."""
+    nan = math.nan
+    qs, lin = r.solutions.get("quasi_static"), r.solutions.get("linear")
+    v = r.verdict
+    ratio = v.speed_ratio if v is not None else nan
+    qs_xy = _xy(qs.deflection) if qs is not None and qs.ok else None
+    lin_ok = lin is not None and lin.ok
+    est = nan
+    if qs_xy is not None and math.isfinite(ratio):
+        est = metrics.history_error(qs_xy, one_mode_dynamic_estimate(qs_xy, ratio, r.spec.damping_ratio))
+    name, verdict = tier(r, linear_range, tolerance)
+    confirmed = {}
+    if "dynamic" in r.solutions and r.solutions["dynamic"].ok:
+        dyn = _xy(r.solutions["dynamic"].deflection)
+        confirmed = {"quasi_static_vs_dynamic": metrics.history_error(qs_xy, dyn),
+                     "linear_vs_dynamic": metrics.history_error(_xy(lin.deflection), dyn) if lin_ok else nan}
+    elif "dynamic" in r.solutions:
+        confirmed = {"dynamic_failed": 1.0}
+    return CheckRow(
+        rpm=r.rpm, speed_ratio=ratio, quasi_static_peak_m=metrics.peak(qs_xy) if qs_xy is not None else nan,
+        linear_peak_m=metrics.peak(_xy(lin.deflection)) if lin_ok else nan,
+        linear_vs_quasi_static=metrics.history_error(qs_xy, _xy(lin.deflection)) if lin_ok and qs_xy is not None
+        else nan, quasi_static_error_estimate=est,
+        floquet_max_abs=float(lin.stats.get("floquet_max_abs", nan)) if lin is not None else nan,
+        tier=name, verdict=verdict, flags=tuple(sorted({*(qs.flags if qs else ()), *(lin.flags if lin else ())})),
+        confirmed=confirmed, key=r.key,
+    )
+
+
+def linear_range(mass_model: str) -> LinearRange:
+    """The linear model's limits for a mass model, from the committed atlas (NaN when there is none)."""
+    try:
+        from compare.atlas import limits
+    except ImportError:
+        return LinearRange()
+    try:
+        t = limits(mass_model)
+    except (OSError, ValueError, KeyError):
+        return LinearRange()
+    return LinearRange(r5=t.linear_r5, r5_spread=t.linear_r5_spread, r10=t.linear_r10, r10_spread=t.linear_r10_spread,
+                       source="atlas")
+
+
+def check(source: FourBar, mechanism: str, mass_model: MassModel, rpms: Sequence[float], *,
+          stiffness_scale: float = 1.0, damping_ratio: float = 0.02, direction: str = "ccw", step_deg: float = 10.0,
+          tolerance: float = 0.10, confirm: bool = False) -> list[CheckRow]:
+    """The design check of one linkage at each of ``rpms`` [rev/min] (see the module docstring)."""
+    rng = linear_range(mass_model.name)
+    rows = []
+    for rpm in rpms:
+        spec = spec_for(source, mechanism, mass_model, rpm, stiffness_scale=stiffness_scale,
+                        damping_ratio=damping_ratio, direction=direction, step_deg=step_deg, tolerance=tolerance,
+                        confirm=confirm)
+        r = run_scene(spec, [get_solver(n) for n in spec.solvers])
+        if r.stage in ("setup", "metrics"):
+            raise ValueError(f"{r.stage}: {r.message}")
+        rows.append(check_row(r, rng, tolerance))
+    return rows

@@ -1,0 +1,67 @@
+"""The linear time-periodic KED model (``ked_linear``): the frozen structure plus the inertia of the
+elastic motion, periodic steady state solved directly, stability from the Floquet multipliers."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from compare.solvers import COMPONENTS, STATUS_FAILED, STATUS_OK, Solution, Solver, register
+
+
+def settings_class() -> type:
+    from ked_linear.settings import LinearSettings
+
+    return LinearSettings
+
+
+def make_settings(overrides: dict[str, Any], damping_ratio: float) -> Any:
+    """``LinearSettings`` from the explicit overrides, damped like the scene (its damping ratio)."""
+    return settings_class()(**{"damping_ratio": damping_ratio, **overrides})
+
+
+def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Solution:
+    """The linear model's steady state; without a stable periodic steady state (max |Floquet
+    multiplier| >= 1) a failed solution of class "physical" with the multiplier as evidence."""
+    from ked_linear import describe_flags, result_flags, solve_linear
+
+    res = solve_linear(scene, settings)
+    stats = {"wall_s": float(res.wall_s), "floquet_max_abs": float(res.floquet_max_abs),
+             "floquet_error": float(res.floquet_error), "floquet_steps": int(res.floquet_steps),
+             "harmonics": int(res.harmonics), "collocation_points": int(res.collocation_points),
+             "error_estimate": float(res.error_estimate), "damping_reference_hz": float(res.damping_reference_hz),
+             "speed_ratio": float(res.speed_ratio)}
+    if not res.stable:
+        return Solution(SOLVER.name, STATUS_FAILED, stats=stats, message=res.message, error_type="Unstable",
+                        failure_class="physical")
+    d = np.asarray(res.deflection, dtype=float)
+    flags = result_flags(res, scene.fourbar)
+    note = describe_flags(flags, res, scene.fourbar)
+    return Solution(SOLVER.name, STATUS_OK, {c: d[:, COMPONENTS.index(c)].copy() for c in outputs}, stats=stats,
+                    flags=flags, warnings=note)
+
+
+SOLVER = register(Solver(
+    name="linear", label="linear KED", fidelity=5, settings_class=settings_class, make_settings=make_settings,
+    run=run, description="linear time-periodic KED (ked_linear): frozen structure plus the inertia of the elastic "
+                         "motion, periodic steady state and Floquet stability",
+))
+
+
+def make_classic_settings(overrides: dict[str, Any], damping_ratio: float) -> Any:
+    """``LinearSettings`` without prestress: the classical linear KED model."""
+    return make_settings({**overrides, "prestress": False}, damping_ratio)
+
+
+def run_classic(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Solution:
+    from dataclasses import replace
+
+    return replace(run(scene, settings, outputs), solver=CLASSIC.name)
+
+
+CLASSIC = register(Solver(
+    name="linear_classic", label="linear KED (no prestress)", fidelity=4, settings_class=settings_class,
+    make_settings=make_classic_settings, run=run_classic,
+    description="the classical linear KED model: as 'linear' without the geometric stiffness of the axial forces",
+))

@@ -1,0 +1,42 @@
+"""``ked study atlas``: the validity atlas (``compare.atlas``): compute (resume) the linkages and the
+Exudyn-confirmed sample into ``<results>/atlas/atlas.h5``, then its figures and README section."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from compare.studies import StudyPaths, remove_outputs
+
+DEFAULT_LINKAGES = 1000
+DEFAULT_CONFIRM = 200
+
+
+def atlas_file(paths: StudyPaths) -> Path:
+    """Where the atlas of a results directory lives."""
+    return paths.results / "atlas" / "atlas.h5"
+
+
+def run(paths: StudyPaths, *, workers: int = 2, fresh: bool = False, report_only: bool = False,
+        progress: bool = False, echo: Callable[[str], Any] = print, linkages: int = DEFAULT_LINKAGES,
+        seed: int = 0, scheduler: str | None = None, confirm: int = DEFAULT_CONFIRM) -> dict[str, Any]:
+    """The study with the common signature (see :func:`compare.studies.run`)."""
+    from compare.atlas.confirm import run_confirm
+    from compare.atlas.report import write_report
+    from compare.atlas.run import run_atlas
+
+    path = atlas_file(paths)
+    if fresh:
+        remove_outputs([path], echo)
+    summary: dict[str, Any] = {"atlas": str(path)}
+    if not report_only:
+        summary["run"] = vars(run_atlas(path, linkages=linkages, seed=seed, workers=workers, scheduler=scheduler,
+                                        progress=progress, echo=echo))
+        if confirm > 0:
+            summary["confirm"] = run_confirm(path, n=confirm, seed=seed, workers=workers, scheduler=scheduler,
+                                             progress=progress, echo=echo)
+    if not path.exists():
+        raise FileNotFoundError(f"{path}: no atlas file to report on; run `ked study atlas` without --report-only")
+    summary["report"] = write_report(path, paths.figures, paths.readme)
+    return summary

@@ -1,0 +1,244 @@
+"""``ked study tiers``: where the quasi-static error comes from, and which model holds how far.
+
+For the validity campaigns (reference families: 2 % damping, ccw crank) every stored scene has the
+quasi-static, linear (with and without prestress) and Exudyn solutions.  Against the Exudyn steady state
+d_dyn the quasi-static error splits into
+
+* the **dynamic part** max|d_lin - d_qs| / max|d_dyn| (the inertia of the elastic motion, which the
+  linear model adds) and
+* the **nonlinear part** max|d_dyn - d_lin| / max|d_dyn| (large deflections, geometric nonlinearity),
+
+all vector history errors of the coupler point (``compare.metrics``).  The limits are the validity
+study's: the largest r below which every grid scene solved and stayed under the tolerance, interpolated.
+The study runs nothing of its own: the validity campaigns list the linear solvers, so
+``ked study validity`` (or this study without ``--report-only``) adds them to the stored scenes.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from compare import metrics, store
+from compare.studies import CONFIG_DIR, StudyPaths
+from compare.studies.sections import write_section
+from compare.studies.validity_analysis import Limit, validity_limit
+from compare.studies.validity_data import linkage_json, read_points
+
+SECTION = "tiers"
+MODELS = ("quasi_static", "linear", "linear_classic")
+TOLERANCES = (0.05, 0.10)
+FIGURE = "tiers_error_parts.png"
+
+
+@dataclass(frozen=True)
+class TierPoint:
+    """One reference scene: speed ratio r, errors against Exudyn [1] (nan when a solution is missing),
+    the two parts of the quasi-static error, the peak deflection over the shortest link [1], and the
+    linear model's largest |Floquet multiplier|."""
+
+    linkage: str
+    mechanism: str
+    mass_model: str
+    r: float
+    dyn_ok: bool
+    dyn_reason: str
+    error: dict[str, float]
+    dynamic_part: float
+    nonlinear_part: float
+    deflection_ratio: float
+    floquet_max_abs: float
+
+
+def _xy(h: dict[str, np.ndarray]) -> np.ndarray | None:
+    return np.column_stack([h["dx"], h["dy"]]) if "dx" in h and "dy" in h else None
+
+
+def tier_point(p: object, r: object) -> TierPoint:
+    """Errors of one stored scene (``p``: the validity study's Point, ``r``: its SceneResult)."""
+    nan = math.nan
+    dyn = _xy(r.dynamic) if r.solutions.get("dynamic") is not None and r.solutions["dynamic"].ok else None
+    hist = {m: _xy(r.history(m)) for m in MODELS}
+    hist = {m: h for m, h in hist.items() if h is not None and r.solutions[m].ok}
+    err = {m: metrics.history_error(h, dyn) if dyn is not None else nan for m, h in hist.items()}
+    qs, lin = hist.get("quasi_static"), hist.get("linear")
+    ok = dyn is not None and qs is not None and lin is not None
+    fb = r.spec.fourbar() if r.spec.linkage.full_turn else None
+    shortest = min(fb.crank, fb.coupler, fb.follower, fb.extender, fb.ground) if fb is not None else nan
+    lin_sol = r.solutions.get("linear")
+    return TierPoint(
+        linkage=p.linkage, mechanism=p.mechanism, mass_model=p.mass_model, r=p.r, dyn_ok=dyn is not None,
+        dyn_reason="" if dyn is not None else (r.solutions["dynamic"].message if "dynamic" in r.solutions else ""),
+        error={m: err.get(m, nan) for m in MODELS},
+        dynamic_part=metrics.max_abs_error(lin, qs) / metrics.peak(dyn) if ok else nan,
+        nonlinear_part=metrics.max_abs_error(dyn, lin) / metrics.peak(dyn) if ok else nan,
+        deflection_ratio=metrics.peak(dyn) / shortest if dyn is not None else nan,
+        floquet_max_abs=float(lin_sol.stats.get("floquet_max_abs", nan)) if lin_sol is not None else nan,
+    )
+
+
+def load(files: Sequence[Path]) -> list[TierPoint]:
+    """The reference scenes (2 % damping, ccw, not refined) of the validity files."""
+    out, labels = [], {}
+    for f in files:
+        if not f.exists():
+            continue
+        results = {r.key: r for r in store.read_scenes(f)}
+        for p in read_points(f, labels=labels):
+            labels.setdefault(linkage_json(p.spec), p.linkage)  # a four-bar keeps its first file's label
+            if p.refined or p.damping != 0.02 or p.direction != "ccw" or p.key not in results:
+                continue
+            out.append(tier_point(p, results[p.key]))
+    return out
+
+
+_ORDER = {m: i for i, m in enumerate(("tip", "joints", "extender", "distributed"))}
+
+
+def families(points: Sequence[TierPoint]) -> dict[tuple[str, str, str], list[TierPoint]]:
+    """Scenes by (linkage, mechanism, mass model), in report order, each sorted by r (one r once)."""
+    fams: dict[tuple[str, str, str], list[TierPoint]] = {}
+    for p in sorted(points, key=lambda p: (p.linkage, p.mechanism != "source", _ORDER.get(p.mass_model, 9), p.r)):
+        fams.setdefault((p.linkage, p.mechanism, p.mass_model), []).append(p)
+    return fams
+
+
+def limits(fam: Sequence[TierPoint], model: str, tolerance: float) -> Limit:
+    """The model's validity limit over a family's speed ratios (a failed Exudyn run ends the walk)."""
+    return validity_limit([p.r for p in fam], [p.error[model] for p in fam],
+                          [p.dyn_ok and math.isfinite(p.error[model]) for p in fam], tolerance)
+
+
+def _fmt(lim: Limit) -> str:
+    if lim.status == "crossed":
+        return f"{lim.r_cross:.3f}"
+    if lim.status == "above_grid":
+        return f">= {lim.r_pass:g}"
+    if lim.status == "below_grid":
+        return f"< {lim.r_fail:g}"
+    if lim.status == "failure":
+        return f">= {lim.r_pass:g} (Exudyn failed at {lim.r_fail:g})" if math.isfinite(lim.r_pass) else "-"
+    return "-"
+
+
+def _span(values: list[float]) -> str:
+    v = [x for x in values if math.isfinite(x)]
+    return f"{min(v):.3f}-{max(v):.3f}" if v else "-"
+
+
+def markdown(points: Sequence[TierPoint], figure: Path | None, readme: Path) -> str:
+    """The README section (from the stored data only)."""
+    fams = families(points)
+    L = ["## Three tiers: quasi-static, linear, nonlinear", "",
+         "Regenerate: `ked study tiers` (reads the validity campaigns' HDF5 files, whose configs list the "
+         "quasi-static, linear (with and without prestress) and Exudyn solvers; `ked study validity` computes "
+         "any missing solution). Errors: vector history errors of the coupler point against the Exudyn steady "
+         "state (`compare.metrics.history_error`); the quasi-static error splits into a **dynamic part** "
+         "max|d_lin - d_qs| / max|d_dyn| and a **nonlinear part** max|d_dyn - d_lin| / max|d_dyn|. Limits: the "
+         "largest r = Omega/omega1_min below which every scene of the family solved and stayed under the "
+         "tolerance (interpolated on the validity study's r grid).", ""]
+    L += ["| linkage | mechanism | mass model | quasi-static 5 % | quasi-static 10 % | linear 5 % | linear 10 % | "
+          "linear, no prestress 5 % | linear, no prestress 10 % |", "|---" * 9 + "|"]
+    per_model: dict[str, dict[str, list[float]]] = {}
+    for (lk, mech, mm), fam in fams.items():
+        cells = []
+        for model in MODELS:
+            for tol in TOLERANCES:
+                lim = limits(fam, model, tol)
+                cells.append(_fmt(lim))
+                per_model.setdefault(mm, {}).setdefault(f"{model} {tol}", []).append(
+                    lim.r_cross if lim.status == "crossed" else math.nan)
+        L.append(f"| {lk} | {mech} | {mm} | " + " | ".join(cells) + " |")
+    L += ["", "**The answer, per mass model** (range over the linkages of the limits that were crossed on the "
+          "grid):", ""]
+    for mm, lims in per_model.items():
+        L.append(f"* {mm}: quasi-static holds to r = {_span(lims['quasi_static 0.05'])} (5 %) / "
+                 f"{_span(lims['quasi_static 0.1'])} (10 %); the linear model to r = {_span(lims['linear 0.05'])} "
+                 f"(5 %) / {_span(lims['linear 0.1'])} (10 %) (without prestress: "
+                 f"{_span(lims['linear_classic 0.05'])} / {_span(lims['linear_classic 0.1'])}); beyond that the "
+                 "nonlinear model is needed.")
+    L += ["", _parts_text(points)]
+    L += _failures(points)
+    if figure is not None:
+        import os
+
+        L += ["", f"![tiers]({os.path.relpath(figure.resolve(), readme.resolve().parent)})"]
+    return "\n".join(L) + "\n"
+
+
+def _parts_text(points: Sequence[TierPoint]) -> str:
+    ok = [p for p in points if math.isfinite(p.dynamic_part) and math.isfinite(p.nonlinear_part)]
+    if not ok:
+        return "No scene has all three solutions yet."
+    below = [p for p in ok if p.r <= 0.1]
+    dom = sum(p.dynamic_part > p.nonlinear_part for p in below)
+    big = [p for p in ok if p.deflection_ratio > 0.1]
+    return (f"Where the error comes from: in {dom} of the {len(below)} scenes with r <= 0.1 the dynamic part is the "
+            "larger one (the quasi-static answer fails because it ignores the inertia of the elastic motion, which "
+            f"the linear model restores); in {sum(p.nonlinear_part > p.dynamic_part for p in big)} of the {len(big)} "
+            "scenes whose peak deflection exceeds 10 % of the shortest link the nonlinear part is the larger one.")
+
+
+def _failures(points: Sequence[TierPoint]) -> list[str]:
+    failed = [p for p in points if not p.dyn_ok]
+    if not failed:
+        return []
+    L = ["", "Scenes where Exudyn found no periodic steady state, with the linear model's largest |Floquet "
+         "multiplier| (>= 1: the linear model has no stable periodic steady state either):", "",
+         "| linkage | mass model | r | linear max abs(mu) | Exudyn |", "|---|---|---|---|---|"]
+    for p in sorted(failed, key=lambda p: (p.linkage, p.mass_model, p.r)):
+        L.append(f"| {p.linkage} | {p.mass_model} | {p.r:g} | {p.floquet_max_abs:.3f} | {p.dyn_reason[:80]} |")
+    return L
+
+
+def figure(points: Sequence[TierPoint], path: Path) -> Path:
+    """Error parts against r, and the nonlinear part against peak deflection / shortest link."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(12, 4.5), layout="constrained")
+    ax1, ax2 = fig.subplots(1, 2)
+    for mm, marker in zip(("tip", "joints", "extender", "distributed"), "osD^"):
+        sel = [p for p in points if p.mass_model == mm and math.isfinite(p.dynamic_part)]
+        if not sel:
+            continue
+        r = [p.r for p in sel]
+        ax1.scatter(r, [p.error["quasi_static"] for p in sel], marker=marker, s=14, label=f"{mm}: quasi-static")
+        ax1.scatter(r, [p.nonlinear_part for p in sel], marker=marker, s=14, facecolors="none",
+                    label=f"{mm}: linear (nonlinear part)")
+        ax2.scatter([p.deflection_ratio for p in sel], [p.nonlinear_part for p in sel], marker=marker, s=14, label=mm)
+    for ax in (ax1, ax2):
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.grid(alpha=0.3, which="both")
+        for tol in TOLERANCES:
+            ax.axhline(tol, color="r", lw=0.8, ls=":")
+    ax1.set_xlabel("speed ratio r = Omega / omega1_min")
+    ax1.set_ylabel("history error against Exudyn [1]")
+    ax1.set_title("quasi-static error (filled) and linear model error (open)", fontsize=10)
+    ax2.set_xlabel("peak deflection of P / shortest link (Exudyn)")
+    ax2.set_ylabel("nonlinear part max|d_dyn - d_lin| / max|d_dyn|")
+    ax2.set_title("the linear model's error grows with the deflection", fontsize=10)
+    ax1.legend(fontsize=7, ncol=2)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    return path
+
+
+def run(paths: StudyPaths, *, workers: int = 2, fresh: bool = False, report_only: bool = False,
+        progress: bool = False, echo: Callable[[str], object] = print) -> dict:
+    """The study with the common signature (see :func:`compare.studies.run`); computing means resuming
+    the validity campaigns (which adds missing linear solutions); ``fresh`` is the validity study's."""
+    from compare.studies import validity
+
+    configs = [CONFIG_DIR / c for c in validity.CONFIGS]
+    if not report_only:
+        validity.run(paths, workers=workers, fresh=fresh, progress=progress, echo=echo, retry=False, refine=False)
+    files = [paths.studies / (c.stem + ".h5") for c in configs]
+    points = load(files)
+    fig = figure(points, paths.figures / FIGURE) if points else None
+    write_section(paths.readme, SECTION, markdown(points, fig, paths.readme))
+    return {"scenes": len(points), "figure": str(fig) if fig else None, "readme": str(paths.readme)}

@@ -1,0 +1,102 @@
+"""``ked check``: for any four-bar, how fast is too fast for the quasi-static analysis, how wrong it is
+at a given speed, and which model is needed (:mod:`compare.check`)."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict
+from typing import Any
+
+import click
+
+from ked_cli.options import RuleType, linkage_option, load_source
+from ked_quasi import rules
+from ked_quasi.linkage import DIRECTIONS
+from ked_quasi.massmodel import MASS_MODELS
+
+
+def _rpm_range(text: str | None) -> list[float]:
+    if not text:
+        return []
+    try:
+        start, stop, n = text.split(":")
+        a, b, k = float(start), float(stop), int(n)
+    except ValueError:
+        raise click.BadParameter(f"{text!r}: expected START:STOP:N, e.g. 50:300:6", param_hint="--rpm-range") from None
+    if not 1 <= k <= 200:
+        raise click.BadParameter("N must be 1..200", param_hint="--rpm-range")
+    values = [a + (b - a) * i / max(k - 1, 1) for i in range(k)]
+    for v in values:
+        try:
+            rules.RPM.check(v)
+        except ValueError as exc:
+            raise click.BadParameter(str(exc).removeprefix("rpm: "), param_hint="--rpm-range") from None
+    return values
+
+
+@click.command("check")
+@linkage_option()
+@click.option("--mechanism", type=click.Choice(["source", "cognate"]), default="source", show_default=True)
+@click.option("--mass-model", type=click.Choice(MASS_MODELS), default="tip", show_default=True)
+@click.option("--rpm", "rpms", multiple=True, type=RuleType(rules.RPM),
+              help=f"Crank speed(s): {rules.RPM.allowed()}; repeatable [default: 300].")
+@click.option("--rpm-range", default=None, metavar="START:STOP:N", help="N crank speeds from START to STOP rpm.")
+@click.option("--lumps", type=RuleType(rules.LUMPS), default=5, show_default=True)
+@click.option("--payload-kg", type=RuleType(rules.PAYLOAD_KG), default=None,
+              help="Point mass at P [kg] [default: 2 lb for tip, else 0].")
+@click.option("--stiffness-scale", type=RuleType(rules.STIFFNESS_SCALE), default=1.0, show_default=True)
+@click.option("--direction", type=click.Choice(DIRECTIONS), default="ccw", show_default=True)
+@click.option("--damping-ratio", type=RuleType(rules.DAMPING_RATIO), default=0.02, show_default=True)
+@click.option("--tolerance", type=RuleType(rules.TOLERANCE), default=0.10, show_default=True,
+              help="Relative history error accepted.")
+@click.option("--confirm", is_flag=True, help="Also run the Exudyn model and report the three errors it measures.")
+@click.option("--json", "as_json", is_flag=True, help="Print a JSON list, one object per speed.")
+def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...], rpm_range: str | None,
+          lumps: int, payload_kg: float | None, stiffness_scale: float, direction: str, damping_ratio: float,
+          tolerance: float, confirm: bool, as_json: bool) -> None:
+    """Design check: per speed, r = Omega/omega1_min, the quasi-static and linear peaks, how far the
+    quasi-static answer is from the linear model, Floquet max |mu|, the one-mode estimate of the
+    quasi-static error, the tier needed (quasi-static / linear / nonlinear) and a verdict.
+
+    JSON keys per speed: speed_ratio, quasi_static_peak_m, linear_peak_m, linear_vs_quasi_static,
+    quasi_static_error_estimate, floquet_max_abs, tier, verdict, rpm, flags, confirmed, key.
+    """
+    from compare.check import check as run_check
+    from ked_quasi.massmodel import MassModel, default_payload
+
+    speeds = list(rpms) + _rpm_range(rpm_range) or [300.0]
+    try:
+        mm = MassModel(mass_model, lumps=lumps, payload=default_payload(mass_model) if payload_kg is None
+                       else payload_kg)
+        rows = run_check(load_source(linkage), mechanism, mm, speeds, stiffness_scale=stiffness_scale,
+                         damping_ratio=damping_ratio, direction=direction, tolerance=tolerance, confirm=confirm)
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None
+    if as_json:
+        click.echo(json.dumps([_clean(asdict(r)) for r in rows]))
+        return
+    click.echo(f"Design check: {linkage} linkage, {mechanism}, mass model {mass_model}, damping {damping_ratio:g}, "
+               f"tolerance {tolerance:.0%}")
+    head = f"{'rpm':>8} {'r':>7} {'qs peak mm':>11} {'lin peak mm':>12} {'qs vs lin':>9} {'1-mode':>7} {'|mu|':>6}"
+    click.echo(head + "  tier" + ("   measured vs Exudyn: qs / linear" if confirm else ""))
+    for r in rows:
+        line = (f"{r.rpm:8.1f} {r.speed_ratio:7.3f} {1e3 * r.quasi_static_peak_m:11.4g} {1e3 * r.linear_peak_m:12.4g} "
+                f"{_pct(r.linear_vs_quasi_static):>9} {_pct(r.quasi_static_error_estimate):>7} "
+                f"{r.floquet_max_abs:6.3f}  {r.tier}")
+        if confirm:
+            c = r.confirmed
+            line += ("   Exudyn failed" if "dynamic_failed" in c else
+                     f"   {_pct(c.get('quasi_static_vs_dynamic'))} / {_pct(c.get('linear_vs_dynamic'))}")
+        click.echo(line)
+        click.echo(f"{'':>8} {r.verdict}")
+
+
+def _pct(x: float | None) -> str:
+    return "-" if x is None or not math.isfinite(x) else f"{100 * x:.1f}%"
+
+
+def _clean(d: dict[str, Any]) -> dict[str, Any]:
+    """JSON without NaN (null instead)."""
+    return {k: (_clean(v) if isinstance(v, dict) else None if isinstance(v, float) and not math.isfinite(v) else
+                list(v) if isinstance(v, tuple) else v) for k, v in d.items()}

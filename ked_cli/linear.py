@@ -1,0 +1,80 @@
+"""``ked linear``: the linear time-periodic KED model of one scene (same scene options as ``ked quasi``)."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import click
+
+from ked_cli.options import SceneOptions, build_scene, scene_options
+from ked_quasi import rules
+
+
+@click.command("linear")
+@scene_options
+@click.option("--damping-ratio", type=click.FloatRange(0.0, 0.99), default=0.02, show_default=True,
+              help="Modal damping ratio at the reference frequency (stiffness-proportional, as ked simulate).")
+@click.option("--damping-reference-hz", type=click.FloatRange(0.0, 1e9, min_open=True), default=None,
+              help="Reference frequency [Hz] of the damping ratio [default: mean f1 of the frozen linkage].")
+@click.option("--prestress/--no-prestress", default=True, show_default=True,
+              help="Geometric stiffness of the links' axial forces under the quasi-static inertia loads.")
+@click.option("--max-harmonics", type=click.IntRange(1, 64), default=32, show_default=True,
+              help="Largest number of crank harmonics the periodic solve may use, 1..64 (the solve grows as "
+                   "(harmonics x coordinates)^3).")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object with the arrays and statistics.")
+def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: bool, max_harmonics: int,
+           as_json: bool,
+           **kw: Any) -> None:
+    """Linear time-periodic KED: the frozen linkage plus the inertia of its elastic motion, periodic
+    steady state solved directly, Floquet stability (docs/linear_model.md).
+
+    JSON keys: crank_angle_deg, dx_m, dy_m, rotation_rad (elastic deflection of P, as ked quasi; null
+    without a stable steady state), floquet_max_abs, stable, wall_s, harmonics, error_estimate,
+    speed_ratio, damping_reference_hz, flags, valid, message.  Exit status 1 when there is no stable
+    periodic steady state (max |Floquet multiplier| >= 1).
+    """
+    from ked_linear import LinearSettings, describe_flags, result_flags, solve_linear
+
+    opts = SceneOptions.pop(kw)
+    scene = build_scene(opts)
+    try:
+        settings = LinearSettings(damping_ratio=damping_ratio, damping_reference_hz=damping_reference_hz,
+                                  prestress=prestress, max_harmonics=max_harmonics)
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None
+    res = solve_linear(scene, settings)
+    d = res.deflection
+    flags = result_flags(res, scene.fourbar)
+    out = {
+        "crank_angle_deg": scene.crank_angles_deg.tolist(),
+        "dx_m": d[:, 0].tolist() if res.stable else None, "dy_m": d[:, 1].tolist() if res.stable else None,
+        "rotation_rad": d[:, 2].tolist() if res.stable else None,
+        "floquet_max_abs": res.floquet_max_abs, "stable": res.stable, "wall_s": res.wall_s,
+        "harmonics": res.harmonics, "error_estimate": res.error_estimate, "speed_ratio": res.speed_ratio,
+        "damping_reference_hz": res.damping_reference_hz, "flags": list(flags), "valid": res.stable and not flags,
+        "message": res.message,
+    }
+    if flags:
+        click.echo(f"warning: {describe_flags(flags, res, scene.fourbar)}", err=True)
+    if as_json:
+        click.echo(json.dumps(out))
+    else:
+        _table(opts, scene, res, out)
+    if not res.stable:
+        raise click.ClickException(f"no stable periodic steady state: {res.message}")
+
+
+def _table(opts: SceneOptions, scene: Any, res: Any, out: dict[str, Any]) -> None:
+    click.echo(f"Linear KED steady-state deflection of P: {opts.describe()}")
+    click.echo(f"{res.message}; r = Omega/omega1_min = {res.speed_ratio:.3g}; {res.wall_s * 1e3:.1f} ms")
+    if not res.stable:
+        return
+    if not out["valid"]:
+        click.echo("NOT VALID: " + ", ".join(out["flags"]) + " (see the warning above)")
+    step = rules.steps_per_turn(scene.step_deg)
+    d = max(1, len(f"{360 / step:g}".split(".")[-1]) if "." in f"{360 / step:g}" else 1)
+    click.echo(f"{'theta deg':>9} {'dx mm':>10} {'dy mm':>10} {'rot mrad':>10}")
+    for i, theta in enumerate(out["crank_angle_deg"]):
+        click.echo(f"{theta:9.{d}f} {1e3 * out['dx_m'][i]:10.4g} {1e3 * out['dy_m'][i]:10.4g} "
+                   f"{1e3 * out['rotation_rad'][i]:10.4g}")

@@ -1,0 +1,62 @@
+"""A scene as a linear time-periodic system on the absolute elastic displacements of its lumped masses.
+
+M u'' + C(theta) u' + K(theta) u = -M a_rigid(theta), theta = theta0 + s Omega t (s = +1 ccw, -1 cw):
+K = the frozen structure condensed on the masses (:func:`ked_quasi.frame.condensed_structure`, with the
+geometric stiffness of the quasi-static axial forces if prestressed), C = beta K_E (the unstressed
+part on the same static modes, :mod:`ked_quasi.damping`), output: dx, dy, rotation of P from the mass
+displacements (static condensation).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ked_quasi.damping import damping_reference_hz, rayleigh_beta
+from ked_quasi.frame import condensed_structure
+from ked_quasi.scene import Scene
+
+from .periodic import Coefficients, PeriodicSystem
+from .settings import LinearSettings
+
+
+@dataclass(frozen=True)
+class LinkageSystem:
+    """The scene's periodic system plus its damping: reference frequency [Hz] and beta [s]."""
+
+    system: PeriodicSystem
+    damping_reference_hz: float
+    damping_beta: float
+
+
+def linkage_system(scene: Scene, settings: LinearSettings) -> LinkageSystem:
+    """The linear KED equations of ``scene`` as a :class:`~ked_linear.periodic.PeriodicSystem`."""
+    f_ref = settings.damping_reference_hz
+    f_ref = damping_reference_hz(scene) if f_ref is None else float(f_ref)
+    beta = rayleigh_beta(settings.damping_ratio, f_ref)
+
+    memo: dict[bytes, Coefficients] = {}  # the same angles recur (levels of the periodic solve, Floquet)
+
+    def coefficients(theta: np.ndarray) -> Coefficients:
+        key = np.ascontiguousarray(theta, dtype=float).tobytes()
+        if key not in memo:
+            cs = condensed_structure(scene, theta, prestress=settings.prestress)
+            memo[key] = Coefficients(stiffness=cs.stiffness, damping=beta * cs.material_stiffness, load=cs.load,
+                                     output=cs.output)
+        return memo[key]
+
+    mass = condensed_structure(scene, np.zeros(1)).mass
+    system = PeriodicSystem(mass=mass, speed=scene.fourbar.sign * scene.omega, coefficients=coefficients)
+    return LinkageSystem(system=system, damping_reference_hz=f_ref, damping_beta=beta)
+
+
+def frozen_frequencies(scene: Scene, crank_angle: np.ndarray | None = None, prestress: bool = False,
+                       n_modes: int = 1) -> np.ndarray:
+    """Natural frequencies [Hz] (n, n_modes) of (M, K(theta)) at the crank angles (default the scene's
+    grid), the lowest first; an imaginary frequency (buckled prestressed structure) is returned negative."""
+    theta = scene.crank_angles if crank_angle is None else np.atleast_1d(np.asarray(crank_angle, float))
+    cs = condensed_structure(scene, theta, prestress=prestress)
+    w = 1.0 / np.sqrt(cs.mass)
+    lam = np.linalg.eigvalsh(w[:, None] * cs.stiffness * w[None, :])[:, :n_modes]
+    return np.sign(lam) * np.sqrt(np.abs(lam)) / (2.0 * np.pi)

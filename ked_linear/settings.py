@@ -1,0 +1,70 @@
+"""Settings of the linear time-periodic KED model (frozen, validated, plain values: hashable and JSON-able)."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+from ked_quasi import rules
+
+HARMONICS = rules.Rule("harmonics", "", 1, 64, "crank harmonics with dynamic response; the dense solve grows "
+                       "as (harmonics x coordinates)^3", integer=True)
+TOLERANCE = rules.Rule("tolerance", "", 1e-12, 0.1, "relative error of the history (a fraction of its peak)")
+FLOQUET_STEPS = rules.Rule("floquet_steps", "per cycle", 8, 65536, "time steps of the monodromy propagator",
+                           integer=True)
+FLOQUET_TOLERANCE = rules.Rule("floquet_tolerance", "", 1e-12, 0.5, "absolute error of the largest |multiplier|")
+REFERENCE_HZ = rules.Rule("damping_reference_hz", "Hz", 0.0, 1e9, "a natural frequency", lo_open=True)
+
+
+@dataclass(frozen=True)
+class LinearSettings:
+    """Damping, prestress and resolution of one linear KED solve.
+
+    damping_ratio: modal damping ratio zeta at ``damping_reference_hz`` (0 <= zeta <= 0.99), applied as
+        stiffness-proportional damping C = beta K_E, beta = 2 zeta / (2 pi f_ref) [s]
+        (:mod:`ked_quasi.damping`, the Exudyn model's definition).
+    damping_reference_hz: f_ref [Hz]; None -> the first natural frequency of the frozen structure
+        averaged over the scene's grid (:func:`ked_quasi.damping.damping_reference_hz`).
+    prestress: add the geometric stiffness of the links' axial forces under the quasi-static inertia
+        loads at the scene's speed (False: the classical linear KED model).
+    harmonics: crank harmonics H given a dynamic response in the periodic solve; None -> automatic
+        (4, 8, 16, ... up to ``max_harmonics`` until the estimated error is below ``tolerance``).
+    max_harmonics: largest H tried by the automatic choice.
+    tolerance: target relative error of the coupler-point history (fraction of its peak).
+    floquet_steps: time steps per crank cycle of the monodromy propagator; None -> automatic (64, 128,
+        ... until the change of max |multiplier| is below ``floquet_tolerance``).
+    floquet_tolerance: target absolute error of max |multiplier|.
+    """
+
+    damping_ratio: float = 0.02
+    damping_reference_hz: float | None = None
+    prestress: bool = True
+    harmonics: int | None = None
+    max_harmonics: int = 32
+    tolerance: float = 1e-3
+    floquet_steps: int | None = None
+    floquet_tolerance: float = 1e-3
+
+    def __post_init__(self) -> None:
+        _set(self, "damping_ratio", rules.DAMPING_RATIO.check(self.damping_ratio, "LinearSettings.damping_ratio"))
+        if self.damping_reference_hz is not None:
+            _set(self, "damping_reference_hz",
+                 REFERENCE_HZ.check(self.damping_reference_hz, "LinearSettings.damping_reference_hz"))
+        if not isinstance(self.prestress, bool):
+            raise ValueError(f"LinearSettings.prestress: must be True or False; got {self.prestress!r}")
+        if self.harmonics is not None:
+            _set(self, "harmonics", HARMONICS.check(self.harmonics, "LinearSettings.harmonics"))
+        _set(self, "max_harmonics", HARMONICS.check(self.max_harmonics, "LinearSettings.max_harmonics"))
+        _set(self, "tolerance", TOLERANCE.check(self.tolerance, "LinearSettings.tolerance"))
+        if self.floquet_steps is not None:
+            _set(self, "floquet_steps", FLOQUET_STEPS.check(self.floquet_steps, "LinearSettings.floquet_steps"))
+        _set(self, "floquet_tolerance",
+             FLOQUET_TOLERANCE.check(self.floquet_tolerance, "LinearSettings.floquet_tolerance"))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict (JSON, HDF5 attributes); ``LinearSettings(**d)`` inverts it."""
+        return asdict(self)
+
+
+def _set(obj: LinearSettings, name: str, value: object) -> None:
+    object.__setattr__(obj, name, value)

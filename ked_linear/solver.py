@@ -1,0 +1,124 @@
+"""solve_linear: the linear time-periodic KED model of a scene, its periodic steady state and stability."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ked_quasi.scene import Scene
+from ked_quasi.solver import natural_frequencies
+
+from .floquet import floquet
+from .linkage import frozen_frequencies, linkage_system
+from .periodic import steady_state
+from .settings import LinearSettings
+
+OUTPUT_GROUPS = (slice(0, 2), slice(2, 3))
+"""Error measure of the history: (dx, dy) as a vector against its peak, the rotation against its peak."""
+
+
+@dataclass(frozen=True)
+class LinearResult:
+    """Periodic steady state of the linear KED model on the scene's grid, and its stability.
+
+    crank_angle (n,) [rad]: ``scene.crank_angles``.
+    deflection (n, 3): dx, dy [m] (global frame) and rotation [rad, CCW] of the section at P, elastic,
+        relative to the rigid position at the same crank angle (as ``solve_quasi_static``); all NaN
+        when ``status`` is "unstable" (no stable periodic steady state exists).
+    status: "ok" or "unstable"; stable: status == "ok"; message: one line saying why.
+    floquet_max_abs: largest |Floquet multiplier| of the homogeneous system over one crank cycle;
+        floquet_error: its estimated absolute error; floquet_steps: propagator steps per cycle.
+    harmonics: crank harmonics H with a dynamic response; collocation_points: N;
+        error_estimate: estimated relative error of the history (change from the level below, fraction of the peak).
+    damping_reference_hz [Hz], damping_beta [s]: the stiffness-proportional damping used.
+    speed_ratio: Omega / omega1_min, omega1_min = 2 pi min over the grid of the first unstressed frozen
+        natural frequency (``ked_quasi.natural_frequencies``).
+    frozen_f1_hz (n,) [Hz]: first natural frequency of (M, K(theta)) as solved (prestressed if
+        ``settings.prestress``; negative if the prestressed structure buckles).
+    wall_s [s]: wall time of the solve.
+    """
+
+    crank_angle: np.ndarray
+    deflection: np.ndarray
+    status: str
+    stable: bool
+    message: str
+    floquet_max_abs: float
+    floquet_error: float
+    floquet_steps: int
+    harmonics: int
+    collocation_points: int
+    error_estimate: float
+    damping_reference_hz: float
+    damping_beta: float
+    speed_ratio: float
+    frozen_f1_hz: np.ndarray
+    settings: LinearSettings
+    wall_s: float
+
+
+UNRESOLVED_ESTIMATE = 0.02
+"""A history whose estimated discretization error exceeds this fraction of its peak is flagged
+"unresolved": the periodic solve did not converge within ``max_harmonics`` (typically a frozen higher
+mode whose frequency sweeps over many crank harmonics during the cycle)."""
+
+
+def result_flags(res: LinearResult, fourbar: object) -> tuple[str, ...]:
+    """Validity flags of a stable result: the small-deflection bounds of ``ked_quasi.limits`` plus
+    "unresolved" (error estimate above :data:`UNRESOLVED_ESTIMATE`); () when unstable (no history)."""
+    from ked_quasi import limits
+
+    if not res.stable:
+        return ()
+    found = limits.flags(res.deflection, fourbar)
+    return found + (("unresolved",) if res.error_estimate > UNRESOLVED_ESTIMATE else ())
+
+
+def describe_flags(found: tuple[str, ...], res: LinearResult, fourbar: object) -> str:
+    """One line per kind of flag, "; "-joined (empty if none)."""
+    from ked_quasi import limits
+
+    parts = [limits.describe(tuple(f for f in found if f != "unresolved"), res.deflection, fourbar)]
+    if "unresolved" in found:
+        parts.append(f"periodic solve not converged: estimated error {res.error_estimate:.2g} of the peak at "
+                     f"{res.harmonics} harmonics (> {UNRESOLVED_ESTIMATE:g}); raise max_harmonics")
+    return "; ".join(p for p in parts if p)
+
+
+def _message(stable: bool, mu: float, mu_err: float, est: float, tol: float, H: int) -> str:
+    if not stable:
+        return (f"unstable: max |Floquet multiplier| = {mu:.6g} (+- {mu_err:.2g}) >= 1, no stable periodic steady "
+                "state (parametric resonance or buckling); deflection set to NaN")
+    text = f"stable (max |Floquet multiplier| = {mu:.4g} +- {mu_err:.2g}), {H} dynamic harmonics"
+    if not est < tol:
+        text += f"; estimated error {est:.2g} above tolerance {tol:g} at the largest harmonics tried"
+    return text
+
+
+def solve_linear(scene: Scene, settings: LinearSettings | None = None) -> LinearResult:
+    """Periodic steady state of the linear KED model of ``scene`` (see docs/linear_model.md)."""
+    t0 = time.perf_counter()
+    settings = LinearSettings() if settings is None else settings
+    if not isinstance(settings, LinearSettings):
+        raise TypeError(f"settings must be a LinearSettings, got {type(settings).__name__}")
+    ls = linkage_system(scene, settings)
+    theta = scene.crank_angles
+    ss = steady_state(ls.system, theta, settings.tolerance, settings.harmonics, settings.max_harmonics,
+                      OUTPUT_GROUPS)
+    fl = floquet(ls.system, settings.floquet_tolerance, settings.floquet_steps)
+    stable = bool(fl.max_abs < 1.0)
+    deflection = ss.output if stable else np.full_like(ss.output, np.nan)
+    f1 = natural_frequencies(scene, n_modes=1)[:, 0]
+    return LinearResult(
+        crank_angle=theta, deflection=deflection, status="ok" if stable else "unstable", stable=stable,
+        message=_message(stable, fl.max_abs, fl.error_estimate, ss.error_estimate, settings.tolerance,
+                         ss.solution.harmonics),
+        floquet_max_abs=fl.max_abs, floquet_error=fl.error_estimate, floquet_steps=fl.steps,
+        harmonics=ss.solution.harmonics, collocation_points=ss.solution.points, error_estimate=ss.error_estimate,
+        damping_reference_hz=ls.damping_reference_hz, damping_beta=ls.damping_beta,
+        speed_ratio=float(scene.omega / (2.0 * np.pi * np.min(f1))),
+        frozen_f1_hz=frozen_frequencies(scene, theta, settings.prestress)[:, 0], settings=settings,
+        wall_s=time.perf_counter() - t0,
+    )

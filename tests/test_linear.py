@@ -1,0 +1,224 @@
+"""The linear time-periodic KED model (ked_linear) against closed forms and independent methods."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from ked_linear import Coefficients, LinearSettings, PeriodicSystem, linkage_system, multipliers, solve_linear
+from ked_linear.linkage import frozen_frequencies
+from ked_linear.periodic import evaluate, relative_change, solve_periodic
+from ked_quasi import MassModel, Scene, natural_frequencies, solve_quasi_static
+from ked_quasi.frame import condensed_structure
+from ked_quasi.solver import flexibility_at_masses
+
+from .conftest import MASS_MODEL_CASES
+
+XY = (slice(0, 2),)
+
+
+def _scene(fb, mm: str, rpm: float, step_deg: float = 10.0) -> Scene:
+    return Scene(fb, MASS_MODEL_CASES[mm], rpm, step_deg)
+
+
+def _rpm_for_ratio(scene: Scene, r: float) -> float:
+    """Crank speed [rpm] giving the speed ratio r = Omega / omega1_min (ked_quasi frequencies)."""
+    return r * 60.0 * float(np.min(natural_frequencies(scene, 1)[:, 0]))
+
+
+@pytest.mark.parametrize("mm", list(MASS_MODEL_CASES))
+def test_unprestressed_stiffness_is_inverse_flexibility(mm, thesis, thesis_cognate):
+    # independent formulations of the same frozen structure: frame stiffness (ked_quasi.frame) condensed
+    # statically vs the flexibility method's beta^T F beta (ked_quasi.solver.flexibility_at_masses)
+    for fb in (thesis, thesis_cognate):
+        scene = _scene(fb, mm, 300.0, 20.0)
+        K = condensed_structure(scene).stiffness
+        D, m = flexibility_at_masses(scene)
+        assert np.abs(K - np.linalg.inv(D)).max() <= 1e-9 * np.abs(K).max()
+        assert np.array_equal(condensed_structure(scene).mass, m)
+
+
+@pytest.mark.parametrize("mm", list(MASS_MODEL_CASES))
+def test_frozen_frequencies_equal_ked_quasi(mm, thesis):
+    # eigenvalues of (M, K(theta)) against ked_quasi.natural_frequencies (eigenvalues of sqrt(M) D sqrt(M))
+    scene = _scene(thesis, mm, 300.0, 20.0)
+    n = min(3, condensed_structure(scene, np.zeros(1)).mass.size)
+    f_lin = frozen_frequencies(scene, n_modes=n)
+    f_qs = natural_frequencies(scene, n_modes=n)
+    assert np.abs(f_lin - f_qs).max() <= 1e-8 * f_qs.max()
+
+
+def test_without_inertia_and_damping_is_quasi_static(thesis):
+    # M u'' and C u' dropped: u = K^-1 f, the quasi-static solution (frame vs flexibility: round-off of
+    # a stiffness matrix with EA/EI contrasts ~1e7, measured ~1e-11)
+    scene = _scene(thesis, "distributed", 300.0)
+    sys_ = linkage_system(scene, LinearSettings(prestress=False)).system
+
+    def static(theta):
+        co = sys_.coefficients(theta)
+        return replace(co, damping=np.zeros_like(co.damping))
+
+    frozen = PeriodicSystem(mass=0.0 * sys_.mass, speed=sys_.speed, coefficients=static)
+    _, y = evaluate(solve_periodic(frozen, 4), scene.crank_angles)
+    qs = solve_quasi_static(scene).deflection
+    assert relative_change(y, qs, (slice(0, 2), slice(2, 3))) <= 1e-9
+
+
+@pytest.mark.parametrize("mm", list(MASS_MODEL_CASES))
+def test_low_speed_tends_to_quasi_static_like_r_squared(mm, thesis):
+    # without damping the dynamic correction of the instantaneous-structure solution is O(r^2): inertia
+    # ~ (k r)^2 K per harmonic, the prestress ~ Omega^2.  With stiffness-proportional damping the leading
+    # term is the phase lag 2 zeta (Omega/omega_ref) k, O(zeta r): slope 1 (measured 1.11 at zeta = 0.02)
+    base = _scene(thesis, mm, 30.0)
+    r = np.array([1e-3, 3e-3, 1e-2])
+    diffs = {0.0: [], 0.02: []}
+    for ri in r:
+        scene = replace(base, rpm=_rpm_for_ratio(base, ri))
+        qs = solve_quasi_static(scene).deflection
+        for zeta in diffs:
+            sys_ = linkage_system(scene, LinearSettings(damping_ratio=zeta)).system
+            _, d = evaluate(solve_periodic(sys_, 8), scene.crank_angles)
+            diffs[zeta].append(relative_change(d, qs, XY))
+    slope = np.polyfit(np.log(r), np.log(diffs[0.0]), 1)[0]
+    assert abs(slope - 2.0) < 0.05, (slope, diffs)
+    assert diffs[0.0][0] < 1e-4 and diffs[0.02][0] < 1e-4
+    assert 0.9 < np.polyfit(np.log(r), np.log(diffs[0.02]), 1)[0] < 1.3, diffs
+
+
+def _one_mass(zeta: float, r: float, harmonics: dict[int, complex], k: float = 4.0, m: float = 1.0):
+    w = np.sqrt(k / m)
+
+    def coefficients(theta):
+        n = theta.size
+        f = sum((a * np.exp(1j * kk * theta)).real for kk, a in harmonics.items())
+        return Coefficients(stiffness=np.full((n, 1, 1), k), damping=np.full((n, 1, 1), 2 * zeta * w * m),
+                            load=f[:, None])
+
+    return PeriodicSystem(mass=np.array([m]), speed=r * w, coefficients=coefficients), k
+
+
+@pytest.mark.parametrize("r", [0.1, 0.3, 0.9])
+def test_constant_coefficients_amplify_each_harmonic(r):
+    # closed form: harmonic k of a constant-coefficient oscillator is the static response times
+    # H(k r) = 1 / (1 - (k r)^2 + 2 i zeta k r)
+    zeta, harmonics = 0.05, {1: 1.0, 2: 0.5 - 0.2j, 3: 0.25j, 5: 0.1}
+    sys_, k = _one_mass(zeta, r, harmonics)
+    theta = np.linspace(0.0, 2 * np.pi, 50, endpoint=False)
+    exact = sum((a / k / (1 - (kk * r) ** 2 + 2j * zeta * kk * r) * np.exp(1j * kk * theta)).real
+                for kk, a in harmonics.items())
+    u, _ = evaluate(solve_periodic(sys_, 6), theta)
+    assert np.abs(u[:, 0] - exact).max() <= 1e-12 * np.abs(exact).max()
+
+
+def _mathieu(delta: float, eps: float, zeta: float = 0.0) -> PeriodicSystem:
+    def coefficients(theta):
+        n = theta.size
+        return Coefficients(stiffness=(delta + eps * np.cos(theta))[:, None, None],
+                            damping=np.full((n, 1, 1), 2 * zeta * np.sqrt(delta)), load=np.zeros((n, 1)))
+
+    return PeriodicSystem(mass=np.array([1.0]), speed=1.0, coefficients=coefficients)
+
+
+def _tongue_edge(eps: float, lo: float, hi: float, steps: int = 2000) -> float:
+    """Bisection on delta for max|mu| = 1 + 1e-9 between a stable and an unstable delta."""
+    unstable = lambda d: np.abs(multipliers(_mathieu(d, eps), steps)[0]) > 1.0 + 1e-9  # noqa: E731
+    s_lo = unstable(lo)
+    for _ in range(30):
+        mid = 0.5 * (lo + hi)
+        if unstable(mid) == s_lo:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+@pytest.mark.parametrize("eps", [0.02, 0.05])
+def test_floquet_mathieu_first_tongue(eps):
+    # u'' + (delta + eps cos t) u = 0: the first instability tongue is bounded by
+    # delta = 1/4 +- eps/2 - eps^2/8 + O(eps^3) (Mathieu a = 1 +- q - q^2/8, Abramowitz & Stegun 20.2.25,
+    # with a = 4 delta, q = 2 eps)
+    lower = _tongue_edge(eps, 0.25 - eps, 0.25)
+    upper = _tongue_edge(eps, 0.25, 0.25 + eps)
+    assert abs(lower - (0.25 - eps / 2 - eps**2 / 8)) < eps**3
+    assert abs(upper - (0.25 + eps / 2 - eps**2 / 8)) < eps**3
+
+
+def test_floquet_mathieu_stable_undamped_and_damped():
+    # undamped and stable: multipliers on the unit circle (Floquet theory for a Hamiltonian system,
+    # det Phi = 1 and |mu| <= 1); SDIRK2 dissipates O(N (h omega)^4) ~ 1e-10 here
+    mu = multipliers(_mathieu(0.1, 0.05), 2000)
+    assert np.abs(np.abs(mu) - 1.0).max() < 1e-8
+    # damping zeta: det Phi = exp(-2 zeta omega T) (Liouville), so |mu| = exp(-zeta omega T) for the pair
+    zeta, delta = 0.01, 0.1
+    mu = multipliers(_mathieu(delta, 0.0, zeta), 2000)
+    assert np.abs(np.abs(mu) - np.exp(-zeta * np.sqrt(delta) * 2 * np.pi)).max() < 1e-7
+    # and inside the tongue with no damping: unstable
+    assert np.abs(multipliers(_mathieu(0.25, 0.05), 2000)[0]) > 1.02
+
+
+def test_unstable_scene_is_flagged_and_not_returned(thesis):
+    # Case I at a speed where the second crank harmonic meets the first frozen frequency with nearly no
+    # damping: principal parametric resonance (Omega ~ omega1 for the k=2 content of K(theta))
+    base = _scene(thesis, "tip", 30.0)
+    scene = replace(base, rpm=_rpm_for_ratio(base, 1.0))
+    res = solve_linear(scene, LinearSettings(damping_ratio=0.0, floquet_steps=512))
+    assert res.floquet_max_abs >= 1.0
+    assert res.status == "unstable" and not res.stable and "unstable" in res.message
+    assert np.all(np.isnan(res.deflection))
+
+
+def test_resolution_doubling_changes_history_below_a_tenth_percent(thesis_cognate):
+    # spectral convergence of the collocation: H -> 2H changes the history by < 0.1 % of its peak
+    scene = _scene(thesis_cognate, "extender", 150.0)
+    a = solve_linear(scene, LinearSettings(harmonics=8, floquet_steps=64)).deflection
+    b = solve_linear(scene, LinearSettings(harmonics=16, floquet_steps=64)).deflection
+    assert relative_change(b, a, XY) < 1e-3
+
+
+def test_result_fields_and_settings_validation(thesis):
+    res = solve_linear(_scene(thesis, "joints", 60.0))
+    assert res.status == "ok" and res.stable and res.deflection.shape == (36, 3)
+    assert res.error_estimate < res.settings.tolerance and res.harmonics >= 4
+    assert 0.0 <= res.floquet_max_abs < 1.0 and res.frozen_f1_hz.shape == (36,)
+    with pytest.raises(ValueError, match="LinearSettings.damping_ratio"):
+        LinearSettings(damping_ratio=-0.1)
+    with pytest.raises(ValueError, match="LinearSettings.harmonics"):
+        LinearSettings(harmonics=0)
+    with pytest.raises(ValueError, match="LinearSettings.prestress"):
+        LinearSettings(prestress="yes")
+
+
+def test_damping_reference_is_the_exudyn_default(thesis):
+    # same definition as exudyn_models.damping.reference_frequency (mean of f1 over the grid)
+    scene = _scene(thesis, "extender", 100.0)
+    res = solve_linear(scene, LinearSettings(harmonics=4, floquet_steps=64))
+    assert res.damping_reference_hz == pytest.approx(float(np.mean(natural_frequencies(scene, 1)[:, 0])), rel=1e-12)
+
+
+EXUDYN_CASES = {"tip": 0.1, "joints": 0.1, "extender": 0.1, "distributed": 0.1}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("mech", ["source", "cognate"])
+@pytest.mark.parametrize("mm", list(EXUDYN_CASES))
+def test_against_exudyn(mm, mech, thesis):
+    from exudyn_models import DynamicSettings, simulate_steady_state
+    from ked_quasi import THESIS_TIP_MASS_KG, mechanism
+
+    fb = mechanism(thesis, mech)
+    model = MassModel(mm, payload=THESIS_TIP_MASS_KG) if mm == "tip" else MassModel(mm)
+    base = Scene(fb, model, 30.0)
+    scene = replace(base, rpm=_rpm_for_ratio(base, EXUDYN_CASES[mm]))
+    exu = simulate_steady_state(scene, DynamicSettings(elements_per_link=8, steps_per_cycle=5760)).deflection
+    lin = solve_linear(scene).deflection
+    err = relative_change(lin, exu, XY)
+    # the distributed model's lumps vs Exudyn's consistent beam mass: the r -> 0 (quasi-static) lumping
+    # floor, measured here on the same scene at 1/10 of the speed, plus 1 %
+    limit = 0.02
+    if mm == "distributed":
+        slow = replace(scene, rpm=scene.rpm / 10.0)
+        exu_slow = simulate_steady_state(slow, DynamicSettings(elements_per_link=8, steps_per_cycle=5760)).deflection
+        limit = relative_change(solve_quasi_static(slow).deflection, exu_slow, XY) + 0.01
+    assert err < limit, (err, limit)
