@@ -8,7 +8,8 @@ chose (harmonics H, Floquet steps, max |mu|), and the error of each history agai
 reference (8 elements per link, 5760 steps per cycle, plain cycles steady to 1e-6): max |d - d_ref| over
 (dx, dy) relative to the reference peak.  The quasi-static error is printed beside them.  Case I (tip)
 at 300 rpm uses --tip-damping (default 0.1) for every model: the Exudyn runs diverge there at 2 %
-(see bench_exudyn.py).  Then the cost of solve_linear alone versus lumps per link and grid step.
+(see bench_exudyn.py).  Then the cost of solve_linear alone versus lumps per link and grid step, and
+`ked check` end to end in a fresh process.
 
 Usage: .venv/bin/python benchmarks/bench_linear.py [--runs 3] [--mass-models tip,joints,...] [--rpm 100,300]
 """
@@ -92,6 +93,24 @@ def main() -> None:
     side_by_side(args)
     if not args.no_scaling:
         scaling(args)
+    check_timing(args)
+
+
+def check_timing(args: argparse.Namespace) -> None:
+    """``ked check`` end to end in a fresh process (start-up, atlas limits, quasi-static + linear
+    solves), one speed per mass model, median of --runs runs; the target is under one second."""
+    import subprocess
+    import sys
+
+    print("\nked check --rpm 100 (fresh process, median wall s)")
+    for mm in args.mass_models.split(","):
+        walls = []
+        for _ in range(args.runs):
+            t0 = time.perf_counter()
+            subprocess.run([sys.executable, "-m", "ked_cli", "check", "--mass-model", mm, "--rpm", "100"],
+                           check=True, capture_output=True)
+            walls.append(time.perf_counter() - t0)
+        print(f"  {mm:12s} {statistics.median(walls):6.2f}")
 
 
 if __name__ == "__main__":

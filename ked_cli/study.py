@@ -44,6 +44,11 @@ def _run(name: str, results_dir: Path | None, workers: int, fresh: bool, report_
     click.echo(json.dumps(summary, indent=2, default=str))
 
 
+RETRY_FAILED = click.option("--retry-failed", is_flag=True,
+                            help="Recompute the scenes stored as failed (with today's solvers: the Exudyn refinement "
+                                 "ladder); successful stored scenes are kept.")
+
+
 @click.group("study")
 def study() -> None:
     """Regenerate a study: campaigns, HDF5 files, figures and its section of results/README.md."""
@@ -57,9 +62,10 @@ def study() -> None:
               help="Retry Newton failures with 4x the steps per cycle.")
 @click.option("--refine/--no-refine", default=True, show_default=True,
               help="Rerun the scenes bracketing each crossing at a doubled discretization.")
-def validity(configs: tuple[Path, ...], retry: bool, refine: bool, **common: Any) -> None:
+@RETRY_FAILED
+def validity(configs: tuple[Path, ...], retry: bool, refine: bool, retry_failed: bool, **common: Any) -> None:
     """Validity map: when does the quasi-static (instantaneous-structure) assumption hold?"""
-    _run("validity", configs=configs, retry=retry, refine=refine, **common)
+    _run("validity", configs=configs, retry=retry, refine=refine, retry_failed=retry_failed, **common)
 
 
 @study.command("work-precision")
@@ -82,9 +88,10 @@ def tiers(**common: Any) -> None:
 @common_options
 @click.option("--ladder/--no-ladder", default=True, show_default=True,
               help="Search the step a Newton failure needs (x2, x4, x8 steps per cycle).")
-def stability(ladder: bool, **common: Any) -> None:
+@RETRY_FAILED
+def stability(ladder: bool, retry_failed: bool, **common: Any) -> None:
     """Numerical stability of the solvers on stiff and extreme scenes."""
-    _run("stability", ladder=ladder, **common)
+    _run("stability", ladder=ladder, retry_failed=retry_failed, **common)
 
 
 @study.command("atlas")

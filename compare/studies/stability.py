@@ -210,11 +210,12 @@ def case_rows(results: Sequence[SceneResult], cases: dict[str, tuple[str, str]],
 
 
 def run_study(out: Path = OUT, *, workers: int | None = 2, fresh: bool = True, readme: Path = README,
-              ladder: bool = True, progress: bool = True) -> dict:
+              ladder: bool = True, progress: bool = True, retry_failed: bool = False) -> dict:
     """The whole study (see module docstring); returns a small summary dict."""
     t0 = time.perf_counter()
     configs = sorted(CONFIG_DIR.glob("*.toml"))
-    summaries = study_io.run_configs(configs, out, workers=workers, fresh=fresh, progress=progress)
+    summaries = study_io.run_configs(configs, out, workers=workers, fresh=fresh, progress=progress,
+                                     retry_failed=retry_failed)
     t_campaign = time.perf_counter() - t0
     results = store.read_scenes(out)
     rows = case_rows(results, case_of_keys(configs), ladder=ladder)
@@ -240,11 +241,14 @@ def report(out: Path = OUT, readme: Path = README) -> Path:
 
 
 def run(paths: StudyPaths, *, workers: int = 2, fresh: bool = False, report_only: bool = False,
-        progress: bool = False, echo: Callable[[str], object] = print, ladder: bool = True) -> dict:
-    """The study with the common signature (see :func:`compare.studies.run`)."""
+        progress: bool = False, echo: Callable[[str], object] = print, ladder: bool = True,
+        retry_failed: bool = False) -> dict:
+    """The study with the common signature (see :func:`compare.studies.run`); ``retry_failed``:
+    recompute the scenes stored as failed."""
     out = paths.studies / OUT.name
     if report_only:
         return {"out": str(out), "readme": str(report(out, paths.readme))}
     if fresh:
         remove_outputs([out], echo)
-    return run_study(out, workers=workers, fresh=False, readme=paths.readme, ladder=ladder, progress=progress)
+    return run_study(out, workers=workers, fresh=False, readme=paths.readme, ladder=ladder, progress=progress,
+                     retry_failed=retry_failed)

@@ -37,15 +37,16 @@ def refused_configs(configs: Sequence[Path]) -> dict[str, str]:
 
 
 def run_configs(configs: Sequence[Path], out: Path, *, workers: int | None, fresh: bool,
-                progress: bool = True) -> list[CampaignSummary]:
+                progress: bool = True, retry_failed: bool = False) -> list[CampaignSummary]:
     """Run each campaign config into ``out`` (scenes already stored are skipped, so scenes shared by
     two configs run once; configs refused at load are left out, see :func:`refused_configs`).
-    ``fresh``: delete ``out`` first (the study regenerates it)."""
+    ``fresh``: delete ``out`` first (the study regenerates it); ``retry_failed``: recompute the scenes
+    stored as failed (with today's solvers, e.g. the Exudyn refinement ladder)."""
     if fresh and out.exists():
         out.unlink()
     refused = refused_configs(configs)
-    return [run_campaign(load_config(c), out, workers=workers, progress=progress) for c in configs
-            if c.name not in refused]
+    return [run_campaign(load_config(c), out, workers=workers, progress=progress, retry_failed=retry_failed)
+            for c in configs if c.name not in refused]
 
 
 def _flatten(row: Any) -> dict[str, Any]:

@@ -141,8 +141,9 @@ class StudyRun:
 
 
 def run_study(configs: Sequence[Path], studies_dir: Path, *, workers: int = 2, retry: bool = True,
-              refine: bool = True, progress: bool = False, echo=print) -> StudyRun:
-    """Run (or resume) every campaign, its Newton retries and the refinement scenes."""
+              refine: bool = True, progress: bool = False, echo=print, retry_failed: bool = False) -> StudyRun:
+    """Run (or resume) every campaign, its Newton retries and the refinement scenes; ``retry_failed``:
+    recompute the base scenes stored as failed first (with the Exudyn refinement ladder)."""
     t0 = time.perf_counter()
     computed = 0
     files = []
@@ -150,7 +151,7 @@ def run_study(configs: Sequence[Path], studies_dir: Path, *, workers: int = 2, r
     for path, cfg in zip(configs, cfgs):
         out = studies_dir / (Path(path).stem + ".h5")
         files.append(out)
-        s = run_campaign(cfg, out, workers=workers, progress=progress)
+        s = run_campaign(cfg, out, workers=workers, progress=progress, retry_failed=retry_failed)
         computed += s.ok + s.failed
         echo(f"{cfg.name}: {s.total} scenes, {s.ok + s.failed} computed ({s.failed} failed) in {s.wall_s:.0f} s")
         if retry:
@@ -191,7 +192,7 @@ def write_outputs(files: Sequence[Path], refine_file: Path, figures_dir: Path, r
 
 def run(paths: StudyPaths, *, workers: int = 2, fresh: bool = False, report_only: bool = False,
         progress: bool = False, echo: Callable[[str], object] = print, configs: Sequence[Path] = (),
-        retry: bool = True, refine: bool = True) -> dict:
+        retry: bool = True, refine: bool = True, retry_failed: bool = False) -> dict:
     """The study with the common signature (see :func:`compare.studies.run`); ``configs`` default to
     the checked-in ``results/studies/validity_*.toml``."""
     config_paths = list(configs) or [CONFIG_DIR / c for c in CONFIGS]
@@ -205,7 +206,7 @@ def run(paths: StudyPaths, *, workers: int = 2, fresh: bool = False, report_only
     computed = 0
     if not report_only:
         r = run_study(config_paths, paths.studies, workers=workers, retry=retry, refine=refine, progress=progress,
-                      echo=echo)
+                      echo=echo, retry_failed=retry_failed)
         files, refine_file, computed = list(r.files), r.refine_file, r.computed
     missing = [str(f) for f in files if not f.exists()]
     if missing:
