@@ -99,9 +99,10 @@ def tier(r: SceneResult, linear_range: LinearRange, tolerance: float) -> tuple[s
     limit = linear_range.r10 if tolerance >= 0.10 else linear_range.r5
     spread = linear_range.r10_spread if tolerance >= 0.10 else linear_range.r5_spread
     if math.isfinite(limit) and ratio > limit - (spread if math.isfinite(spread) else 0.0):
-        return "nonlinear", (f"quasi-static is {err:.0%} off, and r = {ratio:.3g} is beyond the linear model's limit "
-                             f"r = {limit:.3g} +- {spread:.2g} ({linear_range.source}): use the nonlinear model")
-    bound = f"valid up to r = {limit:.3g} ({linear_range.source})" if math.isfinite(limit) else \
+        return "nonlinear", (f"quasi-static is {err:.0%} off, and r = {ratio:.3g} is not safely below the linear "
+                             f"model's limit (r = {limit:.3g}, {spread:.2g} below it for 10 % of the "
+                             f"{linear_range.source} linkages): use the nonlinear model")
+    bound = f"valid up to r = {limit:.3g} - {spread:.2g} ({linear_range.source})" if math.isfinite(limit) else \
         "its own limit unknown without an atlas: confirm with --confirm"
     return "linear", f"quasi-static is {err:.0%} off: use the linear model ({bound})"
 
