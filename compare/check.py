@@ -83,13 +83,23 @@ def _xy(h: dict[str, np.ndarray]) -> np.ndarray:
     return np.column_stack([h["dx"], h["dy"]])
 
 
+def speed_ratio(r: SceneResult) -> float:
+    """Omega / omega1_min of a computed scene (known even when a solver failed)."""
+    return float(2.0 * math.pi * r.rpm / 60.0 / r.omega1_min) if r.omega1_min > 0.0 else math.nan
+
+
 def tier(r: SceneResult, linear_range: LinearRange, tolerance: float) -> tuple[str, str]:
     """(tier, one-line verdict) of a checked scene (see the module docstring)."""
     qs, lin = r.solutions.get("quasi_static"), r.solutions.get("linear")
-    ratio = r.verdict.speed_ratio if r.verdict is not None else math.nan
+    ratio = speed_ratio(r)
+    if qs is None or not qs.ok:
+        return "nonlinear", f"no quasi-static answer ({qs.message if qs else 'not run'}): use the nonlinear model"
     if lin is None or not lin.ok:
         why = lin.message if lin is not None else "the linear model did not run"
         return "nonlinear", f"no stable linear steady state ({why}): use the nonlinear model (--confirm)"
+    if "unresolved" in lin.flags:
+        return "nonlinear", (f"the linear model's periodic solve did not converge ({lin.warnings}): "
+                             "use the nonlinear model (--confirm)")
     if lin.flags:
         return "nonlinear", (f"deflections beyond the small-deflection range ({', '.join(lin.flags)}): "
                              "use the nonlinear model (--confirm)")
@@ -111,8 +121,7 @@ def check_row(r: SceneResult, linear_range: LinearRange, tolerance: float) -> Ch
     """The check's numbers of one computed scene."""
     nan = math.nan
     qs, lin = r.solutions.get("quasi_static"), r.solutions.get("linear")
-    v = r.verdict
-    ratio = v.speed_ratio if v is not None else nan
+    ratio = speed_ratio(r)
     qs_xy = _xy(qs.deflection) if qs is not None and qs.ok else None
     lin_ok = lin is not None and lin.ok
     est = nan
@@ -122,7 +131,7 @@ def check_row(r: SceneResult, linear_range: LinearRange, tolerance: float) -> Ch
     confirmed = {}
     if "dynamic" in r.solutions and r.solutions["dynamic"].ok:
         dyn = _xy(r.solutions["dynamic"].deflection)
-        confirmed = {"quasi_static_vs_dynamic": metrics.history_error(qs_xy, dyn),
+        confirmed = {"quasi_static_vs_dynamic": metrics.history_error(qs_xy, dyn) if qs_xy is not None else nan,
                      "linear_vs_dynamic": metrics.history_error(_xy(lin.deflection), dyn) if lin_ok else nan}
     elif "dynamic" in r.solutions:
         confirmed = {"dynamic_failed": 1.0}

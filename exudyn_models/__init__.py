@@ -1,4 +1,4 @@
-"""Exudyn flexible-multibody models of the four-bar (issue 4).
+"""Exudyn flexible-multibody models of the four-bar.
 
 Every link is an elastic beam (ANCF cable by default), the crank is driven at constant speed (from the
 quasi-static state, or after a smooth start-up ramp), and the coupler-point deflection is returned over

@@ -3,14 +3,12 @@ at a given speed, and which model is needed (:mod:`compare.check`)."""
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import asdict
-from typing import Any
 
 import click
 
-from ked_cli.options import RuleType, linkage_option, load_source
+from ked_cli.options import RuleType, json_text, linkage_option, load_source
 from ked_quasi import rules
 from ked_quasi.linkage import DIRECTIONS
 from ked_quasi.massmodel import MASS_MODELS
@@ -74,7 +72,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
     if as_json:
-        click.echo(json.dumps([_clean(asdict(r)) for r in rows]))
+        click.echo(json_text([asdict(r) for r in rows]))
         return
     click.echo(f"Design check: {linkage} linkage, {mechanism}, mass model {mass_model}, damping {damping_ratio:g}, "
                f"tolerance {tolerance:.0%}")
@@ -94,9 +92,3 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
 
 def _pct(x: float | None) -> str:
     return "-" if x is None or not math.isfinite(x) else f"{100 * x:.1f}%"
-
-
-def _clean(d: dict[str, Any]) -> dict[str, Any]:
-    """JSON without NaN (null instead)."""
-    return {k: (_clean(v) if isinstance(v, dict) else None if isinstance(v, float) and not math.isfinite(v) else
-                list(v) if isinstance(v, tuple) else v) for k, v in d.items()}

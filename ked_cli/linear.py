@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import json
 from typing import Any
 
 import click
 
-from ked_cli.options import SceneOptions, build_scene, scene_options
+from ked_cli.options import SceneOptions, build_scene, json_text, scene_options
 from ked_quasi import rules
 
 
@@ -43,7 +42,10 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
                                   prestress=prestress, max_harmonics=max_harmonics)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
-    res = solve_linear(scene, settings)
+    try:
+        res = solve_linear(scene, settings)
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None
     d = res.deflection
     flags = result_flags(res, scene.fourbar)
     out = {
@@ -58,7 +60,7 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
     if flags:
         click.echo(f"warning: {describe_flags(flags, res, scene.fourbar)}", err=True)
     if as_json:
-        click.echo(json.dumps(out))
+        click.echo(json_text(out))
     else:
         _table(opts, scene, res, out)
     if not res.stable:

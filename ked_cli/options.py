@@ -132,3 +132,20 @@ def build_scene(o: SceneOptions, mechanism: str | None = None, mass_model: str |
                      o.payload_kg, o.stiffness_scale, o.direction)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
+
+
+def json_text(value: Any) -> str:
+    """Strict JSON (no NaN or inf: null instead; tuples as lists) of plain data."""
+    import json
+    import math
+
+    def clean(v: Any) -> Any:
+        if isinstance(v, dict):
+            return {k: clean(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [clean(x) for x in v]
+        if isinstance(v, float) and not math.isfinite(v):
+            return None
+        return v
+
+    return json.dumps(clean(value), allow_nan=False)

@@ -78,17 +78,22 @@ class FloquetResult:
 
 def floquet(system: PeriodicSystem, tolerance: float, steps: int | None = None,
             max_steps: int = 4096) -> FloquetResult:
-    """Multipliers with ``steps`` per cycle or, if None, doubling from 64 (<= ``max_steps``) until the
-    change of max |mu| is below ``tolerance`` or below a quarter of its distance to 1 (the stability
-    verdict is then settled)."""
-    plan = [max(8, steps // 2), steps] if steps is not None else [32 * 2**k for k in range(8) if 32 * 2**k <= max_steps]
-    previous, est, mu = None, float("nan"), np.array([np.nan])
+    """Multipliers with ``steps`` per cycle or, if None, doubling from 64 (<= ``max_steps``).  The
+    automatic choice stops once the change of max |mu| between the last two levels is below
+    ``tolerance`` or below a quarter of its distance to 1 (the stability verdict is then settled),
+    but only in the asymptotic range of the propagator: at least three levels, the last change less
+    than half the one before (the dissipative SDIRK2 steps pull |mu| of a lightly damped system below 1
+    at coarse steps, where two levels can agree while both are far off)."""
+    plan = [max(8, steps // 2), steps] if steps is not None else [64 * 2**k for k in range(7) if 64 * 2**k <= max_steps]
+    tops: list[float] = []
+    est, mu, n = float("nan"), np.array([np.nan]), plan[0]
     for n in plan:
         mu = multipliers(system, n)
-        top = float(np.abs(mu[0]))
-        if previous is not None:
-            est = abs(top - previous)
-            if steps is None and (est < tolerance or est < 0.25 * abs(1.0 - top)):
-                break
-        previous = top
+        tops.append(float(np.abs(mu[0])))
+        if len(tops) < 2:
+            continue
+        est = abs(tops[-1] - tops[-2])
+        asymptotic = len(tops) >= 3 and est < 0.5 * abs(tops[-2] - tops[-3])
+        if steps is None and asymptotic and (est < tolerance or est < 0.25 * abs(1.0 - tops[-1])):
+            break
     return FloquetResult(max_abs=float(np.abs(mu[0])), error_estimate=est, steps=n, multipliers=mu)

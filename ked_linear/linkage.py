@@ -41,6 +41,8 @@ def linkage_system(scene: Scene, settings: LinearSettings) -> LinkageSystem:
     def coefficients(theta: np.ndarray) -> Coefficients:
         key = np.ascontiguousarray(theta, dtype=float).tobytes()
         if key not in memo:
+            if len(memo) >= 8:  # bounded: the Floquet angles do not recur
+                memo.pop(next(iter(memo)))
             cs = condensed_structure(scene, theta, prestress=settings.prestress)
             memo[key] = Coefficients(stiffness=cs.stiffness, damping=beta * cs.material_stiffness, load=cs.load,
                                      output=cs.output)

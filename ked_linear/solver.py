@@ -13,7 +13,7 @@ from ked_quasi.solver import natural_frequencies
 from .floquet import floquet
 from .linkage import frozen_frequencies, linkage_system
 from .periodic import steady_state
-from .settings import LinearSettings
+from .settings import HARMONICS, LinearSettings
 
 OUTPUT_GROUPS = (slice(0, 2), slice(2, 3))
 """Error measure of the history: (dx, dy) as a vector against its peak, the rotation against its peak."""
@@ -59,6 +59,10 @@ class LinearResult:
     wall_s: float
 
 
+MAX_COORDINATES = 240
+"""Largest number of elastic coordinates (2 per moving lump) the linear model accepts (the Floquet step
+matrices alone take 2 x steps x (2n)^2 x 8 bytes: 470 MB at 240 coordinates and 512 steps)."""
+
 UNRESOLVED_ESTIMATE = 0.02
 """A history whose estimated discretization error exceeds this fraction of its peak is flagged
 "unresolved": the periodic solve did not converge within ``max_harmonics`` (typically a frozen higher
@@ -67,13 +71,14 @@ mode whose frequency sweeps over many crank harmonics during the cycle)."""
 
 def result_flags(res: LinearResult, fourbar: object) -> tuple[str, ...]:
     """Validity flags of a stable result: the small-deflection bounds of ``ked_quasi.limits`` plus
-    "unresolved" (error estimate above :data:`UNRESOLVED_ESTIMATE`); () when unstable (no history)."""
+    "unresolved" (error estimate above :data:`UNRESOLVED_ESTIMATE`, or none: a single level); () when
+    unstable (no history)."""
     from ked_quasi import limits
 
     if not res.stable:
         return ()
     found = limits.flags(res.deflection, fourbar)
-    return found + (("unresolved",) if res.error_estimate > UNRESOLVED_ESTIMATE else ())
+    return found + (("unresolved",) if not res.error_estimate <= UNRESOLVED_ESTIMATE else ())
 
 
 def describe_flags(found: tuple[str, ...], res: LinearResult, fourbar: object) -> str:
@@ -82,15 +87,16 @@ def describe_flags(found: tuple[str, ...], res: LinearResult, fourbar: object) -
 
     parts = [limits.describe(tuple(f for f in found if f != "unresolved"), res.deflection, fourbar)]
     if "unresolved" in found:
+        way_out = "raise max_harmonics" if res.settings.max_harmonics < HARMONICS.hi else "use the Exudyn model"
         parts.append(f"periodic solve not converged: estimated error {res.error_estimate:.2g} of the peak at "
-                     f"{res.harmonics} harmonics (> {UNRESOLVED_ESTIMATE:g}); raise max_harmonics")
+                     f"{res.harmonics} harmonics (not <= {UNRESOLVED_ESTIMATE:g}); {way_out}")
     return "; ".join(p for p in parts if p)
 
 
 def _message(stable: bool, mu: float, mu_err: float, est: float, tol: float, H: int) -> str:
     if not stable:
-        return (f"unstable: max |Floquet multiplier| = {mu:.6g} (+- {mu_err:.2g}) >= 1, no stable periodic steady "
-                "state (parametric resonance or buckling); deflection set to NaN")
+        return (f"unstable: max |Floquet multiplier| = {mu:.6g} (+- {mu_err:.2g}) not safely below 1, no stable "
+                "periodic steady state (parametric resonance, buckling, or no damping)")
     text = f"stable (max |Floquet multiplier| = {mu:.4g} +- {mu_err:.2g}), {H} dynamic harmonics"
     if not est < tol:
         text += f"; estimated error {est:.2g} above tolerance {tol:g} at the largest harmonics tried"
@@ -104,11 +110,16 @@ def solve_linear(scene: Scene, settings: LinearSettings | None = None) -> Linear
     if not isinstance(settings, LinearSettings):
         raise TypeError(f"settings must be a LinearSettings, got {type(settings).__name__}")
     ls = linkage_system(scene, settings)
+    if ls.system.mass.size > MAX_COORDINATES:
+        raise ValueError(f"mass model: the linear KED model takes at most {MAX_COORDINATES // 2} moving lumps "
+                         f"({MAX_COORDINATES} coordinates: its memory grows as their square times the Floquet "
+                         f"steps); this scene has {ls.system.mass.size // 2}: use fewer lumps per link")
     theta = scene.crank_angles
     ss = steady_state(ls.system, theta, settings.tolerance, settings.harmonics, settings.max_harmonics,
                       OUTPUT_GROUPS)
     fl = floquet(ls.system, settings.floquet_tolerance, settings.floquet_steps)
-    stable = bool(fl.max_abs < 1.0)
+    # the uncertainty counts against stability: a multiplier within its error of 1 is no attracting orbit
+    stable = bool(fl.max_abs + (fl.error_estimate if np.isfinite(fl.error_estimate) else 0.0) < 1.0)
     deflection = ss.output if stable else np.full_like(ss.output, np.nan)
     f1 = natural_frequencies(scene, n_modes=1)[:, 0]
     return LinearResult(

@@ -222,3 +222,43 @@ def test_against_exudyn(mm, mech, thesis):
         exu_slow = simulate_steady_state(slow, DynamicSettings(elements_per_link=8, steps_per_cycle=5760)).deflection
         limit = relative_change(solve_quasi_static(slow).deflection, exu_slow, XY) + 0.01
     assert err < limit, (err, limit)
+
+
+def test_undamped_linkage_has_no_attracting_orbit(thesis):
+    # physics: without damping the homogeneous system is Hamiltonian (M u'' + K(theta) u = 0), so
+    # det Phi = 1 (Liouville) and every multiplier lies on or off the unit circle in reciprocal pairs:
+    # max |mu| >= 1, never an attracting steady state. The automatic Floquet resolution must not let
+    # the propagator's numerical dissipation report one (coarse SDIRK2 steps pull |mu| below 1).
+    scene = _scene(thesis, "tip", 300.0)
+    res = solve_linear(scene, LinearSettings(damping_ratio=0.0))
+    assert not res.stable and res.status == "unstable"
+    assert res.floquet_max_abs == pytest.approx(1.0, abs=0.01)
+
+
+def test_error_estimate_levels_and_unresolved_flag(thesis):
+    from ked_linear import result_flags
+    from ked_linear.periodic import error_estimate, harmonic_levels
+
+    assert harmonic_levels(32) == [4, 8, 12, 20, 32]
+    assert harmonic_levels(64)[-1] == 64 and harmonic_levels(1) == [1]
+    # geometric tail: changes 0.1 then 0.01 (rho 0.1) -> 0.01 * 0.1 / 0.9; slow decay -> the change itself
+    assert error_estimate([0.1, 0.01]) == pytest.approx(0.01 / 9)
+    assert error_estimate([0.1, 0.08]) == 0.08
+    # one level only: no estimate, so the answer is flagged unresolved
+    res = solve_linear(_scene(thesis, "joints", 60.0), LinearSettings(max_harmonics=1))
+    assert np.isnan(res.error_estimate) and "unresolved" in result_flags(res, thesis)
+
+
+def test_ked_linear_cli_json_is_strict_and_refuses_oversized_models():
+    import json
+    import subprocess
+    import sys
+
+    run = [sys.executable, "-m", "ked_cli", "linear"]
+    out = subprocess.run(run + ["--max-harmonics", "1", "--json"], capture_output=True, text=True)
+    data = json.loads(out.stdout, parse_constant=lambda c: pytest.fail(f"non-strict JSON constant {c}"))
+    assert data["error_estimate"] is None and "unresolved" in data["flags"] and not data["valid"]
+    assert {"crank_angle_deg", "dx_m", "dy_m", "rotation_rad", "floquet_max_abs", "wall_s"} <= set(data)
+    big = subprocess.run(run + ["--mass-model", "distributed", "--lumps", "100"], capture_output=True, text=True)
+    assert big.returncode == 2 and "Traceback" not in big.stderr
+    assert big.stderr.strip().count("\n") == 0 and "lumps" in big.stderr

@@ -111,7 +111,7 @@ def rule_predictions(fam: dict[str, np.ndarray]) -> tuple[np.ndarray, dict[str, 
 
 
 def _family_name(fam: dict[str, np.ndarray], i: int) -> str:
-    return f"#{int(fam['linkage'][i])} {fam['mechanism'][i]} {fam['mass_model'][i]}"
+    return f"linkage {int(fam['linkage'][i])} {fam['mechanism'][i]} {fam['mass_model'][i]}"
 
 
 def prediction_text(fam: dict[str, np.ndarray], rule: np.ndarray, cs: dict[str, float]) -> list[str]:
