@@ -64,6 +64,7 @@ class Point:
     spec: SceneSpec
     source: str = ""
     finished_utc: str = ""
+    failure_class: str = ""
 
     @property
     def ok(self) -> bool:
@@ -95,8 +96,24 @@ def _speed_ratio(r: SceneResult) -> float:
     return float(r.spec.speed.value)
 
 
+def pair_outcome(r: SceneResult) -> tuple[str, str, str, str, str]:
+    """(status, stage, error type, message, failure class) of the quasi-static-vs-dynamic comparison of a scene: "ok"
+    when both solutions exist, else the first of the two that failed (another solver's failure, e.g.
+    an unstable linear model, does not take the comparison away)."""
+    if r.stage in ("setup", "metrics"):
+        return r.status, r.stage, r.error_type, r.message, r.failure_class
+    for name in ("quasi_static", "dynamic"):
+        s = r.solutions.get(name)
+        if s is None:
+            return "failed", name, "NotRun", f"{name} did not run", ""
+        if not s.ok:
+            return s.status, name, s.error_type, s.message, s.failure_class
+    return "ok", "", "", "", ""
+
+
 def to_point(r: SceneResult, linkage: str, refined: bool, source: str = "") -> Point:
     """Flatten one :class:`SceneResult`."""
+    status, stage, error_type, message, failure_class = pair_outcome(r)
     ds = r.dynamic_settings or {}
     f = r.natural_frequencies
     f1 = (float(np.nanmin(f[:, 0])), float(np.nanmax(f[:, 0]))) if f is not None and f.size else (math.nan,) * 2
@@ -104,12 +121,12 @@ def to_point(r: SceneResult, linkage: str, refined: bool, source: str = "") -> P
         key=r.key, label=r.spec.label, linkage=linkage, mechanism=r.spec.mechanism,
         mass_model=r.spec.mass_model.name, damping=float(r.spec.damping_ratio), direction=r.spec.direction,
         speed_kind=r.spec.speed.kind, r=_speed_ratio(r), rpm=float(r.rpm), omega1_min=float(r.omega1_min),
-        f1_range_hz=f1, status=r.status, stage=r.stage, error_type=r.error_type, message=r.message,
+        f1_range_hz=f1, status=status, stage=stage, error_type=error_type, message=message,
         refined=refined, elements_per_link=int(ds.get("elements_per_link", -1)),
         steps_per_cycle=int(ds.get("steps_per_cycle", -1)),
-        theta=r.crank_angle, qs=_xy(r.quasi_static), dyn=_xy(r.dynamic) if r.ok else None,
+        theta=r.crank_angle, qs=_xy(r.quasi_static), dyn=_xy(r.dynamic) if status == "ok" else None,
         wall_s=float(r.stats.total_wall_s), cycles=int(r.stat("dynamic", "cycles", -1)), spec=r.spec, source=source,
-        finished_utc=r.stats.finished_utc,
+        finished_utc=r.stats.finished_utc, failure_class=failure_class or "unclassified",
     )
 
 

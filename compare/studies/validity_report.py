@@ -322,11 +322,11 @@ def failure_lines(summaries: Sequence[FamilySummary]) -> tuple[list[str], int, i
             if not s.ok:
                 failed += 1
                 p = s.point
-                msg = p.message.split(" (time=")[0][:110]
+                msg = p.message.split(" (time=")[0].split(". Likely cause")[0].split(" [")[0][:110]
                 extra = f" (retry with {p.steps_per_cycle} steps/cycle also failed)" if s.retried else ""
                 speed = f"r = {p.r:.3g}" + (f" ({p.spec.speed.value:g} rpm)" if p.speed_kind == "rpm" else "")
                 lines.append(f"* {_name(fs)} {fs.mass_model}, zeta {100 * fs.damping:g} %, {fs.direction}, "
-                             f"{speed}: {p.stage} {p.error_type}{extra}: {msg}")
+                             f"{speed}: {p.stage} {p.error_type}, {p.failure_class}{extra}: {msg}")
     return lines, failed, retried, rescued
 
 
