@@ -58,6 +58,13 @@ def _xy(h: dict[str, np.ndarray]) -> np.ndarray | None:
     return np.column_stack([h["dx"], h["dy"]]) if "dx" in h and "dy" in h else None
 
 
+def _reason(sol: object) -> str:
+    """"<failure class>: <message>" of a failed dynamic solution."""
+    if sol is None:
+        return "not run: -"
+    return f"{sol.failure_class or 'unclassified'}: {sol.message}"
+
+
 def tier_point(p: object, r: object) -> TierPoint:
     """Errors of one stored scene (``p``: the validity study's Point, ``r``: its SceneResult)."""
     nan = math.nan
@@ -72,7 +79,7 @@ def tier_point(p: object, r: object) -> TierPoint:
     lin_sol = r.solutions.get("linear")
     return TierPoint(
         linkage=p.linkage, mechanism=p.mechanism, mass_model=p.mass_model, r=p.r, dyn_ok=dyn is not None,
-        dyn_reason="" if dyn is not None else (r.solutions["dynamic"].message if "dynamic" in r.solutions else ""),
+        dyn_reason="" if dyn is not None else _reason(r.solutions.get("dynamic")),
         error={m: err.get(m, nan) for m in MODELS},
         dynamic_part=metrics.max_abs_error(lin, qs) / metrics.peak(dyn) if ok else nan,
         nonlinear_part=metrics.max_abs_error(dyn, lin) / metrics.peak(dyn) if ok else nan,
@@ -189,9 +196,13 @@ def _failures(points: Sequence[TierPoint]) -> list[str]:
         return []
     L = ["", "Scenes where Exudyn found no periodic steady state, with the linear model's largest |Floquet "
          "multiplier| (>= 1: the linear model has no stable periodic steady state either):", "",
-         "| linkage | mass model | r | linear max abs(mu) | Exudyn |", "|---|---|---|---|---|"]
-    for p in sorted(failed, key=lambda p: (p.linkage, p.mass_model, p.r)):
-        L.append(f"| {p.linkage} | {p.mass_model} | {p.r:g} | {p.floquet_max_abs:.3f} | {p.dyn_reason[:80]} |")
+         "| linkage | mechanism | mass model | r | linear max abs(mu) | Exudyn failure class | Exudyn |",
+         "|---|---|---|---|---|---|---|"]
+    for p in sorted(failed, key=lambda p: (p.linkage, p.mechanism, p.mass_model, p.r)):
+        cls, _, why = p.dyn_reason.partition(": ")
+        why = why.split(" (time=")[0].split(". Likely cause")[0].split(" [")[0]
+        L.append(f"| {p.linkage} | {p.mechanism} | {p.mass_model} | {p.r:g} | {p.floquet_max_abs:.3f} | {cls} | "
+                 f"{why[:90]} |")
     return L
 
 
