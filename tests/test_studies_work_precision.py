@@ -139,3 +139,61 @@ def test_committed_readme_sections_are_generated_from_the_committed_results() ->
     tables, attrs = study_io.read_tables(stability.OUT)
     assert stability_report.markdown(tables, attrs).strip() == _section("stability")
     assert work_precision.OUT.stat().st_size < 5e6 and stability.OUT.stat().st_size < 5e6
+
+
+def _stored_references():
+    from compare import store
+    from compare.studies.work_precision import OUT, reference_scenes
+
+    if not OUT.exists():
+        pytest.skip("study results not generated")
+    return reference_scenes(store.read_scenes(OUT))
+
+
+def test_linear_points_use_the_quasi_static_error_against_the_same_reference() -> None:
+    import warnings
+
+    from compare.studies.work_precision import deflection, ked_scene, linear_points
+    from ked_linear import LinearSettings, solve_linear
+
+    r = next(r for r in _stored_references() if r.spec.mass_model.name == "tip" and r.verdict.speed_ratio < 0.1)
+    (row,) = linear_points([r], repeats=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        lin = solve_linear(ked_scene(r), LinearSettings(damping_ratio=r.spec.damping_ratio))
+    assert row["error"] == pytest.approx(cycle_error(lin.deflection, deflection(r.dynamic)))
+    assert row["stable"] and row["repeats"] == 1 and row["wall_s"] > 0
+    assert row["error"] < cycle_error(deflection(r.quasi_static), deflection(r.dynamic))
+
+
+def test_resume_keeps_the_stored_tables_and_adds_the_missing_one(tmp_path: Path, monkeypatch) -> None:
+    """A resume that adds no scene computes only the missing /study table (no Exudyn run, no re-timing)."""
+    import shutil
+
+    from compare.studies import study_io, work_precision, wp_report
+
+    _stored_references()
+    out = tmp_path / "wp.h5"
+    shutil.copy(work_precision.OUT, out)
+    before, attrs = study_io.read_tables(out)
+    old = {k: v for k, v in before.items() if k != "linear"}
+    figs = [tmp_path / "a.png", tmp_path / "b.png"]
+    assert "Linear KED" not in wp_report.markdown(old, attrs, figs, tmp_path)  # older files still report
+    kept, kept_attrs = work_precision.stored_study(out, int(attrs["scenes"]))
+    study_io.write_tables(out, {k: v for k, v in kept.items() if k != "linear"}, kept_attrs)
+    row = {"mass_model": "tip", "lumps": 5, "speed_ratio": 0.05, "rpm": 1.0, "damping_ratio": 0.02, "error": 0.01,
+           "wall_s": 0.1, "repeats": 5, "wall_spread": 0.1, "dynamic_wall_s": 10.0, "stable": True, "harmonics": 8,
+           "error_estimate": 1e-4, "floquet_max_abs": 0.1, "peak_m": 1e-3}
+    monkeypatch.setattr(work_precision, "linear_points", lambda results, repeats: [row])
+    monkeypatch.setattr(work_precision, "retime", lambda *a, **k: pytest.fail("re-timed"))
+    summary = work_precision.run_study(out, workers=1, fresh=False, figures=tmp_path,
+                                       readme=tmp_path / "README.md", retime_below_s=0.0, progress=False)
+    assert summary["computed"] == ["linear"]
+    after, new_attrs = study_io.read_tables(out)
+    for name, table in old.items():
+        for col, v in table.items():
+            assert after[name][col].dtype == v.dtype
+            assert (np.array_equal(after[name][col], v) if v.dtype.kind == "O"
+                    else np.array_equal(after[name][col], v, equal_nan=True))
+    assert new_attrs["campaign_wall_s"] == attrs["campaign_wall_s"] and "updated_utc" in new_attrs
+    assert "Linear KED" in (tmp_path / "README.md").read_text()

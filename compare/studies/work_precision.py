@@ -1,10 +1,15 @@
-"""`ked study work-precision`: error against run time of both solvers.
+"""`ked study work-precision`: error against run time of the three solvers.
 
 Regenerates ``results/studies/work_precision.h5`` from the checked-in configs
 ``results/studies/work_precision*.toml`` (one file; scenes shared by two configs run once), re-times
-the cheap dynamic runs serially, measures the quasi-static solver's time and its lumps convergence,
-stores the derived tables in ``/study`` of the same file, draws ``results/figures/work_precision*.png``
-and writes the ``work-precision`` section of ``results/README.md`` from the stored tables.
+the cheap dynamic runs serially, measures the quasi-static solver's time and its lumps convergence and
+the linear KED model's time and error, stores the derived tables in ``/study`` of the same file, draws
+``results/figures/work_precision*.png`` and writes the ``work-precision`` section of ``results/README.md``
+from the stored tables.
+
+Resuming: when the campaign adds no scene, the ``/study`` tables already stored are kept as they are
+(their timings included: re-timing would only redo Exudyn runs and add noise) and only the missing tables
+are computed; ``--fresh`` recomputes everything.
 """
 
 from __future__ import annotations
@@ -140,15 +145,18 @@ def reference_check(results: Sequence[SceneResult]) -> list[dict]:
     return out
 
 
+def reference_scenes(results: Sequence[SceneResult]) -> list[SceneResult]:
+    """The stored dynamic references (ok, with a verdict): the scenes the fast solvers are measured on."""
+    return [r for r in results if r.ok and is_reference(r.dynamic_settings) and r.verdict is not None]
+
+
 def quasi_points(results: Sequence[SceneResult], repeats: int) -> list[dict]:
     """Quasi-static solver on every reference scene: error [1] against the dynamic reference, median
     solve time [s] over ``repeats`` solves, speed ratio, quasi-static and dynamic peaks [m]."""
     from ked_quasi.solver import solve_quasi_static
 
     out = []
-    for r in results:
-        if not (r.ok and is_reference(r.dynamic_settings) and r.verdict is not None):
-            continue
+    for r in reference_scenes(results):
         scene = ked_scene(r)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -158,6 +166,37 @@ def quasi_points(results: Sequence[SceneResult], repeats: int) -> list[dict]:
                     "speed_ratio": float(r.verdict.speed_ratio), "rpm": float(r.rpm),
                     "error": cycle_error(qs, dyn), "wall_s": wall, "dynamic_wall_s": r.stat("dynamic", "wall_s"),
                     "qs_peak_m": float(np.max(np.abs(qs[:, :2]))), "dyn_peak_m": float(np.max(np.abs(dyn[:, :2])))})
+    return sorted(out, key=lambda d: (d["mass_model"], d["speed_ratio"]))
+
+
+def linear_points(results: Sequence[SceneResult], repeats: int = 5, slow_s: float = 1.0) -> list[dict]:
+    """Linear KED model (``ked_linear.solve_linear``, damped like the scene, default resolution) on every
+    reference scene: error [1] against the dynamic reference (as :func:`quasi_points`), median solve time
+    [s] over ``repeats`` solves (at most 3 when the first takes over ``slow_s``) and their spread (max - min)
+    / median [1], its harmonics, own error
+    estimate [1], largest |Floquet multiplier| and stability, peak [m]."""
+    from ked_linear import LinearSettings, solve_linear
+
+    out = []
+    for r in reference_scenes(results):
+        scene, settings = ked_scene(r), LinearSettings(damping_ratio=r.spec.damping_ratio)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            t0 = time.perf_counter()
+            res = solve_linear(scene, settings)
+            walls = [time.perf_counter() - t0]
+            n = repeats if walls[0] <= slow_s else min(repeats, 3)
+            walls += [median_time(lambda s=scene, c=settings: solve_linear(s, c), 1) for _ in range(n - 1)]
+        lin, dyn = np.asarray(res.deflection, dtype=float), deflection(r.dynamic)
+        out.append({"mass_model": r.spec.mass_model.name, "lumps": r.spec.mass_model.lumps,
+                    "speed_ratio": float(r.verdict.speed_ratio), "rpm": float(r.rpm),
+                    "damping_ratio": float(r.spec.damping_ratio), "error": cycle_error(lin, dyn),
+                    "wall_s": statistics.median(walls), "repeats": len(walls),
+                    "wall_spread": (max(walls) - min(walls)) / statistics.median(walls),
+                    "dynamic_wall_s": r.stat("dynamic", "wall_s"), "stable": bool(res.stable),
+                    "harmonics": int(res.harmonics), "error_estimate": float(res.error_estimate),
+                    "floquet_max_abs": float(res.floquet_max_abs),
+                    "peak_m": float(np.max(np.abs(lin[:, :2]))) if res.stable else math.nan})
     return sorted(out, key=lambda d: (d["mass_model"], d["speed_ratio"]))
 
 
@@ -185,33 +224,72 @@ def lump_convergence(models: Sequence[str] = ("extender", "distributed"),
     return out
 
 
+def stored_study(out: Path, scenes: int) -> tuple[dict[str, list[dict]], dict]:
+    """The ``/study`` tables (name -> rows) and attrs stored in ``out`` by a run of the same configs over
+    ``scenes`` scenes, as :func:`study_io.write_tables` takes them back; ({}, {}) if there are none."""
+    import json
+
+    import h5py
+
+    if not out.exists():
+        return {}, {}
+    with h5py.File(out, "r") as f:
+        if study_io.STUDY not in f:
+            return {}, {}
+    tables, attrs = study_io.read_tables(out)
+    attrs = {k: v.item() if isinstance(v, np.generic) else v for k, v in attrs.items()}
+    configs = json.loads(attrs["configs"]) if isinstance(attrs.get("configs"), str) else attrs.get("configs")
+    if configs != [f"results/studies/{c}" for c in CONFIGS] or attrs.get("scenes") != scenes:
+        return {}, {}
+    # booleans are stored as uint8: give them back as booleans so that a rewrite keeps the column types
+    return ({name: study_io.rows({c: v.astype(bool) if v.dtype == np.uint8 else v for c, v in t.items()})
+             for name, t in tables.items()}, attrs)
+
+
 def run_study(out: Path = OUT, *, workers: int | None = 2, fresh: bool = True, figures: Path = FIGURES,
               readme: Path = README, retime_below_s: float = 5.0, progress: bool = True) -> dict:
-    """The whole study (see module docstring); returns a small summary dict."""
+    """The whole study (see module docstring); returns a small summary dict.  Not ``fresh`` and no scene
+    added by the campaign: the stored ``/study`` tables and attrs are kept, only missing tables computed."""
     t0 = time.perf_counter()
     summaries = study_io.run_configs([STUDIES / c for c in CONFIGS], out, workers=workers, fresh=fresh,
                                      progress=progress)
     t_campaign = time.perf_counter() - t0
+    scenes = sum(s.total for s in summaries)
+    added = sum(s.ok + s.failed + s.lost for s in summaries)
+    kept, kept_attrs = ({}, {}) if fresh or added else stored_study(out, scenes)
     results = store.read_scenes(out)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        timings = retime(results, retime_below_s, extra=2)
-    points = dynamic_points(results, timings)
-    check = reference_check(results)
-    quasi = quasi_points(results, repeats=21)
-    lumps = lump_convergence()
-    wall = time.perf_counter() - t0
-    from exudyn_models import DynamicSettings
 
-    attrs = {"name": SECTION, "created_utc": store.utc_now(), "reference": REFERENCE,
-             "defaults": asdict(DynamicSettings()), "campaign_wall_s": t_campaign, "study_wall_s": wall,
-             "workers": workers or 0, "retime_below_s": retime_below_s,
-             "configs": [f"results/studies/{c}" for c in CONFIGS],
-             "scenes": sum(s.total for s in summaries), "git_commit": store.git_commit()}
-    study_io.write_tables(out, {"dynamic": points, "refcheck": check, "quasi_static": quasi,
-                                "lumps": lumps}, attrs)
+    def dynamic() -> list[WPPoint]:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return dynamic_points(results, retime(results, retime_below_s, extra=2))
+
+    builders: dict[str, Callable[[], Sequence]] = {
+        "dynamic": dynamic, "refcheck": lambda: reference_check(results),
+        "quasi_static": lambda: quasi_points(results, repeats=21), "lumps": lump_convergence,
+        "linear": lambda: linear_points(results, repeats=5)}
+    missing = [name for name in builders if name not in kept]
+    tables = {name: kept[name] if name in kept else build() for name, build in builders.items()}
+    wall = time.perf_counter() - t0
+    if kept:
+        attrs = dict(kept_attrs)
+        if missing:
+            attrs.update({"updated_utc": store.utc_now(), "updated_tables": missing, "updated_wall_s": wall,
+                          "updated_git_commit": store.git_commit()})
+            if "dynamic" in missing:
+                attrs["retime_below_s"] = retime_below_s
+    else:
+        from exudyn_models import DynamicSettings
+
+        attrs = {"name": SECTION, "created_utc": store.utc_now(), "reference": REFERENCE,
+                 "defaults": asdict(DynamicSettings()), "campaign_wall_s": t_campaign, "study_wall_s": wall,
+                 "workers": workers or 0, "retime_below_s": retime_below_s,
+                 "configs": [f"results/studies/{c}" for c in CONFIGS],
+                 "scenes": scenes, "git_commit": store.git_commit()}
+    if missing:
+        study_io.write_tables(out, tables, attrs)
     paths = report(out, figures, readme)
-    return {"out": str(out), "wall_s": wall, "figures": [str(p) for p in paths]}
+    return {"out": str(out), "wall_s": wall, "computed": missing, "figures": [str(p) for p in paths]}
 
 
 def report(out: Path = OUT, figures: Path = FIGURES, readme: Path = README) -> list[Path]:

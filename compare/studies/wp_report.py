@@ -33,6 +33,7 @@ from compare.studies.wp_analysis import (  # noqa: E402
 )
 
 DPI = 100
+LINEAR_COLOR = "teal"
 EPL_COLORS = {1: "tab:blue", 2: "tab:orange", 4: "tab:green", 8: "tab:red", 16: "tab:purple"}
 MASS_MODELS = ("tip", "joints", "extender", "distributed")
 
@@ -78,10 +79,12 @@ def _marker(d: Discretization) -> str:
 
 def work_precision_figure(tables: dict, attrs: dict) -> Figure:
     """One panel per mass model: every dynamic run (error vs wall time), its Pareto front, the current
-    default, and the quasi-static solver at each speed ratio against the dynamic reference."""
+    default, and the quasi-static solver and the linear KED model at each speed ratio against the dynamic
+    reference."""
     points, dflt = wp_points(tables), default_disc(attrs)
     quasi = rows(tables.get("quasi_static", {}))
-    models = [m for m in MASS_MODELS if any(q["mass_model"] == m for q in quasi)
+    linear = rows(tables.get("linear", {}))
+    models = [m for m in MASS_MODELS if any(q["mass_model"] == m for q in quasi + linear)
               or any(p.family.split()[0] == m for p in points)]
     fig = Figure(figsize=(11, 8.2))
     axes = fig.subplots(2, 2).ravel()
@@ -109,6 +112,14 @@ def work_precision_figure(tables: dict, attrs: dict) -> Figure:
             for q in qs:
                 ax.annotate(f"QS r={q['speed_ratio']:.2g}", (q["wall_s"], q["error"]), fontsize=7,
                             xytext=(4, 2), textcoords="offset points", color="crimson")
+        lin = sorted((q for q in linear if q["mass_model"] == model and math.isfinite(q["error"])),
+                     key=lambda q: q["speed_ratio"])
+        if lin:
+            ax.plot([q["wall_s"] for q in lin], [q["error"] for q in lin], "X", color=LINEAR_COLOR, mec="k",
+                    mew=0.5, ms=8, zorder=5)
+            for q in lin:
+                ax.annotate(f"lin r={q['speed_ratio']:.2g}", (q["wall_s"], q["error"]), fontsize=7,
+                            xytext=(4, -8), textcoords="offset points", color=LINEAR_COLOR)
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlim(3e-4, 200.0)
@@ -129,12 +140,22 @@ def work_precision_figure(tables: dict, attrs: dict) -> Figure:
                 Line2D([], [], color="gray", marker="^", ls="-", label="ANCF rho 1.0"),
                 Line2D([], [], color="k", marker="o", mfc="none", ms=9, ls="-", label="Pareto front"),
                 Line2D([], [], color="gold", mec="k", marker="*", ms=14, ls="", label="current default"),
-                Line2D([], [], color="crimson", marker="D", ls="", label="quasi-static (5 lumps)")]
-    fig.legend(handles=handles, loc="lower center", ncol=5, fontsize=8, frameon=False)
+                Line2D([], [], color="crimson", marker="D", ls="", label="quasi-static"
+                       + _lumps_label(rows(tables.get("quasi_static", {}))))]
+    if rows(tables.get("linear", {})):
+        handles.append(Line2D([], [], color=LINEAR_COLOR, mec="k", mew=0.5, marker="X", ms=8, ls="",
+                              label="linear KED" + _lumps_label(rows(tables["linear"]))))
+    fig.legend(handles=handles, loc="lower center", ncol=(len(handles) + 1) // 2, fontsize=8, frameon=False)
     fig.suptitle("Work-precision: steady-cycle error vs wall time (points along a line: 90..2880 steps/cycle)",
                  fontsize=11)
     fig.subplots_adjust(left=0.07, right=0.98, top=0.93, bottom=0.14, hspace=0.32, wspace=0.22)
     return fig
+
+
+def _lumps_label(table: list[dict]) -> str:
+    """`` (n lumps)`` for the lumps per link of a fast solver's scenes (one value), else ""."""
+    lumps = {int(r["lumps"]) for r in table}
+    return f" ({lumps.pop()} lumps)" if len(lumps) == 1 else ""
 
 
 def lumps_figure(tables: dict) -> Figure:
@@ -208,6 +229,7 @@ def markdown(tables: dict, attrs: dict, figures: Sequence[Path], base: Path) -> 
     rel = [os.path.relpath(p, base) for p in figures]
     n_fail = sum(1 for p in points if not p.ok)
     spreads = [p.wall_spread for p in points if p.repeats > 1]
+    updated = json.loads(attrs.get("updated_tables", "[]"))
     lines = [
         "## Error against run time (work-precision)",
         "",
@@ -215,7 +237,9 @@ def markdown(tables: dict, attrs: dict, figures: Sequence[Path], base: Path) -> 
         "`work_precision_quasi.toml`, `work_precision_refcheck.toml`; results `results/studies/work_precision.h5`, "
         f"derived tables in its `/study` group). Last run: {attrs['created_utc']}, {int(attrs['scenes'])} scenes, "
         f"campaign {attrs['campaign_wall_s'] / 60:.1f} min on {int(attrs['workers'])} workers, whole study "
-        f"{attrs['study_wall_s'] / 60:.1f} min.",
+        f"{attrs['study_wall_s'] / 60:.1f} min."
+        + (f" Table{'s' if len(updated) > 1 else ''} {', '.join(f'`{t}`' for t in updated)} added "
+           f"{attrs['updated_utc']} ({attrs['updated_wall_s'] / 60:.1f} min), the others kept." if updated else ""),
         "",
         f"![work-precision]({rel[0]})",
         "",
@@ -277,8 +301,85 @@ def markdown(tables: dict, attrs: dict, figures: Sequence[Path], base: Path) -> 
     for q in quasi:
         lines.append(f"| {q['mass_model']} | {q['speed_ratio']:.3g} | {_pct(q['error'])} | {1e3 * q['wall_s']:.2f} | "
                      f"{q['dynamic_wall_s']:.1f} | {1e3 * q['qs_peak_m']:.3g} | {1e3 * q['dyn_peak_m']:.3g} |")
+    lines += _linear_lines(rows(tables.get("linear", {})), quasi, points)
     lines += _lumps_lines(tables, rel[1] if len(rel) > 1 else "")
     return "\n".join(lines)
+
+
+def _ms(x: float) -> str:
+    """Milliseconds, 3 significant digits (whole ms from 1 s on)."""
+    if not math.isfinite(x):
+        return "-"
+    return f"{1e3 * x:.3g}" if x < 1.0 else f"{1e3 * x:.0f}"
+
+
+def _family_ratio(family: str) -> float:
+    """The speed ratio of a family label (``tip r=0.3``), nan if it has none."""
+    m = re.search(r"r=([0-9.eE+-]+)", family)
+    return float(m.group(1)) if m else math.nan
+
+
+def _linear_lines(linear: list[dict], quasi: list[dict], points: Sequence[WPPoint]) -> list[str]:
+    """Where the linear KED model sits: a paragraph over all scenes (against the quasi-static solver, and
+    against the cheapest dynamic run as accurate on the scenes with dynamic runs) and a row per mass model."""
+    if not linear:
+        return []
+    from ked_linear import UNRESOLVED_ESTIMATE
+
+    qs = {(q["mass_model"], f"{q['speed_ratio']:.3g}"): q for q in quasi}
+    pairs = [(r, qs.get((r["mass_model"], f"{r['speed_ratio']:.3g}"))) for r in linear]
+    pairs = [(r, q) for r, q in pairs if q is not None]
+    better = sum(1 for r, q in pairs if r["error"] < q["error"])
+    ratio = float(np.median([r["error"] / q["error"] for r, q in pairs if q["error"] > 0])) if pairs else math.nan
+    zetas = sorted({r["damping_ratio"] for r in linear})
+    reps = sorted({int(r["repeats"]) for r in linear})
+    walls = [r["wall_s"] for r in linear]
+    spread = float(np.median([r.get("wall_spread", math.nan) for r in linear]))
+    unstable = [r for r in linear if not r["stable"]]
+    loose = [r for r in linear if r["stable"] and not r["error_estimate"] <= UNRESOLVED_ESTIMATE]
+    ratios = sorted({f"{r['speed_ratio']:.2g}" for r in linear}, key=float)
+    text = (f"**Linear KED model on the same axes** ({LINEAR_COLOR} crosses): `ked_linear.solve_linear` with the "
+            f"scene's damping ratio ({', '.join(f'{z:g}' for z in zetas)}) and its default resolution; solve time "
+            f"the median of {reps[-1]} solves"
+            + (f" ({reps[0]} where one solve takes over a second)" if len(reps) > 1 else "") + ", error against "
+            f"the same dynamic reference with the same measure. Over the {len(linear)} scenes its median solve time "
+            f"is {_ms(float(np.median(walls)))} ms ({_ms(min(walls))} to {_ms(max(walls))} ms) against "
+            f"{_ms(float(np.median([q['wall_s'] for q in quasi]))) if quasi else '-'} ms for the quasi-static "
+            f"solver and {float(np.median([r['dynamic_wall_s'] for r in linear])):.1f} s for the dynamic reference "
+            f"(the timings of a scene differ by {_pct(spread)}"
+            ", median of (max - min) / median); "
+            f"its error is below the quasi-static one on {better} of {len(pairs)} scenes (median ratio "
+            f"{ratio:.2g}).")
+    if unstable:
+        text += (" No stable periodic steady state (Floquet) on: "
+                 + ", ".join(f"{r['mass_model']} r={r['speed_ratio']:.2g}" for r in unstable) + ".")
+    if loose:
+        text += (f" Its own error estimate exceeds {_pct(UNRESOLVED_ESTIMATE)} (flagged unresolved) on: "
+                 + ", ".join(f"{r['mass_model']} r={r['speed_ratio']:.2g} ({_pct(r['error_estimate'])})"
+                             for r in loose) + ".")
+    matched = []
+    for r in linear:
+        fam = [p for p in points if not p.reference and p.ok and p.family.split()[0] == r["mass_model"]
+               and math.isclose(_family_ratio(p.family), r["speed_ratio"], rel_tol=1e-6)]
+        if fam and math.isfinite(r["error"]):
+            good = [p.wall_s for p in fam if p.error <= r["error"]]
+            matched.append(f"{fam[0].family} {min(good):.2f} s" if good else f"{fam[0].family} none")
+            matched[-1] += f" (linear {r['wall_s']:.2f} s)"
+    if matched:
+        text += (" The cheapest dynamic run at least as accurate as the linear model on the same scene takes "
+                 + ", ".join(matched) + ".")
+    r_head = " / ".join(ratios)
+    out = ["", text, "", f"| mass model | linear error, r = {r_head} | quasi-static error | linear time ms "
+           "| dynamic reference s |", "| --- | ---: | ---: | ---: | ---: |"]
+    for model in [m for m in MASS_MODELS if any(r["mass_model"] == m for r in linear)]:
+        by_r = {f"{r['speed_ratio']:.2g}": (r, q) for r, q in
+                [(r, qs.get((r["mass_model"], f"{r['speed_ratio']:.3g}"))) for r in linear if r["mass_model"] == model]}
+        cell = [by_r.get(k) for k in ratios]
+        out.append(f"| {model} | " + " / ".join(_pct(c[0]["error"]) if c else "" for c in cell)
+                   + " | " + " / ".join(_pct(c[1]["error"]) if c and c[1] else "" for c in cell)
+                   + " | " + " / ".join(_ms(c[0]["wall_s"]) if c else "" for c in cell)
+                   + " | " + " / ".join(f"{c[0]['dynamic_wall_s']:.1f}" if c else "" for c in cell) + " |")
+    return out
 
 
 def _verdict(choices, dflt: Discretization, cur, on_front: list[str], fams: list[str], points) -> str:
