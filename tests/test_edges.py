@@ -312,6 +312,14 @@ def _children(pid: int) -> set[int]:
     return out
 
 
+def _cmdline(pid: int) -> str:
+    """The command line of a process, or "" if it has already exited (short-lived children do)."""
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_text()
+    except OSError:
+        return ""
+
+
 def _alive(pid: int) -> bool:
     try:
         return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
@@ -344,7 +352,7 @@ def test_signals_leave_no_orphan_workers(tmp_path, sig):
     deadline = time.monotonic() + 120
     workers: set[int] = set()
     while time.monotonic() < deadline and not (len(workers) >= 2 and out.exists()):
-        workers |= {c for c in _children(proc.pid) if "spawn_main" in Path(f"/proc/{c}/cmdline").read_text()}
+        workers |= {c for c in _children(proc.pid) if "spawn_main" in _cmdline(c)}
         time.sleep(0.1)
     assert workers, "no worker process started"
     time.sleep(1.0)  # the workers are computing
