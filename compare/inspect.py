@@ -64,6 +64,8 @@ def summary_row(r: SceneResult) -> dict[str, Any]:
         m = r.metrics.get(pair_name(name, ref)) if ref else None
         if name not in ("quasi_static", ref) and m is not None:
             row[f"error_{name}"] = _num(m.verdict_error)
+        if r.solutions[name].flags:
+            row[f"flags_{name}"] = list(r.solutions[name].flags)
     return row
 
 
@@ -83,9 +85,21 @@ def _columns(rows: Sequence[dict[str, Any]]) -> list[tuple[str, str, str]]:
     return cols
 
 
+FLAG_MARK = "*"
+FLAG_NOTE = (f"{FLAG_MARK} that solver's answer is outside the range where its model holds (validity flags, "
+             "e.g. large_deflection); the number is not a valid answer: `ked inspect FILE KEY` names the flags")
+
+
+def _flagged(row: dict[str, Any], key: str) -> bool:
+    solver = "quasi_static" if key == "max_relative_error" else key[6:] if key.startswith("error_") else None
+    return solver is not None and bool(row.get(f"flags_{solver}"))
+
+
 def format_table(rows: Sequence[dict[str, Any]]) -> str:
-    """Fixed-width text table of summary rows."""
+    """Fixed-width text table of summary rows; an error whose solver's answer carries validity flags is
+    marked with :data:`FLAG_MARK` and explained in a note under the table."""
     cols = _columns(rows)
+    marked = any(_flagged(row, key) and row.get(key) is not None for row in rows for key, _, _ in cols)
 
     def cell(row: dict[str, Any], key: str, fmt: str) -> str:
         v = row.get(key)
@@ -93,7 +107,8 @@ def format_table(rows: Sequence[dict[str, Any]]) -> str:
             return verdict_text(v)
         if v is None or v == "":
             return "-"
-        return f"{100.0 * v:.1f}" if fmt == "%" else fmt.format(v)
+        mark = FLAG_MARK if _flagged(row, key) else " " if marked else ""
+        return f"{100.0 * v:.1f}{mark}" if fmt == "%" else fmt.format(v)
 
     table = [[title for _, title, _ in cols]] + [[cell(row, key, fmt) for key, _, fmt in cols] for row in rows]
     widths = [max(len(r[i]) for r in table) for i in range(len(cols))]
@@ -104,6 +119,8 @@ def format_table(rows: Sequence[dict[str, Any]]) -> str:
         lines.append("  ".join(parts).rstrip())
         if n == 0:
             lines.append("  ".join("-" * w for w in widths))
+    if marked:
+        lines.append(FLAG_NOTE)
     return "\n".join(lines)
 
 
