@@ -13,13 +13,17 @@ when asked to confirm.  The tier rule (:func:`tier`):
   atlas's uncertainty counting against it;
 * **nonlinear** otherwise (no stable linear steady state, large deflections, or beyond the linear
   model's limit): the Exudyn model is the answer (``--confirm`` runs it).
+
+The linear solve uses the default settings (at most 32 crank harmonics); when its periodic solve has not
+converged there (a frozen higher mode sweeping over many harmonics in a cycle), the check solves the
+scene again with up to :data:`MAX_HARMONICS` before judging, and says so in the verdict.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -28,6 +32,7 @@ from compare.execute import run_scene
 from compare.results import SceneResult
 from compare.scenes import SceneSpec, SpeedSpec
 from compare.solvers import get as get_solver
+from ked_linear.settings import HARMONICS
 from ked_quasi.harmonics import one_mode_dynamic_estimate
 from ked_quasi.linkage import FourBar
 from ked_quasi.massmodel import MassModel
@@ -35,6 +40,8 @@ from ked_quasi.massmodel import MassModel
 TIERS = ("quasi-static", "linear", "nonlinear")
 DEFAULT_DYNAMIC = (("element", "ancf"), ("elements_per_link", 4), ("spectral_radius", 0.9), ("steps_per_cycle", 720))
 """The Exudyn settings of the default campaign (so that a confirmed check is that campaign's scene)."""
+MAX_HARMONICS = HARMONICS.hi
+"""Crank harmonics the check allows the linear solve when the default maximum did not converge."""
 
 
 @dataclass(frozen=True)
@@ -47,6 +54,15 @@ class LinearRange:
     r10: float = math.nan
     r10_spread: float = math.nan
     source: str = "no atlas"
+    damping_ratio: float = math.nan
+    """Damping ratio [1] at which the atlas measured these limits."""
+
+    def note(self, damping_ratio: float) -> str:
+        """'' or a caution when the checked scene is damped otherwise than the atlas."""
+        if not math.isfinite(self.damping_ratio) or math.isclose(damping_ratio, self.damping_ratio):
+            return ""
+        return (f"; the atlas limit was measured at {self.damping_ratio:g} damping, this check runs at "
+                f"{damping_ratio:g}: a guide only, confirm with --confirm")
 
 
 @dataclass(frozen=True)
@@ -65,6 +81,7 @@ class CheckRow:
     flags: tuple[str, ...] = ()
     confirmed: dict[str, float] = field(default_factory=dict)
     key: str = ""
+    linear_harmonics: int = 0
 
 
 def spec_for(source: FourBar, mechanism: str, mass_model: MassModel, rpm: float, *, stiffness_scale: float = 1.0,
@@ -97,23 +114,27 @@ def tier(r: SceneResult, linear_range: LinearRange, tolerance: float) -> tuple[s
     if lin is None or not lin.ok:
         why = lin.message if lin is not None else "the linear model did not run"
         return "nonlinear", f"no stable linear steady state ({why}): use the nonlinear model (--confirm)"
+    large = [f for f in lin.flags if f != "unresolved"]
+    if large:
+        return "nonlinear", (f"deflections beyond the small-deflection range ({', '.join(large)}): "
+                             "use the nonlinear model (--confirm)")
     if "unresolved" in lin.flags:
-        return "nonlinear", (f"the linear model's periodic solve did not converge ({lin.warnings}): "
-                             "use the nonlinear model (--confirm)")
-    if lin.flags:
-        return "nonlinear", (f"deflections beyond the small-deflection range ({', '.join(lin.flags)}): "
-                             "use the nonlinear model (--confirm)")
+        return "nonlinear", (f"the linear model's periodic solve did not converge at "
+                             f"{int(lin.stats.get('harmonics', 0))} crank harmonics (estimated error "
+                             f"{lin.stats.get('error_estimate', math.nan):.2g} of the peak): use the nonlinear model "
+                             "(--confirm)")
     err = metrics.history_error(_xy(qs.deflection), _xy(lin.deflection))
     if err < tolerance and not qs.flags:
         return "quasi-static", f"quasi-static holds: it differs from the linear model by {err:.1%} < {tolerance:.0%}"
     limit = linear_range.r10 if tolerance >= 0.10 else linear_range.r5
     spread = linear_range.r10_spread if tolerance >= 0.10 else linear_range.r5_spread
+    note = linear_range.note(r.spec.damping_ratio)
     if math.isfinite(limit) and ratio > limit - (spread if math.isfinite(spread) else 0.0):
         return "nonlinear", (f"quasi-static is {err:.0%} off, and r = {ratio:.3g} is not safely below the linear "
                              f"model's limit (r = {limit:.3g}, {spread:.2g} below it for 10 % of the "
-                             f"{linear_range.source} linkages): use the nonlinear model")
-    bound = f"valid up to r = {limit:.3g} - {spread:.2g} ({linear_range.source})" if math.isfinite(limit) else \
-        "its own limit unknown without an atlas: confirm with --confirm"
+                             f"{linear_range.source} linkages{note}): use the nonlinear model")
+    bound = f"valid up to r = {limit:.3g} - {spread:.2g} ({linear_range.source}{note})" if math.isfinite(limit) \
+        else "its own limit unknown without an atlas: confirm with --confirm"
     return "linear", f"quasi-static is {err:.0%} off: use the linear model ({bound})"
 
 
@@ -142,7 +163,7 @@ def check_row(r: SceneResult, linear_range: LinearRange, tolerance: float) -> Ch
         else nan, quasi_static_error_estimate=est,
         floquet_max_abs=float(lin.stats.get("floquet_max_abs", nan)) if lin is not None else nan,
         tier=name, verdict=verdict, flags=tuple(sorted({*(qs.flags if qs else ()), *(lin.flags if lin else ())})),
-        confirmed=confirmed, key=r.key,
+        confirmed=confirmed, key=r.key, linear_harmonics=int(lin.stats.get("harmonics", 0)) if lin is not None else 0,
     )
 
 
@@ -150,6 +171,7 @@ def linear_range(mass_model: str) -> LinearRange:
     """The linear model's limits for a mass model, from the committed atlas (NaN when there is none)."""
     try:
         from compare.atlas import limits
+        from compare.atlas.compute import DAMPING
     except ImportError:
         return LinearRange()
     try:
@@ -157,7 +179,7 @@ def linear_range(mass_model: str) -> LinearRange:
     except (OSError, ValueError, KeyError):
         return LinearRange()
     return LinearRange(r5=t.linear_r5, r5_spread=t.linear_r5_spread, r10=t.linear_r10, r10_spread=t.linear_r10_spread,
-                       source="atlas")
+                       source="atlas", damping_ratio=DAMPING)
 
 
 def check(source: FourBar, mechanism: str, mass_model: MassModel, rpms: Sequence[float], *,
@@ -168,10 +190,36 @@ def check(source: FourBar, mechanism: str, mass_model: MassModel, rpms: Sequence
     rows = []
     for rpm in rpms:
         spec = spec_for(source, mechanism, mass_model, rpm, stiffness_scale=stiffness_scale,
-                        damping_ratio=damping_ratio, direction=direction, step_deg=step_deg, tolerance=tolerance,
-                        confirm=confirm)
-        r = run_scene(spec, [get_solver(n) for n in spec.solvers])
-        if r.stage in ("setup", "metrics"):
-            raise ValueError(f"{r.stage}: {r.message}")
-        rows.append(check_row(r, rng, tolerance))
+                        damping_ratio=damping_ratio, direction=direction, step_deg=step_deg, tolerance=tolerance)
+        r = _run(spec)
+        if _unresolved(r):
+            spec = with_more_harmonics(spec)
+            r = _run(spec)
+        if confirm:
+            r = _run(replace(spec, solvers=(*spec.solvers, "dynamic")))
+        row = check_row(r, rng, tolerance)
+        if spec.extra_settings:
+            row = replace(row, verdict=f"{row.verdict} [linear model solved with up to {MAX_HARMONICS} crank "
+                                       "harmonics: the default 32 did not converge]")
+        rows.append(row)
     return rows
+
+
+def _run(spec: SceneSpec) -> SceneResult:
+    r = run_scene(spec, [get_solver(n) for n in spec.solvers])
+    if r.stage in ("setup", "metrics"):
+        raise ValueError(f"{r.stage}: {r.message}")
+    return r
+
+
+def _unresolved(r: SceneResult) -> bool:
+    """True when the linear solve is stable, small-deflection, but not converged below its harmonics cap
+    (with large deflections more harmonics would not change the tier)."""
+    lin = r.solutions.get("linear")
+    return (lin is not None and lin.ok and lin.flags == ("unresolved",)
+            and int(lin.stats.get("harmonics", MAX_HARMONICS)) < MAX_HARMONICS)
+
+
+def with_more_harmonics(spec: SceneSpec) -> SceneSpec:
+    """The scene with the linear solve allowed :data:`MAX_HARMONICS` crank harmonics."""
+    return replace(spec, extra_settings=(("linear", (("max_harmonics", MAX_HARMONICS),)),))
