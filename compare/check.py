@@ -199,8 +199,8 @@ def check(source: FourBar, mechanism: str, mass_model: MassModel, rpms: Sequence
             r = _run(replace(spec, solvers=(*spec.solvers, "dynamic")))
         row = check_row(r, rng, tolerance)
         if spec.extra_settings:
-            row = replace(row, verdict=f"{row.verdict} [linear model solved with up to {MAX_HARMONICS} crank "
-                                       "harmonics: the default 32 did not converge]")
+            row = replace(row, verdict=f"{row.verdict} [linear model solved with {row.linear_harmonics} crank "
+                                       "harmonics: the default at most 32 did not converge]")
         rows.append(row)
     return rows
 

@@ -58,7 +58,8 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     quasi-static error, the tier needed (quasi-static / linear / nonlinear) and a verdict.
 
     JSON keys per speed: speed_ratio, quasi_static_peak_m, linear_peak_m, linear_vs_quasi_static,
-    quasi_static_error_estimate, floquet_max_abs, tier, verdict, rpm, flags, confirmed, key.
+    quasi_static_error_estimate, floquet_max_abs, tier, verdict, rpm, flags, confirmed, key,
+    linear_harmonics (crank harmonics the linear solve used).
     """
     from compare.check import check as run_check
     from ked_quasi.massmodel import MassModel, default_payload
