@@ -121,6 +121,13 @@ def test_run_stores_every_family_and_resumes(atlas):
 def test_the_atlas_file_is_refused_for_another_seed_and_a_foreign_file_is_refused(atlas, tmp_path):
     with pytest.raises(atlas_store.AtlasFileError, match="seed"):
         run_atlas(atlas["path"], linkages=2, seed=SEED + 1, ratios=RATIOS, echo=lambda s: None)
+    # an atlas made with other settings (as after a change of the atlas's damping): resuming would mix them
+    other = tmp_path / "other_settings.h5"
+    other.write_bytes(atlas["path"].read_bytes())
+    with h5py.File(other, "a") as f:
+        f.attrs["settings"] = f.attrs["settings"].replace('"damping_ratio": 0.02', '"damping_ratio": 0.05')
+    with pytest.raises(atlas_store.AtlasFileError, match="settings"):
+        run_atlas(other, linkages=2, seed=SEED, ratios=RATIOS, echo=lambda s: None)
     foreign = tmp_path / "campaign.h5"
     with h5py.File(foreign, "w") as f:
         f.attrs["schema"] = "ked-harness/campaign"

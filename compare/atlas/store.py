@@ -40,7 +40,8 @@ class AtlasFileError(ValueError):
 
 
 def check_atlas(path: Path, meta: dict[str, Any] | None = None) -> None:
-    """Refuse a file that is not an atlas (or, given ``meta``, one made with another seed / grid)."""
+    """Refuse a file that is not an atlas (or, given ``meta``, one made with another seed, ratio grid,
+    generator ranges or settings: resuming it would mix two atlases)."""
     if not path.exists():
         return
     try:
@@ -52,7 +53,7 @@ def check_atlas(path: Path, meta: dict[str, Any] | None = None) -> None:
         raise AtlasFileError(f"{path}: not an atlas file (schema {schema!r}, expected {SCHEMA!r}); refusing to "
                              "write into it")
     for key, value in (meta or {}).items():
-        if key in ("seed", "ratios") and key in attrs and json.loads(attrs[key]) != value:
+        if key in attrs and json.loads(attrs[key]) != json.loads(json.dumps(value)):
             raise AtlasFileError(f"{path}: an atlas of {key} {attrs[key]}, not {json.dumps(value)}; use --fresh "
                                  "or another results directory")
 
