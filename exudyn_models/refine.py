@@ -22,6 +22,7 @@ by the step and element factors, and it is skipped (recorded) if that exceeds wh
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 from .settings import DynamicSettings
@@ -96,10 +97,11 @@ def estimated_cost(last: Attempt, settings: DynamicSettings) -> float:
         (settings.elements_per_link / s0.elements_per_link)
 
 
-def over_budget(t_start: float, budget_s: float, last: Attempt, settings: DynamicSettings) -> str:
-    """Why the rung is skipped ("" if it fits the budget)."""
+def over_budget(t_start: float, budget_s: float, attempts: Sequence[Attempt], settings: DynamicSettings) -> str:
+    """Why the rung is skipped ("" if it fits the budget).  The cost is the largest estimate from the
+    attempts that ran: one that failed early (a Newton failure in the first cycle) says little."""
     left = budget_s - (time.perf_counter() - t_start)
-    need = estimated_cost(last, settings)
+    need = max((estimated_cost(a, settings) for a in attempts if a.wall_s > 0), default=0.0)
     return f"skipped: estimated {need:.1f} s > {max(left, 0.0):.1f} s left of refine_budget_s" if need > left else ""
 
 

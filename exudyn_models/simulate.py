@@ -204,8 +204,7 @@ def simulate_steady_state(scene, settings: DynamicSettings | None = None) -> Dyn
             if s in tried:
                 continue
             tried.add(s)
-            skip = over_budget(t_wall, settings.refine_budget_s, attempts[-1] if attempts[-1].wall_s > 0 else
-                               attempts[0], s)
+            skip = over_budget(t_wall, settings.refine_budget_s, attempts, s)
             if skip:
                 attempts.append(Attempt(rung.name, s, "skipped", 0.0, 0, skip))
                 continue

@@ -160,3 +160,19 @@ def test_periodic_solve_matches_a_tightly_settled_march_in_fewer_cycles():
     assert orbit.periodic_residuals[-1] < 1e-2 * orbit.periodic_residuals[0]
     assert 2 * orbit.cycles <= march.cycles
     assert _rel_error(orbit.deflection, march.deflection) < 1e-3
+
+
+def test_budget_estimate_takes_the_costliest_attempt_not_an_early_failure():
+    """The cost of a rung is estimated from each attempt that ran, scaled by steps x elements (the
+    integrator's work per cycle); a Newton failure after 0.01 s must not hide a 1 s full run."""
+    import time
+
+    from exudyn_models.refine import Attempt, over_budget
+
+    base = DynamicSettings()
+    full = Attempt("requested", base, "not steady", 1.0, 40, "")
+    early = Attempt("newton x4", base, "newton failure", 0.01, 0, "")
+    doubled = dataclasses.replace(base, steps_per_cycle=2 * base.steps_per_cycle)
+    now = time.perf_counter()
+    assert "estimated 2.0 s" in over_budget(now, 1.5, [full, early], doubled)  # 1 s x 2 steps
+    assert over_budget(now, 60.0, [full, early], doubled) == ""
