@@ -99,3 +99,24 @@ def test_atlas_limit_at_another_damping_is_called_a_guide():
                    for z in (0.05, 0.02))
     assert other.tier == same.tier == "linear"  # r = 0.17: quasi-static ~50 % off, far below the atlas limit
     assert "measured at 0.02 damping" in other.verdict and "measured at" not in same.verdict
+
+
+def test_confirmed_check_reproduces_the_stored_exudyn_numbers(tmp_path):
+    """With --confirm a check is the default campaign's scene with all three solvers: the errors it
+    reports equal those computed from the histories a campaign stores for that scene (same code path;
+    the Exudyn run is deterministic, so the agreement is to rounding)."""
+    from compare.config import CampaignConfig
+    from compare.studies.validity import ExplicitCampaign
+
+    scene = _default_scene("extender", 75.0)
+    base = load_config(None)
+    cfg = ExplicitCampaign(**{f: getattr(base, f) for f in CampaignConfig.__dataclass_fields__}, explicit=(scene,))
+    out = tmp_path / "c.h5"
+    run_campaign(cfg, out, workers=1, progress=False)
+    (r,) = store.read_scenes(out)
+    xy = {n: np.column_stack([r.history(n)["dx"], r.history(n)["dy"]]) for n in ("quasi_static", "linear", "dynamic")}
+    (row,) = check(thesis_fourbar(), "source", scene.mass_model, [75.0], confirm=True)
+    assert row.key == r.key
+    for name in ("quasi_static", "linear"):
+        expected = metrics.history_error(xy[name], xy["dynamic"])
+        assert row.confirmed[f"{name}_vs_dynamic"] == pytest.approx(expected, rel=1e-9, abs=1e-12)
