@@ -25,10 +25,9 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
-import numpy as np
-
 from compare import metrics
 from compare.execute import run_scene
+from compare.inspect import speed_ratio
 from compare.results import SceneResult
 from compare.scenes import SceneSpec, SpeedSpec
 from compare.solvers import get as get_solver
@@ -96,15 +95,6 @@ def spec_for(source: FourBar, mechanism: str, mass_model: MassModel, rpm: float,
                      solvers=solvers)
 
 
-def _xy(h: dict[str, np.ndarray]) -> np.ndarray:
-    return np.column_stack([h["dx"], h["dy"]])
-
-
-def speed_ratio(r: SceneResult) -> float:
-    """Omega / omega1_min of a computed scene (known even when a solver failed)."""
-    return float(2.0 * math.pi * r.rpm / 60.0 / r.omega1_min) if r.omega1_min > 0.0 else math.nan
-
-
 def tier(r: SceneResult, linear_range: LinearRange, tolerance: float) -> tuple[str, str]:
     """(tier, one-line verdict) of a checked scene (see the module docstring)."""
     qs, lin = r.solutions.get("quasi_static"), r.solutions.get("linear")
@@ -123,7 +113,7 @@ def tier(r: SceneResult, linear_range: LinearRange, tolerance: float) -> tuple[s
                              f"{int(lin.stats.get('harmonics', 0))} crank harmonics (estimated error "
                              f"{lin.stats.get('error_estimate', math.nan):.2g} of the peak): use the nonlinear model "
                              "(--confirm)")
-    err = metrics.history_error(_xy(qs.deflection), _xy(lin.deflection))
+    err = metrics.history_error(metrics.vector(qs.deflection), metrics.vector(lin.deflection))
     if err < tolerance and not qs.flags:
         return "quasi-static", f"quasi-static holds: it differs from the linear model by {err:.1%} < {tolerance:.0%}"
     limit = linear_range.r10 if tolerance >= 0.10 else linear_range.r5
@@ -143,23 +133,23 @@ def check_row(r: SceneResult, linear_range: LinearRange, tolerance: float) -> Ch
     nan = math.nan
     qs, lin = r.solutions.get("quasi_static"), r.solutions.get("linear")
     ratio = speed_ratio(r)
-    qs_xy = _xy(qs.deflection) if qs is not None and qs.ok else None
-    lin_ok = lin is not None and lin.ok
+    qs_xy = metrics.vector(qs.deflection) if qs is not None and qs.ok else None
+    lin_xy = metrics.vector(lin.deflection) if lin is not None and lin.ok else None
     est = nan
     if qs_xy is not None and math.isfinite(ratio):
         est = metrics.history_error(qs_xy, one_mode_dynamic_estimate(qs_xy, ratio, r.spec.damping_ratio))
     name, verdict = tier(r, linear_range, tolerance)
     confirmed = {}
     if "dynamic" in r.solutions and r.solutions["dynamic"].ok:
-        dyn = _xy(r.solutions["dynamic"].deflection)
+        dyn = metrics.vector(r.solutions["dynamic"].deflection)
         confirmed = {"quasi_static_vs_dynamic": metrics.history_error(qs_xy, dyn) if qs_xy is not None else nan,
-                     "linear_vs_dynamic": metrics.history_error(_xy(lin.deflection), dyn) if lin_ok else nan}
+                     "linear_vs_dynamic": metrics.history_error(lin_xy, dyn) if lin_xy is not None else nan}
     elif "dynamic" in r.solutions:
         confirmed = {"dynamic_failed": 1.0}
     return CheckRow(
         rpm=r.rpm, speed_ratio=ratio, quasi_static_peak_m=metrics.peak(qs_xy) if qs_xy is not None else nan,
-        linear_peak_m=metrics.peak(_xy(lin.deflection)) if lin_ok else nan,
-        linear_vs_quasi_static=metrics.history_error(qs_xy, _xy(lin.deflection)) if lin_ok and qs_xy is not None
+        linear_peak_m=metrics.peak(lin_xy) if lin_xy is not None else nan,
+        linear_vs_quasi_static=metrics.history_error(qs_xy, lin_xy) if lin_xy is not None and qs_xy is not None
         else nan, quasi_static_error_estimate=est,
         floquet_max_abs=float(lin.stats.get("floquet_max_abs", nan)) if lin is not None else nan,
         tier=name, verdict=verdict, flags=tuple(sorted({*(qs.flags if qs else ()), *(lin.flags if lin else ())})),

@@ -34,6 +34,13 @@ VERDICT_METRIC = "history_error, worst of dx, dy and rotation"
 """What the verdict of a scene compares with the tolerance (see the module docstring)."""
 
 
+def vector(history: Mapping[str, np.ndarray]) -> np.ndarray | None:
+    """(n, 2) deflection vector (dx, dy) of P [m] from a component -> history mapping; None without both."""
+    if "dx" not in history or "dy" not in history:
+        return None
+    return np.column_stack([np.asarray(history["dx"], dtype=float), np.asarray(history["dy"], dtype=float)])
+
+
 def safe_ratio(num: float, den: float) -> float:
     """num / den with 0/0 -> 0 and x/0 -> inf (both non-negative here)."""
     if den == 0.0:

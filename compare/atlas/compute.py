@@ -97,8 +97,8 @@ def spec_of(linkage: Linkage, mechanism: str, mass_model: MassModel, r: float) -
 
 
 def xy(sol: registry.Solution) -> np.ndarray:
-    """(n, 2) deflection vector of P [m]."""
-    return np.column_stack([sol.deflection["dx"], sol.deflection["dy"]])
+    """(n, 2) deflection vector of P [m] of a solution."""
+    return metrics.vector(sol.deflection)
 
 
 def flag_bits(flags: tuple[str, ...]) -> int:

@@ -21,8 +21,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
 from compare import metrics, store
 from compare.studies import CONFIG_DIR, StudyPaths
 from compare.studies.sections import write_section
@@ -54,10 +52,6 @@ class TierPoint:
     floquet_max_abs: float
 
 
-def _xy(h: dict[str, np.ndarray]) -> np.ndarray | None:
-    return np.column_stack([h["dx"], h["dy"]]) if "dx" in h and "dy" in h else None
-
-
 def _reason(sol: object) -> str:
     """"<failure class>: <message>" of a failed dynamic solution."""
     if sol is None:
@@ -68,8 +62,8 @@ def _reason(sol: object) -> str:
 def tier_point(p: object, r: object) -> TierPoint:
     """Errors of one stored scene (``p``: the validity study's Point, ``r``: its SceneResult)."""
     nan = math.nan
-    dyn = _xy(r.dynamic) if r.solutions.get("dynamic") is not None and r.solutions["dynamic"].ok else None
-    hist = {m: _xy(r.history(m)) for m in MODELS}
+    dyn = metrics.vector(r.dynamic) if r.solutions.get("dynamic") is not None and r.solutions["dynamic"].ok else None
+    hist = {m: metrics.vector(r.history(m)) for m in MODELS}
     hist = {m: h for m, h in hist.items() if h is not None and r.solutions[m].ok}
     err = {m: metrics.history_error(h, dyn) if dyn is not None else nan for m, h in hist.items()}
     qs, lin = hist.get("quasi_static"), hist.get("linear")

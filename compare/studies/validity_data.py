@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from compare import store
+from compare import metrics, store
 from compare.inspect import speed_ratio
 from compare.results import SceneResult
 from compare.scenes import SceneSpec
@@ -84,12 +84,6 @@ def linkage_label(campaign_name: str) -> str:
     return campaign_name.removesuffix("-retry")
 
 
-def _xy(side: dict[str, np.ndarray]) -> np.ndarray | None:
-    if "dx" not in side or "dy" not in side:
-        return None
-    return np.stack([np.asarray(side["dx"], float), np.asarray(side["dy"], float)], axis=1)
-
-
 def _speed_ratio(r: SceneResult) -> float:
     if r.verdict is not None or r.spec.speed.kind != "ratio":
         return float(speed_ratio(r))
@@ -124,7 +118,8 @@ def to_point(r: SceneResult, linkage: str, refined: bool, source: str = "") -> P
         f1_range_hz=f1, status=status, stage=stage, error_type=error_type, message=message,
         refined=refined, elements_per_link=int(ds.get("elements_per_link", -1)),
         steps_per_cycle=int(ds.get("steps_per_cycle", -1)),
-        theta=r.crank_angle, qs=_xy(r.quasi_static), dyn=_xy(r.dynamic) if status == "ok" else None,
+        theta=r.crank_angle, qs=metrics.vector(r.quasi_static),
+        dyn=metrics.vector(r.dynamic) if status == "ok" else None,
         wall_s=float(r.stats.total_wall_s), cycles=int(r.stat("dynamic", "cycles", -1)), spec=r.spec, source=source,
         finished_utc=r.stats.finished_utc, failure_class=failure_class or "unclassified",
     )

@@ -13,8 +13,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from compare import metrics, store
 from compare.inspect import speed_ratio
 
@@ -22,14 +20,11 @@ FILE = Path(__file__).with_name("linear_acceptance.h5")
 R_MAX = 0.1
 
 
-def _xy(h: dict[str, np.ndarray]) -> np.ndarray:
-    return np.column_stack([h["dx"], h["dy"]])
-
-
 def main() -> None:
     scenes = [r for r in store.read_scenes(FILE) if r.ok]
+    vec = metrics.vector
     err = {(r.spec.mechanism, r.spec.mass_model.name, r.rpm): {
-        n: metrics.history_error(_xy(r.history(n)), _xy(r.history("dynamic"))) for n in ("quasi_static", "linear")}
+        n: metrics.history_error(vec(r.history(n)), vec(r.history("dynamic"))) for n in ("quasi_static", "linear")}
         for r in scenes}
     print("| mechanism | mass model | rpm | r | quasi-static | linear KED | bound | linear within bound |")
     print("|---|---|---|---|---|---|---|---|")
