@@ -123,7 +123,10 @@ def test_committed_validity_study_matches_readme():
     studies = ROOT / "results" / "studies"
     files = [studies / (Path(c).stem + ".h5") for c in CONFIGS]
     for f in (*files, studies / REFINE_FILE):
-        assert f.stat().st_size < 5e6, f
+        # a guard against runaway growth, not a physical bound: each scene stores four solvers' histories and
+        # the metrics of every solver pair as small HDF5 groups (~1 kB of object header each); the largest
+        # file (the thesis linkage, 175 scenes) is 14.3 MB
+        assert f.stat().st_size < 16e6, f
         res = CliRunner().invoke(main, ["inspect", str(f), "--verify"])
         assert res.exit_code == 0, res.output
     readme = ROOT / "results" / "README.md"
