@@ -62,7 +62,7 @@ BAD = [
     ("zero length", "[linkage]\npreset = 'thesis'\ncrank = 0.0", "linkage.crank", "must be a number in (0, 1000] m"),
     ("cannot assemble", "[linkage]\npreset = 'thesis'\nfollower = 0.1", "linkage", "cannot assemble"),
     ("too many lumps", "[grid]\nmass_models = [{name='distributed', lumps=1000}]", "grid.mass_models[0].lumps",
-     "in [1, 100]"),
+     "in [1, 256]"),
     ("bad section key", "[linkage.sections.crank]\nyoung = 1.0", "linkage.sections.crank.young", "unknown key"),
     ("unknown dynamic setting", "[dynamic]\nsteps = 10", "dynamic.steps", "unknown key"),
     ("dynamic wrong type", "[dynamic]\nsteps_per_cycle = 72.5", "dynamic.steps_per_cycle", "must be an integer"),

@@ -120,7 +120,7 @@ def test_damaged_scene_group_is_reported_not_a_traceback(tmp_path, cfg, stored):
 @pytest.mark.parametrize("args, words", [
     (["quasi", "--rpm", "1e9"], ["--rpm", "100000"]),
     (["quasi", "--payload-kg", "1e12"], ["--payload-kg"]),
-    (["quasi", "--lumps", "1000", "--mass-model", "distributed"], ["--lumps", "[1, 100]"]),
+    (["quasi", "--lumps", "1000", "--mass-model", "distributed"], ["--lumps", "[1, 256]"]),
     (["quasi", "--step-deg", "0.01", "--mass-model", "distributed", "--lumps", "100"], ["too large a problem"]),
     (["quasi", "--step-deg", "90"], ["--step-deg"]),
     (["simulate", "--max-cycles", "0"], ["--max-cycles"]),
