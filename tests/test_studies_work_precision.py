@@ -94,7 +94,9 @@ def test_work_precision_study_regenerates(tmp_path: Path) -> None:
     out, readme = tmp_path / "wp.h5", tmp_path / "README.md"
     run_study(out, figures=tmp_path, readme=readme, progress=False)
     tables, _ = study_io.read_tables(out)
-    assert len(tables["dynamic"]["error"]) > 100 and out.stat().st_size < 5e6
+    # size: a guard against runaway growth; the linear solver and its pair metrics took a regenerated file
+    # from under 5 MB to 5.5 MB (HDF5 object headers of the per-pair metric groups)
+    assert len(tables["dynamic"]["error"]) > 100 and out.stat().st_size < 8e6
     assert "<!-- BEGIN work-precision -->" in readme.read_text()
     assert (tmp_path / "work_precision.png").exists()
 
