@@ -13,6 +13,7 @@ Everything is plain HDF5 (groups, numeric datasets, string/number attributes, no
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as _dt
 import os
 import platform
@@ -30,8 +31,11 @@ import h5py
 import numpy as np
 
 from compare import h5layout
+from compare.metrics import all_pairs
 from compare.results import SceneResult
 from compare.solvers import Solution
+from ked_quasi.linkage import direction_sign
+from ked_quasi.units import rpm_to_rad_s
 
 SCHEMA = "ked-harness/campaign"
 SCHEMA_VERSION = 2
@@ -336,11 +340,37 @@ def commit(path: str | Path, results: Iterable[SceneResult], run: int = -1) -> N
         return
     with transaction(path) as f:
         scenes = f.require_group(SCENES)
+        version = schema_version(f) or SCHEMA_VERSION
         for r in results:
             if r.key in scenes:
+                old = scenes[r.key]
+                if h5layout.complete(old):
+                    r = with_kept_solutions(r, h5layout.read_scene(old, version))
                 del scenes[r.key]
             h5layout.write_scene(scenes.create_group(r.key), r, run)
         f.attrs["modified_utc"] = utc_now()
+
+
+def with_kept_solutions(new: SceneResult, old: SceneResult) -> SceneResult:
+    """``new`` plus every solution of ``old`` whose solver ``new`` did not run (a rerun with another
+    solver list must not drop what is stored), with the metrics of every pair recomputed over all of
+    them (one definition: :func:`compare.metrics.all_pairs`)."""
+    kept = {n: s for n, s in old.solutions.items() if n not in new.solutions}
+    if not kept:
+        return new
+    solutions = {**new.solutions, **kept}
+    metrics = new.metrics
+    ok = {n: s for n, s in solutions.items() if s.ok and s.deflection}
+    theta = new.crank_angle if new.crank_angle is not None else old.crank_angle
+    if theta is not None and ok:
+        try:
+            metrics = all_pairs(theta, {n: s.deflection for n, s in ok.items()},
+                                {n: s.fidelity for n, s in ok.items()}, omega=rpm_to_rad_s(new.rpm),
+                                omega1_min=new.omega1_min, tolerance=new.spec.tolerance,
+                                direction_sign=direction_sign(new.spec.direction))
+        except ValueError:
+            pass
+    return dataclasses.replace(new, solutions=solutions, metrics=metrics)
 
 
 # --------------------------------------------------------------------------------------------------

