@@ -196,33 +196,68 @@ class LockedError(RuntimeError):
 
 
 @contextmanager
-def writer_lock(path: str | Path) -> Iterator[None]:
-    """Exclusive, non-blocking lock on ``<path>.lock`` for one writer (campaign) at a time; released by
-    the kernel if the process dies.  Raises :class:`LockedError` if another process holds it."""
+def writer_lock(path: str | Path, wait_s: float = 0.0) -> Iterator[None]:
+    """Exclusive lock on ``<path>.lock`` for one writer (campaign or merge) at a time; released by the
+    kernel if the process dies.  Waits up to ``wait_s`` [s] for another writer to finish, then raises
+    :class:`LockedError`."""
     import fcntl
+    import time
 
     path = target(path)
     lock = path.with_name(path.name + ".lock")
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
-    except OSError as exc:
-        raise CommitError(f"{lock}: cannot create the writer lock ({exc.strerror}); "
-                          "give an --out file in a writable directory") from exc
-    try:
+    deadline = time.monotonic() + max(0.0, wait_s)
+    while True:
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:
+            raise CommitError(f"{lock}: cannot create the writer lock ({exc.strerror}); "
+                              "give an --out file in a writable directory") from exc
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError as exc:
-            raise LockedError(f"{path} is being written by another process (lock {lock})") from exc
+            os.close(fd)
+            if time.monotonic() >= deadline:
+                raise LockedError(f"{path} is being written by another process (lock {lock})") from exc
+            time.sleep(0.05)
+            continue
+        if _same_file(fd, lock):
+            break
+        os.close(fd)  # the previous holder removed the lock file after we opened it: lock the new one
+    try:
+        yield
+    finally:
         try:
-            yield
-        finally:
-            try:
-                lock.unlink()
-            except OSError:
-                pass
+            lock.unlink()
+        except OSError:
+            pass
+        os.close(fd)
+
+
+def _same_file(fd: int, path: Path) -> bool:
+    try:
+        a, b = os.fstat(fd), os.stat(path)
+    except OSError:
+        return False
+    return (a.st_dev, a.st_ino) == (b.st_dev, b.st_ino)
+
+
+def is_locked(path: str | Path) -> bool:
+    """Whether a live process holds the writer lock of ``path`` (without taking it)."""
+    import fcntl
+
+    lock = target(path).with_name(target(path).name + ".lock")
+    try:
+        fd = os.open(lock, os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except OSError:
+        return True
     finally:
         os.close(fd)
+    return False
 
 
 def stale_temp_files(path: str | Path) -> list[Path]:
@@ -307,48 +342,57 @@ def record_run(path: str | Path, config_text: str, campaign_name: str, n_scenes:
     """Create the file if needed (refusing a file that is not ours), set/refresh the file attributes,
     upgrade an older layout, and add a ``/runs/<n>`` record.  Returns the run number."""
     check_ours(path)
+    with transaction(path) as f:
+        return _record_run(f, config_text, campaign_name, n_scenes)
+
+
+def _record_run(f: h5py.File, config_text: str, campaign_name: str, n_scenes: int) -> int:
     prov = provenance()
     now = utc_now()
-    with transaction(path) as f:
-        if "schema" not in f.attrs:
-            f.attrs["schema"] = SCHEMA
-            f.attrs["schema_version"] = SCHEMA_VERSION
-            f.attrs["created_utc"] = now
-        _upgrade(f)
-        for k, v in prov.items():
-            f.attrs[k] = v
-        f.attrs["modified_utc"] = now
-        f.attrs["campaign_name"] = campaign_name
-        f.attrs["campaign_config"] = config_text
-        f.require_group(SCENES)
-        runs = f.require_group(RUNS)
-        number = len(runs)
-        g = runs.create_group(f"{number:04d}")
-        g.attrs["started_utc"] = now
-        g.attrs["campaign_name"] = campaign_name
-        g.attrs["campaign_config"] = config_text
-        g.attrs["n_scenes"] = int(n_scenes)
-        for k, v in prov.items():
-            g.attrs[k] = v
+    if "schema" not in f.attrs:
+        f.attrs["schema"] = SCHEMA
+        f.attrs["schema_version"] = SCHEMA_VERSION
+        f.attrs["created_utc"] = now
+    _upgrade(f)
+    for k, v in prov.items():
+        f.attrs[k] = v
+    f.attrs["modified_utc"] = now
+    f.attrs["campaign_name"] = campaign_name
+    f.attrs["campaign_config"] = config_text
+    f.require_group(SCENES)
+    runs = f.require_group(RUNS)
+    number = len(runs)
+    g = runs.create_group(f"{number:04d}")
+    g.attrs["started_utc"] = now
+    g.attrs["campaign_name"] = campaign_name
+    g.attrs["campaign_config"] = config_text
+    g.attrs["n_scenes"] = int(n_scenes)
+    for k, v in prov.items():
+        g.attrs[k] = v
     return number
 
 
 def commit(path: str | Path, results: Iterable[SceneResult], run: int = -1) -> None:
-    """Atomically add (or replace) the scene groups of ``results`` in the results file."""
+    """Atomically add (or replace) the scene groups of ``results`` in the results file; a replaced
+    scene keeps the stored solutions of solvers the new result did not run."""
     results = list(results)
     if not results:
         return
     with transaction(path) as f:
-        scenes = f.require_group(SCENES)
-        version = schema_version(f) or SCHEMA_VERSION
-        for r in results:
-            if r.key in scenes:
-                old = scenes[r.key]
-                if h5layout.complete(old):
-                    r = with_kept_solutions(r, h5layout.read_scene(old, version))
-                del scenes[r.key]
-            h5layout.write_scene(scenes.create_group(r.key), r, run)
-        f.attrs["modified_utc"] = utc_now()
+        _commit(f, results, run)
+
+
+def _commit(f: h5py.File, results: list[SceneResult], run: int) -> None:
+    scenes = f.require_group(SCENES)
+    version = schema_version(f) or SCHEMA_VERSION
+    for r in results:
+        if r.key in scenes:
+            old = scenes[r.key]
+            if h5layout.complete(old):
+                r = with_kept_solutions(r, h5layout.read_scene(old, version))
+            del scenes[r.key]
+        h5layout.write_scene(scenes.create_group(r.key), r, run)
+    f.attrs["modified_utc"] = utc_now()
 
 
 def with_kept_solutions(new: SceneResult, old: SceneResult) -> SceneResult:
@@ -501,18 +545,27 @@ def rescue(results: list[SceneResult], out: str | Path, config_text: str, campai
     raise CommitError("the computed scenes could not be saved anywhere: " + "; ".join(reasons))
 
 
-def merge(src: str | Path, dest: str | Path) -> tuple[int, int]:
+MERGE_WAIT_S = 60.0
+"""How long ``ked merge`` waits for another writer of DEST (a merge or a campaign) to finish [s]."""
+
+
+def merge(src: str | Path, dest: str | Path, wait_s: float = MERGE_WAIT_S) -> tuple[int, int]:
     """Add the scenes of results file ``src`` that ``dest`` lacks (or holds only as failed) to ``dest``
     (created if missing); returns (added, kept).  Both files must be harness files; ``src`` is not
-    changed."""
+    changed.  Holds ``dest``'s writer lock (waiting up to ``wait_s`` [s] for another writer) from
+    reading ``dest`` to its atomic replacement, and writes the run record and the scenes in one
+    transaction."""
     check_ours(src)
     check_ours(dest)
     check_writable(dest)
-    have = stored_status(dest)
-    new = [r for r in read_scenes(src) if have.get(r.key) in (None, "failed") and not (have.get(r.key) == "failed"
-                                                                                      and not r.ok)]
-    if new or not target(dest).exists():
-        info = file_info(src)
-        record_run(dest, str(info.get("campaign_config", "")), f"merge of {target(src).name}", len(new))
-        commit(dest, new)
-    return len(new), len(read_scenes(src)) - len(new)
+    offered = read_scenes(src)
+    config = str(file_info(src).get("campaign_config", ""))
+    with writer_lock(dest, wait_s=wait_s):
+        check_ours(dest)
+        have = stored_status(dest)
+        new = [r for r in offered if have.get(r.key) is None or (have.get(r.key) == "failed" and r.ok)]
+        if new or not target(dest).exists():
+            with transaction(dest) as f:
+                run = _record_run(f, config, f"merge of {target(src).name}", len(new))
+                _commit(f, new, run)
+    return len(new), len(offered) - len(new)

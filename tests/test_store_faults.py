@@ -9,9 +9,11 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from compare import store
 
@@ -88,3 +90,60 @@ def test_rerun_with_other_solvers_keeps_stored_solutions(tmp_path):
         assert set(r.metrics) == {"quasi_static_vs_linear", "quasi_static_vs_dynamic", "linear_vs_dynamic"}
         assert r.reference == "dynamic"
     verify_ok(out)
+
+
+# -- ked merge holds the writer lock -----------------------------------------------------------------------
+
+
+def split_into_files(src: Path, tmp: Path) -> list[Path]:
+    """One results file per scene of ``src`` (written through the store, as a rescue file is)."""
+    out = []
+    for r in store.read_scenes(src):
+        p = tmp / f"one-{r.key}.h5"
+        run_no = store.record_run(p, "", "split", 1)
+        store.commit(p, [r], run_no)
+        out.append(p)
+    return out
+
+
+@pytest.fixture(scope="module")
+def many(tmp_path_factory) -> Path:
+    """A results file of 16 quasi-static scenes (quick)."""
+    d = tmp_path_factory.mktemp("many")
+    res = run(config(d, "many", ("quasi_static",), rpm=[30.0 + 5 * i for i in range(16)]), d / "many.h5")
+    assert res.returncode == 0, res.stderr
+    return d / "many.h5"
+
+
+def test_concurrent_merges_keep_every_scene(many, tmp_path):
+    srcs = split_into_files(many, tmp_path)
+    dest = tmp_path / "dest.h5"
+    procs = [subprocess.Popen([sys.executable, "-m", "ked_cli", "merge", str(s), str(dest)], stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True) for s in srcs]
+    outs = [p.communicate(timeout=300) for p in procs]
+    assert all(p.returncode == 0 for p in procs), outs
+    assert set(store.stored_status(dest)) == set(store.stored_status(many))  # every merge's scene is there
+    assert store.file_info(dest)["n_runs"] == len(srcs)
+    verify_ok(dest)
+
+
+def test_merge_while_run_writes_loses_nothing(many, tmp_path):
+    srcs = split_into_files(many, tmp_path)[:6]
+    dest = tmp_path / "dest.h5"
+    cfg = config(tmp_path, "busy", ("quasi_static", "linear"), rpm=[61.0, 62.0, 63.0, 64.0])
+    writer = subprocess.Popen([sys.executable, "-m", "ked_cli", "run", str(cfg), "--out", str(dest), "--workers", "1",
+                               "--no-figures", "--no-progress"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True)
+    lock = dest.with_name(dest.name + ".lock")
+    while not lock.exists() and writer.poll() is None:  # the run has started writing
+        time.sleep(0.02)
+    merges = [subprocess.Popen([sys.executable, "-m", "ked_cli", "merge", str(s), str(dest)], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True) for s in srcs]
+    outs = [p.communicate(timeout=300) for p in merges]
+    assert writer.wait(timeout=300) == 0, writer.stderr.read()
+    assert all(p.returncode == 0 for p in merges), outs
+    stored = store.stored_status(dest)
+    merged = {k for s in srcs for k in store.stored_status(s)}
+    assert merged <= set(stored)
+    assert len(stored) == len(merged) + 4  # and the run's four scenes
+    verify_ok(dest)
