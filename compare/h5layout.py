@@ -43,6 +43,23 @@ def complete(g: h5py.Group) -> bool:
     return isinstance(g, h5py.Group) and int(g.attrs.get("complete", 0)) == 1
 
 
+MAX_COMPACT_ATTRIBUTES = 64
+"""Groups keep up to this many attributes in their object header (HDF5's default of 8 moves more into
+a separately allocated dense store of about 1.5 kB per group)."""
+
+
+def _compact_attributes(kind: Any) -> Any:
+    plist = h5py.h5p.create(kind)
+    plist.set_attr_phase_change(MAX_COMPACT_ATTRIBUTES, MAX_COMPACT_ATTRIBUTES - 2)
+    return plist
+
+
+def new_group(parent: h5py.Group, name: str) -> h5py.Group:
+    """A new group whose attributes stay compact (see :data:`MAX_COMPACT_ATTRIBUTES`)."""
+    return h5py.Group(h5py.h5g.create(parent.id, name.encode("utf-8"),
+                                      gcpl=_compact_attributes(h5py.h5p.GROUP_CREATE)))
+
+
 def _dataset(g: h5py.Group, name: str, data: np.ndarray, units: str, description: str) -> None:
     ds = g.create_dataset(name, data=np.asarray(data, dtype=np.float64))
     ds.attrs["units"] = units
@@ -80,36 +97,128 @@ def write_parameters(g: h5py.Group, spec: SceneSpec) -> None:
         a[attr] = np.array([getattr(s, field) for s in lk.sections])
 
 
-def write_solution(g: h5py.Group, s: Solution) -> None:
-    """``solutions/<solver>/``: the history datasets and the solver's status, settings and statistics."""
-    a = g.attrs
+def write_solution(parent: h5py.Group, s: Solution) -> None:
+    """``solutions/<solver>``: one (n, k) dataset of the requested output histories (columns named by
+    its ``components`` attribute, units by ``units``; (0, 0) when the solver produced none) carrying the
+    solver's status, settings and statistics as attributes."""
+    comps = [c for c in COMPONENTS if c in s.deflection]
+    data = (np.column_stack([np.asarray(s.deflection[c], dtype=np.float64) for c in comps]) if comps
+            else np.zeros((0, 0)))
+    ds = parent.create_dataset(s.solver, data=data, dcpl=_compact_attributes(h5py.h5p.DATASET_CREATE))
+    a = ds.attrs
+    a["components"], a["units"] = ",".join(comps), ",".join(COMPONENT_UNITS[c] for c in comps)
     a["status"], a["message"], a["error_type"] = s.status, s.message, s.error_type
     a["failure_class"], a["flags"], a["warnings"] = s.failure_class, ",".join(s.flags), s.warnings
     a["fidelity"] = int(s.fidelity)
     a["settings_json"] = canonical_json(s.settings)
     a["stats_json"] = json.dumps(s.stats, sort_keys=True, allow_nan=True)
-    for comp in COMPONENTS:
-        if comp in s.deflection:
-            _dataset(g, comp, s.deflection[comp], COMPONENT_UNITS[comp], f"{s.solver} {comp} of P")
 
 
-def write_metrics(g: h5py.Group, m: PairMetrics) -> None:
-    """``metrics/<solver>_vs_<reference>/``: pair attributes and one subgroup per component."""
-    a = g.attrs
-    a["solver"], a["reference"] = m.solver, m.reference
-    a["omega_rad_s"], a["omega1_min_rad_s"], a["speed_ratio"] = m.omega, m.omega1_min, m.speed_ratio
-    a["tolerance"], a["holds"], a["verdict_error"] = m.tolerance, flag(m.holds), m.verdict_error
-    for c in m.components:
-        cg = g.create_group(c.component)
-        cg.attrs["units"] = c.units
-        for name in _METRIC_ATTRS:
-            cg.attrs[name] = float(getattr(c, name))
-        cg.attrs["phase_shift_rad"] = float(c.phase_shift)
-        cg.attrs["holds"] = flag(c.holds)
+# The metrics table (schema version 3): one row per (solver pair, component) in one compound dataset
+# ``metrics`` per scene.  name, HDF5 type, units ("row" = the row's ``units`` column), description.
+METRIC_FIELDS: tuple[tuple[str, str, str, str], ...] = (
+    ("solver", "S32", "", "solver measured"),
+    ("reference", "S32", "", "reference solver (the higher fidelity)"),
+    ("component", "S16", "", "dx, dy, rotation, or vector (the deflection vector (dx, dy))"),
+    ("units", "S8", "", "units of the component"),
+    ("history_error", "f8", "1", "max|a - b| / max|b| over the cycle"),
+    ("peak_error", "f8", "1", "|max|a| - max|b|| / max|b|"),
+    ("max_abs_error", "f8", "row", "max|a - b|"),
+    ("rms_error", "f8", "row", "root mean square of |a - b|"),
+    ("phase_shift_rad", "f8", "rad", "time lag of the reference's peak behind the solver's, (-pi, pi]"),
+    ("amplification", "f8", "1", "max|b| / max|a|"),
+    ("solver_peak", "f8", "row", "max|a|"),
+    ("reference_peak", "f8", "row", "max|b|"),
+    ("holds", "u1", "", "1 if history_error < tolerance"),
+    ("pair_holds", "u1", "", "1 if the pair holds: every scalar component holds"),
+    ("verdict_error", "f8", "1", "worst history_error of dx, dy, rotation of the pair"),
+    ("omega_rad_s", "f8", "rad/s", "crank speed"),
+    ("omega1_min_rad_s", "f8", "rad/s", "lowest first natural circular frequency over the cycle"),
+    ("speed_ratio", "f8", "1", "omega / omega1_min"),
+    ("tolerance", "f8", "1", "campaign tolerance of the verdict"),
+)
+METRIC_DTYPE = np.dtype([(name, kind) for name, kind, _, _ in METRIC_FIELDS])
+_ROW_KEY = ("solver", "reference", "component")
+MetricRows = dict[tuple[str, str, str], dict[str, Any]]
+"""(solver, reference, component) -> field -> value: the stored metric numbers of a scene."""
 
 
-def write_scene(g: h5py.Group, r: SceneResult, run: int) -> None:
-    """A complete scene group (``complete`` written last)."""
+def metric_rows(metrics: dict[str, PairMetrics]) -> MetricRows:
+    """The table rows of computed metrics."""
+    rows: MetricRows = {}
+    for m in metrics.values():
+        pair = {"pair_holds": bool(m.holds), "verdict_error": float(m.verdict_error), "omega_rad_s": float(m.omega),
+                "omega1_min_rad_s": float(m.omega1_min), "speed_ratio": float(m.speed_ratio),
+                "tolerance": float(m.tolerance)}
+        for c in m.components:
+            row = {"units": c.units, **{n: float(getattr(c, n)) for n in _METRIC_ATTRS},
+                   "phase_shift_rad": float(c.phase_shift), "holds": bool(c.holds), **pair}
+            rows[(m.solver, m.reference, c.component)] = row
+    return rows
+
+
+def write_metrics_table(g: h5py.Group, rows: MetricRows) -> None:
+    """``metrics``: the compound dataset of ``rows`` with per-field ``units`` and ``descriptions``
+    attributes (string arrays in field order)."""
+    data = np.zeros(len(rows), dtype=METRIC_DTYPE)
+    for i, (key, row) in enumerate(rows.items()):
+        for name, value in (*zip(_ROW_KEY, key), *row.items()):
+            data[i][name] = value.encode("utf-8") if isinstance(value, str) else value
+    ds = g.create_dataset(METRICS, data=data)
+    ds.attrs["units"] = np.array([u.encode() for _, _, u, _ in METRIC_FIELDS])
+    ds.attrs["descriptions"] = np.array([d.encode() for _, _, _, d in METRIC_FIELDS])
+
+
+def stored_metric_rows(g: h5py.Group, version: int) -> MetricRows:
+    """Every stored metric number of a scene group, whatever its layout (version 3 table, version 2
+    groups per pair and component, version 1 quasi-static vs Exudyn group)."""
+    mg = g.get(METRICS)
+    if mg is None:
+        return {}
+    if isinstance(mg, h5py.Dataset):
+        rows: MetricRows = {}
+        for rec in mg[()]:
+            vals = {n: (text(rec[n]) if kind.startswith("S") else bool(rec[n]) if kind == "u1" else float(rec[n]))
+                    for n, kind, _, _ in METRIC_FIELDS}
+            rows[tuple(vals.pop(k) for k in _ROW_KEY)] = vals
+        return rows
+    if version < 2:
+        return _metric_rows_v1(mg)
+    rows = {}
+    for pg in mg.values():
+        pa = pg.attrs
+        pair = {"pair_holds": bool(pa["holds"]), "verdict_error": float(pa["verdict_error"]),
+                **{n: float(pa[n]) for n in ("omega_rad_s", "omega1_min_rad_s", "speed_ratio", "tolerance")}}
+        for comp, cg in pg.items():
+            ca = cg.attrs
+            row = {"units": text(ca["units"]), **{n: float(ca[n]) for n in (*_METRIC_ATTRS, "phase_shift_rad")},
+                   "holds": bool(ca["holds"]), **pair}
+            rows[(text(pa["solver"]), text(pa["reference"]), comp)] = row
+    return rows
+
+
+def _metric_rows_v1(mg: h5py.Group) -> MetricRows:
+    """Version 1: ``metrics/`` of quasi-static vs Exudyn, ``relative_error`` = history error,
+    ``quasi_static_peak`` / ``dynamic_peak`` = solver / reference peak."""
+    pa = mg.attrs
+    pair = {"pair_holds": bool(pa["holds"]), "verdict_error": float(pa["max_relative_error"]),
+            **{n: float(pa[n]) for n in ("omega_rad_s", "omega1_min_rad_s", "speed_ratio", "tolerance")}}
+    names = {"history_error": "relative_error", "solver_peak": "quasi_static_peak", "reference_peak": "dynamic_peak"}
+    rows: MetricRows = {}
+    for comp, cg in mg.items():
+        ca = cg.attrs
+        row = {"units": text(ca["units"]),
+               **{n: float(ca[names.get(n, n)]) for n in (*_METRIC_ATTRS, "phase_shift_rad") if names.get(n, n) in ca},
+               "holds": bool(ca["holds"]), **pair}
+        rows[("quasi_static", "dynamic", comp)] = row
+    return rows
+
+
+def write_scene(g: h5py.Group, r: SceneResult, run: int, stored_metrics: MetricRows | None = None,
+                parameters: h5py.Group | None = None) -> None:
+    """A complete scene group (``complete`` written last).  An upgrade carries over verbatim what an
+    older layout stored: ``stored_metrics`` (they replace the computed ones where both exist) and the
+    ``parameters`` group (copied as it is)."""
     for name, value in (("key", r.key), ("label", r.spec.label), ("status", r.status), ("stage", r.stage),
                         ("error_type", r.error_type), ("message", r.message), ("warnings", r.warnings),
                         ("failure_class", r.failure_class)):
@@ -117,7 +226,10 @@ def write_scene(g: h5py.Group, r: SceneResult, run: int) -> None:
     g.attrs["rpm"] = float(r.rpm)
     g.attrs["omega1_min_rad_s"] = float(r.omega1_min)
     g.attrs["run"] = int(run)
-    write_parameters(g.create_group("parameters"), r.spec)
+    if parameters is not None:
+        parameters.parent.copy(parameters, g, "parameters")
+    else:
+        write_parameters(new_group(g, "parameters"), r.spec)
     if r.crank_angle is not None:
         _dataset(g, "crank_angle", r.crank_angle, "rad", "crank angle grid, CCW from M->Q")
     if r.coupler_point is not None:
@@ -125,13 +237,14 @@ def write_scene(g: h5py.Group, r: SceneResult, run: int) -> None:
     if r.natural_frequencies is not None:
         _dataset(g, "natural_frequencies", r.natural_frequencies, "Hz",
                  "natural frequencies of the frozen structure at each crank angle (n, n_modes)")
-    sols = g.create_group(SOLUTIONS)
-    for name, s in r.solutions.items():
-        write_solution(sols.create_group(name), s)
-    mg = g.create_group(METRICS)
-    for name, m in r.metrics.items():
-        write_metrics(mg.create_group(name), m)
-    st = g.create_group("run_stats")
+    sols = new_group(g, SOLUTIONS)
+    for s in r.solutions.values():
+        write_solution(sols, s)
+    rows = metric_rows(r.metrics)
+    for key, row in (stored_metrics or {}).items():
+        rows[key] = {**rows.get(key, {}), **row}
+    write_metrics_table(g, rows)
+    st = new_group(g, "run_stats")
     for name in _RUN_STAT_FIELDS:
         st.attrs[name] = getattr(r.stats, name)
     g.attrs["complete"] = np.uint8(1)  # written last
@@ -144,11 +257,19 @@ def _array(g: h5py.Group, name: str) -> np.ndarray | None:
     return np.asarray(g[name][()]) if name in g else None
 
 
-def _histories(g: h5py.Group) -> dict[str, np.ndarray]:
+def _histories(g: h5py.Group | h5py.Dataset) -> dict[str, np.ndarray]:
+    """Component -> history of a solution: the columns of a version-3 dataset, the datasets of a
+    version-1/2 group."""
+    if isinstance(g, h5py.Dataset):
+        comps = [c for c in text(g.attrs.get("components", "")).split(",") if c]
+        data = np.asarray(g[()])
+        if data.ndim != 2 or data.shape[1] != len(comps):
+            raise ValueError(f"solution {g.name}: shape {data.shape} does not match components {comps}")
+        return {c: data[:, i].copy() for i, c in enumerate(comps)}
     return {c: np.asarray(g[c][()]) for c in COMPONENTS if c in g}
 
 
-def read_solution(name: str, g: h5py.Group) -> Solution:
+def read_solution(name: str, g: h5py.Group | h5py.Dataset) -> Solution:
     a = g.attrs
     flags = text(a.get("flags", ""))
     return Solution(solver=name, status=text(a["status"]), deflection=_histories(g),
@@ -242,10 +363,10 @@ def verify_scene(name: str, g: Any, version: int) -> list[str]:
         p.append(f"unknown status {r.status!r}")
     if r.status != STATUS_OK:
         return p + ([] if r.message else ["failed scene without message"])
-    return p + _verify_ok_scene(g, r)
+    return p + _verify_ok_scene(g, r, version)
 
 
-def _verify_ok_scene(g: h5py.Group, r: SceneResult) -> list[str]:
+def _verify_ok_scene(g: h5py.Group, r: SceneResult, version: int) -> list[str]:
     p = [f"missing dataset {ds}" for ds in ("crank_angle", "coupler_point", "natural_frequencies") if ds not in g]
     if p:
         return p
@@ -270,20 +391,27 @@ def _verify_ok_scene(g: h5py.Group, r: SceneResult) -> list[str]:
                 p.append(f"{solver}/{c} has non-finite values")
     if len(spec.solvers) > 1 and r.verdict is None:
         p.append("no verdict: the quasi-static solution or a reference is missing")
-    return p + (_verify_stored_metrics(g[METRICS], r) if METRICS in g and SOLUTIONS in g else [])
+    return p + _verify_stored_metrics(g, r, version)
 
 
-def _verify_stored_metrics(mg: h5py.Group, r: SceneResult) -> list[str]:
+def _verify_stored_metrics(g: h5py.Group, r: SceneResult, version: int) -> list[str]:
     """The stored metrics (for readers without the harness) must be those of the stored histories."""
+    if METRICS not in g:
+        return [f"missing {METRICS}" + (" table" if version >= 3 else " group")] if r.metrics else []
+    try:
+        rows = stored_metric_rows(g, version)
+    except (KeyError, ValueError, TypeError) as exc:
+        return [f"{METRICS} unreadable: {exc}"]
     p = []
     for name, m in r.metrics.items():
-        if name not in mg:
-            p.append(f"missing metrics/{name}")
-            continue
         for c in m.components:
-            a = mg[name][c.component].attrs if c.component in mg[name] else {}
-            same = (bool(a.get("holds", not c.holds)) == c.holds
-                    and np.isclose(float(a.get("history_error", np.nan)), c.history_error, rtol=1e-12))
+            row = rows.get((m.solver, m.reference, c.component))
+            if row is None:
+                if version >= 2 or c.component in ("dx", "dy", "rotation"):
+                    p.append(f"missing {METRICS} of {name}/{c.component}")
+                continue
+            same = (bool(row.get("holds", not c.holds)) == c.holds
+                    and np.isclose(float(row.get("history_error", np.nan)), c.history_error, rtol=1e-12))
             if not same:
-                p.append(f"metrics/{name}/{c.component}: stored values differ from the histories")
+                p.append(f"{METRICS} of {name}/{c.component}: stored values differ from the histories")
     return p

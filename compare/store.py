@@ -38,10 +38,13 @@ from ked_quasi.linkage import direction_sign
 from ked_quasi.units import rpm_to_rad_s
 
 SCHEMA = "ked-harness/campaign"
-SCHEMA_VERSION = 2
-READABLE_VERSIONS = (1, 2)
-"""Schema versions this harness reads; it writes :data:`SCHEMA_VERSION` and upgrades a version-1 file
-it writes into (same scenes, same numbers, new layout)."""
+SCHEMA_VERSION = 3
+READABLE_VERSIONS = (1, 2, 3)
+"""Schema versions this harness reads; it writes :data:`SCHEMA_VERSION` and upgrades an older file it
+writes into (:func:`upgrade`: same scenes, same numbers, new layout, verified before it replaces the
+old file)."""
+LIBVER = ("v110", "latest")
+"""HDF5 format bounds of the files the harness creates (compact groups; readable by HDF5 >= 1.10)."""
 SCENES = "scenes"
 RUNS = "runs"
 TMP_MARK = ".tmp-"
@@ -179,9 +182,16 @@ def _open_copy(path: Path, tmp: Path) -> h5py.File:
         if path.exists():
             shutil.copyfile(path, tmp)
             shutil.copymode(path, tmp)
-        return h5py.File(tmp, "a")
+            return h5py.File(tmp, "a", libver=LIBVER)
+        return create(tmp)
     except (OSError, RuntimeError) as exc:
         raise CommitError(f"{path}: cannot be written ({getattr(exc, 'strerror', None) or _short(exc)})") from exc
+
+
+def create(path: Path) -> h5py.File:
+    """A new, empty HDF5 file in the harness's format (free space tracked across sessions, so space of
+    replaced scenes is reused)."""
+    return h5py.File(path, "w", libver=LIBVER, fs_strategy="fsm", fs_persist=True)
 
 
 def _close_quietly(f: h5py.File) -> None:
@@ -323,25 +333,17 @@ def _short(exc: BaseException) -> str:
 # writing
 
 
-def _upgrade(f: h5py.File) -> None:
-    """Rewrite the scene groups of a version-1 file in the current layout (inside a transaction)."""
-    if int(f.attrs.get("schema_version", SCHEMA_VERSION)) >= SCHEMA_VERSION:
-        return
-    scenes = f.require_group(SCENES)
-    for key in list(scenes):
-        g = scenes[key]
-        if not h5layout.complete(g):
-            continue
-        r, run = h5layout.read_scene(g, 1), int(g.attrs["run"])
-        del scenes[key]
-        h5layout.write_scene(scenes.create_group(key), r, run)
-    f.attrs["schema_version"] = SCHEMA_VERSION
+def _require_current(f: h5py.File) -> None:
+    if "schema_version" in f.attrs and schema_version(f) != SCHEMA_VERSION:
+        raise StoreError(f"{f.filename}: schema version {schema_version(f)} must be upgraded "
+                         "(compare.store.upgrade) before scenes are written into it")
 
 
 def record_run(path: str | Path, config_text: str, campaign_name: str, n_scenes: int) -> int:
     """Create the file if needed (refusing a file that is not ours), set/refresh the file attributes,
     upgrade an older layout, and add a ``/runs/<n>`` record.  Returns the run number."""
     check_ours(path)
+    upgrade(path)
     with transaction(path) as f:
         return _record_run(f, config_text, campaign_name, n_scenes)
 
@@ -353,7 +355,7 @@ def _record_run(f: h5py.File, config_text: str, campaign_name: str, n_scenes: in
         f.attrs["schema"] = SCHEMA
         f.attrs["schema_version"] = SCHEMA_VERSION
         f.attrs["created_utc"] = now
-    _upgrade(f)
+    _require_current(f)
     for k, v in prov.items():
         f.attrs[k] = v
     f.attrs["modified_utc"] = now
@@ -362,7 +364,7 @@ def _record_run(f: h5py.File, config_text: str, campaign_name: str, n_scenes: in
     f.require_group(SCENES)
     runs = f.require_group(RUNS)
     number = len(runs)
-    g = runs.create_group(f"{number:04d}")
+    g = h5layout.new_group(runs, f"{number:04d}")
     g.attrs["started_utc"] = now
     g.attrs["campaign_name"] = campaign_name
     g.attrs["campaign_config"] = config_text
@@ -378,20 +380,22 @@ def commit(path: str | Path, results: Iterable[SceneResult], run: int = -1) -> N
     results = list(results)
     if not results:
         return
+    upgrade(path)
     with transaction(path) as f:
         _commit(f, results, run)
 
 
 def _commit(f: h5py.File, results: list[SceneResult], run: int) -> None:
+    _require_current(f)
     scenes = f.require_group(SCENES)
-    version = schema_version(f) or SCHEMA_VERSION
+    version = SCHEMA_VERSION
     for r in results:
         if r.key in scenes:
             old = scenes[r.key]
             if h5layout.complete(old):
                 r = with_kept_solutions(r, h5layout.read_scene(old, version))
             del scenes[r.key]
-        h5layout.write_scene(scenes.create_group(r.key), r, run)
+        h5layout.write_scene(h5layout.new_group(scenes, r.key), r, run)
     f.attrs["modified_utc"] = utc_now()
 
 
@@ -513,6 +517,241 @@ def verify(path: str | Path) -> list[str]:
         for name, g in f[SCENES].items():
             problems += [f"/{SCENES}/{name}: {p}" for p in h5layout.verify_scene(name, g, version)]
     return problems
+
+
+# --------------------------------------------------------------------------------------------------
+# upgrade of older layouts: read everything, write a new file, verify every number, then replace
+
+_LAYOUT: dict[int, dict[str, type]] = {
+    1: {"parameters": h5py.Group, "crank_angle": h5py.Dataset, "coupler_point": h5py.Dataset,
+        "natural_frequencies": h5py.Dataset, "quasi_static": h5py.Group, "dynamic": h5py.Group,
+        "dynamic_settings": h5py.Group, "metrics": h5py.Group, "run_stats": h5py.Group},
+    2: {"parameters": h5py.Group, "crank_angle": h5py.Dataset, "coupler_point": h5py.Dataset,
+        "natural_frequencies": h5py.Dataset, "solutions": h5py.Group, "metrics": h5py.Group,
+        "run_stats": h5py.Group},
+}
+"""The members a scene group of an older schema version may have (anything else cannot be carried over)."""
+
+
+def _foreign_members(g: h5py.Group, version: int) -> list[str]:
+    """Members of a scene group that its version's layout does not have (or of another kind)."""
+    layout = _LAYOUT[version]
+    out = [name for name, obj in g.items() if not isinstance(obj, layout.get(name, ()))]
+    for sub in (("quasi_static", "dynamic") if version == 1 else ()):
+        if isinstance(g.get(sub), h5py.Group):
+            out += [f"{sub}/{n}" for n, o in g[sub].items() if n not in h5layout.COMPONENTS
+                    or not isinstance(o, h5py.Dataset)]
+    if version == 2 and isinstance(g.get("solutions"), h5py.Group):
+        for solver, sg in g["solutions"].items():
+            if not isinstance(sg, h5py.Group):
+                out.append(f"solutions/{solver}")
+                continue
+            out += [f"solutions/{solver}/{n}" for n, o in sg.items() if n not in h5layout.COMPONENTS
+                    or not isinstance(o, h5py.Dataset)]
+    return out
+
+
+def upgrade(path: str | Path) -> bool:
+    """Rewrite a results file of an older schema version in the current layout; True if it did.
+
+    Everything is read first; a scene group holding anything its version's layout does not have (say
+    a file whose ``schema_version`` understates its layout) or that cannot be read is refused with a
+    :class:`StoreError` naming it, and nothing changes.  The new file is written beside the old one,
+    every stored number of the old file (histories, attributes, stored metrics, runs, study tables) is
+    compared with the new file, and only then is the new file renamed onto the old one (atomically,
+    as commits are).  Call with the writer lock held (or no other writer)."""
+    path = target(path)
+    if not path.exists():
+        return False
+    with _open(path) as old:
+        version = schema_version(old)
+        if version is None or version == SCHEMA_VERSION:
+            return False
+        if version not in READABLE_VERSIONS:
+            raise StoreError(f"{path}: schema version {version} is not supported by this harness "
+                             f"(it reads {READABLE_VERSIONS}); use the harness that wrote it or another file")
+        scenes = _read_for_upgrade(old, version, path)
+    tmp = path.with_name(f"{path.name}{TMP_MARK}{os.getpid()}-{uuid.uuid4().hex[:8]}")
+    try:
+        try:
+            with _open(path) as old, create(tmp) as new:
+                _write_upgraded(old, new, scenes)
+            with _open(path) as old, h5py.File(tmp, "r") as new:
+                problems = _compare_upgraded(old, new, version)
+        except (OSError, RuntimeError) as exc:
+            raise CommitError(f"{path}: cannot be upgraded to schema version {SCHEMA_VERSION} "
+                              f"({_short(exc)}; is the disk full?); the file is unchanged") from exc
+        if problems:
+            raise StoreError(f"{path}: upgrade to schema version {SCHEMA_VERSION} would not keep every stored "
+                             f"number ({problems[0]}{f' and {len(problems) - 1} more' if len(problems) > 1 else ''}"
+                             "); the file is unchanged")
+        try:
+            shutil.copymode(path, tmp)
+            _fsync_path(tmp)
+            os.replace(tmp, path)
+        except OSError as exc:
+            raise CommitError(f"{path}: cannot be replaced ({exc.strerror or _short(exc)})") from exc
+        _fsync_path(path.parent, directory=True)
+    finally:
+        if tmp.exists():
+            try:
+                tmp.unlink()
+            except OSError:
+                pass
+    return True
+
+
+def _read_for_upgrade(old: h5py.File, version: int, path: Path) -> dict[str, tuple[SceneResult, int, Any]]:
+    """key -> (scene, run, stored metric rows) of every complete scene; StoreError for what the
+    upgrade cannot carry over."""
+    problems, out = [], {}
+    group = old.get(SCENES)
+    for key, g in (group.items() if isinstance(group, h5py.Group) else ()):
+        if not h5layout.complete(g):
+            problems.append(f"/{SCENES}/{key} is incomplete")
+            continue
+        foreign = _foreign_members(g, version)
+        if foreign:
+            problems.append(f"/{SCENES}/{key} holds {', '.join(foreign[:4])}, which a version-{version} file "
+                            "cannot have")
+            continue
+        try:
+            out[key] = (h5layout.read_scene(g, version), int(g.attrs["run"]), h5layout.stored_metric_rows(g, version))
+        except (KeyError, ValueError, TypeError, OSError) as exc:
+            problems.append(f"/{SCENES}/{key} is unreadable ({_short(exc)})")
+    if problems:
+        more = f" and {len(problems) - 1} more" if len(problems) > 1 else ""
+        raise StoreError(f"{path}: refusing to upgrade schema version {version} to {SCHEMA_VERSION}: {problems[0]}"
+                         f"{more}; the file is unchanged (check it with `ked inspect FILE --verify`)")
+    return out
+
+
+def _write_upgraded(old: h5py.File, new: h5py.File, scenes: dict[str, tuple[SceneResult, int, Any]]) -> None:
+    """The new file: root attributes and every group but the scenes copied, scenes in the current layout
+    (their ``parameters`` copied as they are: the content key is hashed from that JSON)."""
+    for k, v in old.attrs.items():
+        new.attrs[k] = v
+    new.attrs["schema_version"] = SCHEMA_VERSION
+    for name in old:
+        if name != SCENES:
+            old.copy(old[name], new, name)
+    sg = new.create_group(SCENES)
+    for key in sorted(scenes):
+        r, run, rows = scenes[key]
+        h5layout.write_scene(h5layout.new_group(sg, key), r, run, stored_metrics=rows,
+                             parameters=old[SCENES][key]["parameters"])
+
+
+def _same(a: Any, b: Any) -> bool:
+    if isinstance(a, (bytes, str)) or isinstance(b, (bytes, str)):
+        return h5layout.text(a) == h5layout.text(b)
+    a, b = np.asarray(a), np.asarray(b)
+    if a.dtype.kind in "fc" or b.dtype.kind in "fc":
+        return a.shape == b.shape and bool(np.array_equal(a, b, equal_nan=True))
+    if a.dtype.kind == "O" or b.dtype.kind == "O":
+        return a.shape == b.shape and all(_same(x, y) for x, y in zip(a.ravel(), b.ravel()))
+    return a.shape == b.shape and bool(np.array_equal(a, b))
+
+
+def _compare_tree(a: Any, b: Any, where: str) -> list[str]:
+    """Every attribute and dataset of ``a`` equal in ``b`` (recursively)."""
+    if b is None:
+        return [f"{where} missing"]
+    p = [f"{where} attribute {k}" for k, v in a.attrs.items() if k not in b.attrs or not _same(v, b.attrs[k])]
+    if isinstance(a, h5py.Dataset):
+        return p + ([] if isinstance(b, h5py.Dataset) and _same(a[()], b[()]) else [f"{where} values"])
+    for name, obj in a.items():
+        p += _compare_tree(obj, b.get(name), f"{where}/{name}")
+    return p
+
+
+def _compare_upgraded(old: h5py.File, new: h5py.File, version: int) -> list[str]:
+    """Where the new file does not hold a number (or string) the old one stored."""
+    p = [f"/ attribute {k}" for k, v in old.attrs.items() if k != "schema_version" and not _same(v, new.attrs.get(k))]
+    for name in old:
+        if name != SCENES:
+            p += _compare_tree(old[name], new.get(name), f"/{name}")
+    for key, g in old[SCENES].items():
+        ng = new[SCENES].get(key)
+        if ng is None:
+            p.append(f"/{SCENES}/{key} missing")
+            continue
+        p += [f"/{SCENES}/{key}: {x}" for x in _compare_scene(g, ng, version)]
+    return p
+
+
+def _compare_scene(g: h5py.Group, ng: h5py.Group, version: int) -> list[str]:
+    p = [f"attribute {k}" for k, v in g.attrs.items() if not _same(v, ng.attrs.get(k))]
+    for name in ("parameters", "crank_angle", "coupler_point", "natural_frequencies"):
+        if name in g:
+            p += _compare_tree(g[name], ng.get(name), name)
+    if version >= 2:
+        for solver, sg in g["solutions"].items():
+            p += _compare_solution(sg, ng.get(f"solutions/{solver}"), f"solutions/{solver}")
+        p += _compare_tree(g["run_stats"], ng.get("run_stats"), "run_stats")
+    else:
+        p += _compare_v1_solutions(g, ng)
+    old_rows, new_rows = h5layout.stored_metric_rows(g, version), h5layout.stored_metric_rows(ng, SCHEMA_VERSION)
+    for key, row in old_rows.items():
+        new = new_rows.get(key, {})
+        p += [f"metrics {'/'.join(key)} {k}" for k, v in row.items() if not _same(v, new.get(k))]
+    return p
+
+
+def _compare_solution(old: h5py.Group, new: Any, where: str) -> list[str]:
+    """A version-1/2 solution group (attributes, one dataset per component) against its version-3
+    dataset (same attributes, one column per component; the per-dataset ``description`` was generated
+    text and is not kept)."""
+    if not isinstance(new, h5py.Dataset):
+        return [f"{where} missing"]
+    p = [f"{where} attribute {k}" for k, v in old.attrs.items() if k not in new.attrs or not _same(v, new.attrs[k])]
+    comps = h5layout.text(new.attrs.get("components", "")).split(",")
+    units = h5layout.text(new.attrs.get("units", "")).split(",")
+    data = new[()]
+    for c, ds in old.items():
+        if c not in comps:
+            p.append(f"{where}/{c} missing")
+            continue
+        i = comps.index(c)
+        if not _same(ds[()], data[:, i]):
+            p.append(f"{where}/{c} values")
+        if "units" in ds.attrs and not _same(ds.attrs["units"], units[i]):
+            p.append(f"{where}/{c} units")
+    return p
+
+
+def _compare_v1_solutions(g: h5py.Group, ng: h5py.Group) -> list[str]:
+    """Version 1: histories at the scene level, Exudyn settings in dynamic_settings/, statistics in
+    run_stats/ (now in each solution's settings_json / stats_json)."""
+    import json
+
+    p = []
+    for solver in ("quasi_static", "dynamic"):
+        if solver in g:
+            p += _compare_solution(g[solver], ng.get(f"solutions/{solver}"), solver)
+    sols = ng.get("solutions", {})
+
+    def stats(solver: str) -> dict[str, Any]:
+        return json.loads(h5layout.text(sols[solver].attrs["stats_json"])) if solver in sols else {}
+
+    qs, dyn = stats("quasi_static"), stats("dynamic")
+    moved = {"quasi_static_wall_s": (qs, "wall_s"), "dynamic_wall_s": (dyn, "wall_s"), "steps": (dyn, "steps"),
+             "newton_iterations": (dyn, "newton_iterations"), "cycles": (dyn, "cycles"),
+             "converged": (dyn, "converged"), "dynamic_message": (dyn, "dynamic_message")}
+    nrs = ng.get("run_stats")
+    for k, v in g["run_stats"].attrs.items():
+        if k in moved:
+            d, name = moved[k]
+            ok = not d or (name in d and _same(v, d[name]))
+        else:
+            ok = nrs is not None and k in nrs.attrs and _same(v, nrs.attrs[k])
+        if not ok:
+            p.append(f"run_stats attribute {k}")
+    if "dynamic_settings" in g and "dynamic" in sols:
+        if json.loads(h5layout.text(g["dynamic_settings"].attrs["json"])) != json.loads(
+                h5layout.text(sols["dynamic"].attrs["settings_json"])):
+            p.append("dynamic_settings")
+    return p
 
 
 # --------------------------------------------------------------------------------------------------

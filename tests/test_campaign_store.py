@@ -85,9 +85,10 @@ def test_only_requested_outputs_are_stored(tmp_path):
     store.commit(f, [r])
     with h5py.File(f, "r") as h:
         g = h["scenes"][r.key]
-        assert list(g["solutions/quasi_static"]) == ["dy"] and list(g["solutions/dynamic"]) == ["dy"]
-        assert list(g["metrics/quasi_static_vs_dynamic"]) == ["dy"]
-        assert g["solutions/dynamic/dy"].attrs["units"] == "m"
+        assert g["solutions/quasi_static"].attrs["components"] == "dy" == g["solutions/dynamic"].attrs["components"]
+        assert g["solutions/dynamic"].shape == (12, 1)
+        assert {c.decode() for c in g["metrics"]["component"]} == {"dy"}
+        assert g["solutions/dynamic"].attrs["units"] == "m"
         assert g["parameters"].attrs["crank_m"] == 0.1
     assert store.verify(f) == []
 
@@ -125,6 +126,15 @@ def test_replacing_a_scene_keeps_it_exactly_once(tmp_path):
     assert len(store.read_scenes(f)) == 1
 
 
+def replace_solution(g, solver, cut, components):
+    """Damage: the solution dataset of ``solver`` replaced by ``cut`` of its data, attributes kept."""
+    old = g["solutions"][solver]
+    data, attrs = cut(old[()]), dict(old.attrs)
+    del g["solutions"][solver]
+    new = g["solutions"].create_dataset(solver, data=data)
+    new.attrs.update({**attrs, "components": components})
+
+
 def test_verify_detects_damage_and_readers_skip_incomplete_groups(tmp_path):
     good = tmp_path / "good.h5"
     store.record_run(good, "", "t", 1)
@@ -133,11 +143,9 @@ def test_verify_detects_damage_and_readers_skip_incomplete_groups(tmp_path):
     cases = {
         "incomplete": lambda g: g.attrs.__delitem__("complete"),
         "content key": lambda g: g["parameters"].attrs.__setitem__("json", spec(123.0).canonical_json()),
-        "missing history dynamic/dx": lambda g: g["solutions/dynamic"].__delitem__("dx"),
-        "shape": lambda g: (g["solutions/quasi_static"].__delitem__("dy"),
-                            g["solutions/quasi_static"].create_dataset("dy", data=[1.0])),
-        "differ from the histories": lambda g: g["metrics/quasi_static_vs_dynamic/dx"].attrs.__setitem__(
-            "holds", np.uint8(0)),
+        "missing history dynamic/dx": lambda g: replace_solution(g, "dynamic", lambda d: d[:, 1:], "dy,rotation"),
+        "shape": lambda g: replace_solution(g, "quasi_static", lambda d: d[:1], "dx,dy,rotation"),
+        "differ from the histories": lambda g: g["metrics"].__setitem__("holds", np.zeros(len(g["metrics"]), "u1")),
     }
     for words, damage in cases.items():
         bad = tmp_path / f"bad_{words.split()[0]}.h5"

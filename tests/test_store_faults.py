@@ -12,10 +12,11 @@ import sys
 import time
 from pathlib import Path
 
+import h5py
 import numpy as np
 import pytest
 
-from compare import store
+from compare import h5layout, store
 
 BASE = """
 [campaign]
@@ -147,3 +148,82 @@ def test_merge_while_run_writes_loses_nothing(many, tmp_path):
     assert merged <= set(stored)
     assert len(stored) == len(merged) + 4  # and the run's four scenes
     verify_ok(dest)
+
+
+# -- an upgrade carries everything over or refuses -----------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def current(tmp_path_factory) -> Path:
+    """A results file of the current layout: two quasi-static + linear scenes."""
+    d = tmp_path_factory.mktemp("current")
+    res = run(config(d, "cur"), d / "cur.h5")
+    assert res.returncode == 0, res.stderr
+    return d / "cur.h5"
+
+
+@pytest.mark.parametrize("label", [1, 2])
+def test_understated_schema_version_is_refused_not_upgraded(current, tmp_path, label):
+    f = tmp_path / "mislabelled.h5"
+    f.write_bytes(current.read_bytes())
+    with h5py.File(f, "r+") as h:  # the layout is newer than the attribute says
+        h.attrs["schema_version"] = label
+    before = f.read_bytes()
+    res = run(config(tmp_path, "more", rpm=[60.0, 90.0, 120.0]), f)
+    one_line(res, str(f))
+    assert f.read_bytes() == before  # nothing dropped, nothing rewritten
+    assert not list(tmp_path.glob("mislabelled.h5.tmp-*"))
+
+
+def test_upgrade_of_an_older_layout_keeps_every_number(current, tmp_path):
+    """A version-2 file (one group per solution and per solver pair, written here by hand from the
+    current file's numbers) upgraded by `ked run`: every stored number read back equal."""
+    f = tmp_path / "v2.h5"
+    with h5py.File(current, "r") as src, h5py.File(f, "w") as dst:
+        for k, v in src.attrs.items():
+            dst.attrs[k] = v
+        dst.attrs["schema_version"] = 2
+        src.copy(src["runs"], dst, "runs")
+        for key, g in src["scenes"].items():
+            ng = dst.create_group(f"scenes/{key}")
+            for k, v in g.attrs.items():
+                ng.attrs[k] = v
+            for name in ("parameters", "crank_angle", "coupler_point", "natural_frequencies", "run_stats"):
+                src.copy(g[name], ng, name)
+            for solver, ds in g["solutions"].items():
+                sg = ng.create_group(f"solutions/{solver}")
+                sg.attrs.update({k: v for k, v in ds.attrs.items() if k not in ("components", "units")})
+                for i, c in enumerate(ds.attrs["components"].split(",")):
+                    sg.create_dataset(c, data=ds[()][:, i]).attrs["units"] = ds.attrs["units"].split(",")[i]
+            for row in g["metrics"][()]:
+                pair = ng.require_group(f"metrics/{row['solver'].decode()}_vs_{row['reference'].decode()}")
+                for k in ("solver", "reference"):
+                    pair.attrs[k] = row[k].decode()
+                pair.attrs["holds"] = row["pair_holds"]
+                for k in ("verdict_error", "omega_rad_s", "omega1_min_rad_s", "speed_ratio", "tolerance"):
+                    pair.attrs[k] = row[k]
+                cg = pair.create_group(row["component"].decode())
+                cg.attrs["units"] = row["units"].decode()
+                for k in ("history_error", "peak_error", "max_abs_error", "rms_error", "phase_shift_rad",
+                          "amplification", "solver_peak", "reference_peak", "holds"):
+                    cg.attrs[k] = row[k]
+    verify_ok(f)
+    before = {r.key: r for r in store.read_scenes(f)}
+    with h5py.File(f, "r") as h:
+        rows_before = {k: h5layout.stored_metric_rows(g, 2) for k, g in h["scenes"].items()}
+    res = run(config(tmp_path, "more", rpm=[60.0, 90.0, 120.0]), f)
+    assert res.returncode == 0, res.stderr
+    with h5py.File(f, "r") as h:
+        assert h.attrs["schema_version"] == store.SCHEMA_VERSION
+        for key, rows in rows_before.items():
+            assert h5layout.stored_metric_rows(h["scenes"][key], store.SCHEMA_VERSION) == rows
+    after = {r.key: r for r in store.read_scenes(f)}
+    assert set(before) < set(after)
+    for key, r in before.items():
+        for solver, sol in r.solutions.items():
+            got = after[key].solutions[solver]
+            assert (got.status, got.settings, got.stats) == (sol.status, sol.settings, sol.stats)
+            for c, h in sol.deflection.items():
+                np.testing.assert_array_equal(got.deflection[c], h)
+        np.testing.assert_array_equal(after[key].natural_frequencies, r.natural_frequencies)
+    verify_ok(f)

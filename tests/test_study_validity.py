@@ -54,8 +54,7 @@ def _history_error_from_file(path: Path, ratio: float) -> float:
         for g in f["scenes"].values():
             p = g["parameters"].attrs
             if p["speed_kind"] == "ratio" and math.isclose(p["speed_ratio_requested"], ratio):
-                qs = np.stack([g["solutions/quasi_static/dx"][()], g["solutions/quasi_static/dy"][()]], axis=1)
-                dyn = np.stack([g["solutions/dynamic/dx"][()], g["solutions/dynamic/dy"][()]], axis=1)
+                qs, dyn = (g[f"solutions/{s}"][()][:, :2] for s in ("quasi_static", "dynamic"))  # columns dx, dy
                 return float(np.hypot(*(qs - dyn).T).max() / np.hypot(*dyn.T).max())
     raise KeyError(ratio)
 
