@@ -152,6 +152,13 @@ def transaction(path: str | Path) -> Iterator[h5py.File]:
         f = _open_copy(path, tmp)
         try:
             yield f
+        except (CommitError, LockedError):
+            _close_quietly(f)
+            raise
+        except Exception as exc:  # HDF5 reports damage as OSError, KeyError, ValueError, RuntimeError
+            _close_quietly(f)
+            raise CommitError(f"{path}: cannot be written ({type(exc).__name__}: {_short(exc)}); the file may be "
+                              f"damaged: check it with `ked inspect {path} --verify`") from exc
         except BaseException:
             _close_quietly(f)
             raise
@@ -380,7 +387,10 @@ def commit(path: str | Path, results: Iterable[SceneResult], run: int = -1) -> N
     results = list(results)
     if not results:
         return
-    upgrade(path)
+    try:
+        upgrade(path)
+    except StoreError as exc:  # a commit that cannot happen: the caller saves the scenes elsewhere
+        raise CommitError(str(exc)) from exc
     with transaction(path) as f:
         _commit(f, results, run)
 
@@ -580,7 +590,10 @@ def upgrade(path: str | Path) -> bool:
                 problems = _compare_upgraded(old, new, version)
         except (OSError, RuntimeError) as exc:
             raise CommitError(f"{path}: cannot be upgraded to schema version {SCHEMA_VERSION} "
-                              f"({_short(exc)}; is the disk full?); the file is unchanged") from exc
+                              f"({_short(exc)}; is the disk full or the file damaged?); the file is unchanged") from exc
+        except Exception as exc:  # damage the readers did not notice
+            raise StoreError(f"{path}: cannot be upgraded to schema version {SCHEMA_VERSION} ({type(exc).__name__}: "
+                             f"{_short(exc)}); the file is unchanged; check it with `ked inspect FILE --verify`") from exc
         if problems:
             raise StoreError(f"{path}: upgrade to schema version {SCHEMA_VERSION} would not keep every stored "
                              f"number ({problems[0]}{f' and {len(problems) - 1} more' if len(problems) > 1 else ''}"

@@ -7,6 +7,7 @@ traceback or wrote into a file it must leave alone).
 
 from __future__ import annotations
 
+import dataclasses
 import subprocess
 import sys
 import time
@@ -227,3 +228,44 @@ def test_upgrade_of_an_older_layout_keeps_every_number(current, tmp_path):
                 np.testing.assert_array_equal(got.deflection[c], h)
         np.testing.assert_array_equal(after[key].natural_frequencies, r.natural_frequencies)
     verify_ok(f)
+
+
+# -- a commit that fails on a damaged file saves the computed scenes -------------------------------------------
+
+
+def damaged_copy(src: Path, tmp: Path) -> tuple[Path, object]:
+    """A copy of ``src`` with 4 flipped bytes that the readers tolerate but that a commit of a new scene
+    trips over (HDF5 finds the damage only when it rewrites that metadata), and that scene."""
+    from compare.scenes import SpeedSpec
+
+    r0 = store.read_scenes(src)[0]
+    probe = dataclasses.replace(r0, spec=dataclasses.replace(r0.spec, speed=SpeedSpec("rpm", 77.0)))
+    data = src.read_bytes()
+    for off in range(0, len(data) - 4, 23):
+        p = tmp / "damaged.h5"
+        p.write_bytes(data[:off] + bytes(b ^ 0xFF for b in data[off:off + 4]) + data[off + 4:])
+        try:
+            store.read_scenes(p)
+            store.file_info(p)
+        except Exception:
+            continue
+        trial = tmp / "trial.h5"
+        trial.write_bytes(p.read_bytes())
+        try:
+            store.commit(trial, [probe], 0)
+        except Exception:  # the damage this test needs
+            return p, probe
+    raise AssertionError("no such damage found")
+
+
+def test_failed_commit_on_damaged_file_is_a_commit_error_naming_the_file(current, tmp_path):
+    """The runner saves the computed scenes in a rescue file on every CommitError (and only then):
+    HDF5's own errors from a damaged file must arrive as one."""
+    f, scene = damaged_copy(current, tmp_path)
+    assert ked("inspect", str(f)).returncode == 0  # the damage is tolerated by the reader
+    before = f.read_bytes()
+    with pytest.raises(store.CommitError) as err:
+        store.commit(f, [scene], 0)
+    assert str(f) in str(err.value) and "\n" not in str(err.value)
+    assert f.read_bytes() == before
+    assert not list(tmp_path.glob("damaged.h5.tmp-*"))
