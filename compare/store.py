@@ -592,8 +592,9 @@ def upgrade(path: str | Path) -> bool:
             raise CommitError(f"{path}: cannot be upgraded to schema version {SCHEMA_VERSION} "
                               f"({_short(exc)}; is the disk full or the file damaged?); the file is unchanged") from exc
         except Exception as exc:  # damage the readers did not notice
-            raise StoreError(f"{path}: cannot be upgraded to schema version {SCHEMA_VERSION} ({type(exc).__name__}: "
-                             f"{_short(exc)}); the file is unchanged; check it with `ked inspect FILE --verify`") from exc
+            raise StoreError(f"{path}: cannot be upgraded to schema version {SCHEMA_VERSION} "
+                             f"({type(exc).__name__}: {_short(exc)}); the file is unchanged; "
+                             "check it with `ked inspect FILE --verify`") from exc
         if problems:
             raise StoreError(f"{path}: upgrade to schema version {SCHEMA_VERSION} would not keep every stored "
                              f"number ({problems[0]}{f' and {len(problems) - 1} more' if len(problems) > 1 else ''}"
@@ -765,6 +766,25 @@ def _compare_v1_solutions(g: h5py.Group, ng: h5py.Group) -> list[str]:
                 h5layout.text(sols["dynamic"].attrs["settings_json"])):
             p.append("dynamic_settings")
     return p
+
+
+def array_bytes(path: str | Path) -> int:
+    """Bytes of every array (dataset) the file holds, as stored."""
+    total = 0
+
+    def visit(_name: str, obj: Any) -> None:
+        nonlocal total
+        if isinstance(obj, h5py.Dataset):
+            total += obj.id.get_storage_size()
+
+    with _open(Path(path)) as f:
+        f.visititems(visit)
+    return total
+
+
+def size_ratio(path: str | Path) -> float:
+    """File size over :func:`array_bytes` [1]: what the layout costs beyond the numbers it holds."""
+    return os.path.getsize(path) / max(1, array_bytes(path))
 
 
 # --------------------------------------------------------------------------------------------------

@@ -269,3 +269,21 @@ def test_failed_commit_on_damaged_file_is_a_commit_error_naming_the_file(current
     assert str(f) in str(err.value) and "\n" not in str(err.value)
     assert f.read_bytes() == before
     assert not list(tmp_path.glob("damaged.h5.tmp-*"))
+
+
+# -- compact files ------------------------------------------------------------------------------------------
+
+RESULTS = Path(__file__).resolve().parents[1] / "results"
+LIMIT_BYTES = 5_000_000
+
+
+def test_committed_results_files_are_compact():
+    """Every committed results file under 5 MB; the validity study files (36 crank angles, four
+    solvers) at most 3x the bytes of the arrays they hold (a layout whose object headers dominate, one
+    group per solver pair and component, was 17x)."""
+    files = sorted(RESULTS.rglob("*.h5"))
+    assert files
+    for f in files:
+        assert f.stat().st_size <= LIMIT_BYTES, (f, f.stat().st_size)
+    for f in sorted((RESULTS / "studies").glob("validity_*.h5")):
+        assert store.size_ratio(f) <= 3.0, (f, store.size_ratio(f))
