@@ -129,7 +129,7 @@ def check_writable(path: str | Path) -> None:
     """Refuse before any computation a results file that may not be replaced: an existing file without
     write permission (read-only means: leave it alone) or a directory where no file can be created."""
     path = target(path)
-    if path.exists() and not os.access(path, os.W_OK):
+    if path.exists() and (not os.access(path, os.W_OK) or not path.stat().st_mode & 0o222):  # root: mode bits
         raise CommitError(f"{path}: the file is read-only (no write permission); refusing to change it; "
                           "make it writable or give another --out file")
     parent = next((p for p in (path.parent, *path.parent.parents) if p.exists()), None)

@@ -287,3 +287,19 @@ def test_committed_results_files_are_compact():
         assert f.stat().st_size <= LIMIT_BYTES, (f, f.stat().st_size)
     for f in sorted((RESULTS / "studies").glob("validity_*.h5")):
         assert store.size_ratio(f) <= 3.0, (f, store.size_ratio(f))
+
+
+# -- a read-only file stays untouched, also for root -----------------------------------------------------------
+
+
+def test_read_only_results_file_is_not_replaced_even_by_root(current, tmp_path):
+    """os.access says yes to root for any file; mode 444 still means: leave it alone."""
+    f = tmp_path / "ro.h5"
+    f.write_bytes(current.read_bytes())
+    f.chmod(0o444)
+    before = f.read_bytes()
+    res = run(config(tmp_path, "more", rpm=[60.0, 90.0, 120.0]), f)
+    one_line(res, str(f), "read-only")
+    merge = ked("merge", str(current), str(f))
+    one_line(merge, str(f), "read-only")
+    assert f.read_bytes() == before and (f.stat().st_mode & 0o777) == 0o444
