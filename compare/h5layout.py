@@ -10,6 +10,7 @@ definition of every number it shows.
 from __future__ import annotations
 
 import json
+import math
 from typing import Any
 
 import h5py
@@ -311,6 +312,28 @@ def _run_stats(g: h5py.Group) -> RunStats:
                     worker=text(a["worker"]), finished_utc=text(a["finished_utc"]))
 
 
+DAMAGED = "damaged"
+"""Failure class of a scene stored as ok whose stored data are incomplete or impossible (a damaged
+file): shown as failed, never with a verdict."""
+
+
+def _damage(spec: SceneSpec, solutions: dict[str, Solution], theta: np.ndarray | None, rpm: float) -> list[str]:
+    """What an ok scene's stored data lack or get wrong."""
+    out = [] if math.isfinite(rpm) and rpm > 0 else [f"rpm {rpm} is not a positive finite speed"]
+    if theta is None:
+        return out + ["crank_angle missing"]
+    for name, s in solutions.items():
+        if not s.ok:
+            continue
+        for c in spec.outputs:
+            h = s.deflection.get(c)
+            if h is None:
+                out.append(f"history {name}/{c} missing")
+            elif h.shape != theta.shape or not np.all(np.isfinite(h)):
+                out.append(f"history {name}/{c} has shape {h.shape} or non-finite values")
+    return out
+
+
 def read_scene(g: h5py.Group, version: int) -> SceneResult:
     """The scene of a complete group (``version``: the file's schema version)."""
     spec = SceneSpec.from_dict(json.loads(text(g["parameters"].attrs["json"])))
@@ -320,8 +343,15 @@ def read_scene(g: h5py.Group, version: int) -> SceneResult:
         solutions = _solutions_v1(g)
     rpm, omega1_min = float(g.attrs["rpm"]), float(g.attrs["omega1_min_rad_s"])
     theta = _array(g, "crank_angle")
+    status, stage = text(g.attrs["status"]), text(g.attrs["stage"])
+    failure_class = text(g.attrs.get("failure_class", ""))
+    error_type, message = text(g.attrs["error_type"]), text(g.attrs["message"])
+    damage = _damage(spec, solutions, theta, rpm) if status == STATUS_OK else []
+    if damage:  # never shown as a valid answer: the scene is marked damaged, its verdict withheld
+        status, stage, failure_class, error_type = STATUS_FAILED, "file", DAMAGED, "DamagedFile"
+        message = f"the results file is damaged: {'; '.join(damage)} (check it with `ked inspect FILE --verify`)"
     metrics: dict[str, PairMetrics] = {}
-    ok = {n: s for n, s in solutions.items() if s.ok and s.deflection}
+    ok = {n: s for n, s in solutions.items() if s.ok and s.deflection and not damage}
     if theta is not None and ok:
         try:
             metrics = all_pairs(theta, {n: s.deflection for n, s in ok.items()}, {n: s.fidelity for n, s in ok.items()},
@@ -330,9 +360,8 @@ def read_scene(g: h5py.Group, version: int) -> SceneResult:
         except ValueError:
             metrics = {}
     return SceneResult(
-        spec=spec, status=text(g.attrs["status"]), stage=text(g.attrs["stage"]),
-        error_type=text(g.attrs["error_type"]), message=text(g.attrs["message"]),
-        warnings=text(g.attrs.get("warnings", "")), failure_class=text(g.attrs.get("failure_class", "")),
+        spec=spec, status=status, stage=stage, error_type=error_type, message=message,
+        warnings=text(g.attrs.get("warnings", "")), failure_class=failure_class,
         rpm=rpm, omega1_min=omega1_min, crank_angle=theta, coupler_point=_array(g, "coupler_point"),
         natural_frequencies=_array(g, "natural_frequencies"), solutions=solutions, metrics=metrics,
         stats=_run_stats(g),
@@ -361,6 +390,8 @@ def verify_scene(name: str, g: Any, version: int) -> list[str]:
         p.append(f"content key of parameters ({r.key}) differs from group name")
     if r.status not in (STATUS_OK, STATUS_FAILED):
         p.append(f"unknown status {r.status!r}")
+    if r.failure_class == DAMAGED and text(g.attrs["status"]) == STATUS_OK:
+        return p + [r.message.split(" (check it")[0]] + _verify_ok_scene(g, r, version)
     if r.status != STATUS_OK:
         return p + ([] if r.message else ["failed scene without message"])
     return p + _verify_ok_scene(g, r, version)

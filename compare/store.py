@@ -436,11 +436,16 @@ def with_kept_solutions(new: SceneResult, old: SceneResult) -> SceneResult:
 
 
 def _scenes(f: h5py.File, path: Path) -> tuple[h5py.Group | None, int]:
-    version = schema_version(f)
+    try:
+        version = schema_version(f)
+        scenes = f.get(SCENES)
+    except Exception as exc:  # damage
+        raise StoreError(f"{path}: unreadable ({type(exc).__name__}: {_short(exc)}); "
+                         "check the file with `ked inspect FILE --verify`") from exc
     if version is None or version not in READABLE_VERSIONS:
         raise StoreError(f"{path}: not a ked-harness results file of a supported schema version "
                          f"({SCHEMA!r}, versions {READABLE_VERSIONS})")
-    return f.get(SCENES), version
+    return scenes, version
 
 
 def _open(path: Path) -> h5py.File:
@@ -461,14 +466,20 @@ def _map_complete(path: str | Path, read: Callable[[h5py.Group, int], Any],
         scenes, version = _scenes(f, path)
         if scenes is None:
             return {}
+        try:
+            names = [k for k in scenes if keep(k)]
+        except Exception as exc:  # HDF5 reports damage as OSError, KeyError, ValueError, RuntimeError
+            raise StoreError(f"{path}: /{SCENES} is unreadable ({type(exc).__name__}: {_short(exc)}); "
+                             "check the file with `ked inspect FILE --verify`") from exc
         out = {}
-        for k, g in scenes.items():
-            if keep(k) and h5layout.complete(g):
-                try:
+        for k in names:
+            try:
+                g = scenes[k]
+                if h5layout.complete(g):
                     out[k] = read(g, version)
-                except (KeyError, ValueError, TypeError) as exc:
-                    raise StoreError(f"{path}: /{SCENES}/{k} is unreadable ({exc}); "
-                                     "check the file with `ked inspect FILE --verify`") from exc
+            except Exception as exc:
+                raise StoreError(f"{path}: /{SCENES}/{k} is unreadable ({type(exc).__name__}: {_short(exc)}); "
+                                 "check the file with `ked inspect FILE --verify`") from exc
         return out
 
 
@@ -487,9 +498,12 @@ def file_info(path: str | Path) -> dict[str, Any]:
     path = Path(path)
     with _open(path) as f:
         _scenes(f, path)
-        info = {k: (h5layout.text(v) if isinstance(v, (str, bytes)) else v.item() if hasattr(v, "item") else v)
-                for k, v in f.attrs.items()}
-        info["n_runs"] = len(f[RUNS]) if RUNS in f else 0
+        try:
+            info = {k: (h5layout.text(v) if isinstance(v, (str, bytes)) else v.item() if hasattr(v, "item") else v)
+                    for k, v in f.attrs.items()}
+            info["n_runs"] = len(f[RUNS]) if RUNS in f else 0
+        except Exception as exc:  # damage
+            raise StoreError(f"{path}: file attributes unreadable ({type(exc).__name__}: {_short(exc)})") from exc
     return info
 
 
@@ -516,16 +530,26 @@ def verify(path: str | Path) -> list[str]:
     except OSError as exc:
         return [f"{path}: cannot open as HDF5: {_short(exc)}"]
     with f:
-        problems = [f"/: missing file attribute {a!r}" for a in _FILE_ATTRS if a not in f.attrs]
-        version = schema_version(f)
+        try:
+            problems = [f"/: missing file attribute {a!r}" for a in _FILE_ATTRS if a not in f.attrs]
+            version = schema_version(f)
+        except Exception as exc:  # damage
+            return [f"{path}: file attributes unreadable ({type(exc).__name__}: {_short(exc)})"]
         if version is None:
             return problems + [f"/: schema attribute is not {SCHEMA!r}: not a ked-harness results file"]
         if version not in READABLE_VERSIONS:
             return problems + [f"/: schema version {version} is not one of {READABLE_VERSIONS}"]
-        if SCENES not in f:
-            return problems + [f"/: missing group /{SCENES}"]
-        for name, g in f[SCENES].items():
-            problems += [f"/{SCENES}/{name}: {p}" for p in h5layout.verify_scene(name, g, version)]
+        try:
+            if SCENES not in f:
+                return problems + [f"/: missing group /{SCENES}"]
+            names = list(f[SCENES])
+        except Exception as exc:  # HDF5 reports damage as OSError, KeyError, ValueError, RuntimeError
+            return problems + [f"{path}: /{SCENES} is unreadable ({type(exc).__name__}: {_short(exc)})"]
+        for name in names:
+            try:
+                problems += [f"/{SCENES}/{name}: {p}" for p in h5layout.verify_scene(name, f[SCENES][name], version)]
+            except Exception as exc:
+                problems.append(f"{path}: /{SCENES}/{name} is unreadable ({type(exc).__name__}: {_short(exc)})")
     return problems
 
 

@@ -139,7 +139,10 @@ def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool) -> N
         click.echo(json.dumps(scene_detail(r), indent=2) if as_json else format_detail(r))
         return
     rows = [summary_row(r) for r in results]
-    info = store.file_info(file)
+    try:
+        info = store.file_info(file)
+    except store.StoreError as exc:
+        raise click.ClickException(str(exc)) from None
     if as_json:
         click.echo(json.dumps({"file": str(file), "attributes": info, "scenes": rows}, indent=2, default=str))
         return
@@ -154,7 +157,8 @@ def _verify(file: Path, as_json: bool) -> None:
     from compare import store
 
     problems = store.verify(file)
-    stale = store.stale_temp_files(file)
+    # a writer running now (it holds the lock) owns its temporary file: not stale
+    stale = [] if store.is_locked(file) else store.stale_temp_files(file)
     try:
         n = len(store.stored_status(file))
     except store.StoreError:

@@ -303,3 +303,75 @@ def test_read_only_results_file_is_not_replaced_even_by_root(current, tmp_path):
     merge = ked("merge", str(current), str(f))
     one_line(merge, str(f), "read-only")
     assert f.read_bytes() == before and (f.stat().st_mode & 0o777) == 0o444
+
+
+# -- ked inspect --verify reports damage (and nothing else) ------------------------------------------------------
+
+
+def damage_copy(current: Path, tmp: Path, name: str, damage) -> Path:
+    f = tmp / f"{name}.h5"
+    f.write_bytes(current.read_bytes())
+    with h5py.File(f, "r+") as h:
+        damage(next(iter(h["scenes"].values())))
+    return f
+
+
+def drop_column(g, solver: str, component: str) -> None:
+    """The stored history ``solver/component`` deleted (the rest of the solution kept)."""
+    ds = g["solutions"][solver]
+    comps = ds.attrs["components"].split(",")
+    keep = [i for i, c in enumerate(comps) if c != component]
+    data, attrs = ds[()][:, keep], dict(ds.attrs)
+    del g["solutions"][solver]
+    new = g["solutions"].create_dataset(solver, data=data)
+    new.attrs.update({**attrs, "components": ",".join(comps[i] for i in keep),
+                      "units": ",".join(attrs["units"].split(",")[i] for i in keep)})
+
+
+@pytest.mark.parametrize("name, damage, words", [
+    ("no_metrics", lambda g: g.__delitem__("metrics"), "missing metrics"),
+    ("rpm_inf", lambda g: g.attrs.__setitem__("rpm", np.inf), "rpm inf"),
+    ("no_dy", lambda g: drop_column(g, "linear", "dy"), "history linear/dy missing"),
+])
+def test_verify_rejects_damage_and_inspect_never_shows_it_as_valid(current, tmp_path, name, damage, words):
+    f = damage_copy(current, tmp_path, name, damage)
+    res = ked("inspect", str(f), "--verify")
+    assert res.returncode == 1 and words in res.stdout and "INVALID" in res.stdout, res.stdout + res.stderr
+    shown = ked("inspect", str(f))
+    assert shown.returncode == 0, shown.stderr
+    if name != "no_metrics":  # the stored numbers are incomplete: no verdict, the scene marked damaged
+        assert "2 scenes: 1 ok, 1 failed (1 damaged)" in shown.stdout, shown.stdout
+
+
+def test_verify_survives_flipped_bytes_and_names_the_file(current, tmp_path):
+    data = current.read_bytes()
+    f = tmp_path / "flipped.h5"
+    shown = []
+    for off in range(0, len(data) - 4, 97):  # in-process: verify never raises on damage
+        f.write_bytes(data[:off] + bytes(b ^ 0xFF for b in data[off:off + 4]) + data[off + 4:])
+        problems = store.verify(f)
+        if any("unreadable" in p for p in problems) and len(shown) < 3:
+            shown.append(off)
+    for off in shown:  # and through the command line: exit 1, the file named, no traceback
+        f.write_bytes(data[:off] + bytes(b ^ 0xFF for b in data[off:off + 4]) + data[off + 4:])
+        res = ked("inspect", str(f), "--verify")
+        assert res.returncode == 1 and "Traceback" not in res.stdout + res.stderr, res.stderr
+        assert all(str(f) in line for line in res.stdout.splitlines() if "unreadable" in line), res.stdout
+
+
+def test_verify_does_not_call_a_live_writers_temp_file_stale(current, tmp_path):
+    f = tmp_path / "live.h5"
+    f.write_bytes(current.read_bytes())
+    tmp = f.with_name(f.name + store.TMP_MARK + "12345-abcdef01")
+    holder = subprocess.Popen([sys.executable, "-c", "import sys, time\nfrom compare import store\n"
+                               f"with store.writer_lock({str(f)!r}):\n    print('locked', flush=True)\n"
+                               "    sys.stdin.readline()"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        tmp.write_bytes(b"being written")
+        res = ked("inspect", str(f), "--verify")
+        assert res.returncode == 0 and "stale" not in res.stdout, res.stdout
+    finally:
+        holder.communicate("\n", timeout=30)
+    res = ked("inspect", str(f), "--verify")  # the writer is gone: now it is stale
+    assert "stale" in res.stdout, res.stdout
