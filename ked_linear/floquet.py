@@ -145,12 +145,18 @@ def multipliers(system: PeriodicSystem, steps: int) -> np.ndarray:
 
 
 def _settled(changes: list[float], tops: list[float], tolerance: float) -> bool:
-    """The last two changes of max |mu| each below ``tolerance`` or below a quarter of the distance of
-    its level to 1 (the verdict is settled), the last one below half the one before or both at round-off
-    (the propagator is in its asymptotic range: coarse levels of these highly oscillatory systems show
-    spurious resonances and can agree by chance while far off)."""
+    """Three levels or more and either the last change at round-off (two levels agree to round-off: a
+    spurious resonance of a coarse level does not repeat at the next one), or the last two changes each
+    below ``tolerance`` or a quarter of the distance of their level to 1 (the verdict is settled) with the
+    last one below half the one before (the asymptotic range: coarse levels of these highly oscillatory
+    systems show spurious resonances, dissipate by kicking energy into damped stiff modes, and can agree
+    by chance while far off)."""
+    if len(changes) < 2:
+        return False
+    if changes[-1] <= ROUND_OFF_FLOOR:
+        return True
     small = all(c < tolerance or c < 0.25 * abs(1.0 - t) for c, t in zip(changes[-2:], tops[-2:]))
-    return small and (changes[-2] <= ROUND_OFF_FLOOR or changes[-1] < 0.5 * changes[-2])
+    return small and changes[-1] < 0.5 * changes[-2]
 
 
 @dataclass(frozen=True)
@@ -166,13 +172,13 @@ class FloquetResult:
 
 
 def floquet(system: PeriodicSystem, tolerance: float, steps: int | None = None,
-            max_steps: int = 4096) -> FloquetResult:
-    """Multipliers with ``steps`` per cycle or, if None, doubling from 16 (<= ``max_steps``).  The
+            max_steps: int = 16384) -> FloquetResult:
+    """Multipliers with ``steps`` per cycle or, if None, doubling from 64 (<= ``max_steps``).  The
     automatic choice stops once the changes of max |mu| between the last three levels are settled
     (:func:`_settled`).  The estimate is the last change itself (Richardson: at order p
     the error of the finer level is about 1 / (2^p - 1) of it, a third for the exponential midpoint
     rule, a fifteenth for Gauss-Legendre), at least :data:`ROUND_OFF_FLOOR`."""
-    plan = [max(8, steps // 2), steps] if steps is not None else [16 * 2**k for k in range(9) if 16 * 2**k <= max_steps]
+    plan = [max(8, steps // 2), steps] if steps is not None else [64 * 2**k for k in range(9) if 64 * 2**k <= max_steps]
     tops: list[float] = []
     changes: list[float] = []
     est, mu, n = float("nan"), np.array([np.nan]), plan[0]
@@ -183,6 +189,6 @@ def floquet(system: PeriodicSystem, tolerance: float, steps: int | None = None,
             continue
         changes.append(max(abs(tops[-1] - tops[-2]), ROUND_OFF_FLOOR))
         est = changes[-1]
-        if steps is None and len(changes) >= 2 and _settled(changes, tops, tolerance):
+        if steps is None and _settled(changes, tops, tolerance):
             break
     return FloquetResult(max_abs=float(np.abs(mu[0])), error_estimate=est, steps=n, multipliers=mu)

@@ -251,22 +251,63 @@ def test_undamped_multipliers_on_the_unit_circle_at_every_speed(mm, thesis):
         assert fl.error_estimate < 1e-6, (rpm, fl)
 
 
-def _radau_monodromy(system: PeriodicSystem, method: str) -> np.ndarray:
-    """Independent monodromy: scipy solve_ivp (Radau / DOP853) on x' = A(t) x from each unit vector."""
+def _ivp_monodromy(system: PeriodicSystem, method: str, rtol: float) -> np.ndarray:
+    """Independent monodromy: scipy solve_ivp on the matrix equation Phi' = A(t) Phi, Phi(0) = I."""
     from scipy.integrate import solve_ivp
 
     m, n = system.mass, system.mass.size
 
-    def rhs(t, x):
+    def a_of(t):
         co = system.coefficients(np.array([system.speed * t]))
-        u, v = x[:n], x[n:]
-        return np.concatenate([v, -(co.stiffness[0] @ u + co.damping[0] @ v) / m])
+        a = np.zeros((2 * n, 2 * n))
+        a[:n, n:] = np.eye(n)
+        a[n:, :n], a[n:, n:] = -co.stiffness[0] / m[:, None], -co.damping[0] / m[:, None]
+        return a
 
-    cols = [solve_ivp(rhs, (0.0, system.period), e, method=method, rtol=1e-11, atol=1e-13).y[:, -1]
-            for e in np.eye(2 * n)]
-    return np.array(cols).T
+    def rhs(t, x):
+        return (a_of(t) @ x.reshape(2 * n, 2 * n)).ravel()
+
+    def jac(t, x):
+        return np.kron(a_of(t), np.eye(2 * n))
+
+    sol = solve_ivp(rhs, (0.0, system.period), np.eye(2 * n).ravel(), method=method, rtol=rtol, atol=rtol * 1e-2,
+                    **({"jac": jac} if method == "Radau" else {}))
+    return sol.y[:, -1].reshape(2 * n, 2 * n)
 
 
+def _two_mass(beta: float, speed: float) -> PeriodicSystem:
+    """Two masses, a soft and a stiff spring (frequency ratio ~30) whose stiffness matrix varies with
+    theta (cos and sin 2 theta terms, couplings), damping C = beta K (stiffness-proportional, like the
+    linkages: the stiff mode heavily damped)."""
+    k0 = np.array([[40.0, -5.0], [-5.0, 36000.0]])
+    k1 = np.array([[8.0, 3.0], [3.0, 2000.0]])
+    k2 = np.array([[2.0, -4.0], [-4.0, 900.0]])
+
+    def coefficients(theta):
+        k = k0 + np.cos(theta)[:, None, None] * k1 + np.sin(2 * theta)[:, None, None] * k2
+        return Coefficients(stiffness=k, damping=beta * k, load=np.zeros((theta.size, 2)))
+
+    return PeriodicSystem(mass=np.array([1.0, 0.9]), speed=speed, coefficients=coefficients)
+
+
+@pytest.mark.parametrize(("beta", "speed"), [(0.0, 3.0), (0.0, 12.7), (2e-3, 3.0), (2e-3, 12.7), (5e-2, 3.0)])
+def test_floquet_against_independent_integrators_small_system(beta, speed):
+    # a second, independent implementation: the monodromy by scipy's DOP853 (explicit, order 8) at
+    # rtol 1e-12 on Phi' = A(t) Phi; undamped (all |mu| = 1 off resonance, > 1 in a tongue: speed 12.7
+    # puts the second crank harmonic near the soft mode, 2 Omega ~ 2 omega_1), lightly and heavily damped
+    # (the stiff mode's multiplier ~0 and the soft one's physical decay: no numerical damping)
+    from ked_linear import floquet
+
+    sys_ = _two_mass(beta, speed)
+    fl = floquet(sys_, 1e-8)
+    ref = np.sort(np.abs(np.linalg.eigvals(_ivp_monodromy(sys_, "DOP853", 1e-12))))[::-1]
+    assert abs(fl.max_abs - ref[0]) <= fl.error_estimate + 1e-9, (fl, ref)
+    # every multiplier, at a fixed fine step count (second order when damped: error ~ (h omega)^2)
+    got = np.sort(np.abs(multipliers(sys_, 4096)))[::-1]
+    assert np.abs(got - ref).max() < 1e-6, (got, ref)
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("zeta", [0.0, 0.02])
 def test_floquet_against_radau_monodromy(zeta, thesis):
     # a second, independent implementation: the monodromy by an adaptive implicit (Radau IIA, order 5)
@@ -278,11 +319,23 @@ def test_floquet_against_radau_monodromy(zeta, thesis):
     scene = replace(base, rpm=_rpm_for_ratio(base, 0.5))
     sys_ = linkage_system(scene, LinearSettings(damping_ratio=zeta)).system
     fl = floquet(sys_, 1e-6)
-    for method in ("Radau", "DOP853"):
-        ref = np.sort(np.abs(np.linalg.eigvals(_radau_monodromy(sys_, method))))[::-1]
+    for method, rtol in (("DOP853", 1e-11), ("Radau", 1e-9)):
+        ref = np.sort(np.abs(np.linalg.eigvals(_ivp_monodromy(sys_, method, rtol))))[::-1]
         got = np.sort(np.abs(fl.multipliers))[::-1]
         assert abs(got[0] - ref[0]) < max(fl.error_estimate, 1e-6) + 1e-6, (method, got, ref, fl.error_estimate)
         assert np.abs(got - ref).max() < 1e-4, (method, got, ref)
+
+
+@pytest.mark.parametrize(("mm", "rpm"), [("tip", 100.0), ("joints", 300.0)])
+def test_floquet_error_estimate_bounds_refinement(mm, rpm, thesis):
+    # the stated error (change between the last two step levels) against a much finer propagation (8192
+    # steps, second order: its own error ~1/1000 of the coarse level's); 2 % damping
+    from ked_linear import floquet
+
+    sys_ = linkage_system(_scene(thesis, mm, rpm), LinearSettings(damping_ratio=0.02)).system
+    fl = floquet(sys_, 1e-3)
+    fine = float(np.abs(multipliers(sys_, 8192)[0]))
+    assert fl.steps < 8192 and abs(fl.max_abs - fine) <= fl.error_estimate, (fl.max_abs, fl.error_estimate, fine)
 
 
 def test_weakly_damped_flag(thesis):
