@@ -104,7 +104,11 @@ def tier(r: SceneResult, linear_range: LinearRange, tolerance: float) -> tuple[s
     if lin is None or not lin.ok:
         why = lin.message if lin is not None else "the linear model did not run"
         return "nonlinear", f"no stable linear steady state ({why}): use the nonlinear model (--confirm)"
-    large = [f for f in lin.flags if f != "unresolved"]
+    if "weakly_damped" in lin.flags:
+        return "nonlinear", (f"weakly damped: max |Floquet multiplier| {lin.stats.get('floquet_max_abs', math.nan):.3g}"
+                             " >= 0.9, near a critical speed (parametric resonance): the linear periodic answer is "
+                             "not valid and the nonlinear model may never settle; avoid this speed or add damping")
+    large = [f for f in lin.flags if f not in ("unresolved", "weakly_damped")]
     if large:
         return "nonlinear", (f"deflections beyond the small-deflection range ({', '.join(large)}): "
                              "use the nonlinear model (--confirm)")

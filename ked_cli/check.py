@@ -59,7 +59,10 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
 
     JSON keys per speed: speed_ratio, quasi_static_peak_m, linear_peak_m, linear_vs_quasi_static,
     quasi_static_error_estimate, floquet_max_abs, tier, verdict, rpm, flags, confirmed, key,
-    linear_harmonics (crank harmonics the linear solve used).
+    linear_harmonics (crank harmonics the linear solve used), critical_speeds_rpm and
+    amplification_peaks_rpm (the same in every object: with three speeds or more, the local maxima over
+    the speeds checked of max |Floquet multiplier|, refined by the Floquet part alone, and of the
+    amplification linear / quasi-static peak; else empty).
     """
     from compare.check import check as run_check
     from ked_quasi.massmodel import MassModel, default_payload
@@ -70,10 +73,18 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
                        else payload_kg)
         rows = run_check(load_source(linkage), mechanism, mm, speeds, stiffness_scale=stiffness_scale,
                          damping_ratio=damping_ratio, direction=direction, tolerance=tolerance, confirm=confirm)
+        crit, amp = (), ()
+        if len(rows) >= 3:  # critical speeds: local maxima over the range (compare.critical)
+            from compare.critical import check_critical
+
+            crit, amp, rows = check_critical(rows, load_source(linkage), mechanism, mm,
+                                             stiffness_scale=stiffness_scale, damping_ratio=damping_ratio,
+                                             direction=direction, tolerance=tolerance)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
     if as_json:
-        click.echo(json_text([asdict(r) for r in rows]))
+        extra = {"critical_speeds_rpm": [c.rpm for c in crit], "amplification_peaks_rpm": list(amp)}
+        click.echo(json_text([{**asdict(r), **extra} for r in rows]))
         return
     click.echo(f"Design check: {linkage} linkage, {mechanism}, mass model {mass_model}, damping {damping_ratio:g}, "
                f"tolerance {tolerance:.0%}")
@@ -89,6 +100,11 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
                      f"   {_pct(c.get('quasi_static_vs_dynamic'))} / {_pct(c.get('linear_vs_dynamic'))}")
         click.echo(line)
         click.echo(f"{'':>8} {r.verdict}")
+    if len(rows) >= 3:
+        click.echo("Critical speeds (local maxima of max |Floquet multiplier|): "
+                   + (", ".join(f"{c.rpm:.4g} rpm (|mu| {c.max_abs:.3g})" for c in crit) or "none in this range"))
+        click.echo("Amplification peaks (linear / quasi-static peak): "
+                   + (", ".join(f"{a:.4g} rpm" for a in amp) or "none in this range"))
 
 
 def _pct(x: float | None) -> str:
