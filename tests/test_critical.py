@@ -60,3 +60,17 @@ def test_ked_check_rpm_range_lists_the_maxima_of_a_fine_sweep(thesis):
     assert np.abs(np.array(listed) - np.array(maxima)).max() <= 2.5, (listed, maxima)
     near_one = [r for r in rows if any(abs(r["rpm"] - c) <= 0.05 * c for c in listed)]
     assert all("critical speed" in r["verdict"] for r in near_one)
+
+
+def test_check_names_a_weakly_damped_speed(thesis):
+    # the thesis joints model at r = 1 with 2 % damping: max |mu| ~ 0.96 (tests/test_linear.py); the
+    # design check must flag it, send it to the nonlinear tier and say why
+    from compare.check import check
+    from ked_quasi import MassModel, Scene, natural_frequencies
+
+    mm = MassModel("joints")
+    rpm = 60.0 * float(np.min(natural_frequencies(Scene(thesis, mm, 30.0), 1)[:, 0]))
+    (row,) = check(thesis, "source", mm, [rpm])
+    assert "weakly_damped" in row.flags and row.tier == "nonlinear"
+    assert "weakly damped" in row.verdict and "may never settle" in row.verdict
+    assert 0.9 <= row.floquet_max_abs < 1.0
