@@ -2,28 +2,31 @@
 
 State x = (u, du/dt), x' = A(t) x, A = [[0, I], [-M^-1 K, -M^-1 C]] at theta = speed * t.  The
 monodromy matrix Phi (x(T) = Phi x(0), T = 2 pi / |speed|) is the product of one step matrix per time
-step, all built from A at the two Gauss points of the step, t_j + c_i h, c_{1,2} = 1/2 -+ sqrt(3)/6,
-by a propagator without numerical damping:
+step, by a propagator chosen by the structure of the system:
 
-* **damped** (C != 0): the exponential of the frozen, step-averaged coefficients,
-  S_j = expm(h (A_1 + A_2) / 2) (exponential midpoint rule, second order).  Exact for frozen
-  coefficients, so a stiff, heavily damped mode (the axial modes of the links under stiffness-
-  proportional damping) decays exactly as it should (multiplier ~0, however large h |A|), and a lightly
-  damped mode keeps its physical decay (no numerical damping to hide a weakly damped or unstable case);
 * **undamped** (C = 0, A Hamiltonian for the form [[0, M], [-M, 0]]): the two-stage Gauss-Legendre
-  method (fourth order, symplectic): every S_j is symplectic, so the multipliers of a stable undamped
-  system stay on the unit circle up to round-off at every step count (no numerical damping, none of
-  the spurious growth a dissipative or an exponential-midpoint staircase shows at coarse steps of
-  these highly oscillatory systems).
+  method (fourth order, symplectic; A at the two Gauss points t_j + (1/2 -+ sqrt(3)/6) h).  Every step
+  matrix is symplectic, so the multipliers of a stable undamped system stay on the unit circle to
+  round-off at every step count: no numerical damping (the L-stable SDIRK2 pulled them to 1e-128 at 1 rpm
+  on the thesis Case I) and no spurious growth at resolved steps;
+* **damped**: the two-stage L-stable SDIRK method (Alexander 1977; gamma = 1 - 1/sqrt(2), second order,
+  stiffly accurate).  The links' axial modes, stiff and overdamped under stiffness-proportional damping,
+  get multipliers ~0 as they should (Gauss-Legendre would give them ~1).  Its numerical damping of the
+  lightly damped modes is an error like any other: :func:`floquet` refines until the change between levels
+  is in the asymptotic range and reports it as the error.  Per step, with R(t) = (I - gamma h A(t))^-1
+  (from the n x n matrix M + a C + a^2 K, a = gamma h): x_{j+1} = R(t_j + h) [(1 - alpha) I + alpha
+  R(t_j + gamma h)] x_j, alpha = (1 - gamma) / gamma.
 
-The fourth-order Magnus method with the commutator term is no option here: at low speeds h |A| is
-hundreds of radians per step (thousands of frozen oscillations per crank cycle), where the Magnus series
-diverges and its exponent turns hyperbolic (overflow on the thesis tip model at 1 rpm, 16 to 4096 steps).
+Measured and not used: the fourth-order Magnus method (its series diverges when h |A| is hundreds of
+radians, i.e. thousands of frozen oscillations per crank cycle at low speed: overflow on Case I at 1 rpm,
+16 to 4096 steps); the exponential of the frozen step-averaged coefficients (exact for frozen
+coefficients, but its coefficient jumps cause spurious parametric resonances when undamped, max |mu| - 1
+up to 11 on the joints model at 1 rpm even at 32768 steps, and, damped, kick energy into the damped stiff
+modes: less accurate than SDIRK2 at equal steps, and 4 to 35 times slower on the larger models).
 
-The exponentials are computed for all steps at once (stacked matrices): scaling and squaring with the
-[13/13] Pade approximant (Higham 2005), each matrix scaled by its own power of 2.  The step matrices
-are multiplied in a balanced tree.  The eigenvalues of Phi are the multipliers; the periodic steady
-state is asymptotically stable iff all |mu| < 1.
+The step matrices are built vectorized over the steps (in chunks of bounded memory) and multiplied in a
+balanced tree.  The eigenvalues of Phi are the multipliers; the periodic steady state is asymptotically
+stable iff all |mu| < 1.
 """
 
 from __future__ import annotations
@@ -37,37 +40,9 @@ from .periodic import Coefficients, PeriodicSystem
 GAUSS = 0.5 + np.array([-1.0, 1.0]) * np.sqrt(3.0) / 6.0
 """The two Gauss-Legendre nodes on [0, 1] (fractions of a step)."""
 
-_PADE13 = (64764752532480000.0, 32382376266240000.0, 7771770303897600.0, 1187353796428800.0,
-           129060195264000.0, 10559470521600.0, 670442572800.0, 33522128640.0, 1323241920.0, 40840800.0,
-           960960.0, 16380.0, 182.0, 1.0)
-_THETA13 = 5.371920351148152
-"""Coefficients of the [13/13] Pade approximant of exp and the 1-norm up to which it is accurate to unit
-round-off (Higham, SIAM J. Matrix Anal. Appl. 26 (2005) 1179, Table 2.3)."""
-
 ROUND_OFF_FLOOR = 1e-10
 """Changes of max |mu| below this between two step levels are round-off (the products of a few thousand
 step matrices), not discretization error: the estimate is then this floor."""
-
-
-def expm_stack(a: np.ndarray) -> np.ndarray:
-    """exp of each matrix of a stack (m, k, k): scaling and squaring with the [13/13] Pade approximant,
-    each matrix scaled by its own power of 2 (norm / 2^s <= theta13)."""
-    norm = np.abs(a).sum(axis=-2).max(axis=-1)
-    with np.errstate(divide="ignore"):
-        s = np.maximum(0, np.ceil(np.log2(np.maximum(norm, 1e-300) / _THETA13))).astype(int)
-    a = a * np.ldexp(1.0, -s)[:, None, None]
-    b = _PADE13
-    eye = np.broadcast_to(np.eye(a.shape[-1]), a.shape)
-    a2 = a @ a
-    a4 = a2 @ a2
-    a6 = a4 @ a2
-    u = a @ (a6 @ (b[13] * a6 + b[11] * a4 + b[9] * a2) + b[7] * a6 + b[5] * a4 + b[3] * a2 + b[1] * eye)
-    v = a6 @ (b[12] * a6 + b[10] * a4 + b[8] * a2) + b[6] * a6 + b[4] * a4 + b[2] * a2 + b[0] * eye
-    e = np.linalg.solve(v - u, v + u)
-    for k in range(int(s.max(initial=0))):
-        sel = s > k
-        e[sel] = e[sel] @ e[sel]
-    return e
 
 
 def _state_matrices(system: PeriodicSystem, co: Coefficients) -> np.ndarray:
@@ -99,20 +74,49 @@ def _gauss_steps(a1: np.ndarray, a2: np.ndarray, h: float) -> np.ndarray:
     return eye + 0.5 * h * (stages[:, :k] + stages[:, k:])
 
 
+def undamped(system: PeriodicSystem) -> bool:
+    """C(theta) = 0 (probed at 8 angles over the cycle): the system is Hamiltonian."""
+    return not np.any(system.coefficients(np.linspace(0.0, 2.0 * np.pi, 8, endpoint=False)).damping)
+
+
 def step_matrices(system: PeriodicSystem, steps: int, first: int = 0, count: int | None = None) -> np.ndarray:
     """The step matrices (count, 2n, 2n) of steps first .. first + count - 1 of ``steps`` per cycle
-    (default: all), step 0 starting at theta = 0: exponential midpoint where the system is damped,
-    Gauss-Legendre (symplectic) where it is undamped (C = 0 at both Gauss points)."""
+    (default: all), step 0 starting at theta = 0: Gauss-Legendre (symplectic) if the system is undamped
+    (:func:`undamped`), else SDIRK2 (L-stable)."""
     count = steps - first if count is None else count
     h = system.period / steps
+    if not undamped(system):
+        return _sdirk_steps(system, first, count, h)
     t = (first + np.arange(count)) * h
-    theta = system.speed * np.concatenate([t + GAUSS[0] * h, t + GAUSS[1] * h])
+    a = _state_matrices(system, system.coefficients(system.speed * np.concatenate([t + GAUSS[0] * h,
+                                                                                    t + GAUSS[1] * h])))
+    return _gauss_steps(a[:count], a[count:], h)
+
+
+SDIRK_GAMMA = 1.0 - 1.0 / np.sqrt(2.0)
+
+
+def _resolvent(system: PeriodicSystem, theta: np.ndarray, a: float) -> np.ndarray:
+    """(I - a A(theta))^-1 for each angle, (m, 2n, 2n), via the n x n matrix Z = M + a C + a^2 K."""
     co = system.coefficients(theta)
-    a = _state_matrices(system, co)
-    a1, a2 = a[:count], a[count:]
-    if not np.any(co.damping):
-        return _gauss_steps(a1, a2, h)
-    return expm_stack(0.5 * h * (a1 + a2))
+    m = system.mass
+    Zi = np.linalg.inv(np.eye(m.size) * m + a * co.damping + a**2 * co.stiffness)
+    ZK, ZM = Zi @ co.stiffness, Zi * m
+    eye = np.broadcast_to(np.eye(m.size), ZK.shape)
+    top = np.concatenate([eye - a**2 * ZK, a * ZM], axis=2)
+    bottom = np.concatenate([-a * ZK, ZM], axis=2)
+    return np.concatenate([top, bottom], axis=1)
+
+
+def _sdirk_steps(system: PeriodicSystem, first: int, count: int, h: float) -> np.ndarray:
+    """Step matrices of the two-stage L-stable SDIRK method (Alexander 1977), steps first .. first +
+    count - 1 of length h: x_{j+1} = R(t_j + h) [(1 - alpha) I + alpha R(t_j + gamma h)] x_j,
+    R = (I - gamma h A)^-1, alpha = (1 - gamma) / gamma."""
+    t = (first + np.arange(count)) * h
+    theta = system.speed * np.concatenate([t + SDIRK_GAMMA * h, t + h])
+    R = _resolvent(system, theta, SDIRK_GAMMA * h)
+    alpha = (1.0 - SDIRK_GAMMA) / SDIRK_GAMMA
+    return R[count:] @ ((1.0 - alpha) * np.eye(R.shape[-1]) + alpha * R[:count])
 
 
 CHUNK_BYTES = 64e6
@@ -178,8 +182,8 @@ def floquet(system: PeriodicSystem, tolerance: float, steps: int | None = None,
     """Multipliers with ``steps`` per cycle or, if None, doubling from 64 (<= ``max_steps``).  The
     automatic choice stops once the changes of max |mu| between the last three levels are settled
     (:func:`_settled`).  The estimate is the last change itself (Richardson: at order p
-    the error of the finer level is about 1 / (2^p - 1) of it, a third for the exponential midpoint
-    rule, a fifteenth for Gauss-Legendre), at least :data:`ROUND_OFF_FLOOR`."""
+    the error of the finer level is about 1 / (2^p - 1) of it, a third for SDIRK2
+    (damped), a fifteenth for Gauss-Legendre (undamped)), at least :data:`ROUND_OFF_FLOOR`."""
     plan = [max(8, steps // 2), steps] if steps is not None else [64 * 2**k for k in range(9) if 64 * 2**k <= max_steps]
     tops: list[float] = []
     changes: list[float] = []
