@@ -149,20 +149,20 @@ def multipliers(system: PeriodicSystem, steps: int) -> np.ndarray:
 
 
 def _settled(changes: list[float], tops: list[float], tolerance: float) -> bool:
-    """Either the last change at round-off with three levels or more (two levels agree to round-off: a
-    spurious resonance of a coarse level does not repeat at the next one), or the propagator in its
-    asymptotic range, the last two ratios of successive changes below 1/2 (coarse levels of these highly
-    oscillatory systems show spurious resonances, or dissipate by kicking energy into damped stiff modes
-    at each coefficient jump, and two levels can agree by chance while far off: thesis joints at 210 rpm,
-    0.111, 0.127 at 128, 256 steps, 0.230 converged), with the last two changes each below ``tolerance``
-    or a quarter of the distance of their level to 1 (the verdict is settled)."""
+    """Three levels or more, and: the last change at round-off (a spurious resonance of a coarse level
+    does not repeat at the next one), or the last two changes both below ``tolerance`` (three levels agree),
+    or the verdict settled in the asymptotic range: the last two changes each below a quarter of the
+    distance of their level to 1 and the last two ratios of successive changes below 1/2.  Coarse levels
+    of these highly oscillatory systems show spurious resonances or extra dissipation, and two levels can
+    agree by chance while far off (joints at 210 rpm, exponential midpoint: 0.111, 0.127 at 128, 256
+    steps, 0.230 converged), hence three levels."""
     if len(changes) < 2:
         return False
-    if changes[-1] <= ROUND_OFF_FLOOR:
+    if changes[-1] <= ROUND_OFF_FLOOR or (changes[-1] < tolerance and changes[-2] < tolerance):
         return True
     if len(changes) < 3 or not (changes[-1] < 0.5 * changes[-2] and changes[-2] < 0.5 * changes[-3]):
         return False
-    return all(c < tolerance or c < 0.25 * abs(1.0 - t) for c, t in zip(changes[-2:], tops[-2:]))
+    return all(c < 0.25 * abs(1.0 - t) for c, t in zip(changes[-2:], tops[-2:]))
 
 
 @dataclass(frozen=True)
