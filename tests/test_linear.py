@@ -390,3 +390,19 @@ def test_ked_linear_cli_json_is_strict_and_refuses_oversized_models():
     big = subprocess.run(run + ["--mass-model", "distributed", "--lumps", "100"], capture_output=True, text=True)
     assert big.returncode == 2 and "Traceback" not in big.stderr
     assert big.stderr.strip().count("\n") == 0 and "lumps" in big.stderr
+
+
+def test_campaign_solver_flags_weakly_damped_and_fails_marginal(thesis):
+    # the campaign's linear solver (compare/solvers/linear.py): the weakly damped scene (joints, r = 1,
+    # 2 %: max |mu| ~ 0.96, see test_weakly_damped_flag) is an answer carrying the flag (tables mark it);
+    # the undamped one (Hamiltonian: every |mu| = 1) is no answer, a physical failure "Marginal"
+    from compare.solvers import STATUS_FAILED, STATUS_OK
+    from compare.solvers.linear import make_settings, run
+
+    base = _scene(thesis, "joints", 30.0)
+    scene = replace(base, rpm=_rpm_for_ratio(base, 1.0))
+    sol = run(scene, make_settings({"max_harmonics": 8}, 0.02))
+    assert sol.status == STATUS_OK and "weakly_damped" in sol.flags and "may never settle" in sol.warnings
+    undamped = run(_scene(thesis, "tip", 300.0), make_settings({"max_harmonics": 8}, 0.0))
+    assert undamped.status == STATUS_FAILED and undamped.error_type == "Marginal"
+    assert undamped.failure_class == "physical" and "marginal (undamped)" in undamped.message
