@@ -105,9 +105,12 @@ def tier(r: SceneResult, linear_range: LinearRange, tolerance: float) -> tuple[s
         why = lin.message if lin is not None else "the linear model did not run"
         return "nonlinear", f"no stable linear steady state ({why}): use the nonlinear model (--confirm)"
     if "weakly_damped" in lin.flags:
-        return "nonlinear", (f"weakly damped: max |Floquet multiplier| {lin.stats.get('floquet_max_abs', math.nan):.3g}"
-                             " >= 0.9, near a critical speed (parametric resonance): the linear periodic answer is "
-                             "not valid and the nonlinear model may never settle; avoid this speed or add damping")
+        from ked_linear.solver import WEAKLY_DAMPED
+
+        mu = lin.stats.get("floquet_max_abs", math.nan)
+        return "nonlinear", (f"weakly damped: max |Floquet multiplier| {mu:.3g} >= {WEAKLY_DAMPED:g}, near a critical "
+                             "speed (parametric resonance): the linear periodic answer is not valid and the nonlinear "
+                             "model may never settle; avoid this speed or add damping")
     large = [f for f in lin.flags if f not in ("unresolved", "weakly_damped")]
     if large:
         return "nonlinear", (f"deflections beyond the small-deflection range ({', '.join(large)}): "
