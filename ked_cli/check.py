@@ -4,6 +4,7 @@ at a given speed, and which model is needed (:mod:`compare.check`)."""
 from __future__ import annotations
 
 import math
+import textwrap
 from dataclasses import asdict
 
 import click
@@ -12,6 +13,9 @@ from ked_cli.options import RuleType, json_text, linkage_option, load_source
 from ked_quasi import rules
 from ked_quasi.linkage import DIRECTIONS
 from ked_quasi.massmodel import MASS_MODELS
+
+WIDTH = 100
+"""Columns of the printed verdict lines."""
 
 
 def _rpm_range(text: str | None) -> list[float]:
@@ -55,11 +59,25 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
           tolerance: float, confirm: bool, as_json: bool) -> None:
     """Design check: per speed, r = Omega/omega1_min, the quasi-static and linear peaks, how far the
     quasi-static answer is from the linear model, Floquet max |mu|, the one-mode estimate of the
-    quasi-static error, the tier needed (quasi-static / linear / nonlinear) and a verdict.
+    quasi-static error, the tier needed (quasi-static / borderline / linear / nonlinear) and a verdict.
 
-    JSON keys per speed: speed_ratio, quasi_static_peak_m, linear_peak_m, linear_vs_quasi_static,
-    quasi_static_error_estimate, floquet_max_abs, tier, verdict, rpm, flags, confirmed, key,
-    linear_harmonics (crank harmonics the linear solve used).
+    Every error is the history error of the deflection vector d = (dx, dy) of P, max|d - d_ref| /
+    max|d_ref|: the measure of the campaign verdict of `ked run`.  A tier is granted only where the
+    model it is judged against is inside its own range: quasi-static needs r below the linear model's
+    limit (the atlas's lower band) and a predicted error below holds_below x tolerance; between that
+    and fails_above x tolerance the tier is borderline (run --confirm).  With --confirm the errors
+    measured against Exudyn decide the tier.
+
+    \b
+    JSON keys per speed: speed_ratio, quasi_static_peak_m, linear_peak_m,
+    linear_vs_quasi_static, quasi_static_error_estimate, floquet_max_abs, tier
+    ("quasi-static", "borderline", "linear" or "nonlinear"), verdict, rpm, flags,
+    confirmed (quasi_static_vs_dynamic, linear_vs_dynamic: measured errors), key,
+    linear_harmonics (crank harmonics the linear solve used),
+    linear_limit_speed_ratio (the linear model's limit used: atlas lower band),
+    holds_below_error, fails_above_error (predicted-error bounds of the borderline
+    band), margins_source (where those margins come from), decided_by
+    ("measured" or "predicted"), predicted_tier (the tier without the measurement).
     """
     from compare.check import check as run_check
     from ked_quasi.massmodel import MassModel, default_payload
@@ -88,7 +106,8 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
             line += ("   Exudyn failed" if "dynamic_failed" in c else
                      f"   {_pct(c.get('quasi_static_vs_dynamic'))} / {_pct(c.get('linear_vs_dynamic'))}")
         click.echo(line)
-        click.echo(f"{'':>8} {r.verdict}")
+        click.echo(textwrap.fill(r.verdict, width=WIDTH, initial_indent=" " * 9, subsequent_indent=" " * 11,
+                                 break_on_hyphens=False))
 
 
 def _pct(x: float | None) -> str:
