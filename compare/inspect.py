@@ -216,7 +216,7 @@ def format_detail(r: SceneResult) -> str:
         lines.append(f"  warnings    : {r.warnings}")
     for m in r.metrics.values():
         lines.append(f"  {registry.label(m.solver)} vs {registry.label(m.reference)}: {verdict_text(m.holds)} "
-                     f"(tolerance {m.tolerance:.1%}, {VERDICT_METRIC} = {m.verdict_error:.1%})")
+                     f"(vector (dx, dy) history error {m.verdict_error:.1%}, tolerance {m.tolerance:.1%})")
         lines.append("    component  units  max|err|     rms err      history  peak err  phase[deg]  amplif.")
         for c in m.components:
             lines.append(f"    {c.component:<9}  {c.units:<5}  {c.max_abs_error:<11.4g}  {c.rms_error:<11.4g}  "

@@ -96,16 +96,16 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     click.echo(f"Design check: {linkage} linkage, {mechanism}, mass model {mass_model}, damping {damping_ratio:g}, "
                f"tolerance {tolerance:.0%}")
     head = f"{'rpm':>8} {'r':>7} {'qs peak mm':>11} {'lin peak mm':>12} {'qs vs lin':>9} {'1-mode':>7} {'|mu|':>6}"
-    click.echo(head + "  tier" + ("   measured vs Exudyn: qs / linear" if confirm else ""))
+    click.echo(head + "  tier" + ("          Exudyn: qs / lin" if confirm else ""))
     for r in rows:
         line = (f"{r.rpm:8.1f} {r.speed_ratio:7.3f} {1e3 * r.quasi_static_peak_m:11.4g} {1e3 * r.linear_peak_m:12.4g} "
                 f"{_pct(r.linear_vs_quasi_static):>9} {_pct(r.quasi_static_error_estimate):>7} "
-                f"{r.floquet_max_abs:6.3f}  {r.tier}")
+                f"{r.floquet_max_abs:6.3f}  {r.tier:<12}")
         if confirm:
             c = r.confirmed
-            line += ("   Exudyn failed" if "dynamic_failed" in c else
-                     f"   {_pct(c.get('quasi_static_vs_dynamic'))} / {_pct(c.get('linear_vs_dynamic'))}")
-        click.echo(line)
+            line += ("  Exudyn failed" if "dynamic_failed" in c else
+                     f"  {_pct(c.get('quasi_static_vs_dynamic')):>6} / {_pct(c.get('linear_vs_dynamic'))}")
+        click.echo(line.rstrip())
         click.echo(textwrap.fill(r.verdict, width=WIDTH, initial_indent=" " * 9, subsequent_indent=" " * 11,
                                  break_on_hyphens=False))
 
