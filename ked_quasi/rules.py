@@ -103,8 +103,9 @@ near it is dominated by that singularity, not by the elastodynamics the harness 
 samples only linkages at twice this bound (20 deg), so every linkage it holds is accepted."""
 AREA = Rule("area", "m^2", 0.0, 1.0, "a link's cross-section, at most a 1 m square", lo_open=True,
             mixup=("areas are in m^2", "mm^2", 1e-6))
-SECOND_MOMENT = Rule("second_moment", "m^4", 0.0, 1.0 / 12.0, "a link's cross-section, at most a 1 m square "
-                     "(s^4/12)", lo_open=True, mixup=("second moments are in m^4", "mm^4", 1e-12))
+SECOND_MOMENT = Rule("second_moment", "m^4", 0.0, 1.0, "a link's cross-section (a 1 m square has 1/12 m^4; the "
+                     "closed-form checks use stiff links up to 1 m^4)", lo_open=True,
+                     mixup=("second moments are in m^4", "mm^4", 1e-12))
 DENSITY = Rule("density", "kg/m^3", 0.0, 1e5, "up to 4x the densest metal", lo_open=True)
 STIFFNESS_SCALE = Rule("stiffness_scale", "", 0.0, 1e6, "a factor on every Young's modulus", lo_open=True)
 
@@ -127,10 +128,12 @@ N_MODES = Rule("n_modes", "", 1, 20, "natural frequencies stored per crank angle
 TOLERANCE = Rule("tolerance", "", 0.0, 10.0, "the relative error of a verdict", lo_open=True)
 
 MAX_SCENES = 100_000
-"""Largest campaign grid accepted at load [scenes].  Expanding, keying and planning a grid costs about
-3 ms and 6 kB of memory per scene before anything runs (a 96 000-scene dry run takes minutes), and a
-stored scene holds its histories in the results file; a grid beyond this is split into campaigns
-(several results files, joined with ``ked merge``)."""
+"""Largest campaign grid accepted at load [scenes].  Measured on the project's 2-core, 23 GB machine: a
+96 000-scene quasi-static grid loads, expands and plans (``ked run --dry-run``) in about 6 s and 180 MB,
+so a grid of millions of scenes takes minutes and gigabytes before anything runs; a stored scene takes
+25-80 kB of results file (about 2.5-8 GB at the cap), and even quasi-static scenes at tens of ms each
+take hours at the cap.  A larger study is split into campaigns (several results files, joined with
+``ked merge``)."""
 
 SPEED_RATIO_LOAD_STEP_DEG = 30.0
 """Crank-angle step [deg] of the quick omega1_min estimate that screens crank speeds at load; a speed
@@ -190,5 +193,6 @@ def check_speed_ratio(ratio: float, rpm: float, f1_hz: float, label: str = "rpm"
     if ratio > SPEED_RATIO.hi:  # type: ignore[operator]  # nan (no finite frequency) is not refused
         raise ValueError(
             f"{label} = {rpm:g}: speed ratio r = Omega/omega1_min = {ratio:.3g} above {SPEED_RATIO.hi:g} (lowest "
-            f"first natural frequency {f1_hz:.3g} Hz); crank speeds are in rev/min and lengths in metres, "
-            "Young's modulus in Pa, density in kg/m^3: a unit mix-up (e.g. mm as m) gives such an r")
+            f"first natural frequency {f1_hz:.3g} Hz); crank speeds are in rev/min, lengths in metres, Young's "
+            "modulus in Pa, density in kg/m^3: a unit mix-up (e.g. mm as m) or a stiffness scale far below 1 "
+            "gives such an r; lower the speed or fix the units")
