@@ -209,6 +209,18 @@ def test_speed_ratio_bound_api_and_the_thesis_speed_is_accepted():
         parse_config(QS + "[grid]\nrpm = [60000.0]\n")
 
 
+def test_speed_ratio_is_checked_at_the_softest_stiffness_scale():
+    # every Young's modulus x k scales the frozen stiffness by k: omega1_min grows exactly as sqrt(k)
+    from compare.config import _omega1_min
+
+    fb, tip = thesis_fourbar(), MassModel("tip", payload=default_payload("tip"))
+    assert _omega1_min(fb.with_stiffness_scale(4.0), tip, 30.0) == pytest.approx(
+        2.0 * _omega1_min(fb, tip, 30.0), rel=1e-9)
+    # so the softest scale of the grid decides: r ~ 0.55 at k = 1 is ~550 at k = 1e-6
+    with pytest.raises(ConfigError, match=r"grid.rpm \(source, tip, stiffness x1e-06\) = 300: speed ratio"):
+        parse_config(QS + "[grid]\nrpm = [300.0]\nstiffness_scales = [1.0, 1e-6]\n")
+
+
 def test_speed_ratio_refusal_uses_the_exact_omega1_min():
     """The load-time screen refuses only on the omega1_min the run itself computes: a speed just below
     r = 10 passes, one just above is refused."""
@@ -246,11 +258,16 @@ def test_quoted_numbers_are_refused_in_toml(tmp_path):
                 sections=(THESIS_SECTION,) * 4, follower_pivot=(1.0, 0.0))
 
 
-@pytest.mark.parametrize("name", ["a\\u0000b", "tab\\there", "   "])
-def test_campaign_name_with_control_characters_is_refused_at_dry_run(tmp_path, name):
-    f = write(tmp_path, "name.toml", QS.replace('name = "refusals"', f'name = "{name}"') + "[grid]\nrpm = [60.0]\n")
+def test_campaign_name_with_nul_is_refused_at_dry_run(tmp_path):
+    f = write(tmp_path, "name.toml", QS.replace('name = "refusals"', 'name = "a\\u0000b"') + "[grid]\nrpm = [60.0]\n")
     assert_refused(ked("run", str(f), "--dry-run", "--out", str(tmp_path / "x.h5")), "campaign.name",
-                   "control characters")
+                   "control characters", "'a\\x00b'")
+
+
+@pytest.mark.parametrize("name", ["tab\\there", "new\\nline", "   ", "del\\u007f"])
+def test_campaign_name_with_control_characters_is_refused_api(name):
+    with pytest.raises(ConfigError, match="campaign.name: must be non-blank text without control characters"):
+        parse_config(QS.replace('name = "refusals"', f'name = "{name}"') + "[grid]\nrpm = [60.0]\n")
 
 
 def test_huge_grid_is_refused_at_load(tmp_path):
