@@ -9,7 +9,7 @@ from dataclasses import asdict
 
 import click
 
-from ked_cli.options import RuleType, json_text, linkage_option, load_source
+from ked_cli.options import RuleType, json_text, linkage_option, load_source, refuse_fast
 from ked_quasi import rules
 from ked_quasi.linkage import DIRECTIONS
 from ked_quasi.massmodel import MASS_MODELS
@@ -28,6 +28,8 @@ def _rpm_range(text: str | None) -> list[float]:
         raise click.BadParameter(f"{text!r}: expected START:STOP:N, e.g. 50:300:6", param_hint="--rpm-range") from None
     if not 1 <= k <= 200:
         raise click.BadParameter("N must be 1..200", param_hint="--rpm-range")
+    if k > 1 and a == b:
+        raise click.BadParameter(f"{text!r}: START = STOP gives {k} equal speeds; use N = 1", param_hint="--rpm-range")
     values = [a + (b - a) * i / max(k - 1, 1) for i in range(k)]
     for v in values:
         try:
@@ -81,11 +83,13 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     """
     from compare.check import check as run_check
     from ked_quasi.massmodel import MassModel, default_payload
+    from ked_quasi.scene import variant
 
     speeds = list(rpms) + _rpm_range(rpm_range) or [300.0]
     try:
         mm = MassModel(mass_model, lumps=lumps, payload=default_payload(mass_model) if payload_kg is None
                        else payload_kg)
+        refuse_fast(variant(load_source(linkage), mechanism, stiffness_scale, direction), mm, speeds, 10.0, "--rpm")
         rows = run_check(load_source(linkage), mechanism, mm, speeds, stiffness_scale=stiffness_scale,
                          damping_ratio=damping_ratio, direction=direction, tolerance=tolerance, confirm=confirm)
     except ValueError as exc:
