@@ -3,16 +3,29 @@ and which model is needed.
 
 Every speed is one campaign scene computed by :func:`compare.execute.run_scene` (the same code path,
 hence the same numbers a campaign stores) with the quasi-static and the linear solver, and Exudyn too
-when asked to confirm.  The tier rule (:func:`tier`):
+when asked to confirm.  Every error is the campaign verdict's measure
+(:data:`compare.metrics.VERDICT_METRIC`): the history error of the deflection vector d = (dx, dy) of P.
 
-* **quasi-static** when the linear model is stable, inside its small-deflection range, and the
-  quasi-static history differs from it by less than the tolerance (that difference is the dynamic
-  part of the quasi-static error);
-* **linear** when the linear model is needed (or the quasi-static answer is flagged) and the speed
-  ratio is below the linear model's own limit from the atlas (its agreement with Exudyn), the
-  atlas's uncertainty counting against it;
+The tier rule (:func:`tier`) is safe by construction: a model is judged only against a model that is
+itself inside its own range at that speed ratio r.  The linear model's limit is the atlas's **lower
+band** (the 10th percentile over the atlas families of the speed ratio where the linear model leaves
+the tolerance against Exudyn: :attr:`LinearRange.lower_limit`).  With e the quasi-static error predicted
+against the linear model and the :class:`VerdictMargins` (multipliers of the tolerance, calibrated
+against Exudyn at the threshold by the atlas, a conservative default otherwise):
+
+* **quasi-static** when the linear model is stable, small-deflection, r is below its lower-band limit,
+  and e < holds_below x tolerance;
+* **borderline** when e is between holds_below and fails_above x tolerance (or r is beyond the linear
+  model's limit and e <= fails_above x tolerance): the prediction cannot decide; ``--confirm`` does;
+* **linear** when e > fails_above x tolerance (or the quasi-static answer is flagged) and r is below the
+  linear model's lower-band limit;
 * **nonlinear** otherwise (no stable linear steady state, large deflections, or beyond the linear
   model's limit): the Exudyn model is the answer (``--confirm`` runs it).
+
+Without an atlas the linear model's limit is unknown, so neither the quasi-static nor the linear tier is
+granted from a prediction.  With ``--confirm`` the measured errors against Exudyn decide instead
+(:func:`measured_tier`): quasi-static if its measured error is below the tolerance, else linear if the
+linear model's is, else nonlinear; the verdict says so.
 
 The linear solve uses the default settings (at most 32 crank harmonics); when its periodic solve has not
 converged there (a frozen higher mode sweeping over many harmonics in a cycle), the check solves the
@@ -36,7 +49,7 @@ from ked_quasi.harmonics import one_mode_dynamic_estimate
 from ked_quasi.linkage import FourBar
 from ked_quasi.massmodel import MassModel
 
-TIERS = ("quasi-static", "linear", "nonlinear")
+TIERS = ("quasi-static", "borderline", "linear", "nonlinear")
 DEFAULT_DYNAMIC = (("element", "ancf"), ("elements_per_link", 4), ("spectral_radius", 0.9), ("steps_per_cycle", 720))
 """The Exudyn settings of the default campaign (so that a confirmed check is that campaign's scene)."""
 MAX_HARMONICS = HARMONICS.hi
@@ -56,12 +69,56 @@ class LinearRange:
     damping_ratio: float = math.nan
     """Damping ratio [1] at which the atlas measured these limits."""
 
+    def lower_limit(self, tolerance: float) -> float:
+        """The linear model's limit at ``tolerance``: the lower band of the atlas, r10 - r10_spread
+        (r5 - r5_spread below a 10 % tolerance), i.e. the 10th percentile over the families [1]; NaN
+        without an atlas."""
+        limit, spread = (self.r10, self.r10_spread) if tolerance >= 0.10 else (self.r5, self.r5_spread)
+        return limit - (spread if math.isfinite(spread) else 0.0)
+
     def note(self, damping_ratio: float) -> str:
         """'' or a caution when the checked scene is damped otherwise than the atlas."""
         if not math.isfinite(self.damping_ratio) or math.isclose(damping_ratio, self.damping_ratio):
             return ""
         return (f"; the atlas limit was measured at {self.damping_ratio:g} damping, this check runs at "
                 f"{damping_ratio:g}: a guide only, confirm with --confirm")
+
+
+@dataclass(frozen=True)
+class VerdictMargins:
+    """Where a predicted quasi-static error decides: below ``holds_below`` x tolerance it holds, above
+    ``fails_above`` x tolerance it fails, in between it is borderline (multipliers [1] of the tolerance).
+    ``n_scenes`` Exudyn-confirmed scenes near the threshold behind them, ``unsafe_rate`` [1] the share of
+    those called adequate that Exudyn measured above the tolerance, ``unsafe_upper95`` [1] its upper 95 %
+    bound, ``source`` where the numbers come from."""
+
+    holds_below: float = 0.6
+    fails_above: float = 1.4
+    n_scenes: int = 0
+    unsafe_rate: float = math.nan
+    unsafe_upper95: float = math.nan
+    source: str = "default (no calibration)"
+
+    def __post_init__(self) -> None:
+        if not (0.0 < self.holds_below <= 1.0 <= self.fails_above and math.isfinite(self.fails_above)):
+            raise ValueError(f"verdict margins: need 0 < holds_below <= 1 <= fails_above, got "
+                             f"{self.holds_below!r}, {self.fails_above!r}")
+
+
+def verdict_margins() -> VerdictMargins:
+    """The margins calibrated by the atlas (``compare.atlas.verdict_margins``), or the conservative
+    default :class:`VerdictMargins` when there is no calibration or it cannot be read."""
+    try:
+        from compare.atlas import verdict_margins as calibrated
+    except ImportError:
+        return VerdictMargins()
+    try:
+        m = calibrated()
+        return VerdictMargins(holds_below=float(m.holds_below), fails_above=float(m.fails_above),
+                              n_scenes=int(m.n_scenes), unsafe_rate=float(m.unsafe_rate),
+                              unsafe_upper95=float(m.unsafe_upper95), source=str(m.source))
+    except (OSError, ValueError, KeyError, AttributeError, TypeError, RuntimeError):
+        return VerdictMargins()
 
 
 @dataclass(frozen=True)
@@ -81,6 +138,17 @@ class CheckRow:
     confirmed: dict[str, float] = field(default_factory=dict)
     key: str = ""
     linear_harmonics: int = 0
+    linear_limit_speed_ratio: float = math.nan
+    """The linear model's limit used (atlas lower band, :meth:`LinearRange.lower_limit`) [1]."""
+    holds_below_error: float = math.nan
+    """Predicted quasi-static errors below this hold [1] (holds_below x tolerance)."""
+    fails_above_error: float = math.nan
+    """Predicted quasi-static errors above this fail [1] (fails_above x tolerance)."""
+    margins_source: str = ""
+    decided_by: str = "predicted"
+    """"measured" when Exudyn's errors decided the tier (``--confirm``), else "predicted"."""
+    predicted_tier: str = ""
+    """The tier the prediction alone gives (equal to ``tier`` unless a measurement decided)."""
 
 
 def spec_for(source: FourBar, mechanism: str, mass_model: MassModel, rpm: float, *, stiffness_scale: float = 1.0,
@@ -95,8 +163,9 @@ def spec_for(source: FourBar, mechanism: str, mass_model: MassModel, rpm: float,
                      solvers=solvers)
 
 
-def tier(r: SceneResult, linear_range: LinearRange, tolerance: float) -> tuple[str, str]:
-    """(tier, one-line verdict) of a checked scene (see the module docstring)."""
+def tier(r: SceneResult, linear_range: LinearRange, tolerance: float,
+         margins: VerdictMargins = VerdictMargins()) -> tuple[str, str]:
+    """(tier, one-line verdict) of a checked scene from the prediction (see the module docstring)."""
     qs, lin = r.solutions.get("quasi_static"), r.solutions.get("linear")
     ratio = speed_ratio(r)
     if qs is None or not qs.ok:
@@ -104,7 +173,14 @@ def tier(r: SceneResult, linear_range: LinearRange, tolerance: float) -> tuple[s
     if lin is None or not lin.ok:
         why = lin.message if lin is not None else "the linear model did not run"
         return "nonlinear", f"no stable linear steady state ({why}): use the nonlinear model (--confirm)"
-    large = [f for f in lin.flags if f != "unresolved"]
+    if "weakly_damped" in lin.flags:
+        from ked_linear.solver import WEAKLY_DAMPED
+
+        mu = lin.stats.get("floquet_max_abs", math.nan)
+        return "nonlinear", (f"weakly damped: max |Floquet multiplier| {mu:.3g} >= {WEAKLY_DAMPED:g}, near a critical "
+                             "speed (parametric resonance): the linear periodic answer is not valid and the nonlinear "
+                             "model may never settle; avoid this speed or add damping")
+    large = [f for f in lin.flags if f not in ("unresolved", "weakly_damped")]
     if large:
         return "nonlinear", (f"deflections beyond the small-deflection range ({', '.join(large)}): "
                              "use the nonlinear model (--confirm)")
@@ -114,22 +190,48 @@ def tier(r: SceneResult, linear_range: LinearRange, tolerance: float) -> tuple[s
                              f"{lin.stats.get('error_estimate', math.nan):.2g} of the peak): use the nonlinear model "
                              "(--confirm)")
     err = metrics.history_error(metrics.vector(qs.deflection), metrics.vector(lin.deflection))
-    if err < tolerance and not qs.flags:
-        return "quasi-static", f"quasi-static holds: it differs from the linear model by {err:.1%} < {tolerance:.0%}"
-    limit = linear_range.r10 if tolerance >= 0.10 else linear_range.r5
-    spread = linear_range.r10_spread if tolerance >= 0.10 else linear_range.r5_spread
+    limit = linear_range.lower_limit(tolerance)
+    lo, hi = margins.holds_below * tolerance, margins.fails_above * tolerance
     note = linear_range.note(r.spec.damping_ratio)
-    if math.isfinite(limit) and ratio > limit - (spread if math.isfinite(spread) else 0.0):
-        return "nonlinear", (f"quasi-static is {err:.0%} off, and r = {ratio:.3g} is not safely below the linear "
-                             f"model's limit (r = {limit:.3g}, {spread:.2g} below it for 10 % of the "
-                             f"{linear_range.source} linkages{note}): use the nonlinear model")
-    bound = f"valid up to r = {limit:.3g} - {spread:.2g} ({linear_range.source}{note})" if math.isfinite(limit) \
-        else "its own limit unknown without an atlas: confirm with --confirm"
-    return "linear", f"quasi-static is {err:.0%} off: use the linear model ({bound})"
+    in_range = bool(ratio < limit)  # False when either is NaN (no atlas): never granted blind
+    where = (f"r = {ratio:.3g} {'<' if in_range else '>='} {limit:.3g}, the linear model's limit (atlas lower "
+             f"band{note})" if math.isfinite(limit) else
+             f"r = {ratio:.3g}, the linear model's own limit unknown (no atlas)")
+    if qs.flags:
+        pass  # a flagged quasi-static answer is never granted: linear or nonlinear below
+    elif in_range and err < lo:
+        return "quasi-static", (f"quasi-static holds: {err:.1%} off the linear model < {lo:.1%} "
+                                f"({margins.holds_below:g} x tolerance; {where})")
+    elif err <= hi:
+        return "borderline", (f"borderline: quasi-static {err:.1%} off the linear model, between "
+                              f"{lo:.1%} and {hi:.1%} where the prediction cannot decide" if in_range else
+                              f"borderline: quasi-static {err:.1%} off the linear model, which is not "
+                              f"safely in range ({where})") + "; run --confirm"
+    if in_range:
+        return "linear", f"quasi-static {err:.0%} off: use the linear model ({where})"
+    return "nonlinear", f"quasi-static {err:.0%} off, and {where}: use the nonlinear model (--confirm)"
 
 
-def check_row(r: SceneResult, linear_range: LinearRange, tolerance: float) -> CheckRow:
-    """The check's numbers of one computed scene."""
+def measured_tier(confirmed: dict[str, float], tolerance: float) -> tuple[str, str] | None:
+    """(tier, verdict) decided by the errors measured against Exudyn, or None without a measurement:
+    quasi-static if its error is below the tolerance, else linear if the linear model's is, else
+    nonlinear."""
+    q, lin = confirmed.get("quasi_static_vs_dynamic"), confirmed.get("linear_vs_dynamic")
+    if q is None or not math.isfinite(q):
+        return None
+    text = f"measured: quasi-static {q:.1%} vs Exudyn"
+    if q < tolerance:
+        return "quasi-static", f"{text} < {tolerance:.0%}: quasi-static holds"
+    text += f" >= {tolerance:.0%}, linear {lin:.1%}" if lin is not None and math.isfinite(lin) else ""
+    if lin is not None and lin < tolerance:
+        return "linear", f"{text} < {tolerance:.0%}: use the linear model"
+    return "nonlinear", f"{text}: use the nonlinear model"
+
+
+def check_row(r: SceneResult, linear_range: LinearRange, tolerance: float,
+              margins: VerdictMargins = VerdictMargins()) -> CheckRow:
+    """The check's numbers of one computed scene; with an Exudyn solution its measured errors (the
+    campaign's own pair metrics) decide the tier."""
     nan = math.nan
     qs, lin = r.solutions.get("quasi_static"), r.solutions.get("linear")
     ratio = speed_ratio(r)
@@ -138,14 +240,21 @@ def check_row(r: SceneResult, linear_range: LinearRange, tolerance: float) -> Ch
     est = nan
     if qs_xy is not None and math.isfinite(ratio):
         est = metrics.history_error(qs_xy, one_mode_dynamic_estimate(qs_xy, ratio, r.spec.damping_ratio))
-    name, verdict = tier(r, linear_range, tolerance)
+    predicted, verdict = tier(r, linear_range, tolerance, margins)
+    name, decided_by = predicted, "predicted"
     confirmed = {}
     if "dynamic" in r.solutions and r.solutions["dynamic"].ok:
-        dyn = metrics.vector(r.solutions["dynamic"].deflection)
-        confirmed = {"quasi_static_vs_dynamic": metrics.history_error(qs_xy, dyn) if qs_xy is not None else nan,
-                     "linear_vs_dynamic": metrics.history_error(lin_xy, dyn) if lin_xy is not None else nan}
+        confirmed = {f"{n}_vs_dynamic": r.metrics[f"{n}_vs_dynamic"].verdict_error
+                     if f"{n}_vs_dynamic" in r.metrics else nan for n in ("quasi_static", "linear")}
+        measured = measured_tier(confirmed, tolerance)
+        if measured is not None:
+            name, verdict = measured
+            decided_by = "measured"
+            if predicted != name:
+                verdict += f" (predicted: {predicted})"
     elif "dynamic" in r.solutions:
         confirmed = {"dynamic_failed": 1.0}
+        verdict += " [Exudyn failed: the prediction stands]"
     return CheckRow(
         rpm=r.rpm, speed_ratio=ratio, quasi_static_peak_m=metrics.peak(qs_xy) if qs_xy is not None else nan,
         linear_peak_m=metrics.peak(lin_xy) if lin_xy is not None else nan,
@@ -154,6 +263,9 @@ def check_row(r: SceneResult, linear_range: LinearRange, tolerance: float) -> Ch
         floquet_max_abs=float(lin.stats.get("floquet_max_abs", nan)) if lin is not None else nan,
         tier=name, verdict=verdict, flags=tuple(sorted({*(qs.flags if qs else ()), *(lin.flags if lin else ())})),
         confirmed=confirmed, key=r.key, linear_harmonics=int(lin.stats.get("harmonics", 0)) if lin is not None else 0,
+        linear_limit_speed_ratio=linear_range.lower_limit(tolerance), holds_below_error=margins.holds_below * tolerance,
+        fails_above_error=margins.fails_above * tolerance, margins_source=margins.source, decided_by=decided_by,
+        predicted_tier=predicted,
     )
 
 
@@ -177,6 +289,7 @@ def check(source: FourBar, mechanism: str, mass_model: MassModel, rpms: Sequence
           tolerance: float = 0.10, confirm: bool = False) -> list[CheckRow]:
     """The design check of one linkage at each of ``rpms`` [rev/min] (see the module docstring)."""
     rng = linear_range(mass_model.name)
+    margins = verdict_margins()
     rows = []
     for rpm in rpms:
         spec = spec_for(source, mechanism, mass_model, rpm, stiffness_scale=stiffness_scale,
@@ -187,7 +300,7 @@ def check(source: FourBar, mechanism: str, mass_model: MassModel, rpms: Sequence
             r = _run(spec)
         if confirm:
             r = _run(replace(spec, solvers=(*spec.solvers, "dynamic")))
-        row = check_row(r, rng, tolerance)
+        row = check_row(r, rng, tolerance, margins)
         if spec.extra_settings:
             row = replace(row, verdict=f"{row.verdict} [linear model solved with {row.linear_harmonics} crank "
                                        "harmonics: the default at most 32 did not converge]")

@@ -8,9 +8,10 @@ out-of-range value, bad combination) is collected with its TOML path and reporte
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -140,6 +141,8 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
     camp = c.table(doc, "campaign")
     c.keys(camp, "campaign", ("name", "tolerance", "outputs", "step_deg", "n_modes", "solvers"))
     name = c.string(camp, "campaign.name", default="campaign")
+    if name is not None and (not name.strip() or any(ord(ch) < 32 or ord(ch) == 127 for ch in name)):
+        c.err("campaign.name", f"must be non-blank text without control characters (NUL, tab, newline); got {name!r}")
     tolerance = c.rule(camp, "campaign.tolerance", rules.TOLERANCE, default=DEFAULT_TOLERANCE)
     outputs = c.choices(camp, "campaign.outputs", COMPONENTS, default=COMPONENTS)
     outputs = tuple(x for x in COMPONENTS if x in outputs)  # canonical order: same scenes, same keys
@@ -167,9 +170,19 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
     _distinct_labels(c, "grid.damping_ratios", fields["damping_ratios"])
     if not c.problems:
         _check_mechanisms(c, fields["linkage"], fields["mechanisms"])
+    grid_obj = None if c.problems else Grid(**fields)
+    if grid_obj is not None and grid_obj.size() > rules.MAX_SCENES:
+        axes = " x ".join(f"{len(fields[k])} {k.replace('_', ' ')}" for k in (
+            "mechanisms", "mass_models", "speeds", "stiffness_scales", "damping_ratios", "directions",
+            "dynamic_variants"))
+        c.err("grid", f"{grid_obj.size()} scenes ({axes}) is more than one campaign may hold "
+                      f"({rules.MAX_SCENES}); split the grid into several campaigns (join results with ked merge)")
+    elif grid_obj is not None:
+        _check_speed_ratios(c, grid_obj)
     if c.problems:
         raise ConfigError(c.problems, source=source)
-    return CampaignConfig(name=name, grid=Grid(**fields), text=text)
+    assert grid_obj is not None
+    return CampaignConfig(name=name, grid=grid_obj, text=text)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -208,6 +221,57 @@ def _check_mechanisms(c: _Checker, source: FourBar, mechanisms: tuple[str, ...])
             c.err("grid.mechanisms", f"{mech!r}: {exc}")
 
 
+def _check_speed_ratios(c: _Checker, grid: Grid) -> None:
+    """r = Omega/omega1_min above the bound at a requested rpm is refused: checked once per distinct mechanism
+    and mass model, at the fastest rpm and the smallest stiffness scale (every Young's modulus times k scales
+    the frozen structure's stiffness by k, so omega1_min grows as sqrt(k): that pair has the largest r)."""
+    rpms = [s.value for s in grid.speeds if s.kind == "rpm"]
+    if not rpms:
+        return
+    k = min(grid.stiffness_scales)
+    for mech, mm in itertools.product(grid.mechanisms, grid.mass_models):
+        try:
+            check_speed(variant(grid.linkage, mech, k), mm, max(rpms), grid.step_deg,
+                        label=f"grid.rpm ({mech}, {mm.name}, stiffness x{k:g})")
+        except ValueError as exc:
+            c.problems.append(str(exc))
+            c.bad.add("grid.rpm")
+            return
+
+
+def check_speed(fourbar: FourBar, mass_model: MassModel, rpm: float, step_deg: float, label: str = "rpm") -> None:
+    """Refuse a crank speed ``rpm`` [rev/min] at which r = Omega/omega1_min exceeds the rule's bound
+    (:func:`ked_quasi.rules.check_speed_ratio`, naming the likely unit mix-up).  A quick estimate
+    (:data:`~ked_quasi.rules.SPEED_RATIO_LOAD_STEP_DEG`) screens; a suspicious speed is confirmed with the
+    scene's own step and lumps, the omega1_min the run would compute."""
+    from ked_quasi.units import rpm_to_rad_s
+
+    bound = float(rules.SPEED_RATIO.hi)  # type: ignore[arg-type]
+    quick = _omega1_min(fourbar, replace(mass_model, lumps=min(mass_model.lumps, rules.SPEED_RATIO_LOAD_LUMPS)),
+                        rules.SPEED_RATIO_LOAD_STEP_DEG)
+    if not rpm_to_rad_s(rpm) / quick > rules.SPEED_RATIO_SCREEN * bound:
+        return
+    exact = _omega1_min(fourbar, mass_model, step_deg)
+    rules.check_speed_ratio(rpm_to_rad_s(rpm) / exact, rpm, exact / (2.0 * math.pi), label)
+
+
+@functools.lru_cache(maxsize=512)
+def _omega1_min(fourbar: FourBar, mass_model: MassModel, step_deg: float) -> float:
+    """Lowest first natural circular frequency over the turn [rad/s] (nan if none is finite), as
+    :func:`compare.execute.frame` computes it."""
+    import warnings
+
+    import numpy as np
+
+    from ked_quasi.scene import Scene
+    from ked_quasi.solver import natural_frequencies
+
+    f1 = natural_frequencies(Scene(fourbar, mass_model, 1.0, step_deg), n_modes=1)[:, 0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return 2.0 * math.pi * float(np.nanmin(f1)) if np.isfinite(f1).any() else math.nan
+
+
 _LINKAGE_NUMBERS = ("crank", "coupler", "follower", "extender")
 
 
@@ -216,6 +280,14 @@ def load_linkage(path: str | Path) -> FourBar:
     four-bar; :class:`ConfigError` naming the file and every problem otherwise."""
     p = Path(path)
     doc = _read_toml(p)
+    if not isinstance(doc.get("linkage"), dict):
+        tables = [f"[{k}]" for k, v in doc.items() if isinstance(v, dict)]
+        loose = [k for k, v in doc.items() if not isinstance(v, dict)]
+        found = (f"tables found: {', '.join(tables)}" if tables else "no tables found") + (
+            f"; keys outside any table: {', '.join(loose)}" if loose else "")
+        raise ConfigError([f"no [linkage] table ({found}); a linkage file needs a [linkage] table (lower case) with "
+                           "crank, coupler, follower, extender, ground [m], coupler_angle_deg and [linkage.section], "
+                           "or preset = \"thesis\""], source=str(p))
     c = _Checker()
     fb = linkage_from_table(c, c.table(doc, "linkage"))
     if c.problems or fb is None:

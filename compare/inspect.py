@@ -1,9 +1,11 @@
 """Summaries of stored scenes: table rows, detail records and their text rendering (pure functions).
 
 Every registered solver that a scene ran gets its own columns; nothing here names a solver except
-the quasi-static one, whose error decides the verdict (:data:`compare.metrics.VERDICT_METRIC`).
-Column units: rpm [rev/min], Omega/w1 [1] (crank speed over the lowest first natural circular
-frequency), errors relative to the reference's peak [%], amplification [1], wall time [s].
+the quasi-static one, whose error decides the verdict (:data:`compare.metrics.VERDICT_METRIC`: the
+history error of the deflection vector (dx, dy)).  The quasi-static rotation's history error has its
+own column and never enters the verdict.  Column units: rpm [rev/min], Omega/w1 [1] (crank speed over
+the lowest first natural circular frequency), errors relative to the reference's peak [%],
+amplification [1], wall time [s].
 """
 
 from __future__ import annotations
@@ -43,8 +45,13 @@ def short_reason(r: SceneResult, n: int = 60) -> str:
 def summary_row(r: SceneResult) -> dict[str, Any]:
     """One summary record (JSON-serialisable; non-finite numbers become ``None``).
 
-    ``max_relative_error`` is the verdict error (quasi-static against the reference); for every other
-    solver that is not the reference, ``error_<solver>`` is its own error against the reference."""
+    ``verdict_error`` is the verdict error (quasi-static against the reference, history error of the
+    deflection vector (dx, dy)) and ``holds`` the verdict (``verdict_error`` < tolerance); for every other
+    solver that is not the reference, ``verdict_error_<solver>`` is its own error of the same measure.
+    ``relative_error_<component>`` and ``amplification_<component>`` are per component (dx, dy,
+    rotation, vector).  Kept with their old meaning, not verdicts: ``max_relative_error`` and
+    ``error_<solver>``, the worst history error of dx, dy and rotation (the campaign verdict's measure
+    before the vector one), and ``max_amplification``, the worst component's amplification."""
     v = r.verdict
     ref = r.reference
     row: dict[str, Any] = {
@@ -52,7 +59,8 @@ def summary_row(r: SceneResult) -> dict[str, Any]:
         "rpm": _num(r.rpm), "speed_ratio": _num(speed_ratio(r)), "status": r.status, "stage": r.stage,
         "message": r.message, "failure_class": r.failure_class, "reason": short_reason(r),
         "solvers": list(r.solutions), "reference": ref,
-        "max_relative_error": _num(v.verdict_error) if v else None,
+        "verdict_error": _num(v.verdict_error) if v else None,
+        "max_relative_error": _num(v.worst_component_error) if v else None,
         "max_amplification": _num(v.max_amplification) if v else None,
         "holds": v.holds if v else None, "wall_s": _num(r.stats.total_wall_s),
     }
@@ -63,7 +71,8 @@ def summary_row(r: SceneResult) -> dict[str, Any]:
     for name in r.solutions:
         m = r.metrics.get(pair_name(name, ref)) if ref else None
         if name not in ("quasi_static", ref) and m is not None:
-            row[f"error_{name}"] = _num(m.verdict_error)
+            row[f"verdict_error_{name}"] = _num(m.verdict_error)
+            row[f"error_{name}"] = _num(m.worst_component_error)
         if r.solutions[name].flags:
             row[f"flags_{name}"] = list(r.solutions[name].flags)
     return row
@@ -74,16 +83,20 @@ def verdict_text(holds: bool | None) -> str:
 
 
 def _columns(rows: Sequence[dict[str, Any]]) -> list[tuple[str, str, str]]:
-    extra = sorted({k for row in rows for k in row if k.startswith("error_")}, key=registry.fidelity)
+    extra = sorted({k[len(_OTHER):] for row in rows for k in row if k.startswith(_OTHER)}, key=registry.fidelity)
     cols = [("key", "key", "{}"), ("label", "scene", "{}"), ("rpm", "rpm", "{:.1f}"),
             ("speed_ratio", "Omega/w1", "{:.3f}"), ("status", "status", "{}"),
-            ("max_relative_error", "quasi-static err %", "%")]
-    cols += [(k, f"{registry.label(k[6:])} err %", "%") for k in extra]
+            ("verdict_error", "quasi-static err %", "%"), ("relative_error_rotation", "qs rot err %", "%")]
+    cols += [(_OTHER + k, f"{registry.label(k)} err %", "%") for k in extra]
     cols += [("max_amplification", "amplif.", "{:.3f}"), ("holds", "verdict", ""), ("wall_s", "wall s", "{:.1f}")]
     if any(row.get("reason") for row in rows):
         cols.append(("reason", "reason (failed scenes)", "{}"))
     return cols
 
+
+_OTHER = "verdict_error_"
+"""Key prefix of the verdict error of a solver other than the quasi-static one."""
+_QUASI_STATIC_KEYS = ("verdict_error", "relative_error_rotation", "max_relative_error")
 
 FLAG_MARK = "*"
 FLAG_NOTE = (f"{FLAG_MARK} that solver's answer is outside the range where its model holds (validity flags, "
@@ -91,7 +104,8 @@ FLAG_NOTE = (f"{FLAG_MARK} that solver's answer is outside the range where its m
 
 
 def _flagged(row: dict[str, Any], key: str) -> bool:
-    solver = "quasi_static" if key == "max_relative_error" else key[6:] if key.startswith("error_") else None
+    solver = ("quasi_static" if key in _QUASI_STATIC_KEYS else key[len(_OTHER):] if key.startswith(_OTHER)
+              else None)
     return solver is not None and bool(row.get(f"flags_{solver}"))
 
 
@@ -142,6 +156,7 @@ def format_counts(results: Sequence[SceneResult]) -> str:
 def _pair_record(m: Any) -> dict[str, Any]:
     return {"solver": m.solver, "reference": m.reference, "speed_ratio": _num(m.speed_ratio),
             "tolerance": m.tolerance, "holds": m.holds, "verdict_error": _num(m.verdict_error),
+            "verdict_metric": VERDICT_METRIC, "worst_component_error": _num(m.worst_component_error),
             "components": {c.component: {k: (_num(v) if isinstance(v, float) else v) for k, v in asdict(c).items()}
                            for c in m.components}}
 
@@ -158,8 +173,9 @@ def scene_detail(r: SceneResult) -> dict[str, Any]:
         "key": r.key, "label": r.spec.label, "status": r.status, "stage": r.stage, "error_type": r.error_type,
         "message": r.message, "failure_class": r.failure_class, "warnings": r.warnings, "rpm": _num(r.rpm),
         "omega1_min_rad_s": _num(r.omega1_min), "speed_ratio": _num(speed_ratio(r)), "parameters": r.spec.to_dict(),
-        "reference": r.reference, "verdict": None if v is None else {"holds": v.holds, "metric": VERDICT_METRIC,
-                                                                      "error": _num(v.verdict_error)},
+        "reference": r.reference,
+        "verdict": None if v is None else {"holds": v.holds, "metric": VERDICT_METRIC, "error": _num(v.verdict_error),
+                                           "worst_component_error": _num(v.worst_component_error)},
         "solutions": {n: {"status": s.status, "message": s.message, "error_type": s.error_type,
                           "failure_class": s.failure_class, "flags": list(s.flags), "settings": s.settings,
                           "stats": s.stats, "deflection": {c: arr(h) for c, h in s.deflection.items()}}
@@ -200,7 +216,7 @@ def format_detail(r: SceneResult) -> str:
         lines.append(f"  warnings    : {r.warnings}")
     for m in r.metrics.values():
         lines.append(f"  {registry.label(m.solver)} vs {registry.label(m.reference)}: {verdict_text(m.holds)} "
-                     f"(tolerance {m.tolerance:.1%}, {VERDICT_METRIC} = {m.verdict_error:.1%})")
+                     f"(vector (dx, dy) history error {m.verdict_error:.1%}, tolerance {m.tolerance:.1%})")
         lines.append("    component  units  max|err|     rms err      history  peak err  phase[deg]  amplif.")
         for c in m.components:
             lines.append(f"    {c.component:<9}  {c.units:<5}  {c.max_abs_error:<11.4g}  {c.rms_error:<11.4g}  "

@@ -162,7 +162,7 @@ def amplification_figure(results: Sequence[SceneResult], tolerance: float | None
     ax_a.set_ylabel("max|reference| / max|quasi-static| [1], worst component")
     ax_a.set_title("dynamic amplification", fontsize=10)
     ax_e.set_xlabel("speed ratio Omega / omega1_min [1]")
-    ax_e.set_ylabel("quasi-static history error [%], worst component")
+    ax_e.set_ylabel("quasi-static history error of (dx, dy) [%]")
     tols = {r.verdict.tolerance for rs in fams.values() for r in rs}
     if tolerance is None and len(tols) == 1:
         tolerance = tols.pop()

@@ -42,7 +42,8 @@ def expected_metrics(results: Sequence[SceneResult]) -> dict[str, Any]:
         if v is not None:
             rec["holds"] = v.holds
             rec["speed_ratio"] = v.speed_ratio
-            rec["components"] = {c.component: {"holds": c.holds, **_values(c)} for c in v.scalar_components}
+            rec["verdict_error"] = v.verdict_error  # the vector's relative_error; recorded for readers
+            rec["components"] = {c.component: {"holds": c.holds, **_values(c)} for c in v.components}
         out["scenes"][r.key] = rec
     return out
 

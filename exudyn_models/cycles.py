@@ -14,27 +14,17 @@ from ked_quasi.kinematics import joint_positions
 
 from .builder import BuiltModel, p_pose
 from .settings import DynamicSettings
-
-ROUNDOFF_TOLERANCE = 1e-13
-"""The residual's round-off grows like 1e-16 * E*A [N]; the Newton absolute tolerance is kept at
-least ROUNDOFF_TOLERANCE * max(E*A), so that it stays reachable for very stiff links (E x 1e4 and
-more) while staying far below the inertia forces."""
+from .tolerance import ROUNDOFF_TOLERANCE, NewtonTolerances, newton_abs_tolerance  # noqa: F401 - re-exported
 
 EXTRAPOLATION_ORDER = 2
 """Decaying transient components assumed by the cycle extrapolation (2 = one lightly damped mode,
 whose per-cycle multiplier is a complex pair); it needs EXTRAPOLATION_ORDER + 2 cycles."""
 
 
-def newton_abs_tolerance(settings: DynamicSettings, fourbar) -> float:
-    """Newton absolute tolerance [N]: max(settings.newton_abs_tol, 1e-13 * max(E*A))."""
-    ea = max(s.youngs_modulus * s.area for s in fourbar.sections)
-    return max(settings.newton_abs_tol, ROUNDOFF_TOLERANCE * ea)
-
-
 def solver_settings(settings: DynamicSettings, step: float, end_time: float,
-                    abs_tol: float | None = None) -> exu.SimulationSettings:
+                    tol: NewtonTolerances | None = None) -> exu.SimulationSettings:
     """Exudyn SimulationSettings for a fixed-step generalized-alpha run writing no files.
-    abs_tol [N]: Newton absolute tolerance (None -> settings.newton_abs_tol)."""
+    tol: the Newton tolerances (exudyn_models.tolerance.newton_tolerances; None -> the settings' own)."""
     sset = exu.SimulationSettings()
     sset.solution.file.write = False  # default would write solution/coordinatesSolution.txt
     sset.solution.sensors.writePeriod = 0.5 * step  # store the P sensor every step
@@ -48,8 +38,8 @@ def solver_settings(settings: DynamicSettings, step: float, end_time: float,
     ti.generalizedAlpha.spectralRadius = settings.spectral_radius
     ti.generalizedAlpha.computeInitialAccelerations = False
     nw = ti.newton
-    nw.absoluteTolerance = settings.newton_abs_tol if abs_tol is None else abs_tol
-    nw.relativeTolerance = settings.newton_rel_tol
+    nw.absoluteTolerance = settings.newton_abs_tol if tol is None else tol.abs_n
+    nw.relativeTolerance = settings.newton_rel_tol if tol is None else tol.rel
     nw.useModifiedNewton = True
     nw.modifiedNewtonJacUpdatePerStep = True
     nw.maxIterations = settings.newton_max_iterations

@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import math
 
-FAILURE_CLASSES = ("numerical", "physical")
+FAILURE_CLASSES = ("numerical", "physical", "undecided")
 """numerical: the method gave up (Newton failures on every rung of the refinement ladder within the
-budget, or a transient that still decays when max_cycles ran out); physical: the evidence says the
-linkage has no (attracting) periodic orbit: the response grows without bound, or does not repeat from
-cycle to cycle (quasi-periodic / subharmonic). See exudyn_models.failure."""
+budget, cycle changes stalled at the noise floor, or a decay confirmed by the cycles the ladder granted
+that needs still more); physical: the evidence says the linkage has no (attracting) periodic orbit: the
+response grows without bound, does not repeat from cycle to cycle (quasi-periodic / subharmonic), or did
+not settle within the cycles its measured contraction predicted; undecided: neither is shown (the
+numbers are in the evidence). See exudyn_models.failure."""
 
 
 def crank_angle_deg_text(crank_angle: float) -> str:

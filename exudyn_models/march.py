@@ -11,9 +11,10 @@ import exudyn as exu
 import numpy as np
 
 from .builder import BuiltModel
-from .cycles import CycleSampler, RunRecord, SteadyTracker, newton_abs_tolerance, rows_by_step, solver_settings
+from .cycles import CycleSampler, RunRecord, SteadyTracker, rows_by_step, solver_settings
 from .errors import SimulationError
 from .settings import DynamicSettings
+from .tolerance import newton_tolerances
 
 
 class _CycleCheck:
@@ -66,7 +67,7 @@ def march(scene, settings: DynamicSettings, model: BuiltModel, start_note: str) 
     n = settings.steps_per_cycle
     h = drive.cycle_time / n
     sset = solver_settings(settings, h, drive.cycle_start(settings.max_cycles),
-                           newton_abs_tolerance(settings, scene.fourbar))
+                           newton_tolerances(settings, scene))
     tracker = SteadyTracker(settings)
     check = _CycleCheck(model, CycleSampler(model, scene, n), tracker, h)
     mbs.SetPreStepUserFunction(check)

@@ -29,10 +29,11 @@ import exudyn as exu
 import numpy as np
 
 from .builder import BuiltModel
-from .cycles import CycleSampler, RunRecord, SteadyTracker, newton_abs_tolerance, rows_by_step, solver_settings
+from .cycles import CycleSampler, RunRecord, SteadyTracker, rows_by_step, solver_settings
 from .errors import SimulationError
 from .settings import DynamicSettings
 from .start import rigid_motion, set_initial_state
+from .tolerance import newton_tolerances
 
 RESIDUAL_RESET_FACTOR = 10.0
 """A residual this many times the smallest one so far restarts the mixing history (safeguard)."""
@@ -56,7 +57,7 @@ class CycleRunner:
     def __init__(self, scene, settings: DynamicSettings, model: BuiltModel):
         self.model, self.settings = model, settings
         self.step = model.drive.cycle_time / settings.steps_per_cycle
-        self.abs_tol = newton_abs_tolerance(settings, scene.fourbar)
+        self.tol = newton_tolerances(settings, scene)
         self.solver = exu.MainSolverImplicitSecondOrder()
         self.steps = 0
         self.newton_iterations = 0
@@ -67,7 +68,7 @@ class CycleRunner:
         model = self.model
         if state is not None:
             set_initial_state(model, state.q, state.v, state.a, state.ae)
-        sset = solver_settings(self.settings, self.step, t0 + n_steps * self.step, self.abs_tol)
+        sset = solver_settings(self.settings, self.step, t0 + n_steps * self.step, self.tol)
         sset.timeIntegration.startTime = t0
         sset.timeIntegration.numberOfSteps = n_steps
         ok = self.solver.SolveSystem(model.mbs, sset)

@@ -13,6 +13,10 @@ after the caps is left out):
     harmonic is shifted by the integrator's period error):
         steps x2;  steps x4;  steps x8;  elements x2 + steps x8
 
+A run that goes through but does not settle, with cycle changes that decay, gets one more rung
+"cycles +N": a rerun with max_cycles raised by the cycles the measured contraction predicts (see
+exudyn_models.failure.cycles_to_grant), within the same budget.
+
 Caps: MAX_STEPS_PER_CYCLE steps per cycle and MAX_ELEMENTS_PER_LINK elements (more elements than that
 never help: Newton's tolerance becomes unreachable, see failure_hint). Budget: settings.refine_budget_s
 for all attempts together; before a rung its cost is estimated from the last attempt's wall time scaled
@@ -91,10 +95,11 @@ class Attempt:
 
 
 def estimated_cost(last: Attempt, settings: DynamicSettings) -> float:
-    """Wall time [s] of a run at `settings` estimated from the last attempt (steps x elements scaling)."""
+    """Wall time [s] of a run at `settings` estimated from the last attempt (steps x elements x max_cycles
+    scaling; max_cycles differs only on the rung that grants a decaying transient more cycles)."""
     s0 = last.settings
     return last.wall_s * (settings.steps_per_cycle / s0.steps_per_cycle) * \
-        (settings.elements_per_link / s0.elements_per_link)
+        (settings.elements_per_link / s0.elements_per_link) * (settings.max_cycles / s0.max_cycles)
 
 
 def over_budget(t_start: float, budget_s: float, attempts: Sequence[Attempt], settings: DynamicSettings) -> str:

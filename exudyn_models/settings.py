@@ -38,9 +38,10 @@ class DynamicSettings:
     min_cycles / max_cycles: cycles at constant speed simulated at least / at most.
     extrapolate: also accept the limit cycle extrapolated from the last 4 cycles once it has settled
         (exudyn_models.simulate.extrapolate_limit); False returns only simulated cycles.
-    newton_abs_tol [N], newton_rel_tol: Newton tolerances of Exudyn's residual (forces). Exudyn's
-        1e-10 default fails on round-off; the absolute tolerance is raised to 1e-13 * E*A for
-        very stiff links (exudyn_models.simulate.newton_abs_tolerance).
+    newton_abs_tol [N], newton_rel_tol: upper bounds of the Newton tolerances of Exudyn's residual
+        (forces). A run tightens them to the scene's quasi-static deflection and loads, so that small
+        deflections (low speed) are resolved as well as large ones; the absolute tolerance is kept at
+        least 1e-13 * E*A (round-off, very stiff links). See exudyn_models.tolerance.
     newton_max_iterations: Newton iterations per step before the step counts as failed.
     sparse: use Exudyn's sparse (Eigen) linear solver instead of the dense one.
     start: how the constant-speed phase begins. "ramp": from rest through the smooth start-up ramp

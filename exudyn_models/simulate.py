@@ -30,7 +30,7 @@ Failures are classified (exudyn_models.failure): SimulationError.failure_class /
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -47,7 +47,7 @@ from .cycles import (  # noqa: F401 - re-exported (the public home of these name
 )
 from .damping import rayleigh_beta, reference_frequency
 from .errors import SimulationError
-from .failure import classify, classify_newton_failure, evidence_of
+from .failure import Extension, classify, classify_newton_failure, cycles_to_grant, evidence_of
 from .march import march
 from .periodic import solve_periodic
 from .refine import Attempt, failure_hint, ladder, over_budget, rung_settings
@@ -132,12 +132,12 @@ def _message(record: RunRecord, settings: DynamicSettings) -> str:
 
 
 def _result(scene, settings: DynamicSettings, solved: DynamicSettings, record: RunRecord, f_ref: float,
-            t_wall: float, attempts: tuple[Attempt, ...]) -> DynamicResult:
+            t_wall: float, attempts: tuple[Attempt, ...], extension: Extension | None = None) -> DynamicResult:
     tr = record.tracker
     message, failure_class, evidence = _message(record, solved), "", ""
     if not record.converged:
         ev = evidence_of(tr)
-        failure_class, reason = classify(ev)
+        failure_class, reason = classify(ev, solved.steady_tol, extension)
         evidence = f"{reason}; {ev.text()}"
         message = f"{message} [{failure_class}: {evidence}]"
     if solved != settings:
@@ -151,6 +151,35 @@ def _result(scene, settings: DynamicSettings, solved: DynamicSettings, record: R
                          cycle_changes=tuple(tr.changes), solved_settings=solved, attempts=attempts,
                          failure_class=failure_class, evidence=evidence, start=record.start_note,
                          periodic_residuals=record.residuals, cycle_peaks=tuple(tr.peaks))
+
+
+def _extend(scene, settings: DynamicSettings, solved: DynamicSettings, record: RunRecord, beta: float,
+            t_wall: float, attempts: list[Attempt]) -> tuple[DynamicSettings, RunRecord, Extension | None]:
+    """A run that did not settle but whose cycle changes decay: grant the cycles the measured contraction
+    predicts (exudyn_models.failure.cycles_to_grant) by a rerun with max_cycles raised, if settings.refine
+    and the wall-time budget allow. Returns the settings and record to report, and what was granted."""
+    if record.converged:
+        return solved, record, None
+    before = evidence_of(record.tracker)
+    predicted, grant = cycles_to_grant(before, solved.steady_tol)
+    if grant == 0:
+        return solved, record, None
+    s = replace(solved, max_cycles=solved.max_cycles + grant)
+    if not settings.refine:
+        return solved, record, Extension(before, predicted, grant, False, "refine=False")
+    rung = f"cycles +{grant}"
+    skip = over_budget(t_wall, settings.refine_budget_s, attempts[-1:], s)
+    if skip:
+        attempts.append(Attempt(rung, s, "skipped", 0.0, 0, skip))
+        return solved, record, Extension(before, predicted, grant, False, skip)
+    t0 = time.perf_counter()
+    try:
+        longer = _run(scene, s, beta)
+    except SimulationError as exc:
+        attempts.append(_attempt(rung, s, t0, exc=exc))
+        return solved, record, Extension(before, predicted, grant, False, f"Newton failed in the longer run: {exc}")
+    attempts.append(_attempt(rung, s, t0, longer))
+    return s, longer, Extension(before, predicted, grant, True)
 
 
 def _attempt(rung: str, settings: DynamicSettings, t0: float, record: RunRecord | None = None,
@@ -192,7 +221,8 @@ def simulate_steady_state(scene, settings: DynamicSettings | None = None) -> Dyn
     try:
         record = _run(scene, settings, beta)
         attempts.append(_attempt("requested", settings, t_wall, record))
-        return _result(scene, settings, settings, record, f_ref, t_wall, tuple(attempts))
+        solved, record, ext = _extend(scene, settings, settings, record, beta, t_wall, attempts)
+        return _result(scene, settings, solved, record, f_ref, t_wall, tuple(attempts), ext)
     except SimulationError as exc:
         first = exc
         attempts.append(_attempt("requested", settings, t_wall, exc=exc))
@@ -216,5 +246,6 @@ def simulate_steady_state(scene, settings: DynamicSettings | None = None) -> Dyn
                 peaks.append(exc.peaks)
                 continue
             attempts.append(_attempt(rung.name, s, t0, record))
-            return _result(scene, settings, s, record, f_ref, t_wall, tuple(attempts))
+            solved, record, ext = _extend(scene, settings, s, record, beta, t_wall, attempts)
+            return _result(scene, settings, solved, record, f_ref, t_wall, tuple(attempts), ext)
     raise _exhausted(first, settings, attempts, peaks)

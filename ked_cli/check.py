@@ -4,14 +4,18 @@ at a given speed, and which model is needed (:mod:`compare.check`)."""
 from __future__ import annotations
 
 import math
+import textwrap
 from dataclasses import asdict
 
 import click
 
-from ked_cli.options import RuleType, json_text, linkage_option, load_source
+from ked_cli.options import RuleType, json_text, linkage_option, load_source, refuse_fast
 from ked_quasi import rules
 from ked_quasi.linkage import DIRECTIONS
 from ked_quasi.massmodel import MASS_MODELS
+
+WIDTH = 100
+"""Columns of the printed verdict lines."""
 
 
 def _rpm_range(text: str | None) -> list[float]:
@@ -24,6 +28,8 @@ def _rpm_range(text: str | None) -> list[float]:
         raise click.BadParameter(f"{text!r}: expected START:STOP:N, e.g. 50:300:6", param_hint="--rpm-range") from None
     if not 1 <= k <= 200:
         raise click.BadParameter("N must be 1..200", param_hint="--rpm-range")
+    if k > 1 and a == b:
+        raise click.BadParameter(f"{text!r}: START = STOP gives {k} equal speeds; use N = 1", param_hint="--rpm-range")
     values = [a + (b - a) * i / max(k - 1, 1) for i in range(k)]
     for v in values:
         try:
@@ -55,40 +61,74 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
           tolerance: float, confirm: bool, as_json: bool) -> None:
     """Design check: per speed, r = Omega/omega1_min, the quasi-static and linear peaks, how far the
     quasi-static answer is from the linear model, Floquet max |mu|, the one-mode estimate of the
-    quasi-static error, the tier needed (quasi-static / linear / nonlinear) and a verdict.
+    quasi-static error, the tier needed (quasi-static / borderline / linear / nonlinear) and a verdict.
 
-    JSON keys per speed: speed_ratio, quasi_static_peak_m, linear_peak_m, linear_vs_quasi_static,
-    quasi_static_error_estimate, floquet_max_abs, tier, verdict, rpm, flags, confirmed, key,
-    linear_harmonics (crank harmonics the linear solve used).
+    Every error is the history error of the deflection vector d = (dx, dy) of P, max|d - d_ref| /
+    max|d_ref|: the measure of the campaign verdict of `ked run`.  A tier is granted only where the
+    model it is judged against is inside its own range: quasi-static needs r below the linear model's
+    limit (the atlas's lower band) and a predicted error below holds_below x tolerance; between that
+    and fails_above x tolerance the tier is borderline (run --confirm).  With --confirm the errors
+    measured against Exudyn decide the tier.
+
+    \b
+    JSON keys per speed: speed_ratio, quasi_static_peak_m, linear_peak_m,
+    linear_vs_quasi_static, quasi_static_error_estimate, floquet_max_abs, tier
+    ("quasi-static", "borderline", "linear" or "nonlinear"), verdict, rpm, flags,
+    confirmed (quasi_static_vs_dynamic, linear_vs_dynamic: measured errors), key,
+    linear_harmonics (crank harmonics the linear solve used),
+    linear_limit_speed_ratio (the linear model's limit used: atlas lower band),
+    holds_below_error, fails_above_error (predicted-error bounds of the borderline
+    band), margins_source (where those margins come from), decided_by
+    ("measured" or "predicted"), predicted_tier (the tier without the measurement),
+    critical_speeds_rpm and amplification_peaks_rpm (the same in every object: with
+    three speeds or more, the local maxima over the speeds checked of max |Floquet
+    multiplier|, refined by the Floquet part alone, and of the amplification linear /
+    quasi-static peak; else empty).
     """
     from compare.check import check as run_check
     from ked_quasi.massmodel import MassModel, default_payload
+    from ked_quasi.scene import variant
 
     speeds = list(rpms) + _rpm_range(rpm_range) or [300.0]
     try:
         mm = MassModel(mass_model, lumps=lumps, payload=default_payload(mass_model) if payload_kg is None
                        else payload_kg)
+        refuse_fast(variant(load_source(linkage), mechanism, stiffness_scale, direction), mm, speeds, 10.0, "--rpm")
         rows = run_check(load_source(linkage), mechanism, mm, speeds, stiffness_scale=stiffness_scale,
                          damping_ratio=damping_ratio, direction=direction, tolerance=tolerance, confirm=confirm)
+        crit, amp = (), ()
+        if len(rows) >= 3:  # critical speeds: local maxima over the range (compare.critical)
+            from compare.critical import check_critical
+
+            crit, amp, rows = check_critical(rows, load_source(linkage), mechanism, mm,
+                                             stiffness_scale=stiffness_scale, damping_ratio=damping_ratio,
+                                             direction=direction, tolerance=tolerance)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
     if as_json:
-        click.echo(json_text([asdict(r) for r in rows]))
+        extra = {"critical_speeds_rpm": [c.rpm for c in crit], "amplification_peaks_rpm": list(amp)}
+        click.echo(json_text([{**asdict(r), **extra} for r in rows]))
         return
     click.echo(f"Design check: {linkage} linkage, {mechanism}, mass model {mass_model}, damping {damping_ratio:g}, "
                f"tolerance {tolerance:.0%}")
     head = f"{'rpm':>8} {'r':>7} {'qs peak mm':>11} {'lin peak mm':>12} {'qs vs lin':>9} {'1-mode':>7} {'|mu|':>6}"
-    click.echo(head + "  tier" + ("   measured vs Exudyn: qs / linear" if confirm else ""))
+    click.echo(head + "  tier" + ("          Exudyn: qs / lin" if confirm else ""))
     for r in rows:
         line = (f"{r.rpm:8.1f} {r.speed_ratio:7.3f} {1e3 * r.quasi_static_peak_m:11.4g} {1e3 * r.linear_peak_m:12.4g} "
                 f"{_pct(r.linear_vs_quasi_static):>9} {_pct(r.quasi_static_error_estimate):>7} "
-                f"{r.floquet_max_abs:6.3f}  {r.tier}")
+                f"{r.floquet_max_abs:6.3f}  {r.tier:<12}")
         if confirm:
             c = r.confirmed
-            line += ("   Exudyn failed" if "dynamic_failed" in c else
-                     f"   {_pct(c.get('quasi_static_vs_dynamic'))} / {_pct(c.get('linear_vs_dynamic'))}")
-        click.echo(line)
-        click.echo(f"{'':>8} {r.verdict}")
+            line += ("  Exudyn failed" if "dynamic_failed" in c else
+                     f"  {_pct(c.get('quasi_static_vs_dynamic')):>6} / {_pct(c.get('linear_vs_dynamic'))}")
+        click.echo(line.rstrip())
+        click.echo(textwrap.fill(r.verdict, width=WIDTH, initial_indent=" " * 9, subsequent_indent=" " * 11,
+                                 break_on_hyphens=False))
+    if len(rows) >= 3:
+        click.echo("Critical speeds (local maxima of max |Floquet multiplier|): "
+                   + (", ".join(f"{c.rpm:.4g} rpm (|mu| {c.max_abs:.3g})" for c in crit) or "none in this range"))
+        click.echo("Amplification peaks (linear / quasi-static peak): "
+                   + (", ".join(f"{a:.4g} rpm" for a in amp) or "none in this range"))
 
 
 def _pct(x: float | None) -> str:

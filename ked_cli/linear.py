@@ -30,8 +30,10 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
 
     JSON keys: crank_angle_deg, dx_m, dy_m, rotation_rad (elastic deflection of P, as ked quasi; null
     without a stable steady state), floquet_max_abs, stable, wall_s, harmonics, error_estimate,
-    speed_ratio, damping_reference_hz, flags, valid, message.  Exit status 1 when there is no stable
-    periodic steady state (max |Floquet multiplier| >= 1).
+    speed_ratio, damping_reference_hz, flags, valid, message, status ("ok", "marginal": undamped, every
+    multiplier on the unit circle, or "unstable"), floquet_error.  Flag "weakly_damped": max |Floquet
+    multiplier| >= 0.9, the periodic answer is not valid there.  Exit status 1 when there is no
+    asymptotically stable periodic steady state (max |Floquet multiplier| >= 1, or marginal).
     """
     from ked_linear import LinearSettings, describe_flags, result_flags, solve_linear
 
@@ -55,7 +57,7 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
         "floquet_max_abs": res.floquet_max_abs, "stable": res.stable, "wall_s": res.wall_s,
         "harmonics": res.harmonics, "error_estimate": res.error_estimate, "speed_ratio": res.speed_ratio,
         "damping_reference_hz": res.damping_reference_hz, "flags": list(flags), "valid": res.stable and not flags,
-        "message": res.message,
+        "message": res.message, "status": res.status, "floquet_error": res.floquet_error,
     }
     if flags:
         click.echo(f"warning: {describe_flags(flags, res, scene.fourbar)}", err=True)

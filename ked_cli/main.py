@@ -20,6 +20,7 @@ COMMANDS = {
     "simulate": ("ked_cli.simulate", "simulate", "Exudyn flexible-multibody steady state of one scene."),
     "check": ("ked_cli.check", "check", "Design check: how wrong is quasi-static here, and which model is needed."),
     "thesis": ("ked_cli.thesis", "thesis", "Tables I-III of the thesis: published / as printed / corrected."),
+    "benchmark": ("ked_cli.benchmark", "benchmark", "Published benchmarks reproduced (Simeon's slider-crank)."),
     "study": ("ked_cli.study", "study", "Regenerate a study: campaigns, HDF5 files, figures, README section."),
 }
 

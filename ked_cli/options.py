@@ -7,6 +7,7 @@ schema, so every campaign config is also a linkage file.  Values are checked by
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -40,6 +41,8 @@ class RuleType(click.ParamType):
                     number = float(text)  # "5.0" reads, "5.5" is refused by the rule
                 except ValueError:
                     self.fail(f"{value!r} is not a number", param, ctx)
+                if not math.isfinite(number):  # nan, inf, 1e400
+                    self.fail(f"must be {self.rule.allowed() if self.rule else 'finite'}; got {value!r}", param, ctx)
                 number = int(number) if number == int(number) else number
             else:
                 self.fail(f"{value!r} is not a number", param, ctx)
@@ -128,10 +131,23 @@ def build_scene(o: SceneOptions, mechanism: str | None = None, mass_model: str |
 
     source = load_source(o.linkage)
     try:
-        return build(source, mechanism or o.mechanism, mass_model or o.mass_model, o.rpm, o.step_deg, o.lumps,
-                     o.payload_kg, o.stiffness_scale, o.direction)
+        scene = build(source, mechanism or o.mechanism, mass_model or o.mass_model, o.rpm, o.step_deg, o.lumps,
+                      o.payload_kg, o.stiffness_scale, o.direction)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
+    refuse_fast(scene.fourbar, scene.mass_model, [o.rpm], o.step_deg, "--rpm")
+    return scene
+
+
+def refuse_fast(fourbar: Any, mass_model: Any, rpms: list[float], step_deg: float, hint: str) -> None:
+    """BadParameter for ``hint`` when a crank speed's r = Omega/omega1_min is above the rules' bound."""
+    from compare.config import check_speed
+
+    if rpms:
+        try:
+            check_speed(fourbar, mass_model, max(rpms), step_deg, label="value")
+        except ValueError as exc:
+            raise click.BadParameter(str(exc).removeprefix("value = "), param_hint=hint) from None
 
 
 def json_text(value: Any) -> str:

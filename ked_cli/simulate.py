@@ -81,7 +81,7 @@ def simulate(as_json: bool, **kw: Any) -> None:
 
     JSON keys: crank_angle_deg, dx_m, dy_m, rotation_rad (elastic deflection of P over one steady
     cycle, global frame, same meaning as `ked quasi`), wall_s, cycles, converged, steps,
-    newton_iterations, damping_reference_hz, message, failure_class ("" or numerical / physical),
+    newton_iterations, damping_reference_hz, message, failure_class ("" or numerical / physical / undecided),
     evidence, solved_settings (the settings that produced the history: the requested ones unless the
     refinement ladder was needed) and attempts (every run: rung, outcome, wall_s, cycles,
     elements_per_link, steps_per_cycle, message).  Exit status 1 when no steady state was reached (the

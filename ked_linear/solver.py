@@ -26,8 +26,10 @@ class LinearResult:
     crank_angle (n,) [rad]: ``scene.crank_angles``.
     deflection (n, 3): dx, dy [m] (global frame) and rotation [rad, CCW] of the section at P, elastic,
         relative to the rigid position at the same crank angle (as ``solve_quasi_static``); all NaN
-        when ``status`` is "unstable" (no stable periodic steady state exists).
-    status: "ok" or "unstable"; stable: status == "ok"; message: one line saying why.
+        when not ``stable`` (no asymptotically stable periodic steady state exists).
+    status: "ok" (asymptotically stable), "marginal" (undamped, every multiplier on the unit circle within
+        its error: the free vibrations never decay; the message says "marginal (undamped)") or "unstable";
+        stable: status == "ok"; message: one line saying why.
     floquet_max_abs: largest |Floquet multiplier| of the homogeneous system over one crank cycle;
         floquet_error: its estimated absolute error; floquet_steps: propagator steps per cycle.
     harmonics: crank harmonics H with a dynamic response; collocation_points: N;
@@ -69,35 +71,86 @@ UNRESOLVED_ESTIMATE = 0.02
 mode whose frequency sweeps over many crank harmonics during the cycle)."""
 
 
+WEAKLY_DAMPED = 0.9
+"""max |Floquet multiplier| (plus its error) from which a stable result is flagged "weakly_damped": the
+transient shrinks by less than a factor 0.9 per cycle, so the periodic answer is a knife-edge one (a few
+per cent of damping, stiffness or speed away from instability) and a time-marching model started from
+rest needs many cycles to settle, or never does once its nonlinearity detunes the resonance."""
+
+SETTLE_TOL = 2e-3
+SETTLE_BUDGET = 80
+"""Cycle-to-cycle change (fraction of the peak) at which a time-marching model counts as settled, and its
+budget of cycles: the Exudyn model's defaults (``exudyn_models.DynamicSettings`` steady_tol, max_cycles).
+A result whose transient needs more cycles than the budget is flagged "weakly_damped" too."""
+
+RESULT_FLAGS = ("unresolved", "weakly_damped")
+"""The linear model's own flags (besides the small-deflection flags of ``ked_quasi.limits``)."""
+
+
+def cycles_to_settle(max_abs: float, tol: float = SETTLE_TOL) -> float:
+    """Cycles after which a transient of the size of the peak, shrinking by ``max_abs`` per cycle,
+    changes by less than ``tol`` of the peak from one cycle to the next: mu^n (1 - mu) < tol (inf if
+    max_abs >= 1, 0 if it never exceeds tol)."""
+    if not max_abs < 1.0:
+        return float("inf")
+    if max_abs <= 0.0 or 1.0 - max_abs <= tol:
+        return 0.0 if max_abs <= 0.0 else float(np.log(tol) / np.log(max_abs))
+    return max(0.0, float(np.log(tol / (1.0 - max_abs)) / np.log(max_abs)))
+
+
+def weakly_damped(res: LinearResult) -> bool:
+    """max |mu| + its error >= :data:`WEAKLY_DAMPED`, or a transient that needs more than
+    :data:`SETTLE_BUDGET` cycles to settle."""
+    err = res.floquet_error if np.isfinite(res.floquet_error) else 0.0
+    mu = res.floquet_max_abs + err
+    return bool(mu >= WEAKLY_DAMPED or cycles_to_settle(mu) > SETTLE_BUDGET)
+
+
 def result_flags(res: LinearResult, fourbar: object) -> tuple[str, ...]:
     """Validity flags of a stable result: the small-deflection bounds of ``ked_quasi.limits`` plus
-    "unresolved" (error estimate above :data:`UNRESOLVED_ESTIMATE`, or none: a single level); () when
-    unstable (no history)."""
+    "unresolved" (error estimate above :data:`UNRESOLVED_ESTIMATE`, or none: a single level) and
+    "weakly_damped" (:func:`weakly_damped`); () when not stable (no history)."""
     from ked_quasi import limits
 
     if not res.stable:
         return ()
     found = limits.flags(res.deflection, fourbar)
-    return found + (("unresolved",) if not res.error_estimate <= UNRESOLVED_ESTIMATE else ())
+    found += ("unresolved",) if not res.error_estimate <= UNRESOLVED_ESTIMATE else ()
+    return found + (("weakly_damped",) if weakly_damped(res) else ())
 
 
 def describe_flags(found: tuple[str, ...], res: LinearResult, fourbar: object) -> str:
     """One line per kind of flag, "; "-joined (empty if none)."""
     from ked_quasi import limits
 
-    parts = [limits.describe(tuple(f for f in found if f != "unresolved"), res.deflection, fourbar)]
+    parts = [limits.describe(tuple(f for f in found if f not in RESULT_FLAGS), res.deflection, fourbar)]
     if "unresolved" in found:
         way_out = "raise max_harmonics" if res.settings.max_harmonics < HARMONICS.hi else "use the Exudyn model"
         parts.append(f"periodic solve not converged: estimated error {res.error_estimate:.2g} of the peak at "
                      f"{res.harmonics} harmonics (not <= {UNRESOLVED_ESTIMATE:g}); {way_out}")
+    if "weakly_damped" in found:
+        n = cycles_to_settle(res.floquet_max_abs)
+        mu = res.floquet_max_abs
+        parts.append(f"weakly damped: max |Floquet multiplier| {mu:.3g} (not < {WEAKLY_DAMPED:g}), the "
+                     f"transient shrinks only x{res.floquet_max_abs:.3g} per cycle (~{n:.0f} cycles to settle within "
+                     f"{SETTLE_TOL:g} of the peak): close to a parametric resonance, the periodic answer is no valid "
+                     "answer here and a nonlinear model may never settle; avoid this speed or add damping")
     return "; ".join(p for p in parts if p)
 
 
-def _message(stable: bool, mu: float, mu_err: float, est: float, tol: float, H: int) -> str:
-    if not stable:
+MARGINAL = "marginal (undamped)"
+"""Verdict of an undamped linkage whose multipliers all lie on the unit circle (within their error)."""
+
+
+def _message(status: str, mu: float, mu_err: float, est: float, tol: float, H: int) -> str:
+    if status == "marginal":
+        return (f"{MARGINAL}: max |Floquet multiplier| = {mu:.9g} (+- {mu_err:.2g}), on the unit circle: free "
+                "vibrations never decay, no asymptotically stable periodic steady state (add damping)")
+    if status == "unstable":
         return (f"unstable: max |Floquet multiplier| = {mu:.6g} (+- {mu_err:.2g}) not safely below 1, no stable "
                 "periodic steady state (parametric resonance, buckling, or no damping)")
-    text = f"stable (max |Floquet multiplier| = {mu:.4g} +- {mu_err:.2g}), {H} dynamic harmonics"
+    weak = "weakly damped, " if mu + mu_err >= WEAKLY_DAMPED else ""
+    text = f"{weak}stable (max |Floquet multiplier| = {mu:.4g} +- {mu_err:.2g}), {H} dynamic harmonics"
     if not est < tol:
         text += f"; estimated error {est:.2g} above tolerance {tol:g} at the largest harmonics tried"
     return text
@@ -119,12 +172,16 @@ def solve_linear(scene: Scene, settings: LinearSettings | None = None) -> Linear
                       OUTPUT_GROUPS)
     fl = floquet(ls.system, settings.floquet_tolerance, settings.floquet_steps)
     # the uncertainty counts against stability: a multiplier within its error of 1 is no attracting orbit
-    stable = bool(fl.max_abs + (fl.error_estimate if np.isfinite(fl.error_estimate) else 0.0) < 1.0)
+    err = fl.error_estimate if np.isfinite(fl.error_estimate) else 0.0
+    stable = bool(fl.max_abs + err < 1.0)
+    # undamped: max |mu| >= 1 in theory (det Phi = 1, reciprocal pairs); = 1 within its error is marginal
+    marginal = not stable and settings.damping_ratio == 0.0 and fl.max_abs - 1.0 <= err
+    status = "ok" if stable else "marginal" if marginal else "unstable"
     deflection = ss.output if stable else np.full_like(ss.output, np.nan)
     f1 = natural_frequencies(scene, n_modes=1)[:, 0]
     return LinearResult(
-        crank_angle=theta, deflection=deflection, status="ok" if stable else "unstable", stable=stable,
-        message=_message(stable, fl.max_abs, fl.error_estimate, ss.error_estimate, settings.tolerance,
+        crank_angle=theta, deflection=deflection, status=status, stable=stable,
+        message=_message(status, fl.max_abs, fl.error_estimate, ss.error_estimate, settings.tolerance,
                          ss.solution.harmonics),
         floquet_max_abs=fl.max_abs, floquet_error=fl.error_estimate, floquet_steps=fl.steps,
         harmonics=ss.solution.harmonics, collocation_points=ss.solution.points, error_estimate=ss.error_estimate,

@@ -81,7 +81,10 @@ class FourBar:
     Lengths in m, ``coupler_angle`` in rad (CCW from A->B to A->P), pivots in m in the global
     frame, ``sections`` in the order of :data:`LINKS`.  Construction validates every value and,
     unless ``full_turn`` is False (a rocker-driven linkage such as a double-rocker cognate, which no
-    crank-driven solver accepts), that the linkage assembles at every crank angle of a full turn.
+    crank-driven solver accepts), that the linkage assembles at every crank angle of a full turn and
+    stays at least :data:`~ked_quasi.rules.MIN_TRANSMISSION_DEG` from a toggle (change-point and
+    near-change-point linkages are refused).  ``check_toggle=False`` skips the toggle check only to study
+    the solvers at a toggle (no loader sets it; it is not serialized).
     """
 
     crank: float
@@ -95,6 +98,7 @@ class FourBar:
     branch: str = "open"
     direction: str = "ccw"
     full_turn: bool = True
+    check_toggle: bool = field(default=True, compare=False, repr=False)
     _ground: float = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -116,6 +120,7 @@ class FourBar:
         ground = math.dist(self.crank_pivot, self.follower_pivot)
         if not ground > 0.0:
             raise ValueError("FourBar.follower_pivot must differ from crank_pivot (ground length must be > 0)")
+        rules.LENGTH.check(ground, "FourBar.ground (|follower_pivot - crank_pivot|)")
         object.__setattr__(self, "_ground", ground)
         failing = self.failing_angles()
         if failing.size and self.full_turn:
@@ -128,6 +133,10 @@ class FourBar:
                 "The crank can turn fully only if coupler+follower >= ground+crank and "
                 "|coupler-follower| <= |ground-crank|."
             )
+        if self.full_turn and self.check_toggle:
+            mu, at = self.min_transmission_deg()
+            rules.check_transmission(mu, "FourBar", at, f"crank={self.crank:g} m, coupler={self.coupler:g} m, "
+                                     f"follower={self.follower:g} m, ground={self.ground:g} m")
 
     # -- serialization ----------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
@@ -193,6 +202,17 @@ class FourBar:
         tol = 1e-12 * (self.coupler + self.follower)
         bad = (d > self.coupler + self.follower + tol) | (d < abs(self.coupler - self.follower) - tol)
         return theta[bad]
+
+    def min_transmission_deg(self, n: int = 3600) -> tuple[float, float]:
+        """Smallest distance of the transmission angle mu from a toggle, min(mu, 180 - mu) [deg], over an
+        n-point full-turn grid, and the crank angle [deg] where it occurs.  mu is the angle at B between
+        B->A and B->Q (law of cosines in triangle A-B-Q; the same on both branches)."""
+        theta = np.arange(n) * (2.0 * np.pi / n)
+        d2 = self.crank**2 + self.ground**2 - 2.0 * self.crank * self.ground * np.cos(theta)
+        cos_mu = np.clip((self.coupler**2 + self.follower**2 - d2) / (2.0 * self.coupler * self.follower), -1.0, 1.0)
+        dist = 90.0 - np.degrees(np.arcsin(np.abs(cos_mu)))  # min(mu, 180 - mu)
+        i = int(np.argmin(dist))
+        return float(dist[i]), float(np.degrees(theta[i]))
 
     # -- variants ---------------------------------------------------------------------------
     def with_stiffness_scale(self, factor: float) -> FourBar:

@@ -30,6 +30,9 @@ class Rule:
     lo_open: bool = False
     hi_open: bool = False
     integer: bool = False
+    mixup: tuple[str, str, float] | None = None
+    """For a value above ``hi``: (what the unit is, the smaller unit a user may have meant, its factor to
+    the SI unit), e.g. ("lengths are in metres", "mm", 1e-3): the refusal names the likely mix-up."""
 
     def allowed(self) -> str:
         """The allowed range as text, e.g. ``a number in (0, 1e+05] rpm``."""
@@ -50,6 +53,10 @@ class Rule:
         v = self._number(value, label)
         below = self.lo is not None and (v < self.lo or (self.lo_open and v == self.lo))
         above = self.hi is not None and (v > self.hi or (self.hi_open and v == self.hi))
+        if above and self.mixup is not None:
+            what, small, factor = self.mixup
+            raise ValueError(f"{label} = {v:g} {self.unit}: {what} ({v:g} {small} = {v * factor:g} {self.unit}); "
+                             f"must be {self.allowed()} ({self.why})")
         if below or above:
             raise ValueError(f"{label}: must be {self.allowed()} ({self.why}); got {value!r}")
         return v
@@ -57,6 +64,9 @@ class Rule:
     def _number(self, value: object, label: str) -> float | int:
         if isinstance(value, bool):
             raise ValueError(f"{label}: must be {self.allowed()}; got the boolean {value!r}")
+        if isinstance(value, (str, bytes)):
+            raise ValueError(f"{label}: must be {self.allowed()}; got the string {value!r} (write numbers without "
+                             "quotes)")
         if self.integer:
             if isinstance(value, int) or (hasattr(value, "__index__") and not isinstance(value, float)):
                 return int(value)  # type: ignore[call-overload]
@@ -78,14 +88,24 @@ def check_choice(label: str, value: object, allowed: tuple[str, ...]) -> str:
 
 
 # -- linkage ------------------------------------------------------------------------------------
-LENGTH = Rule("length", "m", 0.0, 1e3, "a link of a planar linkage, from micrometres to 1 km", lo_open=True)
+LENGTH = Rule("length", "m", 0.0, 10.0, "a link of a machine linkage, up to 10 m", lo_open=True,
+              mixup=("lengths are in metres", "mm", 1e-3))
 COORDINATE = Rule("pivot coordinate", "m", -1e3, 1e3, "pivots within 1 km of the origin")
 COUPLER_ANGLE_DEG = Rule("coupler_angle_deg", "deg", -360.0, 360.0, "one turn either way")
 COUPLER_ANGLE = Rule("coupler_angle", "rad", -2.0 * math.pi, 2.0 * math.pi, "one turn either way")
 YOUNGS_MODULUS = Rule("youngs_modulus", "Pa", 0.0, 1e18, "any material, times a stiffness scale of up to 1e6",
                       lo_open=True)
-AREA = Rule("area", "m^2", 0.0, 1.0, "a slender link's cross-section", lo_open=True)
-SECOND_MOMENT = Rule("second_moment", "m^4", 0.0, 1.0, "a slender link's cross-section", lo_open=True)
+MIN_TRANSMISSION_DEG = 10.0
+"""Smallest distance of the transmission angle mu (at B, between B->A and B->Q) from a toggle (0 or 180
+deg) accepted over a full crank turn [deg].  At a toggle the frozen structure is singular (the pin-force
+solve is amplified by 1/|sin mu|, 5.8 at this bound, infinite at a change point): every solver's answer
+near it is dominated by that singularity, not by the elastodynamics the harness compares.  The atlas
+samples only linkages at twice this bound (20 deg), so every linkage it holds is accepted."""
+AREA = Rule("area", "m^2", 0.0, 1.0, "a link's cross-section, at most a 1 m square", lo_open=True,
+            mixup=("areas are in m^2", "mm^2", 1e-6))
+SECOND_MOMENT = Rule("second_moment", "m^4", 0.0, 1.0, "a link's cross-section (a 1 m square has 1/12 m^4; the "
+                     "closed-form checks use stiff links up to 1 m^4)", lo_open=True,
+                     mixup=("second moments are in m^4", "mm^4", 1e-12))
 DENSITY = Rule("density", "kg/m^3", 0.0, 1e5, "up to 4x the densest metal", lo_open=True)
 STIFFNESS_SCALE = Rule("stiffness_scale", "", 0.0, 1e6, "a factor on every Young's modulus", lo_open=True)
 
@@ -106,6 +126,25 @@ STEP_DEG = Rule("step_deg", "deg", 0.01, 45.0,
 DAMPING_RATIO = Rule("damping_ratio", "", 0.0, 0.99, "a modal damping ratio below critical")
 N_MODES = Rule("n_modes", "", 1, 20, "natural frequencies stored per crank angle", integer=True)
 TOLERANCE = Rule("tolerance", "", 0.0, 10.0, "the relative error of a verdict", lo_open=True)
+
+MAX_SCENES = 100_000
+"""Largest campaign grid accepted at load [scenes].  Measured on the project's 2-core, 23 GB machine: a
+96 000-scene quasi-static grid loads, expands and plans (``ked run --dry-run``) in about 6 s and 180 MB,
+so a grid of millions of scenes takes minutes and gigabytes before anything runs; a stored scene takes
+25-80 kB of results file (about 2.5-8 GB at the cap), and even quasi-static scenes at tens of ms each
+take hours at the cap.  A larger study is split into campaigns (several results files, joined with
+``ked merge``)."""
+
+SPEED_RATIO_LOAD_STEP_DEG = 30.0
+"""Crank-angle step [deg] of the quick omega1_min estimate that screens crank speeds at load; a speed
+whose estimated r exceeds :data:`SPEED_RATIO_SCREEN` x the bound is checked again with the scene's own
+step and lumps (what the run computes), and refused only if that r exceeds the bound."""
+
+SPEED_RATIO_LOAD_LUMPS = 8
+"""Lumps per link of the quick omega1_min estimate (the scene's own count when smaller)."""
+
+SPEED_RATIO_SCREEN = 0.5
+"""Fraction of the r bound above which the quick estimate is confirmed with the exact omega1_min."""
 
 MAX_WORK = 4e8
 """Bound on crank angles x (coordinates of the frozen structure)^2 in one solve: the flexibility and
@@ -134,3 +173,26 @@ def check_work(n_angles: int, n_coordinates: int, label: str = "step_deg and lum
             f"{label}: {n_angles} crank angles x {n_coordinates} structural coordinates is too large a problem "
             f"(angles x coordinates^2 = {work:.3g} > {MAX_WORK:.0e}, about {8 * work / 1e9:.1f} GB); "
             "use a coarser step_deg or fewer lumps")
+
+
+def check_transmission(min_deg: float, label: str, at_deg: float, lengths: str) -> None:
+    """Refuse a linkage whose smallest transmission angle distance from a toggle, ``min_deg`` [deg] (at
+    crank angle ``at_deg``), is below :data:`MIN_TRANSMISSION_DEG`; ``lengths`` describes the links."""
+    if not min_deg >= MIN_TRANSMISSION_DEG:
+        raise ValueError(
+            f"{label}: minimum transmission angle {min_deg:.2f} deg (at crank angle {at_deg:.1f} deg) is below "
+            f"{MIN_TRANSMISSION_DEG:g} deg: a change-point or near-change-point linkage ({lengths}), singular at a "
+            "toggle; change the link lengths so that the transmission angle stays at least "
+            f"{MIN_TRANSMISSION_DEG:g} deg from 0 and 180 deg over the turn")
+
+
+def check_speed_ratio(ratio: float, rpm: float, f1_hz: float, label: str = "rpm") -> None:
+    """Refuse a crank speed ``rpm`` whose speed ratio ``ratio`` = Omega/omega1_min exceeds
+    :data:`SPEED_RATIO`'s bound (``f1_hz``: the lowest first natural frequency [Hz]); the message
+    names the likely unit mix-up."""
+    if ratio > SPEED_RATIO.hi:  # type: ignore[operator]  # nan (no finite frequency) is not refused
+        raise ValueError(
+            f"{label} = {rpm:g}: speed ratio r = Omega/omega1_min = {ratio:.3g} above {SPEED_RATIO.hi:g} (lowest "
+            f"first natural frequency {f1_hz:.3g} Hz); crank speeds are in rev/min, lengths in metres, Young's "
+            "modulus in Pa, density in kg/m^3: a unit mix-up (e.g. mm as m) or a stiffness scale far below 1 "
+            "gives such an r; lower the speed or fix the units")

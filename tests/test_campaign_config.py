@@ -59,7 +59,7 @@ BAD = [
     ("bad direction", "[grid]\ndirections = ['clockwise']", "grid.directions[0]", "must be one of"),
     ("unknown preset", "[linkage]\npreset = 'watt'", "linkage.preset", "must be one of"),
     ("explicit linkage incomplete", "[linkage]\ncrank = 0.1", "linkage.coupler", "required"),
-    ("zero length", "[linkage]\npreset = 'thesis'\ncrank = 0.0", "linkage.crank", "must be a number in (0, 1000] m"),
+    ("zero length", "[linkage]\npreset = 'thesis'\ncrank = 0.0", "linkage.crank", "must be a number in (0, 10] m"),
     ("cannot assemble", "[linkage]\npreset = 'thesis'\nfollower = 0.1", "linkage", "cannot assemble"),
     ("too many lumps", "[grid]\nmass_models = [{name='distributed', lumps=1000}]", "grid.mass_models[0].lumps",
      "in [1, 256]"),

@@ -222,6 +222,6 @@ def test_table_marks_answers_outside_their_model(tmp_path):
     assert "large_deflection" in rows["tip"]["flags_quasi_static"]
     assert "flags_quasi_static" not in rows["extender"]
     lines = {ln.split()[1].split("/")[1]: ln for ln in res.output.splitlines() if "/300rpm/" in ln}
-    assert f"{100 * rows['tip']['max_relative_error']:.1f}*" in lines["tip"]
+    assert f"{100 * rows['tip']['verdict_error']:.1f}*" in lines["tip"]
     assert "*" not in lines["extender"]
     assert "outside the range where its model holds" in res.output

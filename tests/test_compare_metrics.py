@@ -84,9 +84,40 @@ def test_scene_metrics_verdict_and_speed_ratio():
     assert m.speed_ratio == pytest.approx(0.25) and m.omega == 10.0
     assert [c.component for c in m.components] == ["dx", "rotation"]  # no vector without dy
     assert m.component("dx").holds and not m.component("rotation").holds
-    assert not m.holds
-    assert m.max_relative_error == pytest.approx(1 / 3)
+    # the rotation (|1 - 1.5| / 1.5 = 1/3) never enters the verdict: without dy it is dx's 0.05 / 1.05
+    assert m.verdict_error == pytest.approx(0.05 / 1.05) and m.holds
+    assert m.worst_component_error == pytest.approx(1 / 3)
+    assert m.max_relative_error == pytest.approx(1 / 3)  # the old key keeps the old (worst-component) number
     assert m.max_amplification == pytest.approx(1.5)
+
+
+def test_verdict_is_the_vector_error_and_ignores_the_rotation():
+    # d_qs = (cos, sin), d_ref = 1.05 (cos, sin): |d_qs - d_ref| = 0.05, max |d_ref| = 1.05 -> 0.05 / 1.05
+    # for the vector (and for dx, dy alone); a rotation 50 % off (|1 - 2| / 2) does not change the verdict
+    a = {"dx": np.cos(THETA), "dy": np.sin(THETA), "rotation": np.cos(THETA)}
+    b = {"dx": 1.05 * np.cos(THETA), "dy": 1.05 * np.sin(THETA), "rotation": 2.0 * np.cos(THETA)}
+    m = pair_metrics("quasi_static", "dynamic", THETA, a, b, omega=1.0, omega1_min=10.0, tolerance=0.1)
+    assert m.verdict_error == pytest.approx(0.05 / 1.05) and m.holds
+    assert m.worst_component_error == pytest.approx(0.5) and not m.component("rotation").holds
+    # a tolerance just below the vector error fails it
+    tight = pair_metrics("quasi_static", "dynamic", THETA, a, b, omega=1.0, omega1_min=10.0, tolerance=0.04)
+    assert not tight.holds
+
+
+def test_vector_error_is_not_the_worst_component():
+    # dx is small and far off, dy large and exact: dx alone is |0.01 - 0.02| / 0.02 = 50 % off its own
+    # peak, the vector only 0.01 / |(0.02, 1)| ~ 1 % (the error relative to the peak of |d|)
+    a = {"dx": 0.01 * np.ones_like(THETA), "dy": np.ones_like(THETA)}
+    b = {"dx": 0.02 * np.ones_like(THETA), "dy": np.ones_like(THETA)}
+    m = pair_metrics("quasi_static", "dynamic", THETA, a, b, omega=1.0, omega1_min=10.0, tolerance=0.1)
+    assert m.component("dx").history_error == pytest.approx(0.5)
+    assert m.verdict_error == pytest.approx(0.01 / math.hypot(0.02, 1.0)) and m.holds
+
+
+def test_a_pair_without_translations_has_no_verdict():
+    a, b = {"rotation": np.cos(THETA)}, {"rotation": np.cos(THETA)}
+    m = pair_metrics("quasi_static", "dynamic", THETA, a, b, omega=1.0, omega1_min=10.0, tolerance=0.1)
+    assert math.isnan(m.verdict_error) and not m.holds  # errs on the safe side
 
 
 def test_vector_history_and_peak_errors_have_closed_forms():
@@ -100,7 +131,7 @@ def test_vector_history_and_peak_errors_have_closed_forms():
     assert v.history_error == pytest.approx(math.sqrt(3) / 2) and v.peak_error == pytest.approx(0.5)
     assert v.amplification == pytest.approx(2.0) and v.units == "m"
     assert peak_error(np.ones(4), 1.25 * np.ones(4)) == pytest.approx(0.2)
-    assert m.verdict_error == max(m.component("dx").history_error, m.component("dy").history_error)
+    assert m.verdict_error == pytest.approx(math.sqrt(3) / 2) and not m.holds  # the vector's closed form
 
 
 def test_every_pair_is_measured_against_the_higher_fidelity_solver():

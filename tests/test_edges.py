@@ -136,10 +136,11 @@ def test_out_of_range_values_are_refused_in_one_line(args, words):
 
 
 def test_answer_outside_the_small_deflection_range_is_flagged():
-    # E x 1e-9: a deflection of ~1e10 m is no answer of a linear small-deflection theory
+    # E x 0.004 (r ~ 8.8, below the r = 10 refused at load): a deflection of ~20 m is no answer of a linear
+    # small-deflection theory
     import json
 
-    res = ked("quasi", "--stiffness-scale", "1e-9", "--json")
+    res = ked("quasi", "--stiffness-scale", "0.004", "--json")
     out = json.loads(res.stdout)
     assert res.returncode == 0 and out["valid"] is False and "large_deflection" in out["flags"]
     assert "outside the small-deflection range" in res.stderr

@@ -153,7 +153,8 @@ def fourbar(d: Design) -> FourBar:
     g = d.ground_m
     return FourBar(crank=d.crank_ratio * g, coupler=d.coupler_ratio * g, follower=d.follower_ratio * g,
                    extender=d.extender_ratio * d.coupler_ratio * g, coupler_angle=math.radians(d.coupler_angle_deg),
-                   sections=(section(d),) * 4, crank_pivot=(0.0, 0.0), follower_pivot=(g, 0.0), branch=d.branch)
+                   sections=(section(d),) * 4, crank_pivot=(0.0, 0.0), follower_pivot=(g, 0.0), branch=d.branch,
+                   check_toggle=False)  # the sampler applies its own, stricter toggle bound (candidate)
 
 
 def crank_rocker_problem(d: Design, margin: float) -> str:

@@ -28,10 +28,10 @@ COMPONENT_UNITS = {"dx": "m", "dy": "m", "rotation": "rad"}
 
 STATUS_OK = "ok"
 STATUS_FAILED = "failed"
-FAILURE_CLASSES = ("", "numerical", "physical", "input")
+FAILURE_CLASSES = ("", "numerical", "physical", "undecided", "input")
 """Why a solution failed: "numerical" (the method gave up: discretization, iteration), "physical"
-(the modelled system has no periodic steady state), "input" (the scene is outside what the solver
-accepts), "" (not classified / not failed)."""
+(the modelled system has no periodic steady state), "undecided" (the evidence shows neither), "input"
+(the scene is outside what the solver accepts), "" (not classified / not failed)."""
 
 
 @dataclass(frozen=True, eq=False)

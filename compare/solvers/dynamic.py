@@ -23,9 +23,10 @@ def make_settings(overrides: dict[str, Any], damping_ratio: float) -> Any:
 def legacy_defaults() -> dict[str, Any]:
     """Settings added after results were first stored, as the values that reproduce the older runs.
 
-    ``refine`` and ``refine_budget_s`` only act after a Newton failure (the ladder never changes a run
-    that succeeds at the requested settings), so a stored solution counts as computed with today's
-    values of them: resuming keeps it; ``ked run --retry-failed`` recomputes the failed ones."""
+    ``refine`` and ``refine_budget_s`` only act after a Newton failure or a run without a steady state
+    (the ladder never changes a run that settles at the requested settings), so a stored solution counts
+    as computed with today's values of them: resuming keeps it; ``ked run --retry-failed`` recomputes the
+    failed ones."""
     from exudyn_models.settings import LEGACY_DEFAULTS, DynamicSettings
 
     now = DynamicSettings()
@@ -51,7 +52,7 @@ def _stats(res: Any) -> dict[str, Any]:
 
 def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Solution:
     """Exudyn steady state of the scene; a run without a periodic steady state is a failed solution
-    that keeps its last cycle, classified (numerical / physical) with its evidence.  The stats say
+    that keeps its last cycle, classified (numerical / physical / undecided) with its evidence.  The stats say
     which settings produced the history (``solved_*``) and every attempt of the refinement ladder."""
     from exudyn_models.simulate import simulate_steady_state
 

@@ -22,8 +22,10 @@ def make_settings(overrides: dict[str, Any], damping_ratio: float) -> Any:
 
 
 def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Solution:
-    """The linear model's steady state; without a stable periodic steady state (max |Floquet
-    multiplier| >= 1) a failed solution of class "physical" with the multiplier as evidence."""
+    """The linear model's steady state; without an asymptotically stable periodic steady state (max
+    |Floquet multiplier| >= 1: "unstable", or undamped with every multiplier on the unit circle:
+    "marginal") a failed solution of class "physical" (error type "Unstable" or "Marginal") with the
+    multiplier as evidence; a weakly damped stable one carries the flag "weakly_damped"."""
     from ked_linear import describe_flags, result_flags, solve_linear
 
     res = solve_linear(scene, settings)
@@ -33,8 +35,8 @@ def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Sol
              "error_estimate": float(res.error_estimate), "damping_reference_hz": float(res.damping_reference_hz),
              "speed_ratio": float(res.speed_ratio)}
     if not res.stable:
-        return Solution(SOLVER.name, STATUS_FAILED, stats=stats, message=res.message, error_type="Unstable",
-                        failure_class="physical")
+        return Solution(SOLVER.name, STATUS_FAILED, stats=stats, message=res.message,
+                        error_type="Marginal" if res.status == "marginal" else "Unstable", failure_class="physical")
     d = np.asarray(res.deflection, dtype=float)
     flags = result_flags(res, scene.fourbar)
     note = describe_flags(flags, res, scene.fourbar)

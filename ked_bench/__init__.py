@@ -1,0 +1,1 @@
+"""External benchmarks: independent reference implementations of published problems (no CLI, no I/O)."""

@@ -1,0 +1,78 @@
+"""Simeon's flexible slider-crank (IVP test set, problem "crank"): the independent reference implementation
+(ked_bench.simeon) against the published state, and against physics."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from ked_bench.simeon import COMPONENTS, INITIAL_STATE, PUBLISHED, SimeonModel, SimeonParameters, reproduce
+
+
+def test_published_state_at_0_1_s_reproduced_within_1e_6():
+    # Expected: the published reference (MEBDFI at tolerance 1e-14, data sheet); the test set scores
+    # components 1-7.  With the initial velocities projected onto the constraint the data sheet's notes
+    # measured ~5e-11 with another implementation; 1e-6 is the issue's bound.
+    rep = reproduce()
+    assert rep.max_relative_error < 1e-6, rep.relative_error
+    assert all(rep.relative_error[k] < 1e-6 for k in COMPONENTS[:7])
+    assert set(rep.reproduced) == set(PUBLISHED)
+
+
+def test_printed_initial_values_violate_the_velocity_constraint_at_their_rounding():
+    # Expected: 9 printed digits of velocities of size ~150 leave a residual of order 1e-8 (data sheet).
+    model = SimeonModel()
+    res = np.max(np.abs(model.velocity_residual(np.array(INITIAL_STATE))))
+    assert 1e-10 < res < 1e-7
+    assert np.max(np.abs(model.velocity_residual(model.project_velocities(np.array(INITIAL_STATE))))) < 1e-12
+
+
+def test_mass_matrix_symmetric_positive_definite_and_rigid_limit():
+    # Expected: a mass matrix is symmetric positive definite; with q = 0 its rigid block is the textbook
+    # crank + rod + slider one: M11 = J1 + M2 L1^2, M12 = M2 L1 L2 / 2 cos(phi1 - phi2), M22 = J2, M33 = M3.
+    par = SimeonParameters()
+    model = SimeonModel(par)
+    y = model.rigid_start()
+    y[0], y[1] = 0.7, -0.3
+    m, _ = model.mass_and_force(y)
+    assert np.allclose(m, m.T, rtol=0, atol=1e-15)
+    assert np.all(np.linalg.eigvalsh(m) > 0)
+    assert m[0, 0] == pytest.approx(par.j1 + par.m2 * par.l1**2, rel=1e-15)
+    assert m[0, 1] == pytest.approx(0.5 * par.m2 * par.l1 * par.l2 * math.cos(1.0), rel=1e-14)
+    assert m[1, 1] == pytest.approx(par.j2, rel=1e-15) and m[2, 2] == pytest.approx(par.m3, rel=1e-15)
+
+
+def test_first_bending_frequency_of_the_model_matches_the_pinned_pinned_beam():
+    # Expected: (pi / L2)^2 sqrt(E I / (rho A)) = 1276.7 rad/s (data sheet); the model's mode-1 entries
+    # KQ11 / MQ11 give the same within the model's PI = 3.1415927 (relative ~1e-8).
+    model = SimeonModel()
+    rod = model.rod
+    assert math.sqrt(rod.kq[0, 0] / rod.mq[0, 0]) == pytest.approx(model.par.first_bending_rad_s, rel=1e-7)
+    assert model.par.first_bending_rad_s == pytest.approx(1276.7, abs=0.05)
+
+
+@pytest.mark.slow
+def test_damped_steady_state_scales_with_speed_squared_at_low_speed():
+    # Expected: far below the rod's first bending frequency (r = 0.02, 0.04) the midspan deflection is
+    # driven by inertia loads ~ Omega^2: peak ratio 4 within the dynamic amplification ~ r^2 (< 0.5 %).
+    from ked_bench.simeon import steady_state
+
+    slow, fast = steady_state(25.0), steady_state(50.0)
+    assert fast.peak / slow.peak == pytest.approx(4.0, rel=5e-3)
+    assert slow.change < 1e-8 and fast.change < 1e-8
+
+
+def test_cli_json_contract_and_one_line_refusal():
+    out = subprocess.run([sys.executable, "-m", "ked_cli", "benchmark", "simeon", "--json"], capture_output=True,
+                         text=True, check=True).stdout
+    data = json.loads(out)
+    assert {"published", "reproduced", "max_relative_error"} <= set(data)
+    assert data["max_relative_error"] < 1e-6
+    bad = subprocess.run([sys.executable, "-m", "ked_cli", "benchmark", "simeon", "--steady-state", "0"],
+                         capture_output=True, text=True)
+    assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1 and "Traceback" not in bad.stderr
