@@ -152,13 +152,6 @@ def transaction(path: str | Path) -> Iterator[h5py.File]:
         f = _open_copy(path, tmp)
         try:
             yield f
-        except (CommitError, LockedError):
-            _close_quietly(f)
-            raise
-        except Exception as exc:  # HDF5 reports damage as OSError, KeyError, ValueError, RuntimeError
-            _close_quietly(f)
-            raise CommitError(f"{path}: cannot be written ({type(exc).__name__}: {_short(exc)}); the file may be "
-                              f"damaged: check it with `ked inspect {path} --verify`") from exc
         except BaseException:
             _close_quietly(f)
             raise
@@ -180,6 +173,20 @@ def transaction(path: str | Path) -> Iterator[h5py.File]:
                 tmp.unlink()
             except OSError:
                 pass
+
+
+@contextmanager
+def _hdf5_errors(path: Path) -> Iterator[None]:
+    """Inside a transaction of the store's own: HDF5's errors (a damaged file shows only when its
+    metadata is rewritten; h5py raises OSError, KeyError, ValueError or RuntimeError) become a
+    :class:`CommitError` naming the file, so that callers save what they computed elsewhere."""
+    try:
+        yield
+    except (CommitError, LockedError):
+        raise
+    except Exception as exc:
+        raise CommitError(f"{path}: cannot be written ({type(exc).__name__}: {_short(exc)}); is the disk full, "
+                          f"or the file damaged (`ked inspect {path} --verify`)?") from exc
 
 
 def _open_copy(path: Path, tmp: Path) -> h5py.File:
@@ -351,7 +358,7 @@ def record_run(path: str | Path, config_text: str, campaign_name: str, n_scenes:
     upgrade an older layout, and add a ``/runs/<n>`` record.  Returns the run number."""
     check_ours(path)
     upgrade(path)
-    with transaction(path) as f:
+    with transaction(path) as f, _hdf5_errors(target(path)):
         return _record_run(f, config_text, campaign_name, n_scenes)
 
 
@@ -391,7 +398,7 @@ def commit(path: str | Path, results: Iterable[SceneResult], run: int = -1) -> N
         upgrade(path)
     except StoreError as exc:  # a commit that cannot happen: the caller saves the scenes elsewhere
         raise CommitError(str(exc)) from exc
-    with transaction(path) as f:
+    with transaction(path) as f, _hdf5_errors(target(path)):
         _commit(f, results, run)
 
 
@@ -861,7 +868,8 @@ def merge(src: str | Path, dest: str | Path, wait_s: float = MERGE_WAIT_S) -> tu
         have = stored_status(dest)
         new = [r for r in offered if have.get(r.key) is None or (have.get(r.key) == "failed" and r.ok)]
         if new or not target(dest).exists():
-            with transaction(dest) as f:
+            upgrade(dest)
+            with transaction(dest) as f, _hdf5_errors(target(dest)):
                 run = _record_run(f, config, f"merge of {target(src).name}", len(new))
                 _commit(f, new, run)
     return len(new), len(offered) - len(new)
