@@ -26,6 +26,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import sparse
 from scipy.sparse import linalg as spla
 
 
@@ -76,6 +77,8 @@ class PeriodicSolution:
     harmonics: int
     points: int
     kinematic: np.ndarray
+    correction: np.ndarray | None = None
+    """c = Pi_H w (2H + 1, n), real trigonometric coefficients [1, cos, sin, ...] (a start for the next level)."""
 
 
 def collocation_points(harmonics: int) -> int:
@@ -121,9 +124,11 @@ def _apply(matrices: np.ndarray, vectors: np.ndarray) -> np.ndarray:
     return np.einsum("mij,mj->mi", matrices, vectors)
 
 
-def solve_periodic(system: PeriodicSystem, harmonics: int, points: int | None = None) -> PeriodicSolution:
+def solve_periodic(system: PeriodicSystem, harmonics: int, points: int | None = None,
+                   start: PeriodicSolution | None = None) -> PeriodicSolution:
     """Steady state with ``harmonics`` dynamic harmonics H on ``points`` collocation points N (> 2H;
-    default :func:`collocation_points`)."""
+    default :func:`collocation_points`); ``start``: a solution at fewer harmonics of the same system,
+    the first guess of the iterative solve (the answer does not depend on it)."""
     H = int(harmonics)
     N = collocation_points(H) if points is None else int(points)
     if H < 1 or N <= 2 * H:
@@ -141,11 +146,20 @@ def solve_periodic(system: PeriodicSystem, harmonics: int, points: int | None = 
     if c0.size <= DENSE_LIMIT:
         c = _solve_dense(s, E, E1, E2, weight, X, Y, c0)
     else:
-        c = _solve_krylov(s, E, E1, E2, weight, X, Y, c0)
+        c = _solve_krylov(s, E, E1, E2, weight, X, Y, c0, _first_guess(start, c0.shape))
     z_hat = q_hat.astype(complex)
     z_hat[0] += c[0]
     z_hat[1:H + 1] += 0.5 * (c[1::2] - 1j * c[2::2])
-    return PeriodicSolution(system=system, harmonics=H, points=N, kinematic=z_hat)
+    return PeriodicSolution(system=system, harmonics=H, points=N, kinematic=z_hat, correction=c)
+
+
+def _first_guess(start: PeriodicSolution | None, shape: tuple[int, int]) -> np.ndarray | None:
+    """The correction of ``start`` padded with zero harmonics to ``shape`` (None if there is none)."""
+    if start is None or start.correction is None or start.correction.shape[0] > shape[0]:
+        return None
+    guess = np.zeros(shape)
+    guess[:start.correction.shape[0]] = start.correction
+    return guess.ravel()
 
 
 DENSE_LIMIT = 640
@@ -161,9 +175,11 @@ def _solve_dense(s, E, E1, E2, weight, X, Y, c0) -> np.ndarray:
     return np.linalg.solve(np.eye(P * n) + G, c0.ravel()).reshape(P, n)
 
 
-def _solve_krylov(s, E, E1, E2, weight, X, Y, c0) -> np.ndarray:
-    """The same system by GMRES, matrix-free (O(N n^2) per product), preconditioned per harmonic by its
-    constant-coefficient part I + i k s mean(X) - k^2 s^2 mean(Y) (exact when K, C do not vary)."""
+def _solve_krylov(s, E, E1, E2, weight, X, Y, c0, x0=None) -> np.ndarray:
+    """The same system by GMRES, matrix-free (O(N n^2) per product), preconditioned by the operator
+    truncated to the coefficients' harmonics |k - l| <= :data:`PRECONDITIONER_BANDS` (block banded in
+    the harmonics: a sparse LU; with 0 bands, the constant-coefficient part per harmonic, exact when K
+    and C do not vary)."""
     P, n = c0.shape
     H = (P - 1) // 2
 
@@ -172,23 +188,65 @@ def _solve_krylov(s, E, E1, E2, weight, X, Y, c0) -> np.ndarray:
         g = _apply(X, s * (E1 @ c)) + _apply(Y, s**2 * (E2 @ c))
         return (c + weight[:, None] * (E.T @ g)).ravel()
 
-    k = np.arange(1, H + 1)[:, None, None]
-    blocks = np.linalg.inv(np.eye(n) + 1j * k * s * X.mean(0) - (k * s) ** 2 * Y.mean(0))  # (H, n, n)
+    lu = _banded_operator(s, X, Y, H, PRECONDITIONER_BANDS)
 
     def precondition(x: np.ndarray) -> np.ndarray:
-        c = x.reshape(P, n)
-        z = np.einsum("kij,kj->ki", blocks, c[1::2] - 1j * c[2::2])  # cos - i sin: the e^{ik theta} amplitude
-        out = np.empty_like(c)
-        out[0] = c[0]  # the mean has no dynamic term
-        out[1::2], out[2::2] = z.real, -z.imag
-        return out.ravel()
+        return _real_form(lu.solve(_complex_form(x.reshape(P, n)).ravel()).reshape(2 * H + 1, n)).ravel()
 
     op = spla.LinearOperator((P * n, P * n), matvec=apply, dtype=float)
     pre = spla.LinearOperator((P * n, P * n), matvec=precondition, dtype=float)
-    x, info = spla.gmres(op, c0.ravel(), M=pre, rtol=1e-11, atol=0.0, restart=200, maxiter=5)
+    x, info = spla.gmres(op, c0.ravel(), x0=x0, M=pre, rtol=KRYLOV_TOLERANCE,
+                         atol=KRYLOV_TOLERANCE * np.linalg.norm(c0), restart=200, maxiter=5)
     if info != 0:
         return _solve_dense(s, E, E1, E2, weight, X, Y, c0)
     return x.reshape(P, n)
+
+
+PRECONDITIONER_BANDS = 2
+"""Coefficient harmonics kept in the preconditioner of the iterative periodic solve (the operator's
+bands |k - l| <= this; a few GMRES iterations where the theta-average alone needs hundreds)."""
+
+KRYLOV_TOLERANCE = 1e-11
+"""Relative residual at which the iterative periodic solve stops."""
+
+
+def _complex_form(c: np.ndarray) -> np.ndarray:
+    """Real trigonometric coefficients (2H + 1, n) [1, cos, sin, ...] -> complex amplitudes a_k of
+    e^{i k theta}, k = -H .. H (2H + 1, n)."""
+    H = (c.shape[0] - 1) // 2
+    a = np.empty(c.shape, dtype=complex)
+    a[H] = c[0]
+    a[H + 1:] = 0.5 * (c[1::2] - 1j * c[2::2])
+    a[:H] = np.conj(a[H + 1:][::-1])
+    return a
+
+
+def _real_form(a: np.ndarray) -> np.ndarray:
+    """Inverse of :func:`_complex_form` (the real part of a Hermitian set of amplitudes)."""
+    H = (a.shape[0] - 1) // 2
+    c = np.empty(a.shape)
+    c[0] = a[H].real
+    c[1::2], c[2::2] = 2.0 * a[H + 1:].real, -2.0 * a[H + 1:].imag
+    return c
+
+
+def _banded_operator(s: float, X: np.ndarray, Y: np.ndarray, H: int, bands: int):
+    """Sparse LU of the collocation operator in complex amplitudes (k, l = -H .. H) kept to the bands
+    |k - l| <= ``bands``: block (k, l) = delta_kl I + (i l s) X^_{k-l} - (l s)^2 Y^_{k-l}, X^_d the DFT
+    of X on the N collocation points (exactly the operator's coupling, block Toeplitz in the harmonics)."""
+    N, n = X.shape[0], X.shape[1]
+    Xh, Yh = np.fft.fft(X, axis=0) / N, np.fft.fft(Y, axis=0) / N
+    d, l = np.meshgrid(np.arange(-bands, bands + 1), np.arange(-H, H + 1), indexing="ij")
+    keep = np.abs(l + d) <= H
+    d, l = d[keep], l[keep]
+    blocks = (1j * s * l)[:, None, None] * Xh[d % N] - ((s * l) ** 2)[:, None, None] * Yh[d % N]
+    blocks[d == 0] += np.eye(n)
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    rows = ((l + d + H) * n)[:, None, None] + i
+    cols = ((l + H) * n)[:, None, None] + j
+    size = (2 * H + 1) * n
+    A = sparse.csc_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())), shape=(size, size))
+    return spla.splu(A, permc_spec="NATURAL")  # banded: natural order keeps the fill in the band
 
 
 def evaluate(solution: PeriodicSolution, theta: np.ndarray,
@@ -251,9 +309,9 @@ def steady_state(system: PeriodicSystem, theta: np.ndarray, tolerance: float, ha
         levels = [below[-1], harmonics] if below else [harmonics]
     else:
         levels = harmonic_levels(max_harmonics)
-    previous, changes, est = None, [], float("nan")
+    previous, changes, est, sol = None, [], float("nan"), None
     for H in levels:
-        sol = solve_periodic(system, H)
+        sol = solve_periodic(system, H, start=sol)
         u, y = evaluate(sol, theta, co)
         current = u if y is None else y
         if previous is not None:
@@ -274,3 +332,186 @@ def error_estimate(changes: list[float]) -> float:
         rho = d / changes[-2]
         return d * rho / (1.0 - rho)
     return d
+
+
+# --------------------------------------------------------------------------------------------------
+# coefficients sampled once on a uniform grid, trigonometric interpolation elsewhere
+
+
+class TrigInterpolant:
+    """The trigonometric interpolant of samples (G, F) at theta_j = 2 pi j / G, G even: degree G/2
+    with the Nyquist term split between +-G/2, so that it reproduces the samples.  Evaluated on a
+    uniform full-turn grid by folding its spectrum and one inverse FFT (O(G + m log m) per column)."""
+
+    def __init__(self, samples: np.ndarray):
+        G = samples.shape[0]
+        if G % 2 or G < 2:
+            raise ValueError(f"TrigInterpolant: needs an even number of samples >= 2; got {G}")
+        A = np.fft.fft(samples, axis=0) / G
+        half = G // 2
+        # frequencies -G/2 .. G/2 (G + 1 terms), the Nyquist coefficient halved at both ends
+        self.spectrum = np.concatenate([A[half:half + 1] / 2, A[half + 1:], A[:half], A[half:half + 1] / 2])
+        self.frequency = np.arange(-half, half + 1)
+        self.points = G
+
+    def uniform(self, theta0: float, step_sign: float, m: int) -> np.ndarray:
+        """Values (m, F) at theta0 + step_sign * 2 pi j / m, j = 0 .. m - 1."""
+        a = self.spectrum * np.exp(1j * self.frequency * theta0)[:, None]
+        if step_sign < 0:
+            a = np.conj(a)  # sum_f a_f e^{-i f t} is real: the conjugate of sum_f conj(a_f) e^{i f t}
+        residue = self.frequency % m
+        b = np.zeros((m,) + a.shape[1:], dtype=complex)  # b[r]: sum of the a_f with f = r (mod m)
+        for start in range(0, a.shape[0], m):  # m consecutive frequencies have distinct residues
+            b[residue[start:start + m]] += a[start:start + m]
+        return np.fft.irfft(b[:m // 2 + 1], n=m, axis=0) * m if m > 1 else b.real
+
+    def at(self, theta: np.ndarray) -> np.ndarray:
+        """Values (m, F) at any angles (m,), by direct summation (O(G m) per column)."""
+        return (np.exp(1j * np.outer(theta, self.frequency)) @ self.spectrum).real
+
+
+def uniform_grids(theta: np.ndarray, most: int = 4) -> np.ndarray | None:
+    """If ``theta`` (m,) consists of r <= ``most`` uniform full-turn grids (theta0 + sign 2 pi j / (m/r),
+    j = 0 .. m/r - 1), one after another or interleaved (the angles of a multi-stage time stepper), the
+    index (r, m/r) of each grid's angles in ``theta``; else None."""
+    m = theta.size
+    for r in range(1, most + 1):
+        if m % r or m // r < 2:
+            continue
+        for index in (np.arange(m).reshape(r, m // r), np.arange(m).reshape(m // r, r).T):
+            d = np.diff(theta[index], axis=1)
+            step = 2.0 * np.pi / index.shape[1]
+            if np.all(np.abs(np.abs(d) - step) < 1e-9 * step) and np.all(np.sign(d) == np.sign(d[:, :1])):
+                return index
+    return None
+
+
+INTERPOLATION_TOLERANCE = 1e-9
+"""Largest error of interpolated coefficients, per field (K, C, f, output) as a fraction of its largest
+entry over the cycle, measured at the midpoints of the sampling grid before it is refined once more."""
+
+
+class SampledCoefficients:
+    """``direct`` (theta -> :class:`Coefficients`) sampled once on a uniform grid and interpolated
+    trigonometrically on every uniform full-turn grid asked for (the collocation points of the periodic
+    solve, the stage angles of a time stepper); non-uniform angles are evaluated by ``direct``.
+
+    G doubles from ``start``: once the interpolant of G samples matches ``direct`` at the G midpoints
+    within ``tolerance`` (:func:`_field_error`), the 2 G samples (grid and midpoints) are kept, so the
+    interpolant is exact at them and, the series converging geometrically, far within ``tolerance``
+    elsewhere.  Two forms are tried on the same samples: the coefficients themselves ("stiffness"), and
+    the compliance form K^-1, K^-1 C, K^-1 f, output K^-1 ("flexibility", K etc. rebuilt per angle):
+    the frozen structure's flexibility is smooth even where its stiffness spikes (a lumped mass whose
+    flexibility nearly vanishes in one direction).  Neither passing below ``max_points`` (a linkage
+    near toggle), ``direct`` is used everywhere (``form`` "direct").
+
+    ``points``: the number of samples kept (0: direct); ``error``: the last measured midpoint error."""
+
+    def __init__(self, direct: Callable[[np.ndarray], Coefficients], tolerance: float = INTERPOLATION_TOLERANCE,
+                 start: int = 32, max_points: int = 512):
+        self.direct = direct
+        self.form, self.points, self.error = "direct", 0, float("nan")
+        self.interpolant: TrigInterpolant | None = None
+        self._memo: dict[bytes, Coefficients] = {}
+        G = start
+        grid = direct(np.arange(G) * (2.0 * np.pi / G))
+        while 2 * G <= max_points:
+            mid = direct((np.arange(G) + 0.5) * (2.0 * np.pi / G))
+            exact, layout = _pack(mid)
+            merged = _merge(grid, mid)
+            errors = {}
+            for form in ("stiffness", "flexibility"):
+                guess = _from_form(form, TrigInterpolant(_pack(_to_form(form, grid))[0]).uniform(np.pi / G, 1.0, G),
+                                   layout)
+                errors[form] = _field_error(_pack(guess)[0], exact, layout)
+                if errors[form] <= tolerance:
+                    self.form, self.points, self.error, self.layout = form, 2 * G, errors[form], layout
+                    self.interpolant = TrigInterpolant(_pack(_to_form(form, merged))[0])
+                    return
+            self.error = min(errors.values(), key=lambda e: e if np.isfinite(e) else np.inf)
+            grid, G = merged, 2 * G
+
+    def __call__(self, theta: np.ndarray) -> Coefficients:
+        theta = np.atleast_1d(np.asarray(theta, dtype=float))
+        key = theta.tobytes()
+        if key not in self._memo:
+            if len(self._memo) >= 8:  # bounded: the same angles recur (levels of the periodic solve)
+                self._memo.pop(next(iter(self._memo)))
+            self._memo[key] = self._evaluate(theta)
+        return self._memo[key]
+
+    def _evaluate(self, theta: np.ndarray) -> Coefficients:
+        index = None if self.interpolant is None else uniform_grids(theta)
+        if index is None:
+            return self.direct(theta)
+        out = np.empty((theta.size, self.interpolant.spectrum.shape[1]))
+        for row in index:
+            sign = 1.0 if theta[row[1]] > theta[row[0]] else -1.0
+            out[row] = self.interpolant.uniform(theta[row[0]], sign, row.size)
+        return _from_form(self.form, out, self.layout)
+
+
+def _merge(a: Coefficients, b: Coefficients) -> Coefficients:
+    """Interleave the samples of ``a`` and ``b`` (a[0], b[0], a[1], ...)."""
+    fields = []
+    for fa, fb in zip(_fields(a), _fields(b)):
+        f = np.empty((2 * fa.shape[0],) + fa.shape[1:])
+        f[0::2], f[1::2] = fa, fb
+        fields.append(f)
+    return _coefficients(fields)
+
+
+def _fields(co: Coefficients) -> list[np.ndarray]:
+    return [co.stiffness, co.damping, co.load] + ([] if co.output is None else [co.output])
+
+
+def _coefficients(fields: list[np.ndarray]) -> Coefficients:
+    return Coefficients(*fields) if len(fields) == 4 else Coefficients(*fields, output=None)
+
+
+def _to_form(form: str, co: Coefficients) -> Coefficients:
+    """The sampled quantities of ``form``: the coefficients, or K^-1, K^-1 C, K^-1 f, output K^-1."""
+    if form == "stiffness":
+        return co
+    F = np.linalg.inv(co.stiffness)
+    return Coefficients(stiffness=F, damping=F @ co.damping, load=_apply(F, co.load),
+                        output=None if co.output is None else co.output @ F)
+
+
+def _from_form(form: str, flat: np.ndarray, layout: tuple[tuple[int, ...], ...]) -> Coefficients:
+    """The coefficients from the packed (m, F) quantities of ``form`` (inverse of :func:`_to_form`)."""
+    co = _unpack(flat, layout)
+    if form == "stiffness":
+        return co
+    K = np.linalg.inv(co.stiffness)
+    K = 0.5 * (K + np.swapaxes(K, 1, 2))
+    return Coefficients(stiffness=K, damping=K @ co.damping, load=_apply(K, co.load),
+                        output=None if co.output is None else co.output @ K)
+
+
+def _pack(co: Coefficients) -> tuple[np.ndarray, tuple[tuple[int, ...], ...]]:
+    """The fields of ``co`` side by side, (m, F), and their shapes (without m)."""
+    fields = _fields(co)
+    m = fields[0].shape[0]
+    return np.concatenate([f.reshape(m, -1) for f in fields], axis=1), tuple(f.shape[1:] for f in fields)
+
+
+def _unpack(flat: np.ndarray, layout: tuple[tuple[int, ...], ...]) -> Coefficients:
+    parts, start = [], 0
+    for shape in layout:
+        size = int(np.prod(shape))
+        parts.append(flat[:, start:start + size].reshape((flat.shape[0],) + shape))
+        start += size
+    return _coefficients(parts)
+
+
+def _field_error(approx: np.ndarray, exact: np.ndarray, layout: tuple[tuple[int, ...], ...]) -> float:
+    """max over the fields of max |approx - exact| / max |exact| (NaN if anything is not finite)."""
+    err, start = 0.0, 0
+    for shape in layout:
+        sl = slice(start, start + int(np.prod(shape)))
+        start = sl.stop
+        peak = np.max(np.abs(exact[:, sl]), initial=0.0)
+        if peak > 0.0:
+            err = max(err, float(np.max(np.abs(approx[:, sl] - exact[:, sl])) / peak))
+    return err if np.all(np.isfinite(approx)) and np.all(np.isfinite(exact)) else float("nan")
