@@ -26,8 +26,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import sparse
-from scipy.sparse import linalg as spla
 
 
 @dataclass(frozen=True)
@@ -138,7 +136,7 @@ def solve_periodic(system: PeriodicSystem, harmonics: int, points: int | None = 
     s, m = system.speed, system.mass
     Kinv = np.linalg.inv(co.stiffness)
     q_hat = spectrum(_apply(Kinv, co.load))
-    rhs = -_apply(Kinv, s * _apply(co.damping, series(q_hat, theta, 1)) + s**2 * m * series(q_hat, theta, 2))
+    rhs = -_apply(Kinv, s * _apply(co.damping, _on_grid(q_hat, N, 1)) + s**2 * m * _on_grid(q_hat, N, 2))
     E, E1, E2 = trig_basis(theta, H)
     weight = np.r_[1.0, np.full(2 * H, 2.0)] / N  # Pi_H: c_b = weight_b sum_j E[j, b] x_j
     X, Y = Kinv @ co.damping, Kinv * m  # K^-1 C, K^-1 M
@@ -151,6 +149,12 @@ def solve_periodic(system: PeriodicSystem, harmonics: int, points: int | None = 
     z_hat[0] += c[0]
     z_hat[1:H + 1] += 0.5 * (c[1::2] - 1j * c[2::2])
     return PeriodicSolution(system=system, harmonics=H, points=N, kinematic=z_hat, correction=c)
+
+
+def _on_grid(coefficients: np.ndarray, N: int, derivative: int) -> np.ndarray:
+    """:func:`series` on the N-point grid theta_j = 2 pi j / N of its own spectrum, by inverse FFT."""
+    k = np.arange(coefficients.shape[0]).reshape((-1,) + (1,) * (coefficients.ndim - 1))
+    return np.fft.irfft(coefficients * (1j * k) ** derivative, n=N, axis=0) * N
 
 
 def _first_guess(start: PeriodicSolution | None, shape: tuple[int, int]) -> np.ndarray | None:
@@ -167,12 +171,35 @@ DENSE_LIMIT = 640
 
 
 def _solve_dense(s, E, E1, E2, weight, X, Y, c0) -> np.ndarray:
-    """(I + G) c = c0 with G[b, a] = weight_b sum_j E[j, b] (s E1[j, a] X_j + s^2 E2[j, a] Y_j), dense."""
-    G = s * np.tensordot(E[:, :, None] * E1[:, None, :], X, axes=(0, 0))
-    G += s**2 * np.tensordot(E[:, :, None] * E2[:, None, :], Y, axes=(0, 0))  # (b, a, i, l)
+    """(I + G) c = c0 with G[b, a] = weight_b sum_j E[j, b] (s E1[j, a] X_j + s^2 E2[j, a] Y_j), dense,
+    built from the DFT of X and Y (:func:`_dense_operator`)."""
     P, n = c0.shape
-    G = (weight[:, None, None, None] * G).transpose(0, 2, 1, 3).reshape(P * n, P * n)
-    return np.linalg.solve(np.eye(P * n) + G, c0.ravel()).reshape(P, n)
+    G = _dense_operator(s, X, Y, (P - 1) // 2).reshape(P * n, P * n)
+    G[np.diag_indices_from(G)] += 1.0
+    return np.linalg.solve(G, c0.ravel()).reshape(P, n)
+
+
+def _dense_operator(s: float, X: np.ndarray, Y: np.ndarray, H: int) -> np.ndarray:
+    """G (2H + 1, n, 2H + 1, n) on the real coefficients [1, cos, sin, ...]: the complex blocks
+    G^[k, l] = (i l s) X^_{k-l} - (l s)^2 Y^_{k-l} (X^_d the DFT of X on the N collocation points:
+    block Toeplitz), combined for an input cos(l theta) = (e^{il} + e^{-il}) / 2 and sin(l theta) =
+    -i (e^{il} - e^{-il}) / 2, and read out as 2 Re (cos), -2 Im (sin), Re (mean) of harmonic k."""
+    N, n = X.shape[0], X.shape[1]
+    Xh, Yh = np.fft.fft(X, axis=0) / N, np.fft.fft(Y, axis=0) / N
+    k, l = np.arange(H + 1)[:, None], np.arange(1, H + 1)[None, :]
+
+    def blocks(lv: np.ndarray) -> np.ndarray:  # G^[k, lv], (H + 1, H, n, n)
+        d = (k - lv) % N
+        return (1j * s * lv)[..., None, None] * Xh[d] - ((s * lv) ** 2)[..., None, None] * Yh[d]
+
+    plus, minus = blocks(l), blocks(-l)
+    by_cos, by_sin = 0.5 * (plus + minus), -0.5j * (plus - minus)  # (k, l, i, j)
+    G = np.zeros((2 * H + 1, n, 2 * H + 1, n))
+    for col, B in ((slice(1, None, 2), by_cos), (slice(2, None, 2), by_sin)):
+        G[0, :, col, :] = B[0].real.transpose(1, 0, 2)
+        G[1::2, :, col, :] = 2.0 * B[1:].real.transpose(0, 2, 1, 3)
+        G[2::2, :, col, :] = -2.0 * B[1:].imag.transpose(0, 2, 1, 3)
+    return G
 
 
 def _solve_krylov(s, E, E1, E2, weight, X, Y, c0, x0=None) -> np.ndarray:
@@ -180,6 +207,8 @@ def _solve_krylov(s, E, E1, E2, weight, X, Y, c0, x0=None) -> np.ndarray:
     truncated to the coefficients' harmonics |k - l| <= :data:`PRECONDITIONER_BANDS` (block banded in
     the harmonics: a sparse LU; with 0 bands, the constant-coefficient part per harmonic, exact when K
     and C do not vary)."""
+    from scipy.sparse import linalg as spla  # here: scipy's import time is spent only when needed
+
     P, n = c0.shape
     H = (P - 1) // 2
 
@@ -234,6 +263,9 @@ def _banded_operator(s: float, X: np.ndarray, Y: np.ndarray, H: int, bands: int)
     """Sparse LU of the collocation operator in complex amplitudes (k, l = -H .. H) kept to the bands
     |k - l| <= ``bands``: block (k, l) = delta_kl I + (i l s) X^_{k-l} - (l s)^2 Y^_{k-l}, X^_d the DFT
     of X on the N collocation points (exactly the operator's coupling, block Toeplitz in the harmonics)."""
+    from scipy import sparse
+    from scipy.sparse import linalg as spla
+
     N, n = X.shape[0], X.shape[1]
     Xh, Yh = np.fft.fft(X, axis=0) / N, np.fft.fft(Y, axis=0) / N
     d, l = np.meshgrid(np.arange(-bands, bands + 1), np.arange(-H, H + 1), indexing="ij")
@@ -414,22 +446,32 @@ class SampledCoefficients:
         self.interpolant: TrigInterpolant | None = None
         self._memo: dict[bytes, Coefficients] = {}
         G = start
-        grid = direct(np.arange(G) * (2.0 * np.pi / G))
-        while 2 * G <= max_points:
-            mid = direct((np.arange(G) + 0.5) * (2.0 * np.pi / G))
+        both = direct(np.arange(2 * G) * (np.pi / G))  # the first grid and its midpoints in one evaluation
+        grid, mid = _every_other(both, 0), _every_other(both, 1)
+        history: list[float] = []
+        while True:
             exact, layout = _pack(mid)
             merged = _merge(grid, mid)
             errors = {}
             for form in ("stiffness", "flexibility"):
-                guess = _from_form(form, TrigInterpolant(_pack(_to_form(form, grid))[0]).uniform(np.pi / G, 1.0, G),
-                                   layout)
-                errors[form] = _field_error(_pack(guess)[0], exact, layout)
+                sampled = _to_form(form, grid)
+                sym = _symmetric(sampled)
+                values = TrigInterpolant(_compact(sampled, sym)).uniform(np.pi / G, 1.0, G)
+                errors[form] = _field_error(_pack(_from_form(form, _expand(values, layout, sym)))[0], exact, layout)
                 if errors[form] <= tolerance:
-                    self.form, self.points, self.error, self.layout = form, 2 * G, errors[form], layout
-                    self.interpolant = TrigInterpolant(_pack(_to_form(form, merged))[0])
+                    self.form, self.points, self.error, self.layout, self.symmetric = form, 2 * G, errors[form], \
+                        layout, sym
+                    self.interpolant = TrigInterpolant(_compact(_to_form(form, merged), sym))
                     return
             self.error = min(errors.values(), key=lambda e: e if np.isfinite(e) else np.inf)
+            history.append(self.error)
+            # give up at max_points, or when doubling stops paying (spectral convergence gains orders of
+            # magnitude per doubling; a kink or a near-singularity gains a factor of a few)
+            slow = len(history) >= 2 and not history[-1] < 1e-2 * history[-2]
+            if 4 * G > max_points or slow or not np.isfinite(self.error):
+                return
             grid, G = merged, 2 * G
+            mid = direct((np.arange(G) + 0.5) * (2.0 * np.pi / G))
 
     def __call__(self, theta: np.ndarray) -> Coefficients:
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
@@ -448,7 +490,11 @@ class SampledCoefficients:
         for row in index:
             sign = 1.0 if theta[row[1]] > theta[row[0]] else -1.0
             out[row] = self.interpolant.uniform(theta[row[0]], sign, row.size)
-        return _from_form(self.form, out, self.layout)
+        return _from_form(self.form, _expand(out, self.layout, self.symmetric))
+
+
+def _every_other(co: Coefficients, first: int) -> Coefficients:
+    return _coefficients([f[first::2] for f in _fields(co)])
 
 
 def _merge(a: Coefficients, b: Coefficients) -> Coefficients:
@@ -478,15 +524,49 @@ def _to_form(form: str, co: Coefficients) -> Coefficients:
                         output=None if co.output is None else co.output @ F)
 
 
-def _from_form(form: str, flat: np.ndarray, layout: tuple[tuple[int, ...], ...]) -> Coefficients:
-    """The coefficients from the packed (m, F) quantities of ``form`` (inverse of :func:`_to_form`)."""
-    co = _unpack(flat, layout)
+def _from_form(form: str, co: Coefficients) -> Coefficients:
+    """The coefficients from the quantities of ``form`` (inverse of :func:`_to_form`)."""
     if form == "stiffness":
         return co
     K = np.linalg.inv(co.stiffness)
     K = 0.5 * (K + np.swapaxes(K, 1, 2))
     return Coefficients(stiffness=K, damping=K @ co.damping, load=_apply(K, co.load),
                         output=None if co.output is None else co.output @ K)
+
+
+def _symmetric(co: Coefficients) -> tuple[bool, ...]:
+    """Per field: square and symmetric to rounding (then only its upper triangle is interpolated)."""
+    out = []
+    for f in _fields(co):
+        square = f.ndim == 3 and f.shape[1] == f.shape[2]
+        out.append(bool(square and np.max(np.abs(f - np.swapaxes(f, 1, 2)), initial=0.0)
+                        <= 1e-13 * np.max(np.abs(f), initial=0.0)))
+    return tuple(out)
+
+
+def _compact(co: Coefficients, symmetric: tuple[bool, ...]) -> np.ndarray:
+    """Like :func:`_pack`, the symmetric fields by their upper triangles."""
+    parts = []
+    for f, sym in zip(_fields(co), symmetric):
+        parts.append(f[(slice(None), *np.triu_indices(f.shape[1]))] if sym else f.reshape(f.shape[0], -1))
+    return np.concatenate(parts, axis=1)
+
+
+def _expand(flat: np.ndarray, layout: tuple[tuple[int, ...], ...], symmetric: tuple[bool, ...]) -> Coefficients:
+    """Inverse of :func:`_compact`."""
+    parts, start, m = [], 0, flat.shape[0]
+    for shape, sym in zip(layout, symmetric):
+        if sym:
+            i, j = np.triu_indices(shape[0])
+            f = np.empty((m,) + shape)
+            f[:, i, j] = f[:, j, i] = flat[:, start:start + i.size]
+            start += i.size
+        else:
+            size = int(np.prod(shape))
+            f = flat[:, start:start + size].reshape((m,) + shape)
+            start += size
+        parts.append(f)
+    return _coefficients(parts)
 
 
 def _pack(co: Coefficients) -> tuple[np.ndarray, tuple[tuple[int, ...], ...]]:
