@@ -11,10 +11,14 @@ Method (Fourier collocation with a quasi-static split, docs/linear_model.md):
 * the dynamic operator acts on all harmonics of q (spectral derivatives on N collocation points) but,
   on the correction w, only on its first H crank harmonics (Pi_H); the rest of w follows quasi-statically.
   Collocation at the N points: K w + B Pi_H w = -B q.  With c = Pi_H w (real trigonometric coefficients,
-  2H + 1 per coordinate): (I + Pi_H K^-1 B E) c = -Pi_H K^-1 B q, one dense solve of size (2H + 1) n;
+  2H + 1 per coordinate): (I + Pi_H K^-1 B E) c = -Pi_H K^-1 B q, of size (2H + 1) n, block Toeplitz in
+  the harmonics: dense up to :data:`DENSE_LIMIT` unknowns, else GMRES preconditioned by its bands;
 * the solution at any angle is u = K^-1 (f - sigma C z' - sigma^2 M z''), z = q + Pi_H w (a trigonometric
   polynomial): with M and C zero it is the quasi-static solution exactly, and every harmonic of a
   constant-coefficient system up to H gets its exact frequency response.
+
+The coefficients of a :class:`PeriodicSystem` may be any callable; :class:`SampledCoefficients` makes
+them cheap on uniform grids (sampled once, trigonometric interpolation, error-checked).
 
 The truncation error is that of treating harmonics above H of w with one quasi-static iteration,
 ~ (k sigma / omega)^4 |q_k|; it is estimated by comparing H with the level below it (:func:`steady_state`).
@@ -423,6 +427,10 @@ INTERPOLATION_TOLERANCE = 1e-9
 entry over the cycle, measured at the midpoints of the sampling grid before it is refined once more."""
 
 
+MEMO_ANGLES = 512
+"""Requests of at most this many angles are remembered (the last 8): the collocation grids recur."""
+
+
 class SampledCoefficients:
     """``direct`` (theta -> :class:`Coefficients`) sampled once on a uniform grid and interpolated
     trigonometrically on every uniform full-turn grid asked for (the collocation points of the periodic
@@ -475,6 +483,8 @@ class SampledCoefficients:
 
     def __call__(self, theta: np.ndarray) -> Coefficients:
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
+        if theta.size > MEMO_ANGLES:  # a propagator's stage angles: large and not asked for twice
+            return self._evaluate(theta)
         key = theta.tobytes()
         if key not in self._memo:
             if len(self._memo) >= 8:  # bounded: the same angles recur (levels of the periodic solve)
