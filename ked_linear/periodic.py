@@ -385,25 +385,28 @@ class TrigInterpolant:
             raise ValueError(f"TrigInterpolant: needs an even number of samples >= 2; got {G}")
         A = np.fft.fft(samples, axis=0) / G
         half = G // 2
-        # frequencies -G/2 .. G/2 (G + 1 terms), the Nyquist coefficient halved at both ends
-        self.spectrum = np.concatenate([A[half:half + 1] / 2, A[half + 1:], A[:half], A[half:half + 1] / 2])
+        # frequencies -G/2 .. G/2 (G + 1 terms), the Nyquist coefficient halved at both ends; stored
+        # transposed, (F, G + 1): the FFTs then run along contiguous rows
+        spectrum = np.concatenate([A[half:half + 1] / 2, A[half + 1:], A[:half], A[half:half + 1] / 2])
+        self.spectrum = np.ascontiguousarray(spectrum.reshape(G + 1, -1).T)
         self.frequency = np.arange(-half, half + 1)
         self.points = G
 
     def uniform(self, theta0: float, step_sign: float, m: int) -> np.ndarray:
         """Values (m, F) at theta0 + step_sign * 2 pi j / m, j = 0 .. m - 1."""
-        a = self.spectrum * np.exp(1j * self.frequency * theta0)[:, None]
+        a = self.spectrum * np.exp(1j * self.frequency * theta0)
         if step_sign < 0:
             a = np.conj(a)  # sum_f a_f e^{-i f t} is real: the conjugate of sum_f conj(a_f) e^{i f t}
         residue = self.frequency % m
-        b = np.zeros((m,) + a.shape[1:], dtype=complex)  # b[r]: sum of the a_f with f = r (mod m)
-        for start in range(0, a.shape[0], m):  # m consecutive frequencies have distinct residues
-            b[residue[start:start + m]] += a[start:start + m]
-        return np.fft.irfft(b[:m // 2 + 1], n=m, axis=0) * m if m > 1 else b.real
+        b = np.zeros((a.shape[0], m), dtype=complex)  # b[:, r]: sum of the a_f with f = r (mod m)
+        for start in range(0, a.shape[1], m):  # m consecutive frequencies have distinct residues
+            b[:, residue[start:start + m]] += a[:, start:start + m]
+        out = np.fft.irfft(b[:, :m // 2 + 1], n=m, axis=1) * m if m > 1 else b.real
+        return out.T
 
     def at(self, theta: np.ndarray) -> np.ndarray:
         """Values (m, F) at any angles (m,), by direct summation (O(G m) per column)."""
-        return (np.exp(1j * np.outer(theta, self.frequency)) @ self.spectrum).real
+        return (np.exp(1j * np.outer(theta, self.frequency)) @ self.spectrum.T).real
 
 
 def uniform_grids(theta: np.ndarray, most: int = 4) -> np.ndarray | None:
@@ -496,7 +499,7 @@ class SampledCoefficients:
         index = None if self.interpolant is None else uniform_grids(theta)
         if index is None:
             return self.direct(theta)
-        out = np.empty((theta.size, self.interpolant.spectrum.shape[1]))
+        out = np.empty((theta.size, self.interpolant.spectrum.shape[0]))
         for row in index:
             sign = 1.0 if theta[row[1]] > theta[row[0]] else -1.0
             out[row] = self.interpolant.uniform(theta[row[0]], sign, row.size)
