@@ -448,14 +448,31 @@ class SampledCoefficients:
     flexibility nearly vanishes in one direction).  Neither passing below ``max_points`` (a linkage
     near toggle), ``direct`` is used everywhere (``form`` "direct").
 
-    ``points``: the number of samples kept (0: direct); ``error``: the last measured midpoint error."""
+    ``points``: the number of samples kept (0: direct); ``error``: the last measured midpoint error.
+    The sampling is done at the first request (or when ``form``, ``points`` or ``error`` is read)."""
 
     def __init__(self, direct: Callable[[np.ndarray], Coefficients], tolerance: float = INTERPOLATION_TOLERANCE,
                  start: int = 32, max_points: int = 512):
         self.direct = direct
-        self.form, self.points, self.error = "direct", 0, float("nan")
-        self.interpolant: TrigInterpolant | None = None
+        self._options = (tolerance, start, max_points)
+        self._sampled = False
         self._memo: dict[bytes, Coefficients] = {}
+
+    form = property(lambda self: self._sample()._form)
+    points = property(lambda self: self._sample()._points)
+    error = property(lambda self: self._sample()._error)
+    interpolant = property(lambda self: self._sample()._interpolant)
+
+    def _sample(self) -> SampledCoefficients:
+        if not self._sampled:
+            self._sampled = True
+            self._form, self._points, self._error = "direct", 0, float("nan")
+            self._interpolant: TrigInterpolant | None = None
+            self._refine(*self._options)
+        return self
+
+    def _refine(self, tolerance: float, start: int, max_points: int) -> None:
+        direct = self.direct
         G = start
         both = direct(np.arange(2 * G) * (np.pi / G))  # the first grid and its midpoints in one evaluation
         grid, mid = _every_other(both, 0), _every_other(both, 1)
@@ -470,16 +487,16 @@ class SampledCoefficients:
                 values = TrigInterpolant(_compact(sampled, sym)).uniform(np.pi / G, 1.0, G)
                 errors[form] = _field_error(_pack(_from_form(form, _expand(values, layout, sym)))[0], exact, layout)
                 if errors[form] <= tolerance:
-                    self.form, self.points, self.error, self.layout, self.symmetric = form, 2 * G, errors[form], \
+                    self._form, self._points, self._error, self.layout, self.symmetric = form, 2 * G, errors[form], \
                         layout, sym
-                    self.interpolant = TrigInterpolant(_compact(_to_form(form, merged), sym))
+                    self._interpolant = TrigInterpolant(_compact(_to_form(form, merged), sym))
                     return
-            self.error = min(errors.values(), key=lambda e: e if np.isfinite(e) else np.inf)
-            history.append(self.error)
+            self._error = min(errors.values(), key=lambda e: e if np.isfinite(e) else np.inf)
+            history.append(self._error)
             # give up at max_points, or when doubling stops paying (spectral convergence gains orders of
             # magnitude per doubling; a kink or a near-singularity gains a factor of a few)
             slow = len(history) >= 2 and not history[-1] < 1e-2 * history[-2]
-            if 4 * G > max_points or slow or not np.isfinite(self.error):
+            if 4 * G > max_points or slow or not np.isfinite(self._error):
                 return
             grid, G = merged, 2 * G
             mid = direct((np.arange(G) + 0.5) * (2.0 * np.pi / G))
