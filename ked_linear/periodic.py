@@ -81,6 +81,8 @@ class PeriodicSolution:
     kinematic: np.ndarray
     correction: np.ndarray | None = None
     """c = Pi_H w (2H + 1, n), real trigonometric coefficients [1, cos, sin, ...] (a start for the next level)."""
+    banded: bool = False
+    """The iterative solve needed the banded preconditioner (the next level then starts with it)."""
 
 
 def collocation_points(harmonics: int) -> int:
@@ -145,14 +147,17 @@ def solve_periodic(system: PeriodicSystem, harmonics: int, points: int | None = 
     weight = np.r_[1.0, np.full(2 * H, 2.0)] / N  # Pi_H: c_b = weight_b sum_j E[j, b] x_j
     X, Y = Kinv @ co.damping, Kinv * m  # K^-1 C, K^-1 M
     c0 = weight[:, None] * (E.T @ rhs)
+    banded = False
     if c0.size <= DENSE_LIMIT:
         c = _solve_dense(s, E, E1, E2, weight, X, Y, c0)
     else:
-        c = _solve_krylov(s, E, E1, E2, weight, X, Y, c0, _first_guess(start, c0.shape))
+        c, banded = _solve_krylov(s, E, E1, E2, weight, X, Y, c0, _first_guess(start, c0.shape),
+                                  cheap=not (start is not None and start.banded))
     z_hat = q_hat.astype(complex)
     z_hat[0] += c[0]
     z_hat[1:H + 1] += 0.5 * (c[1::2] - 1j * c[2::2])
-    return PeriodicSolution(system=system, harmonics=H, points=N, kinematic=z_hat, correction=c)
+    return PeriodicSolution(system=system, harmonics=H, points=N, kinematic=z_hat, correction=c,
+                            banded=banded)
 
 
 def _on_grid(coefficients: np.ndarray, N: int, derivative: int) -> np.ndarray:
@@ -206,11 +211,13 @@ def _dense_operator(s: float, X: np.ndarray, Y: np.ndarray, H: int) -> np.ndarra
     return G
 
 
-def _solve_krylov(s, E, E1, E2, weight, X, Y, c0, x0=None) -> np.ndarray:
-    """The same system by GMRES, matrix-free (O(N n^2) per product), preconditioned by the operator
-    truncated to the coefficients' harmonics |k - l| <= :data:`PRECONDITIONER_BANDS` (block banded in
-    the harmonics: a sparse LU; with 0 bands, the constant-coefficient part per harmonic, exact when K
-    and C do not vary)."""
+def _solve_krylov(s, E, E1, E2, weight, X, Y, c0, x0=None, cheap: bool = True) -> tuple[np.ndarray, bool]:
+    """The same system by GMRES, matrix-free (O(N n^2) per product).  Preconditioned first by the
+    operator's theta-averaged part, block diagonal in the harmonics (I + i k s mean X - (k s)^2 mean Y,
+    exact when K and C do not vary: cheap, enough for slowly varying coefficients); if that has not
+    converged in :data:`CHEAP_ITERATIONS` iterations, on from there with the operator truncated to
+    the coefficients' harmonics |k - l| <= :data:`PRECONDITIONER_BANDS` (block banded: a sparse LU).
+    ``cheap``: False skips the first stage.  Returns c and whether the banded stage was needed."""
     from scipy.sparse import linalg as spla  # here: scipy's import time is spent only when needed
 
     P, n = c0.shape
@@ -221,19 +228,39 @@ def _solve_krylov(s, E, E1, E2, weight, X, Y, c0, x0=None) -> np.ndarray:
         g = _apply(X, s * (E1 @ c)) + _apply(Y, s**2 * (E2 @ c))
         return (c + weight[:, None] * (E.T @ g)).ravel()
 
-    lu = _banded_operator(s, X, Y, H, PRECONDITIONER_BANDS)
+    k = np.arange(1, H + 1)[:, None, None]
+    blocks = np.linalg.inv(np.eye(n) + 1j * k * s * X.mean(0) - (k * s) ** 2 * Y.mean(0))  # (H, n, n)
 
-    def precondition(x: np.ndarray) -> np.ndarray:
-        return _real_form(lu.solve(_complex_form(x.reshape(P, n)).ravel()).reshape(2 * H + 1, n)).ravel()
+    def averaged(x: np.ndarray) -> np.ndarray:
+        c = x.reshape(P, n)
+        z = np.einsum("kij,kj->ki", blocks, c[1::2] - 1j * c[2::2])  # cos - i sin: the e^{ik theta} amplitude
+        out = np.empty_like(c)
+        out[0] = c[0]  # the mean has no dynamic term
+        out[1::2], out[2::2] = z.real, -z.imag
+        return out.ravel()
 
     op = spla.LinearOperator((P * n, P * n), matvec=apply, dtype=float)
-    pre = spla.LinearOperator((P * n, P * n), matvec=precondition, dtype=float)
-    x, info = spla.gmres(op, c0.ravel(), x0=x0, M=pre, rtol=KRYLOV_TOLERANCE,
-                         atol=KRYLOV_TOLERANCE * np.linalg.norm(c0), restart=200, maxiter=5)
-    if info != 0:
-        return _solve_dense(s, E, E1, E2, weight, X, Y, c0)
-    return x.reshape(P, n)
+    tol = {"rtol": KRYLOV_TOLERANCE, "atol": KRYLOV_TOLERANCE * np.linalg.norm(c0)}
+    x = x0
+    if cheap and CHEAP_ITERATIONS > 0:
+        x, info = spla.gmres(op, c0.ravel(), x0=x0, M=spla.LinearOperator(op.shape, matvec=averaged, dtype=float),
+                             restart=CHEAP_ITERATIONS, maxiter=1, **tol)
+        if info == 0:
+            return x.reshape(P, n), False
+    lu = _banded_operator(s, X, Y, H, PRECONDITIONER_BANDS)
 
+    def banded(x: np.ndarray) -> np.ndarray:
+        return _real_form(lu.solve(_complex_form(x.reshape(P, n)).ravel()).reshape(2 * H + 1, n)).ravel()
+
+    x, info = spla.gmres(op, c0.ravel(), x0=x, M=spla.LinearOperator(op.shape, matvec=banded, dtype=float),
+                         restart=200, maxiter=5, **tol)
+    if info != 0:
+        return _solve_dense(s, E, E1, E2, weight, X, Y, c0), True
+    return x.reshape(P, n), True
+
+
+CHEAP_ITERATIONS = 20
+"""GMRES iterations with the theta-averaged preconditioner before the banded one is built."""
 
 PRECONDITIONER_BANDS = 2
 """Coefficient harmonics kept in the preconditioner of the iterative periodic solve (the operator's

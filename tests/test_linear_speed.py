@@ -118,7 +118,8 @@ def test_krylov_solve_equals_dense_solve(seed, monkeypatch):
     monkeypatch.setattr(periodic, "DENSE_LIMIT", 10**6)
     dense = solve_periodic(system, H)
     monkeypatch.setattr(periodic, "DENSE_LIMIT", 0)
-    for bands in (0, 1, 2):
+    for cheap, bands in ((30, 2), (0, 0), (0, 1), (0, 2)):  # the averaged preconditioner alone, the banded ones
+        monkeypatch.setattr(periodic, "CHEAP_ITERATIONS", cheap)
         monkeypatch.setattr(periodic, "PRECONDITIONER_BANDS", bands)
         krylov = solve_periodic(system, H)
         scale = np.abs(dense.correction).max()
