@@ -208,7 +208,7 @@ def _frozen(scene: SliderScene, theta: np.ndarray):
 def _system_flexibility(F: np.ndarray, beta: np.ndarray) -> np.ndarray:
     n, m, k = beta.shape
     Fb = np.einsum("eij,nejk->neik", F, beta.reshape(n, m // 3, 3, k)).reshape(n, m, k)
-    return np.einsum("nmi,nmj->nij", beta, Fb)
+    return np.swapaxes(beta, 1, 2) @ Fb
 
 
 def _angles(scene: SliderScene, crank_angle: np.ndarray | None) -> np.ndarray:
@@ -224,12 +224,21 @@ def midspan_deflection(node_deflection: np.ndarray, topo: SliderTopology, kin: S
     return (np.conj(normal) * rel).real
 
 
-def solve_slider_quasi_static(scene: SliderScene, crank_angle: np.ndarray | None = None,
-                              chunk: int = 64) -> SliderQuasiStaticResult:
+CHUNK_ENTRIES = 2_000_000
+"""Numbers of beta (crank angles x 3 elements x dofs) formed at once: about 16 MB, a few times that with the
+temporaries, whatever the number of lumps."""
+
+
+def _chunk(topo: SliderTopology) -> int:
+    return max(1, CHUNK_ENTRIES // (3 * len(topo.elem_link) * topo.n_dofs))
+
+
+def solve_slider_quasi_static(scene: SliderScene, crank_angle: np.ndarray | None = None) -> SliderQuasiStaticResult:
     """Quasi-static elastic deflections of a slider-crank scene (default grid: ``scene.crank_angles``), by
-    the flexibility method delta = beta^T F beta P, in chunks of ``chunk`` crank angles."""
+    the flexibility method delta = beta^T F beta P, a few crank angles at a time."""
     theta = _angles(scene, crank_angle)
     lm, topo, kin, X = _frozen(scene, theta)
+    chunk = _chunk(topo)
     F = element_flexibility(scene.linkage, topo)
     loads = inertia_loads(scene, topo, lm, kin)
     N = topo.n_nodes
@@ -257,31 +266,63 @@ def _sub(kin: SliderKinematics, sl: slice) -> SliderKinematics:
     return replace(kin, **{f.name: getattr(kin, f.name)[sl] for f in fields(kin) if f.name != "omega"})
 
 
-def flexibility_at_masses(scene: SliderScene, crank_angle: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Flexibility (n, 2K, 2K) [m/N] on the translations (x1, y1, x2, y2, ...) of the K lumped masses, and
-    their masses (2K,) [kg]."""
-    theta = _angles(scene, crank_angle)
+def _flexibility_chunks(scene: SliderScene, theta: np.ndarray):
+    """(slice of the angles, D (chunk, 2K, 2K) [m/N]) over the crank angles, and the masses (2K,) [kg]."""
     lm, topo, kin, X = _frozen(scene, theta)
     mass = node_masses(topo, lm)
     nodes = np.flatnonzero(mass > 0)
     cols = np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel()
-    beta = force_transformation(topo, X, kin)[:, :, cols]
-    return _system_flexibility(element_flexibility(scene.linkage, topo), beta), np.repeat(mass[nodes], 2)
+    F = element_flexibility(scene.linkage, topo)
+    chunk = _chunk(topo)
+
+    def chunks():
+        for lo in range(0, theta.size, chunk):
+            sl = slice(lo, lo + chunk)
+            yield sl, _system_flexibility(F, force_transformation(topo, X[sl], _sub(kin, sl))[:, :, cols])
+
+    return chunks(), np.repeat(mass[nodes], 2)
+
+
+def flexibility_at_masses(scene: SliderScene, crank_angle: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Flexibility (n, 2K, 2K) [m/N] on the translations (x1, y1, x2, y2, ...) of the K lumped masses, and
+    their masses (2K,) [kg]."""
+    theta = _angles(scene, crank_angle)
+    chunks, m = _flexibility_chunks(scene, theta)
+    D = np.empty((theta.size, m.size, m.size))
+    for sl, d in chunks:
+        D[sl] = d
+    return D, m
 
 
 def slider_natural_frequencies(scene: SliderScene, n_modes: int = 3,
                                crank_angle: np.ndarray | None = None) -> np.ndarray:
     """Lowest natural frequencies [Hz] of the frozen lumped-mass structure, (n, n_modes); coordinates the
-    structure holds rigidly (the slider's normal, a rigid link's lumps) give no mode; missing modes are NaN."""
-    D, m = flexibility_at_masses(scene, crank_angle)
+    structure holds rigidly (the slider's normal, a rigid link's lumps) give no mode; missing modes are NaN.
+    Computed a few angles at a time (only the n_modes largest eigenvalues of sqrt(M) D sqrt(M))."""
+    from scipy.linalg import eigh
+    from scipy.sparse.linalg import eigsh
+
+    theta = _angles(scene, crank_angle)
+    chunks, m = _flexibility_chunks(scene, theta)
     sq = np.sqrt(m)
-    lam = np.linalg.eigvalsh(sq[:, None] * D * sq[None, :])[:, ::-1]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        f = np.where(lam > 1e-14 * np.max(lam, axis=1, keepdims=True, initial=0.0),
-                     1.0 / np.sqrt(np.abs(lam)) / (2.0 * np.pi), np.nan)
-    out = np.full((D.shape[0], n_modes), np.nan)
-    k = min(n_modes, f.shape[1])
-    out[:, :k] = f[:, :k]
+    k = min(n_modes, m.size)
+    out = np.full((theta.size, n_modes), np.nan)
+    for sl, D in chunks:
+        for i, d in zip(range(sl.start, sl.start + D.shape[0]), D):
+            a = sq[:, None] * d * sq[None, :]
+            moving = np.flatnonzero(np.any(a != 0.0, axis=1))  # coordinates the frozen structure lets move
+            if moving.size == 0:
+                continue
+            a = a[np.ix_(moving, moving)]
+            kk = min(k, moving.size)
+            if moving.size <= 64:
+                lam = eigh(a, eigvals_only=True, subset_by_index=[moving.size - kk, moving.size - 1])[::-1]
+            else:  # Lanczos for the few largest eigenvalues of a large matrix
+                lam = np.sort(eigsh(a, k=kk, which="LA", return_eigenvectors=False, tol=0.0))[::-1]
+            lam = np.concatenate([lam, np.zeros(k - kk)])
+            top = max(lam[0], 0.0)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                out[i, :k] = np.where(lam > 1e-14 * top, 1.0 / np.sqrt(np.abs(lam)) / (2.0 * np.pi), np.nan)
     return out
 
 
