@@ -280,3 +280,12 @@ def test_frozen_frequencies_are_the_pinned_pinned_rod():
     f = slider_natural_frequencies(scene, n_modes=2)
     exact = np.array([1.0, 4.0]) * (np.pi / sc.coupler) ** 2 * np.sqrt(rod.bending_stiffness / rod.mass_per_length)
     np.testing.assert_allclose(f, np.broadcast_to(exact / (2 * np.pi), f.shape), rtol=1e-3)
+
+
+def test_other_commands_refuse_a_slider_crank_in_one_line(tmp_path):
+    path = tmp_path / "slider.toml"
+    path.write_text(TOML)
+    for linkage in ("simeon", str(path)):
+        res = CliRunner().invoke(cli, ["linear", "--linkage", linkage])
+        assert res.exit_code == 2 and "analysed by 'ked quasi' only" in res.output
+        assert "Traceback" not in res.output
