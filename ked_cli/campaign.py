@@ -77,17 +77,26 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
         return
     from compare import store
     from compare.inspect import format_counts, format_table, summary_row
-    from compare.runner import SchedulerError, SettingsMismatchError, default_workers, run_campaign
+    from compare.runner import (
+        SchedulerError,
+        SettingsMismatchError,
+        WorkerError,
+        WorkerStartError,
+        default_workers,
+        run_campaign,
+    )
 
     try:
         summary = run_campaign(cfg, out, workers=workers, scheduler=scheduler, retry_failed=retry_failed,
                                progress=progress, on_start=lambda p: click.echo(
                                    f"campaign {cfg.name!r}: {n} scenes ({len(p.jobs)} to compute, {len(p.skipped)} "
                                    f"stored), solvers {', '.join(cfg.solvers)} -> {out}", err=True))
-    except (store.LockedError, SettingsMismatchError, store.StoreError, store.CommitError, SchedulerError) as exc:
+    except (store.LockedError, SettingsMismatchError, store.StoreError, store.CommitError, SchedulerError,
+            WorkerStartError, WorkerError) as exc:
         raise click.ClickException(str(exc)) from None
     order = {k: i for i, k in enumerate(summary.keys)}
-    results = sorted((r for r in store.read_scenes(out) if r.key in order), key=lambda r: order[r.key])
+    # the resolved path: a relative --out must still name the file if the working directory went away
+    results = sorted((r for r in store.read_scenes(summary.out) if r.key in order), key=lambda r: order[r.key])
     click.echo(format_table([summary_row(r) for r in results]))
     click.echo(format_counts(results))
     click.echo(f"this run: {summary.ok} ok, {summary.failed} failed, {summary.skipped} skipped (already stored)"

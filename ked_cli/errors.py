@@ -40,14 +40,23 @@ def os_message(exc: OSError) -> str:
     return f"{where}{what}" + (f" ({hints[exc.errno]})" if exc.errno in hints else "")
 
 
+_STOP_SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))
+
+
 def _terminate(signum: int, frame: object) -> None:
-    """SIGTERM is handled like Ctrl-C: the command stops cleanly (stored results are kept)."""
+    """Ctrl-C, SIGTERM and SIGHUP all stop the command cleanly (stored results are kept).  The first
+    one wins: the next ones are ignored, so they cannot interrupt the cleanup it started (stopping the
+    workers, releasing the lock) and leave the command hanging or printing a traceback."""
+    for s in _STOP_SIGNALS:
+        signal.signal(s, signal.SIG_IGN)
     raise KeyboardInterrupt
 
 
 def run_guarded(command: Callable[..., object]) -> None:
     """Run a click command as a script; map every failure to one line and an exit status."""
-    signal.signal(signal.SIGTERM, _terminate)
+    for s in _STOP_SIGNALS:
+        if signal.getsignal(s) is not signal.SIG_IGN:  # e.g. nohup: a hang-up stays ignored
+            signal.signal(s, _terminate)
     try:
         command.main(standalone_mode=False, prog_name="ked")
     except click.exceptions.Exit as exc:
