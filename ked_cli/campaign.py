@@ -75,6 +75,9 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
     if dry_run:
         _dry_run(cfg, out, retry_failed)
         return
+    fig_dir = figures or _figures_dir(out)
+    if not no_figures:
+        _check_figure_dir(fig_dir)  # before computing: a directory of the user's own files is refused now
     from compare import store
     from compare.inspect import format_counts, format_table, summary_row
     from compare.runner import (
@@ -103,10 +106,7 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
                + (f", {summary.lost} lost to a crashed worker (rerun to retry)" if summary.lost else "")
                + f" in {summary.wall_s:.1f} s; results: {out}")
     if not no_figures:
-        from compare.plots import write_figures
-
-        fig_dir = figures or _figures_dir(out)
-        paths = write_figures(results, fig_dir, workers=1 if scheduler else (workers or default_workers()))
+        paths = _write_figures(results, fig_dir, workers=1 if scheduler else (workers or default_workers()))
         click.echo(f"figures: {len(paths)} PNG files (re)drawn in {fig_dir} (index.json: file -> scene)")
 
 
@@ -203,10 +203,28 @@ def merge_cmd(src: Path, dest: Path) -> None:
               help="Processes drawing the figures [default: available CPUs].")
 def plot_cmd(file: Path, out_dir: Path | None, workers: int | None) -> None:
     """Draw PNG figures of a results FILE: per-scene histories and coupler curves, amplification vs speed."""
-    from compare.plots import write_figures
     from compare.runner import default_workers
 
     results = _results(file)
     target = out_dir or _figures_dir(file)
-    paths = write_figures(results, target, workers=workers or default_workers())
+    paths = _write_figures(results, target, workers=workers or default_workers())
     click.echo(f"{len(paths)} PNG files (re)drawn in {target} ({len(results)} scenes; index.json: file -> scene)")
+
+
+def _check_figure_dir(fig_dir: Path) -> None:
+    from compare.plots import FigureDirError, check_figure_dir
+
+    try:
+        check_figure_dir(fig_dir)
+    except FigureDirError as exc:
+        raise click.ClickException(str(exc)) from None
+
+
+def _write_figures(results: list, fig_dir: Path, workers: int) -> list[Path]:
+    """The figures of ``results`` in ``fig_dir``; a file there the harness did not write is refused."""
+    from compare.plots import FigureDirError, write_figures
+
+    try:
+        return write_figures(results, fig_dir, workers=workers)
+    except FigureDirError as exc:
+        raise click.ClickException(str(exc)) from None

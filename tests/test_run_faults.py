@@ -17,10 +17,27 @@ from pathlib import Path
 import pytest
 
 from compare import store
+from compare.config import parse_config
+from compare.runner import run_campaign
 
-from .test_edges import SLOW, _alive, _children, _cmdline
+from .test_edges import QS, SLOW, _alive, _children, _cmdline, assert_one_line_error, ked
 
 KED = [sys.executable, "-m", "ked_cli"]
+
+
+@pytest.fixture(scope="module")
+def qs_results(tmp_path_factory) -> Path:
+    """A small complete results file (quasi-static only: quick)."""
+    out = tmp_path_factory.mktemp("stored") / "edges.h5"
+    run_campaign(parse_config(QS), out, workers=1, progress=False)
+    return out
+
+
+@pytest.fixture()
+def qs_config(tmp_path) -> Path:
+    p = tmp_path / "edges.toml"
+    p.write_text(QS)
+    return p
 
 
 def _start(args: list[str], **kw) -> subprocess.Popen:
@@ -94,3 +111,48 @@ def test_ctrl_c_while_the_workers_start_prints_no_child_traceback(tmp_path):
     assert "Traceback" not in err and "Fatal Python error" not in err, err
     assert len(err.strip().splitlines()) == 1 and err.strip().startswith("ked: interrupted"), err
     assert _gone(workers)
+
+
+# -- figures: the user's files are left alone, no orphan draws on ---------------------------------------
+
+
+def test_figures_never_overwrite_files_the_harness_did_not_write(tmp_path, qs_config, qs_results):
+    for name in ("index.json", "amplification.png", "scene_source_tip_60rpm_k1_z0.02_ccw.png"):
+        figs = tmp_path / name.replace(".", "_")
+        figs.mkdir()
+        mine = figs / name
+        mine.write_bytes(b"the user's own file\n")
+        assert_one_line_error(ked("plot", str(qs_results), "--out", str(figs)), str(mine), "not", code=1)
+        if name == "index.json":
+            assert_one_line_error(ked("run", str(qs_config), "--out", str(qs_results), "--figures", str(figs),
+                                      "--no-progress"), str(mine), "not", code=1)
+        assert mine.read_bytes() == b"the user's own file\n" and os.listdir(figs) == [name]
+    # figures the harness wrote itself are kept up to date as before
+    own = tmp_path / "own"
+    assert ked("plot", str(qs_results), "--out", str(own)).returncode == 0
+    assert len(list(own.glob("scene_*.png"))) == 4
+    res = ked("plot", str(qs_results), "--out", str(own))
+    assert res.returncode == 0 and res.stdout.startswith("0 PNG files"), res.stdout
+
+
+MANY = QS.replace('rpm = [60.0, 90.0]', "rpm = [" + ", ".join(f"{30.0 + 5 * i}" for i in range(30)) + "]")
+
+
+def test_kill_9_of_ked_plot_takes_its_figure_workers_along(tmp_path):
+    out = tmp_path / "many.h5"
+    run_campaign(parse_config(MANY), out, workers=1, progress=False)  # 60 quasi-static scenes
+    figs = tmp_path / "figs"
+    proc = _start(["plot", str(out), "--out", str(figs), "--workers", "2"])
+    workers = _workers_of(proc, 2)
+    tracker = {c for c in _children(proc.pid) if "resource_tracker" in _cmdline(c)}
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not list(figs.glob("scene_*.png")):
+        time.sleep(0.05)
+    assert len(workers) == 2 and list(figs.glob("scene_*.png")), "the figure pool did not start drawing"
+    proc.kill()
+    proc.communicate()
+    # 60 figures on 2 workers take much longer than this bound; an orphan pool would still be drawing
+    assert _gone(workers | tracker, limit_s=5), "figure workers outlived ked plot"
+    n = len(list(figs.glob("scene_*.png")))
+    time.sleep(1.0)
+    assert len(list(figs.glob("scene_*.png"))) == n < 60
