@@ -8,11 +8,15 @@ non-zero exit status: 2 for bad input, 1 for a failure while working, 130 for an
 
 from __future__ import annotations
 
+import atexit
 import errno
+import gc
 import os
 import signal
 import sys
+import traceback
 from collections.abc import Callable
+from typing import Any
 
 import click
 
@@ -52,11 +56,57 @@ def _terminate(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
 
+def _from_h5py(tb: Any) -> bool:
+    return any("h5py" in (frame.filename or "") for frame in traceback.extract_tb(tb))
+
+
+def _quiet_unraisable(unraisable: Any) -> None:
+    """HDF5 objects released after a failed write (a full disk) each report the failed flush again as
+    an "Exception ignored" traceback; the failure itself was already reported in its one line."""
+    if _from_h5py(unraisable.exc_traceback) or "h5py" in repr(unraisable.object):
+        return
+    sys.__unraisablehook__(unraisable)
+
+
+def _quiet_excepthook(kind: type[BaseException], value: BaseException, tb: Any) -> None:
+    if _from_h5py(tb):  # the same, printed by h5py's deallocators through the except hook
+        return
+    sys.__excepthook__(kind, value, tb)
+
+
+def _exit(code: int) -> None:
+    """End a failed command with ``code``: release the HDF5 objects now (their errors are quiet), run
+    Python's exit handlers, and skip the C library's: HDF5 would retry closing files it could not
+    flush and crash there (a segmentation fault after the message on a full disk)."""
+    try:
+        gc.collect()
+        atexit._run_exitfuncs()
+    finally:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):
+                pass
+        os._exit(code)
+
+
 def run_guarded(command: Callable[..., object]) -> None:
     """Run a click command as a script; map every failure to one line and an exit status."""
     for s in _STOP_SIGNALS:
         if signal.getsignal(s) is not signal.SIG_IGN:  # e.g. nohup: a hang-up stays ignored
             signal.signal(s, _terminate)
+    sys.unraisablehook = _quiet_unraisable
+    sys.excepthook = _quiet_excepthook
+    try:
+        _run(command)
+    except SystemExit as exc:
+        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else EXIT_FAILURE)
+        if code == 0:
+            raise
+        _exit(code)
+
+
+def _run(command: Callable[..., object]) -> None:
     try:
         command.main(standalone_mode=False, prog_name="ked")
     except click.exceptions.Exit as exc:

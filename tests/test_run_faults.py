@@ -20,7 +20,7 @@ from compare import store
 from compare.config import parse_config
 from compare.runner import run_campaign
 
-from .test_edges import QS, SLOW, _alive, _children, _cmdline, assert_one_line_error, ked
+from .test_edges import QS, SLOW, _alive, _children, _cmdline, _mount, assert_one_line_error, ked
 
 KED = [sys.executable, "-m", "ked_cli"]
 
@@ -156,3 +156,42 @@ def test_kill_9_of_ked_plot_takes_its_figure_workers_along(tmp_path):
     n = len(list(figs.glob("scene_*.png")))
     time.sleep(1.0)
     assert len(list(figs.glob("scene_*.png"))) == n < 60
+
+
+# -- a disk that fills during the run -------------------------------------------------------------------
+
+
+FILLS = """
+[campaign]
+name = "fills"
+step_deg = 10.0
+n_modes = 1
+solvers = ["quasi_static", "linear"]
+[grid]
+mass_models = ["tip", "extender"]
+rpm = [30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0, 100.0]
+"""
+
+
+@pytest.mark.parametrize("size", ["150k", "500k"])
+def test_disk_filling_mid_run_ends_in_the_rescue_line_only(tmp_path, size):
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    _mount("-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(disk))
+    try:
+        cfg = tmp_path / "fills.toml"
+        cfg.write_text(FILLS)
+        res = ked("run", str(cfg), "--out", str(disk / "fills.h5"), "--workers", "1", "--no-progress",
+                  "--no-figures", timeout=300)
+        # before: the rescue line, then dozens of "Exception ignored" tracebacks and a segfault (exit 139)
+        assert res.returncode == 1, (res.returncode, res.stderr[-2000:])
+        err = res.stderr.strip().splitlines()
+        assert "Traceback" not in res.stderr and "Exception ignored" not in res.stderr, res.stderr[-2000:]
+        assert len(err) == 2 and err[0].startswith("campaign") and err[1].startswith("ked: "), err
+        if "ked merge" in err[1]:  # scenes were computed before the disk filled: they are in the rescue file
+            rescue = Path(err[1].split("are kept in ")[1].split(";")[0])
+            assert rescue.exists() and store.verify(rescue) == []
+        if (disk / "fills.h5").exists():
+            assert store.verify(disk / "fills.h5") == []  # what was committed before stays intact
+    finally:
+        subprocess.run(["umount", str(disk)], check=False)
