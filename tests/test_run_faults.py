@@ -195,3 +195,57 @@ def test_disk_filling_mid_run_ends_in_the_rescue_line_only(tmp_path, size):
             assert store.verify(disk / "fills.h5") == []  # what was committed before stays intact
     finally:
         subprocess.run(["umount", str(disk)], check=False)
+
+
+# -- peers that are not a Dask scheduler ------------------------------------------------------------------
+
+
+@pytest.fixture()
+def http_server():
+    """A plain HTTP server on loopback (it waits for a request line the Dask handshake never sends)."""
+    import http.server
+    import threading
+
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), http.server.SimpleHTTPRequestHandler)
+    server.daemon_threads = True
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    yield f"127.0.0.1:{server.server_address[1]}"
+    server.shutdown()
+    server.server_close()
+
+
+def test_scheduler_address_of_an_http_server_is_refused_within_the_limit(tmp_path, qs_config, http_server):
+    # before: blocked in the Dask client's constructor for over 400 s, silently, holding the lock
+    out = tmp_path / "s.h5"
+    res = ked("run", str(qs_config), "--out", str(out), "--scheduler", http_server, "--no-progress", timeout=90)
+    assert_one_line_error(res, http_server, "not a Dask scheduler", code=1)
+    assert not out.exists()
+
+
+def test_scheduler_probe_bounds_a_silent_peer():
+    import socket
+
+    from compare.runner import SchedulerError, probe_scheduler
+
+    with socket.create_server(("127.0.0.1", 0)) as silent:  # accepts (the kernel does), never answers
+        address = f"tcp://127.0.0.1:{silent.getsockname()[1]}"
+        with pytest.raises(SchedulerError, match="not a Dask scheduler"):
+            probe_scheduler(address, timeout_s=1.0)
+
+
+# -- the Python API from a script without a main guard ----------------------------------------------------
+
+
+def test_script_without_main_guard_fails_the_run_and_stores_nothing(tmp_path):
+    script = tmp_path / "campaign.py"
+    out = tmp_path / "noguard.h5"
+    script.write_text(f"from compare.config import parse_config\nfrom compare.runner import run_campaign\n"
+                      f"run_campaign(parse_config({QS!r}), {str(out)!r}, workers=2, progress=False)\n"
+                      "print('finished')\n")
+    res = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    # before: six worker tracebacks, exit 0, and every scene stored as a "numerical" failure (WorkerCrashed)
+    assert res.returncode != 0 and "finished" not in res.stdout
+    assert res.stderr.count("Traceback") == 1, res.stderr  # the script's own, not one per worker
+    last = res.stderr.strip().splitlines()[-1]
+    assert last.startswith("compare.runner.WorkerStartError") and 'if __name__ == "__main__":' in last, last
+    assert not out.exists() or store.read_scenes(out) == []
