@@ -24,6 +24,22 @@ def _safe_name(name: str) -> str:
     return "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name) or "campaign"
 
 
+def _regular(path: Path, what: str) -> None:
+    """Refuse (exit 2) a path that exists but is not a regular file, or cannot be followed (a symbolic
+    link loop): a FIFO would block the command forever."""
+    import stat
+
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        return  # absent (or a dangling link): the command says what it needs
+    except OSError as exc:
+        raise click.UsageError(f"{what} {path}: {exc.strerror or exc}; give a results file (.h5)") from None
+    if not stat.S_ISREG(mode):
+        raise click.UsageError(f"{what} {path}: not a regular file (a FIFO, socket, device or directory); "
+                               "give a results file (.h5)")
+
+
 def _load(config: Path | None) -> Any:
     from compare.config import ConfigError, load_config
 
@@ -67,6 +83,7 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
     """
     cfg = _load(config)
     out = out or DEFAULT_DIR / f"{_safe_name(cfg.name)}.h5"
+    _regular(out, "--out")
     n = cfg.grid.size()
     if n > LARGE_GRID:
         hours = n * SECONDS_PER_SCENE / (workers or 2) / 3600 if "dynamic" in cfg.solvers else 0.0
@@ -133,6 +150,7 @@ def _dry_run(cfg: Any, out: Path, retry_failed: bool) -> None:
 @click.option("--verify", is_flag=True, help="Check the file's integrity and schema; exit 1 on problems.")
 def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool) -> None:
     """Show a results FILE: summary table of its scenes, or one SCENE (key prefix or label) in detail."""
+    _regular(file, "FILE")
     if verify:
         _verify(file, as_json)
         return
@@ -188,6 +206,8 @@ def merge_cmd(src: Path, dest: Path) -> None:
     """Add the scenes of results file SRC (e.g. a rescue file) that DEST lacks to DEST (SRC unchanged)."""
     from compare import store
 
+    _regular(src, "SRC")
+    _regular(dest, "DEST")
     try:
         added, kept = store.merge(src, dest)
     except (store.StoreError, store.CommitError, store.LockedError) as exc:
@@ -205,6 +225,7 @@ def plot_cmd(file: Path, out_dir: Path | None, workers: int | None) -> None:
     """Draw PNG figures of a results FILE: per-scene histories and coupler curves, amplification vs speed."""
     from compare.runner import default_workers
 
+    _regular(file, "FILE")
     results = _results(file)
     target = out_dir or _figures_dir(file)
     paths = _write_figures(results, target, workers=workers or default_workers())
