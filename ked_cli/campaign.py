@@ -92,7 +92,7 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
     if dry_run:
         _dry_run(cfg, out, retry_failed)
         return
-    fig_dir = figures or _figures_dir(out)
+    fig_dir = (figures or _figures_dir(out)).absolute()  # still right if the working directory goes away
     if not no_figures:
         _check_figure_dir(fig_dir)  # before computing: a directory of the user's own files is refused now
     from compare import store
@@ -156,6 +156,7 @@ def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool) -> N
         return
     from compare import store
     from compare.inspect import find_scene, format_counts, format_detail, format_table, scene_detail, summary_row
+    from ked_cli.options import json_text
 
     results = _results(file)
     if scene:
@@ -163,12 +164,12 @@ def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool) -> N
             r = find_scene(results, scene)
         except ValueError as exc:
             raise click.ClickException(str(exc)) from None
-        click.echo(json.dumps(scene_detail(r), indent=2) if as_json else format_detail(r))
+        click.echo(json_text(scene_detail(r), indent=2, default=str) if as_json else format_detail(r))
         return
     rows = [summary_row(r) for r in results]
     info = store.file_info(file)
     if as_json:
-        click.echo(json.dumps({"file": str(file), "attributes": info, "scenes": rows}, indent=2, default=str))
+        click.echo(json_text({"file": str(file), "attributes": info, "scenes": rows}, indent=2, default=str))
         return
     click.echo(f"{file}: campaign {info.get('campaign_name')!r}, created {info.get('created_utc')}, "
                f"harness {info.get('harness_version')} ({info.get('git_commit', '')[:10] or 'no git'}), "

@@ -134,8 +134,9 @@ def build_scene(o: SceneOptions, mechanism: str | None = None, mass_model: str |
         raise click.UsageError(str(exc)) from None
 
 
-def json_text(value: Any) -> str:
-    """Strict JSON (no NaN or inf: null instead; tuples as lists) of plain data."""
+def json_text(value: Any, **dumps: Any) -> str:
+    """Strict JSON (no NaN or inf: null instead; tuples as lists) of plain data (``dumps``: options of
+    :func:`json.dumps`, e.g. ``indent``)."""
     import json
     import math
 
@@ -148,4 +149,4 @@ def json_text(value: Any) -> str:
             return None
         return v
 
-    return json.dumps(clean(value), allow_nan=False)
+    return json.dumps(clean(value), allow_nan=False, **dumps)

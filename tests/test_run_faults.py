@@ -249,3 +249,69 @@ def test_script_without_main_guard_fails_the_run_and_stores_nothing(tmp_path):
     last = res.stderr.strip().splitlines()[-1]
     assert last.startswith("compare.runner.WorkerStartError") and 'if __name__ == "__main__":' in last, last
     assert not out.exists() or store.read_scenes(out) == []
+
+
+# -- odd paths, odd values ---------------------------------------------------------------------------------
+
+
+def test_fifo_or_symlink_loop_is_refused_in_one_line(tmp_path, qs_config, qs_results):
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)  # opening it for reading would block until a writer comes: forever
+    loop = tmp_path / "loop.h5"
+    loop.symlink_to(tmp_path / "loop2.h5")
+    (tmp_path / "loop2.h5").symlink_to(loop)
+    for args in (["run", str(fifo), "--dry-run"], ["quasi", "--linkage", str(fifo)],
+                 ["run", str(qs_config), "--out", str(fifo), "--no-progress"], ["inspect", str(fifo)],
+                 ["plot", str(fifo)], ["merge", str(qs_results), str(fifo)]):
+        assert_one_line_error(ked(*args, timeout=60), "pipe", "not a regular file", code=2)
+    assert_one_line_error(ked("run", str(qs_config), "--out", str(loop), "--no-progress"), "loop.h5",
+                          "symbolic links", code=2)
+
+
+def test_malformed_study_readme_markers_are_named_in_one_line(tmp_path):
+    from compare.studies.sections import SectionError, write_section
+
+    readme = tmp_path / "README.md"
+    text = "# results\n<!-- BEGIN stability -->\nold text\n"  # its END marker was deleted by hand
+    readme.write_text(text)
+    res = ked("study", "stability", "--results-dir", str(tmp_path), "--report-only")
+    assert_one_line_error(res, "README.md", "malformed section markers", code=1)
+    with pytest.raises(SectionError, match="README.md"):
+        write_section(readme, "stability", "new text")
+    assert readme.read_text() == text
+
+
+def test_inspect_json_is_strict_json_where_a_value_is_nan(tmp_path, qs_results):
+    import json
+
+    import h5py
+
+    out = tmp_path / "nan.h5"
+    out.write_bytes(qs_results.read_bytes())
+    with h5py.File(out, "a") as f:  # a solver statistic that is not a number (as json.dumps stores it)
+        key = sorted(f["scenes"])[0]
+        f["scenes"][key]["solutions"]["quasi_static"].attrs["stats_json"] = '{"residual": NaN}'
+    res = ked("inspect", str(out), key, "--json")
+    assert res.returncode == 0, res.stderr
+
+    def refuse(constant: str) -> None:
+        raise ValueError(f"not strict JSON: {constant}")
+
+    detail = json.loads(res.stdout, parse_constant=refuse)
+    assert detail["solutions"]["quasi_static"]["stats"]["residual"] is None
+
+
+def test_working_directory_deleted_mid_run_still_summarises_every_scene(tmp_path):
+    work = tmp_path / "work"
+    work.mkdir()
+    (tmp_path / "c.toml").write_text(FILLS)
+    out = tmp_path / "r.h5"
+    proc = _start(["run", "../c.toml", "--out", "../r.h5", "--workers", "1", "--no-progress", "--no-figures"],
+                  cwd=work)
+    _workers_of(proc, 1, until=out)
+    time.sleep(0.5)
+    work.rmdir()
+    stdout, err = _finish(proc, limit_s=300)
+    assert proc.returncode == 0, err
+    n = len(store.read_scenes(out))
+    assert n == 16 and "16 ok" in stdout, stdout[-600:]  # was: "0 scenes" though all were stored
