@@ -29,6 +29,30 @@ class UserError(click.ClickException):
     """A problem the user can fix, with its one-line message (exit status 1)."""
 
 
+LOW_MEMORY = ("not enough memory to load the numerical libraries (the memory limit, ulimit -v, is too low: they "
+              "need about 400 MB of address space); raise the limit, e.g. ulimit -v unlimited")
+MIN_ADDRESS_SPACE = 256 * 2**20
+"""[bytes] Below this memory limit (ulimit -v) the numerical libraries abort while loading, in C."""
+
+
+def check_memory_limit() -> None:
+    """End in one line if the address-space limit is too low to even load numpy and its BLAS (which
+    would otherwise abort with its own message, or fail the import)."""
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - not POSIX
+        return
+    soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+    if soft != resource.RLIM_INFINITY and soft < MIN_ADDRESS_SPACE:
+        click.echo(f"ked: {LOW_MEMORY} (it is {soft / 2**20:.0f} MB)", err=True)
+        sys.exit(EXIT_FAILURE)
+
+
+def _internal(exc: BaseException) -> str:
+    return (f"ked: internal error ({type(exc).__name__}: {first_line(str(exc))}); please report it with the "
+            "command line")
+
+
 def first_line(text: str) -> str:
     return str(text).strip().split("\n")[0]
 
@@ -129,10 +153,13 @@ def _run(command: Callable[..., object]) -> None:
     except OSError as exc:
         click.echo(f"ked: {os_message(exc)}", err=True)
         sys.exit(EXIT_FAILURE)
+    except ImportError as exc:
+        low = any(w in str(exc) for w in ("failed to map segment", "Cannot allocate memory"))
+        click.echo(f"ked: {LOW_MEMORY}" if low else _internal(exc), err=True)
+        sys.exit(EXIT_FAILURE)
     except MemoryError:
         click.echo("ked: out of memory; use a coarser step_deg or fewer lumps", err=True)
         sys.exit(EXIT_FAILURE)
     except Exception as exc:  # noqa: BLE001 - the last line of defence: still one line, with where to look
-        click.echo(f"ked: internal error ({type(exc).__name__}: {first_line(str(exc))}); please report it with "
-                   "the command line", err=True)
+        click.echo(_internal(exc), err=True)
         sys.exit(EXIT_FAILURE)

@@ -315,3 +315,16 @@ def test_working_directory_deleted_mid_run_still_summarises_every_scene(tmp_path
     assert proc.returncode == 0, err
     n = len(store.read_scenes(out))
     assert n == 16 and "16 ok" in stdout, stdout[-600:]  # was: "0 scenes" though all were stored
+
+
+@pytest.mark.parametrize("limit_kb", [100_000, 300_000])
+def test_too_low_memory_limit_is_one_line(tmp_path, qs_config, limit_kb):
+    # ulimit -v: at 100 MB OpenBLAS aborted with its own message, at 300 MB the import failed (ImportError)
+    import resource
+
+    def limit() -> None:
+        resource.setrlimit(resource.RLIMIT_AS, (limit_kb * 1024, resource.RLIM_INFINITY))
+
+    res = subprocess.run([*KED, "run", str(qs_config), "--out", str(tmp_path / "m.h5"), "--no-progress",
+                          "--no-figures"], capture_output=True, text=True, timeout=120, preexec_fn=limit)
+    assert_one_line_error(res, "memory", "ulimit -v", code=1)
