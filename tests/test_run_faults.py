@@ -41,7 +41,8 @@ def qs_config(tmp_path) -> Path:
 
 
 def _start(args: list[str], **kw) -> subprocess.Popen:
-    return subprocess.Popen([*KED, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
+    kw = {"stdout": subprocess.PIPE, "stderr": subprocess.PIPE, **kw}
+    return subprocess.Popen([*KED, *args], text=True, **kw)
 
 
 def _workers_of(proc: subprocess.Popen, n: int, until: Path | None = None, limit_s: float = 120) -> set[int]:
@@ -142,7 +143,9 @@ def test_kill_9_of_ked_plot_takes_its_figure_workers_along(tmp_path):
     out = tmp_path / "many.h5"
     run_campaign(parse_config(MANY), out, workers=1, progress=False)  # 60 quasi-static scenes
     figs = tmp_path / "figs"
-    proc = _start(["plot", str(out), "--out", str(figs), "--workers", "2"])
+    # no pipes: orphans holding them would block reading the output
+    proc = _start(["plot", str(out), "--out", str(figs), "--workers", "2"], stdout=subprocess.DEVNULL,
+                  stderr=subprocess.DEVNULL)
     workers = _workers_of(proc, 2)
     tracker = {c for c in _children(proc.pid) if "resource_tracker" in _cmdline(c)}
     deadline = time.monotonic() + 120
@@ -150,7 +153,7 @@ def test_kill_9_of_ked_plot_takes_its_figure_workers_along(tmp_path):
         time.sleep(0.05)
     assert len(workers) == 2 and list(figs.glob("scene_*.png")), "the figure pool did not start drawing"
     proc.kill()
-    proc.communicate()
+    proc.wait()
     # 60 figures on 2 workers take much longer than this bound; an orphan pool would still be drawing
     assert _gone(workers | tracker, limit_s=5), "figure workers outlived ked plot"
     n = len(list(figs.glob("scene_*.png")))
