@@ -166,8 +166,9 @@ def refuse_fast(fourbar: Any, mass_model: Any, rpms: list[float], step_deg: floa
             raise click.BadParameter(str(exc).removeprefix("value = "), param_hint=hint) from None
 
 
-def json_text(value: Any) -> str:
-    """Strict JSON (no NaN or inf: null instead; tuples as lists) of plain data."""
+def json_text(value: Any, **dumps: Any) -> str:
+    """Strict JSON (no NaN or inf: null instead; tuples as lists) of plain data (``dumps``: options of
+    :func:`json.dumps`, e.g. ``indent``)."""
     import json
     import math
 
@@ -180,4 +181,4 @@ def json_text(value: Any) -> str:
             return None
         return v
 
-    return json.dumps(clean(value), allow_nan=False)
+    return json.dumps(clean(value), allow_nan=False, **dumps)

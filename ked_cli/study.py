@@ -35,12 +35,17 @@ def common_options(f: Any) -> Any:
 def _run(name: str, results_dir: Path | None, workers: int, fresh: bool, report_only: bool, progress: bool,
          **options: Any) -> None:
     from compare.studies import StudyPaths, run
+    from compare.studies.sections import SectionError, check_markers
 
     paths = StudyPaths(results_dir) if results_dir is not None else StudyPaths()
     if fresh and report_only:
         raise click.UsageError("--fresh and --report-only exclude each other")
-    summary = run(name, paths, workers=workers, fresh=fresh, report_only=report_only, progress=progress,
-                  echo=lambda text: click.echo(text, err=True), **options)
+    try:
+        check_markers(paths.readme)  # before the study runs: its section is written at the end
+        summary = run(name, paths, workers=workers, fresh=fresh, report_only=report_only, progress=progress,
+                      echo=lambda text: click.echo(text, err=True), **options)
+    except SectionError as exc:
+        raise click.ClickException(str(exc)) from None
     click.echo(json.dumps(summary, indent=2, default=str))
 
 
