@@ -111,7 +111,7 @@ def compact(path: Path) -> None:
     """Rewrite the file in one piece (appending in small batches leaves small chunks, and HDF5 does not give
     back the space of replaced tables): a new file is written with :func:`compare.store.transaction`
     next to it and renamed onto it atomically."""
-    tables = {t: read(path, t) for t in ("linkages", "families", "confirm")}
+    tables = {t: read(path, t) for t in ("linkages", "families", "confirm", "threshold")}
     with h5py.File(path, "r") as f:
         file_attrs = dict(f.attrs)
     fresh = path.with_name(path.name + ".compact")
