@@ -183,7 +183,7 @@ def test_threshold_scene_and_stored_margins(atlas):
     m = verdict_margins(0.10, atlas["path"])
     # one scene cannot bound the unsafe rate by 3 % (that needs >= 122 scenes without an unsafe call):
     # the prediction alone grants no quasi-static tier
-    assert m.holds_below == 0.0 and m.n_scenes == int(thr["status"][0] == "ok")
+    assert m.holds_below == 0.0 and 0 < m.n_scenes <= 2  # the threshold scene (+ a confirmed one at r*)
     assert atlas["margins"]["bound_met"] is False
     assert math.isnan(verdict_margins(0.05, atlas["path"]).holds_below)  # calibrated at 10 % only
 

@@ -18,13 +18,17 @@ it says not quasi-static and m < tol; a borderline call is never unsafe (it says
 apart.  Rates are over every threshold scene with an Exudyn steady state, each with its two-sided 95 %
 Clopper-Pearson interval (:func:`clopper_pearson`).
 
-:func:`choose_margins`: ``holds_below`` is the largest multiplier on :data:`HOLDS_GRID` whose unsafe-call
-rate has an upper 95 % bound <= :data:`MAX_UNSAFE_UPPER95` (the unsafe count grows with the multiplier, so
-every smaller one meets it too); ``fails_above`` is the smallest multiplier >= 1 on :data:`FAILS_GRID` whose
-over-cautious calls *made by the prediction* (e >= fails_above x tol, m < tol) meet the same bound.  The band
-between them is the measured uncertainty of the prediction at the threshold.  When no multiplier meets the
-bound (too few scenes: with no unsafe call at all the bound needs n >= 122), ``holds_below`` is 0 (the
-prediction alone never grants the quasi-static tier) and ``bound_met`` is False.
+:func:`choose_margins` takes the more cautious of two criteria on each side.  ``holds_below``: (a) the
+largest multiplier on :data:`HOLDS_GRID` whose unsafe-call rate has an upper 95 % bound <=
+:data:`MAX_UNSAFE_UPPER95` (the unsafe count grows with the multiplier, so every smaller one meets it too),
+and (b) at most 1 / q95 of the measured-over-predicted ratio m / e of the scenes predicted near the
+tolerance (e within +-20 % of it; all scenes if fewer than :data:`MIN_NEAR`): a call at the margin is
+then right with about 95 % probability.  ``fails_above``: (a) the smallest multiplier >= 1 on
+:data:`FAILS_GRID` whose over-cautious calls *made by the prediction* (e >= fails_above x tol, m < tol) meet
+the same bound, and (b) at least 1 / q05 of the same ratio.  The band between them is the measured
+uncertainty of the prediction at the threshold.  When no multiplier meets the bound (too few scenes: with
+no unsafe call at all the bound needs n >= 122), ``holds_below`` is 0 (the prediction alone never grants
+the quasi-static tier) and ``bound_met`` is False.
 """
 
 from __future__ import annotations
@@ -43,6 +47,9 @@ HOLDS_GRID = tuple(round(0.01 * i, 2) for i in range(1, 101))
 """Candidate ``holds_below`` multipliers: 0.01 ... 1.00."""
 FAILS_GRID = tuple(round(1.0 + 0.01 * i, 2) for i in range(0, 201))
 """Candidate ``fails_above`` multipliers: 1.00 ... 3.00."""
+NEAR = 0.20
+"""Scenes predicted within +-20 % of the tolerance measure the prediction's scatter at the decision."""
+MIN_NEAR = 30
 
 
 @dataclass(frozen=True)
@@ -121,6 +128,14 @@ class Margins:
     stats: CallStats
     plain: CallStats
     """The plain rule for context: quasi-static iff e < tolerance, no margin, no linear-range gate."""
+    holds_below_rate: float
+    holds_below_scatter: float
+    fails_above_rate: float
+    fails_above_scatter: float
+    ratio_q05: float
+    ratio_q95: float
+    n_near: int
+    """Scenes behind the ratio quantiles (measured / predicted error near the tolerance)."""
 
 
 def choose_margins(e: np.ndarray, measured: np.ndarray, r: np.ndarray, r_linear: np.ndarray,
@@ -148,9 +163,18 @@ def choose_margins(e: np.ndarray, measured: np.ndarray, r: np.ndarray, r_linear:
         if clopper_pearson(k, n).high95 <= max_unsafe_upper95:
             fa = cand
             break
-    fa = max(fa, hb)
+    good = np.isfinite(e) & (e > 0)
+    near = good & (np.abs(e / tolerance - 1.0) <= NEAR)
+    pick = near if near.sum() >= MIN_NEAR else good
+    ratio = m[pick] / e[pick]
+    q05, q95 = (float(np.percentile(ratio, q)) for q in (5, 95)) if ratio.size else (math.nan, math.nan)
+    hb_scatter = math.floor(100.0 / q95 + 1e-9) / 100.0 if q95 > 0 else 0.0
+    fa_scatter = math.ceil(100.0 / q05 - 1e-9) / 100.0 if q05 > 0 else FAILS_GRID[-1]
+    holds = min(hb, hb_scatter) if met else 0.0
+    fails = max(fa, fa_scatter, holds, 1.0)
     plain = np.where(np.isfinite(e) & (e < tolerance), QUASI_STATIC, NOT_QUASI_STATIC)
-    return Margins(tolerance, hb, fa, met, call_stats(rule(hb, fa), m, tolerance), call_stats(plain, m, tolerance))
+    return Margins(tolerance, holds, fails, met, call_stats(rule(holds, fails), m, tolerance),
+                   call_stats(plain, m, tolerance), hb, hb_scatter, fa, fa_scatter, q05, q95, int(pick.sum()))
 
 
 def margins_record(mg: Margins, source: str) -> dict[str, object]:
@@ -162,7 +186,10 @@ def margins_record(mg: Margins, source: str) -> dict[str, object]:
             "unsafe_rate": s.unsafe.rate, "unsafe_upper95": s.unsafe.high95,
             "overcautious_rate": s.overcautious.rate, "overcautious_upper95": s.overcautious.high95,
             "agreement": s.agreement.rate, "agreement_low95": s.agreement.low95,
-            "agreement_high95": s.agreement.high95, "source": source,
+            "agreement_high95": s.agreement.high95, "source": source, "holds_below_rate": mg.holds_below_rate,
+            "holds_below_scatter": mg.holds_below_scatter, "fails_above_rate": mg.fails_above_rate,
+            "fails_above_scatter": mg.fails_above_scatter, "ratio_q05": mg.ratio_q05, "ratio_q95": mg.ratio_q95,
+            "n_near": mg.n_near,
             "stats": _jsonable(asdict(s)), "plain": _jsonable(asdict(mg.plain))}
 
 
@@ -183,9 +210,11 @@ ATTR = "verdict_margins"
 
 @dataclass(frozen=True)
 class ThresholdData:
-    """Per threshold scene with an Exudyn answer or not: predicted error ``e`` (quasi-static vs linear),
+    """Per threshold scene, with an Exudyn answer or not: predicted error ``e`` (quasi-static vs linear),
     measured error (quasi-static vs Exudyn, nan where Exudyn failed), speed ratio ``r``, the mass model's
-    lower-band linear limit ``r_linear``, ``linear_ok`` (a linear solution without flags); all [1]."""
+    lower-band linear limit ``r_linear``, ``linear_ok`` (a linear solution without flags); all [1].
+    ``sample``: "threshold" (the threshold table) or "confirm" (a scene of the confirmed sample inside the
+    band)."""
 
     e: np.ndarray
     measured: np.ndarray
@@ -195,28 +224,36 @@ class ThresholdData:
     mass_model: np.ndarray
     mechanism: np.ndarray
     factor: np.ndarray
+    sample: np.ndarray
+    linkage: np.ndarray
 
 
 def threshold_data(path: object, tolerance: float = 0.10) -> ThresholdData:
-    """The threshold table of an atlas file, joined with each mass model's lower-band linear limit
+    """The threshold scenes of an atlas file: the /threshold table and the /confirm scenes within the band
+    (r within +-25 % of the family's r10), joined with each mass model's lower-band linear limit
     (:func:`compare.atlas.analysis.limits`, :func:`compare.atlas.analysis.lower_band`)."""
     from pathlib import Path
 
     from compare.atlas import store
     from compare.atlas.analysis import limits, lower_band
-    from compare.atlas.threshold import TABLE
+    from compare.atlas.threshold import BAND, TABLE
 
     p = Path(path)  # type: ignore[arg-type]
-    t = store.read(p, TABLE)
-    mm = np.asarray(t.get("mass_model", []), dtype=object)
+    thr, conf = store.read(p, TABLE), store.read(p, "confirm")
+    in_band = np.abs(np.asarray(conf.get("factor", []), float) - 1.0) <= BAND + 1e-12
+    cols = ("qs_vs_linear", "linear_flags", "status", "qs_vs_dyn", "r", "mass_model", "mechanism", "factor",
+            "linkage")
+    t = {c: np.concatenate([np.asarray(thr.get(c, []), dtype=object), np.asarray(conf.get(c, []),
+                                                                                 dtype=object)[in_band]])
+         for c in cols}
+    sample = np.array(["threshold"] * len(thr.get("key", [])) + ["confirm"] * int(in_band.sum()), dtype=object)
+    mm = t["mass_model"]
     bands = {m: lower_band(limits(m, p), tolerance) for m in sorted(set(mm))}
-    e = np.asarray(t.get("qs_vs_linear", []), float)
-    ok = np.isfinite(e) & (np.asarray(t.get("linear_flags", []), int) == 0)
-    measured = np.where(np.asarray(t.get("status", []), dtype=object) == "ok",
-                        np.asarray(t.get("qs_vs_dyn", []), float), math.nan)
-    return ThresholdData(e, measured, np.asarray(t.get("r", []), float), np.array([bands[m] for m in mm], float),
-                         ok, mm, np.asarray(t.get("mechanism", []), dtype=object),
-                         np.asarray(t.get("factor", []), float))
+    e = t["qs_vs_linear"].astype(float)
+    ok = np.isfinite(e) & (t["linear_flags"].astype(int) == 0)
+    measured = np.where(t["status"] == "ok", t["qs_vs_dyn"].astype(float), math.nan)
+    return ThresholdData(e, measured, t["r"].astype(float), np.array([bands[m] for m in mm], float), ok, mm,
+                         t["mechanism"], t["factor"].astype(float), sample, t["linkage"].astype(int))
 
 
 def threshold_margins(path: object, tolerance: float = 0.10) -> Margins:
@@ -239,8 +276,8 @@ def store_margins(path: object, tolerance: float = 0.10) -> dict[str, object] | 
     if not store.read(p, TABLE):
         return None
     rec = margins_record(threshold_margins(p, tolerance),
-                         f"atlas threshold sample ({p.name}): Exudyn-confirmed scenes within +-25 % of their "
-                         "family's quasi-static 10 % limit")
+                         f"atlas {p.name}: Exudyn-confirmed scenes within +-25 % of their family's quasi-static 10 % "
+                         "limit (threshold sample and the confirmed sample's scenes in that band)")
     old = store.attrs(p).get(ATTR, {})
     old = old if isinstance(old, dict) else {}
     key = f"{100 * tolerance:g}"

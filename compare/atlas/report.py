@@ -220,7 +220,26 @@ def _ci(x: cal.Rate) -> str:
     return f"{x.k}/{x.n} = {x.rate:.1%} [{x.low95:.1%}-{x.high95:.1%}]"
 
 
-def threshold_text(d: cal.ThresholdData | None, mg: cal.Margins | None) -> list[str]:
+def early_text(d: cal.ThresholdData, fam: dict[str, np.ndarray], tol: float) -> list[str]:
+    """Threshold scenes already at or above the tolerance below their family's interpolated r*: between the
+    first-crossing limit and the interpolated value (the interpolation overstated the limit), or below the
+    first-crossing limit (a crossing the atlas grid did not see)."""
+    row = {(int(k), str(m), str(mm)): i for i, (k, m, mm) in enumerate(zip(fam["linkage"], fam["mechanism"],
+                                                                          fam["mass_model"]))}
+    r_first = np.array([fam["r10"][row[(int(k), str(m), str(mm))]] if (int(k), str(m), str(mm)) in row else np.nan
+                        for k, m, mm in zip(d.linkage, d.mechanism, d.mass_model)], float)
+    below = (d.sample == "threshold") & np.isfinite(d.e) & (d.factor < 1.0)
+    early = below & (d.e >= tol)
+    unseen = early & (d.r <= r_first)
+    return [f"First crossings, checked: {int(early.sum())} of the {int(below.sum())} threshold scenes below their "
+            "family's interpolated r* already have a predicted error >= 10 %: "
+            f"{int((early & ~unseen).sum())} between the last passing grid ratio and the interpolated value (the "
+            "interpolation overstated the limit: why every atlas limit is the last passing grid ratio), "
+            f"{int(unseen.sum())} at or below the last passing grid ratio (a crossing the atlas grid did not see)."]
+
+
+def threshold_text(d: cal.ThresholdData | None, mg: cal.Margins | None,
+                   fam: dict[str, np.ndarray] | None = None) -> list[str]:
     """The threshold calibration: counts, rates with intervals, the chosen margins, per stratum."""
     if d is None or mg is None or not d.e.size:
         return ["No threshold sample yet (`ked study atlas --threshold N`)."]
@@ -236,11 +255,13 @@ def threshold_text(d: cal.ThresholdData | None, mg: cal.Margins | None) -> list[
 
     gated = int(np.sum(ok & np.isfinite(d.e) & (d.e < mg.holds_below * tol) & ~(d.r < d.r_linear)))
     near = (e >= 0.8 * tol) & (e <= 1.2 * tol)
+    thr = d.sample == "threshold"
     L = [f"Stratified (`compare.atlas.threshold`): per mass model and mechanism ({min(strata.values())}-"
          f"{max(strata.values())} scenes each), families drawn from equal strata of their r* (10 %), one scene "
          f"each at r = f x r* with f uniform in [0.75, 1.25] (drawn: {lo:.3f}-{hi:.3f}; r* the interpolated value the "
          "file stores, which lies in its first-crossing bracket); quasi-static, linear and Exudyn (default settings, "
-         "those of the default campaign).", "",
+         f"those of the default campaign): {int(thr.sum())} scenes, joined by the {int((~thr).sum())} scenes of the "
+         "confirmed sample below that lie in the same band (at r = r*).", "",
          f"* {d.e.size} scenes, {int(ok.sum())} with an Exudyn steady state, {int((~ok).sum())} failed (stored with "
          "their reasons, left out of the rates).",
          f"* Measured error (quasi-static vs Exudyn) over predicted (quasi-static vs linear): median "
@@ -257,13 +278,18 @@ def threshold_text(d: cal.ThresholdData | None, mg: cal.Margins | None) -> list[
          row(f"chosen: e < {mg.holds_below:g} x 10 % and r below the linear lower band; borderline to "
              f"{mg.fails_above:g} x", mg.stats), "",
          f"**Chosen margins** (`compare.atlas.verdict_margins()`, stored in the atlas file): quasi-static holds below "
-         f"**{mg.holds_below:g} x** the tolerance, borderline up to **{mg.fails_above:g} x**: the largest multiplier "
-         f"whose unsafe-call rate has a 95 % upper bound <= {cal.MAX_UNSAFE_UPPER95:.0%} "
-         f"({'met' if mg.bound_met else 'NOT met: the prediction alone grants no quasi-static tier'}: "
-         f"{mg.stats.unsafe.high95:.1%}), and the smallest >= 1 whose over-cautious predictions (e >= it, measured "
-         f"< 10 %) meet the same bound. The linear-range gate (r below the mass model's lower-band linear limit) "
-         f"withheld the quasi-static tier from {gated} scenes the margin alone would have granted. This is "
-         "`compare.atlas.calibration.calls`, the rule `ked check` mirrors.", "",
+         f"**{mg.holds_below:g} x** the tolerance, borderline up to **{mg.fails_above:g} x**, each the more cautious "
+         f"of two criteria. Rate: the largest multiplier whose unsafe-call rate has a 95 % upper bound <= "
+         f"{cal.MAX_UNSAFE_UPPER95:.0%} ({mg.holds_below_rate:g} x; "
+         f"{'met' if mg.bound_met else 'NOT met: the prediction alone grants no quasi-static tier'}), and the "
+         f"smallest >= 1 whose over-cautious predictions (e >= it, measured < 10 %) meet the same bound "
+         f"({mg.fails_above_rate:g} x). Scatter: measured / predicted error of the {mg.n_near} scenes predicted "
+         f"within +-20 % of the tolerance, 5-95 %: {mg.ratio_q05:.3f}-{mg.ratio_q95:.3f}, so a call at "
+         f"1 / {mg.ratio_q95:.3f} = {mg.holds_below_scatter:g} x (at 1 / {mg.ratio_q05:.3f} = "
+         f"{mg.fails_above_scatter:g} x) is right with about 95 % probability. With these margins the unsafe calls' "
+         f"upper bound is {mg.stats.unsafe.high95:.1%}. The linear-range gate (r below the mass model's lower-band "
+         f"linear limit) withheld the quasi-static tier from {gated} scenes the margin alone would have granted. "
+         "The rule is `compare.atlas.calibration.calls`, which `ked check` mirrors.", "",
          "| mass model | mechanism | scenes (Exudyn ok) | measured >= 10 % | unsafe | borderline | over-cautious |",
          "|---" * 7 + "|"]
     c = cal.calls(d.e, d.r, d.r_linear, d.linear_ok, tol, mg.holds_below, mg.fails_above)
@@ -275,12 +301,8 @@ def threshold_text(d: cal.ThresholdData | None, mg: cal.Margins | None) -> list[
             L.append(f"| {mm} | {mech} | {int(sel.sum())} ({int(so.sum())}) | {int(fail.sum())} | "
                      f"{int(np.sum(fail & (c == cal.QUASI_STATIC)))} | {int(np.sum(so & (c == cal.BORDERLINE)))} | "
                      f"{int(np.sum(so & ~fail & (c == cal.NOT_QUASI_STATIC)))} |")
-    below = np.isfinite(d.e) & (d.factor < 1.0)
-    early = below & (d.e >= tol)
-    L += ["", f"First crossings, checked: {int(early.sum())} of the {int(below.sum())} scenes below their family's "
-          "interpolated r* already have a predicted error >= 10 % (between the last passing grid ratio and the "
-          "interpolated value, the interpolation overstates the limit there), which is why every atlas limit is the "
-          "last passing grid ratio."]
+    if fam is not None:
+        L += ["", *early_text(d, fam, tol)]
     return L
 
 
@@ -418,7 +440,7 @@ def markdown(atlas: Path, readme: Path, figs: dict[str, Path], cs_rule: tuple[np
          "own limit against Exudyn from the confirmed sample (a family whose linear error never reached the tolerance "
          "counts with its largest confirmed r, a lower bound).", "", *tier_table(fam, conf), "",
          "### Calibration at the threshold (`ked check`'s quasi-static call)", "",
-         *threshold_text(thr, margins), "", f"![threshold]({rel['threshold']})", "",
+         *threshold_text(thr, margins, fam), "", f"![threshold]({rel['threshold']})", "",
          "### Exudyn-confirmed sample (context: mostly far from the threshold)", "",
          "Stratified (`compare.atlas.confirm`): per mass model, families drawn from equal strata of their r* (10 %), "
          "each at r = 0.6, 1, 1.4, 2, 3 x r* (interpolated r*, capped at 0.5); quasi-static, linear and Exudyn "
