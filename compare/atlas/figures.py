@@ -172,6 +172,10 @@ def threshold(e: np.ndarray, measured: np.ndarray, mass_model: np.ndarray, facto
     ax1.set_ylim(*lim)
     ax1.set_xscale("log")
     ax1.set_yscale("log")
+    from matplotlib.ticker import NullFormatter
+
+    for axis in (ax1.xaxis, ax1.yaxis):
+        axis.set_minor_formatter(NullFormatter())
     ax1.set_xlabel("predicted: quasi-static vs linear")
     ax1.set_ylabel("measured: quasi-static vs Exudyn")
     ax2.axhline(tolerance, color="r", lw=0.8, ls=":")

@@ -197,7 +197,8 @@ def headline(fam: dict[str, np.ndarray], conf: dict[str, np.ndarray], feats: dic
     widths = [float(np.ptp(np.percentile(v, [10, 90]))) for v in per_mm if v.size]
     text = (f"**In short:** over {m.sum()} families the quasi-static coupler-point history stays within 10 % of the "
             f"linear KED model up to r* = {np.median(r10):.3f} (median; 10-90 % of the families: "
-            f"{np.percentile(r10, 10):.3f}-{np.percentile(r10, 90):.3f}) and within 5 % up to "
+            f"{np.percentile(r10, 10):.3f}-{np.percentile(r10, 90):.3f}; first crossings on the atlas grid, median "
+            f"step {np.nanmedian(fam['r10_step']):.3f}) and within 5 % up to "
             f"{np.median(fam['r5'][crossed(fam, 'r5')]):.3f}. The medians of the four mass models differ by "
             f"{np.ptp(meds):.3f}, the linkages of one mass model by up to {max(widths):.3f} (10-90 %): strongest rank "
             "correlations with r* "
@@ -246,7 +247,7 @@ def threshold_text(d: cal.ThresholdData | None, mg: cal.Margins | None,
     tol = mg.tolerance
     ok = np.isfinite(d.measured)
     e, m = d.e[ok], d.measured[ok]
-    strata = Counter(zip(d.mass_model, d.mechanism))
+    strata = Counter(zip(d.mass_model[d.sample == "threshold"], d.mechanism[d.sample == "threshold"]))
     lo, hi = np.min(d.factor), np.max(d.factor)
 
     def row(name: str, s: cal.CallStats) -> str:
