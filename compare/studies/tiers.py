@@ -33,6 +33,8 @@ SECTION = "tiers"
 MODELS = ("quasi_static", "linear", "linear_classic")
 TOLERANCES = (0.05, 0.10)
 FIGURE = "tiers_error_parts.png"
+COARSE_STEP = 0.02
+"""A first crossing known only to a grid step above this is called coarse in the report."""
 
 
 @dataclass(frozen=True)
@@ -159,6 +161,14 @@ def markdown(points: Sequence[TierPoint], figure: Path | None, readme: Path) -> 
                 per_model.setdefault(mm, {}).setdefault(f"{model} {tol}", []).append(
                     lim.r_limit if lim.status == "crossed" else math.nan)
         L.append(f"| {lk} | {mech} | {mm} | " + " | ".join(cells) + " |")
+    coarse = sorted({lk for (lk, _, _), fam in fams.items() for model in MODELS for tol in TOLERANCES
+                     if limits(fam, model, tol).step > COARSE_STEP})
+    if coarse:
+        L += ["", f"Grid steps above {COARSE_STEP:g} (on the {', '.join(coarse)} linkage(s)): there the stored grid is "
+              "too coarse to place the first crossing or to see a resonance between the two ratios; the limit is the "
+              "last passing ratio, a lower bound known to that step. The thesis linkage's linear limits come from a "
+              "grid of step 0.01 between 0.15 and 0.33 (`studies/validity_fine_*.toml`, 112 scenes); "
+              "the same grid for another linkage costs 16 scenes per mass model and mechanism."]
     L += ["", "**The answer, per mass model** (range over the linkages of the limits that were crossed on the "
           "grid: first crossings, see the steps in the table):", ""]
     for mm, lims in per_model.items():
