@@ -203,7 +203,8 @@ def test_study_through_the_cli(tmp_path):
 
     from ked_cli.main import cli
 
-    args = ["study", "atlas", "--results-dir", str(tmp_path), "--linkages", "4", "--confirm", "8", "--seed", "3"]
+    args = ["study", "atlas", "--results-dir", str(tmp_path), "--linkages", "4", "--confirm", "8", "--threshold", "8",
+            "--seed", "3"]
     res = CliRunner().invoke(cli, args)
     assert res.exit_code == 0, res.output
     res = CliRunner().invoke(cli, args + ["--report-only"])

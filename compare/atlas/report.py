@@ -437,9 +437,13 @@ def markdown(atlas: Path, readme: Path, figs: dict[str, Path], cs_rule: tuple[np
          *prediction_text(fam, rule, cs), "", "Worst one-mode predictions (10 %):", "", *worst_table(fam, rule), "",
          f"![prediction]({rel['prediction']})", "",
          "### Tier limits (`compare.atlas.limits(mass_model)`, used by `ked check`)", "",
-         "Median over the families - spread (median minus the 10th percentile). Quasi-static: the atlas; linear: its "
-         "own limit against Exudyn from the confirmed sample (a family whose linear error never reached the tolerance "
-         "counts with its largest confirmed r, a lower bound).", "", *tier_table(fam, conf), "",
+         "Median over the families - spread (median minus the 10th percentile); every family's limit a first "
+         "crossing (the last passing ratio; beside it the median grid step to the first failing one). Quasi-static: "
+         "the atlas; linear: its own limit against Exudyn from the confirmed sample (a family whose linear error "
+         "never reached the tolerance counts with its largest confirmed r, a lower bound). The linear limits rest on "
+         "the confirmed sample's coarse ratios (0.6 ... 3 x r*: steps near 0.1), so each is a lower bound known to "
+         "that step; `ked check` counts the lower band (limit minus spread) against the linear model.", "",
+         *tier_table(fam, conf), "",
          "### Calibration at the threshold (`ked check`'s quasi-static call)", "",
          *threshold_text(thr, margins, fam), "", f"![threshold]({rel['threshold']})", "",
          "### Exudyn-confirmed sample (context: mostly far from the threshold)", "",
