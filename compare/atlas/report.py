@@ -294,6 +294,12 @@ def threshold_text(d: cal.ThresholdData | None, mg: cal.Margins | None,
          "| mass model | mechanism | scenes (Exudyn ok) | measured >= 10 % | unsafe | borderline | over-cautious |",
          "|---" * 7 + "|"]
     c = cal.calls(d.e, d.r, d.r_linear, d.linear_ok, tol, mg.holds_below, mg.fails_above)
+    oc = ok & (c == cal.NOT_QUASI_STATIC) & (d.measured < tol)
+    flagged, gate = oc & ~d.linear_ok, oc & d.linear_ok & ~(d.r < d.r_linear)
+    at = next(i for i, line in enumerate(L) if line.startswith("**Chosen margins**"))
+    L[at] += (f" The {int(oc.sum())} over-cautious calls: {int(flagged.sum())} where the linear solution carries a "
+              f"large-deflection or large-rotation flag (of {int((~d.linear_ok).sum())} such scenes), "
+              f"{int(gate.sum())} by the linear-range gate, {int((oc & ~flagged & ~gate).sum())} by the prediction.")
     for mm in MASS_MODELS:
         for mech in ("source", "cognate"):
             sel = (d.mass_model == mm) & (d.mechanism == mech)
