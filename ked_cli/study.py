@@ -108,13 +108,17 @@ def stability(ladder: bool, retry_failed: bool, **common: Any) -> None:
               help="Dask scheduler address (e.g. tcp://10.0.0.5:8786) [default: a local cluster of --workers].")
 @click.option("--confirm", type=click.IntRange(min=0), default=200, show_default=True,
               help="Scenes of the stratified sample confirmed with Exudyn (0: none).")
-def atlas(linkages: int, seed: int, scheduler: str | None, confirm: int, **common: Any) -> None:
+@click.option("--threshold", type=click.IntRange(min=0), default=400, show_default=True,
+              help="Scenes confirmed with Exudyn within +-25 % of their family's quasi-static 10 % limit, from which "
+                   "the check's margins are chosen (0: none).")
+def atlas(linkages: int, seed: int, scheduler: str | None, confirm: int, threshold: int, **common: Any) -> None:
     """Validity atlas: the quasi-static and linear models' limits over a sample of four-bars."""
     from compare.atlas.store import AtlasFileError
     from compare.runner import SchedulerError
     from ked_cli.errors import UserError
 
     try:
-        _run("atlas", linkages=linkages, seed=seed, scheduler=scheduler, confirm=confirm, **common)
+        _run("atlas", linkages=linkages, seed=seed, scheduler=scheduler, confirm=confirm, threshold=threshold,
+             **common)
     except (AtlasFileError, SchedulerError) as exc:
         raise UserError(str(exc)) from None
