@@ -8,8 +8,10 @@ chose (harmonics H, Floquet steps, max |mu|), and the error of each history agai
 reference (8 elements per link, 5760 steps per cycle, plain cycles steady to 1e-6): max |d - d_ref| over
 (dx, dy) relative to the reference peak.  The quasi-static error is printed beside them.  Case I (tip)
 at 300 rpm uses --tip-damping (default 0.1) for every model: the Exudyn runs diverge there at 2 %
-(see bench_exudyn.py).  Then the cost of solve_linear alone versus lumps per link and grid step, and
-`ked check` end to end in a fresh process.
+(see bench_exudyn.py).  Then the cost of solve_linear alone versus lumps per link and grid step, the
+64-harmonic solve against the default one, the cost of the coefficients K, C, f per crank angle (direct
+frame condensation against the interpolated coefficients the solver uses), and `ked check` end to end
+in a fresh process.
 
 Usage: .venv/bin/python benchmarks/bench_linear.py [--runs 3] [--mass-models tip,joints,...] [--rpm 100,300]
 """
@@ -93,7 +95,37 @@ def main() -> None:
     side_by_side(args)
     if not args.no_scaling:
         scaling(args)
+    harmonics_64(args)
+    coefficient_cost(args)
     check_timing(args)
+
+
+def harmonics_64(args) -> None:
+    print("\n64-harmonic solve (max_harmonics=64) against the default (32): median wall s")
+    print(f"{'mass model':<12}{'rpm':>5}{'default':>9}{'64':>9}{'ratio':>7}{'H':>4}")
+    for mm in args.mass_models.split(","):
+        for rpm in (float(x) for x in args.rpm.split(",")):
+            scene = make_scene(mass_model=mm, rpm=rpm)
+            zeta = args.tip_damping if (mm == "tip" and rpm >= 300) else 0.02
+            t_def, _ = timed(solve_linear, args.runs, scene, LinearSettings(damping_ratio=zeta))
+            t_64, res = timed(solve_linear, args.runs, scene, LinearSettings(damping_ratio=zeta, max_harmonics=64))
+            print(f"{mm:<12}{rpm:5.0f}{t_def:9.3f}{t_64:9.3f}{t_64 / t_def:7.1f}{res.harmonics:4d}")
+
+
+def coefficient_cost(args) -> None:
+    """Microseconds per crank angle of K, C, f and the output map at 1024 uniformly spaced angles (the
+    Floquet propagator's kind of request), direct and interpolated, at the first --rpm."""
+    from ked_linear import linkage_system
+
+    rpm = float(args.rpm.split(",")[0])
+    print(f"\ncoefficients per crank angle at {rpm:g} rpm (1024 angles, median us): direct, interpolated, form")
+    theta = 0.1 + np.arange(1024) * (2.0 * np.pi / 1024)
+    for mm in args.mass_models.split(","):
+        co = linkage_system(make_scene(mass_model=mm, rpm=rpm), LinearSettings()).system.coefficients
+        t_direct, _ = timed(co.direct, args.runs, theta)
+        t_interp, _ = timed(co._evaluate, args.runs, theta)
+        print(f"  {mm:12s} {1e6 * t_direct / theta.size:8.1f} {1e6 * t_interp / theta.size:8.1f}  {co.form} "
+              f"({co.points} samples)")
 
 
 def check_timing(args: argparse.Namespace) -> None:

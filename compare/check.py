@@ -105,15 +105,16 @@ class VerdictMargins:
                              f"{self.holds_below!r}, {self.fails_above!r}")
 
 
-def verdict_margins() -> VerdictMargins:
-    """The margins calibrated by the atlas (``compare.atlas.verdict_margins``), or the conservative
-    default :class:`VerdictMargins` when there is no calibration or it cannot be read."""
+def verdict_margins(tolerance: float = 0.10) -> VerdictMargins:
+    """The margins the atlas calibrated at ``tolerance`` [1] (``compare.atlas.verdict_margins``), or the
+    conservative default :class:`VerdictMargins` when there is no calibration at that tolerance or it cannot
+    be read."""
     try:
         from compare.atlas import verdict_margins as calibrated
     except ImportError:
         return VerdictMargins()
     try:
-        m = calibrated()
+        m = calibrated(tolerance)
         return VerdictMargins(holds_below=float(m.holds_below), fails_above=float(m.fails_above),
                               n_scenes=int(m.n_scenes), unsafe_rate=float(m.unsafe_rate),
                               unsafe_upper95=float(m.unsafe_upper95), source=str(m.source))
@@ -289,7 +290,7 @@ def check(source: FourBar, mechanism: str, mass_model: MassModel, rpms: Sequence
           tolerance: float = 0.10, confirm: bool = False) -> list[CheckRow]:
     """The design check of one linkage at each of ``rpms`` [rev/min] (see the module docstring)."""
     rng = linear_range(mass_model.name)
-    margins = verdict_margins()
+    margins = verdict_margins(tolerance)
     rows = []
     for rpm in rpms:
         spec = spec_for(source, mechanism, mass_model, rpm, stiffness_scale=stiffness_scale,

@@ -104,6 +104,8 @@ def load_config(path: str | Path | None = None) -> CampaignConfig:
 
 def _read_text(p: Path) -> str:
     """The file's text; ConfigError naming the file if it cannot be read or is not UTF-8 text."""
+    if p.exists() and not p.is_file() and not p.is_dir():  # a FIFO would block forever, a device never end
+        raise ConfigError(["not a regular file (a FIFO, socket or device); give a TOML file"], source=str(p))
     try:
         return p.read_text(encoding="utf-8")
     except UnicodeDecodeError:

@@ -9,7 +9,10 @@
   on the speed axis, not drawn as errors.
 
 ``index.json`` maps each scene figure to its key, label and a stamp of the stored scene; a figure
-whose stamp is unchanged is not drawn again.
+whose stamp is unchanged is not drawn again.  Its entry ``"@ked-harness"`` (not a file) is the manifest:
+``{"written_by": "ked-harness", "files": [...]}``, every file the harness wrote in the directory.  A
+file of the same name that the manifest does not list (the user's own ``index.json``, ``amplification.png``
+or ``scene_*.png``) is never overwritten: :class:`FigureDirError` names it instead.
 """
 
 from __future__ import annotations
@@ -199,37 +202,116 @@ def _stamp(r: SceneResult) -> str:
 _FIGURE_VERSION = 2
 
 
+MANIFEST = "@ked-harness"
+"""The entry of ``index.json`` that lists the files the harness wrote in its directory."""
+INDEX = "index.json"
+AMPLIFICATION = "amplification.png"
+
+
+class FigureDirError(ValueError):
+    """The figure directory holds a file of a name the harness would write that the harness did not write."""
+
+
+def _owned(out: Path) -> tuple[dict, set[str]]:
+    """The scene entries of ``out``'s index and the names of the files the harness wrote there.
+    Raises :class:`FigureDirError` if ``index.json`` exists but is not a figure index of the harness."""
+    import json
+
+    index_path = out / INDEX
+    if not index_path.exists() and not index_path.is_symlink():
+        return {}, set()
+    try:
+        data = json.loads(index_path.read_text()) if index_path.is_file() else None
+    except (OSError, ValueError):  # includes undecodable bytes
+        data = None
+    manifest = data.get(MANIFEST) if isinstance(data, dict) else None
+    entries = {k: v for k, v in data.items() if k != MANIFEST} if isinstance(data, dict) else {}
+    legacy = bool(entries) and all(isinstance(v, dict) and {"key", "label", "stamp"} <= set(v)
+                                   for v in entries.values())
+    if isinstance(manifest, dict) and manifest.get("written_by") == "ked-harness":
+        files = {f for f in manifest.get("files", []) if isinstance(f, str)}
+    elif legacy and manifest is None:  # written by a harness version before the manifest
+        files = set(entries) | {AMPLIFICATION}
+    else:
+        raise FigureDirError(f"{index_path}: not a figure index written by ked-harness (a file of yours?); it is "
+                             "left as it is: choose another figure directory")
+    return entries, files | {INDEX}
+
+
+def check_figure_dir(out_dir: str | Path, names: Sequence[str] = ()) -> None:
+    """Refuse (:class:`FigureDirError`, naming the file) if writing the figures ``names`` (besides the
+    index and the amplification figure) into ``out_dir`` would overwrite a file the harness did not write."""
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise FigureDirError(f"{out}: not a directory; the figures need a directory")
+    _, files = _owned(out)
+    for name in (INDEX, AMPLIFICATION, *names):
+        if (out / name).exists() or (out / name).is_symlink():
+            if name not in files:
+                raise FigureDirError(f"{out / name}: exists and was not written by ked-harness (not in its "
+                                     f"{INDEX}); it is left as it is: choose another figure directory")
+
+
+def _draw_in_pool(jobs: list[tuple[SceneResult, Path]], dpi: int, workers: int) -> list[Path]:
+    """Scene figures in ``workers`` spawned processes that die with this one (no orphan keeps drawing
+    after kill -9) and are killed at once on an interrupt or failure."""
+    import concurrent.futures as cf
+    import multiprocessing
+
+    from compare.runner import _start_children_quietly, kill_pool, worker_init
+
+    pool = cf.ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"), initializer=worker_init)
+    try:
+        with _start_children_quietly():
+            futures = [pool.submit(_write_scene_png, r, p, dpi) for r, p in jobs]
+        paths = [f.result() for f in futures]
+    except BaseException:
+        kill_pool(pool)
+        raise
+    pool.shutdown(wait=True)
+    return paths
+
+
 def write_figures(results: Sequence[SceneResult], out_dir: str | Path, dpi: int = 110,
                   workers: int = 1) -> list[Path]:
     """Write the campaign figures into ``out_dir`` (scene figures in ``workers`` processes), skipping
-    scene figures whose stored scene did not change; returns the paths written."""
+    scene figures whose stored scene did not change; returns the paths written.  Only files the
+    harness wrote there are replaced (see :class:`FigureDirError`)."""
     import json
 
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    index_path = out / "index.json"
-    try:
-        old = json.loads(index_path.read_text()) if index_path.exists() else {}
-    except (OSError, ValueError):
-        old = {}
     names = figure_names(results)
+    check_figure_dir(out, sorted(names.values()))
+    out.mkdir(parents=True, exist_ok=True)
+    index_path = out / INDEX
+    old, files = _owned(out)
     index = {names[r.key]: {"key": r.key, "label": r.spec.label, "stamp": _stamp(r)} for r in results}
     jobs = [(r, out / names[r.key]) for r in results
             if old.get(names[r.key], {}).get("stamp") != _stamp(r) or not (out / names[r.key]).exists()]
+    manifest = {"written_by": "ked-harness",
+                "files": sorted((files | set(index) | {AMPLIFICATION}) - {INDEX})}
+    if jobs or not (out / INDEX).exists():  # the manifest first: a file being written is already listed
+        _write_index(index_path, {**old, **index, MANIFEST: manifest})
     if workers > 1 and len(jobs) > 2 * workers:
-        import concurrent.futures as cf
-        import multiprocessing
-
-        with cf.ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-            paths = list(pool.map(_write_scene_png, *zip(*jobs), [dpi] * len(jobs)))
+        paths = _draw_in_pool(jobs, dpi, workers)
     else:
         paths = [_write_scene_png(r, p, dpi) for r, p in jobs]
-    p = out / "amplification.png"
+    p = out / AMPLIFICATION
     if jobs or not p.exists() or set(old) != set(index):
         amplification_figure(results).savefig(p, dpi=dpi)
         paths.append(p)
-    if index != old:
-        tmp = index_path.with_name(index_path.name + ".tmp")
-        tmp.write_text(json.dumps(index, indent=1, sort_keys=True))
-        tmp.replace(index_path)
+    try:
+        current = json.loads(index_path.read_text())
+    except (OSError, ValueError):
+        current = None
+    if current != {**index, MANIFEST: manifest}:
+        _write_index(index_path, {**index, MANIFEST: manifest})
     return paths
+
+
+def _write_index(index_path: Path, index: dict) -> None:
+    import json
+
+    tmp = index_path.with_name(index_path.name + ".tmp")
+    tmp.write_text(json.dumps(index, indent=1, sort_keys=True))
+    tmp.replace(index_path)

@@ -9,10 +9,13 @@ the scenes still being computed.
 
 from __future__ import annotations
 
+import asyncio
 import concurrent.futures as cf
 import multiprocessing
 import os
+import signal
 import sys
+import threading
 import time
 import uuid
 from collections.abc import Callable, Iterable, Iterator
@@ -140,15 +143,72 @@ def _rescued(exc: store.CommitError, unsaved: list[SceneResult], out: Path, conf
         f"again, `ked merge {path} {out}` adds them, and rerunning the campaign resumes the rest.")
 
 
-def _worker_init() -> None:
-    """In every local worker: die with the parent (no orphans after kill -9 of ``ked run``), and leave
-    SIGINT/SIGTERM handling to the parent."""
+class WorkerStartError(RuntimeError):
+    """The local worker processes could not start: nothing was computed (a failure of the run)."""
+
+
+class WorkerError(RuntimeError):
+    """A local worker failed outside the solvers (a failure of the run, not a property of a scene)."""
+
+
+WORKER_START_HINT = ("if a Python script calls run_campaign, call it under `if __name__ == \"__main__\":` "
+                     "(every worker process imports the script)")
+
+
+_STOP_SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))
+
+
+@contextmanager
+def _start_children_quietly() -> Iterator[None]:
+    """Start child processes with SIGINT blocked: a Ctrl-C at the terminal (sent to the whole process
+    group) then cannot kill a child half-way through its interpreter start-up with a traceback; the
+    children ignore SIGINT once started (:func:`worker_init`), and this process gets a Ctrl-C that
+    arrived meanwhile as soon as the children exist."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+@contextmanager
+def _signals_ignored() -> Iterator[None]:
+    """Ignore SIGINT/SIGTERM/SIGHUP inside (in the main thread): a second Ctrl-C cannot interrupt the
+    cleanup that the first one started."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = {s: signal.signal(s, signal.SIG_IGN) for s in _STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+
+
+def kill_pool(pool: cf.ProcessPoolExecutor) -> None:
+    """Stop a process pool now, whatever its workers are doing: kill them, then shut it down (prompt,
+    as nothing is left to wait for).  Signals are ignored meanwhile."""
+    with _signals_ignored():
+        for proc in list((getattr(pool, "_processes", None) or {}).values()):
+            try:
+                proc.kill()
+            except (OSError, ValueError, AttributeError):
+                pass
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def worker_init() -> None:
+    """In every local worker process (campaign and figure pools): die with the parent (no orphans
+    after kill -9 of ``ked run`` or ``ked plot``), and leave SIGINT/SIGTERM handling to the parent."""
     import multiprocessing
-    import signal
-    import threading
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # blocked at birth: see _start_children_quietly
     try:
         import ctypes
 
@@ -166,6 +226,14 @@ def _worker_init() -> None:
         os._exit(1)
 
     threading.Thread(target=watch, daemon=True).start()
+
+
+_worker_init = worker_init  # the name older pickles and callers use
+
+
+def _ready() -> int:
+    """A no-op task: the worker started (its interpreter, the main module and the initializer)."""
+    return os.getpid()
 
 
 def default_workers() -> int:
@@ -196,6 +264,8 @@ def _drain(backend: Any, futures: dict[Any, Job],
                 continue  # cancelled after a failed commit: never started, nothing computed
             try:
                 r = backend.result(fut)
+            except WorkerError:
+                raise
             except Exception as exc:  # the task itself failed outside run_scene (Dask KilledWorker, ...)
                 r = _worker_crashed(futures[fut].spec, exc)
             if r is None:
@@ -215,11 +285,11 @@ def _isolate(jobs: list[Job], store_batch: Callable[[list[SceneResult]], None]) 
         iso = _LocalBackend(1)
         try:
             (fut,) = iso.submit_all([job])
-            try:
-                r = iso.result(fut)
-            except Exception as exc:
-                r = _worker_crashed(job.spec, exc)
-        finally:
+            r = iso.result(fut)
+        except BaseException:
+            iso.abort()
+            raise
+        else:
             iso.close()
         store_batch([r if r is not None else _worker_crashed(job.spec, None)])
     return []
@@ -254,11 +324,22 @@ class _LocalBackend:
     def __init__(self, workers: int):
         ctx = multiprocessing.get_context("spawn")
         self.workers = workers
-        self.pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init)
+        self.pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=worker_init)
         self.futures: list[Any] = []
+        try:
+            with _single_threaded_children(), _start_children_quietly():  # workers are spawned on submit
+                probe = self.pool.submit(_ready)
+            probe.result()  # a worker that cannot start breaks the pool before any scene is given out
+        except cf.process.BrokenProcessPool:
+            self.abort()
+            raise WorkerStartError(f"the worker processes could not start (each exited before taking any "
+                                   f"work), so nothing was computed; {WORKER_START_HINT}") from None
+        except BaseException:
+            self.abort()
+            raise
 
     def submit_all(self, jobs: Iterable[Job]) -> dict[Any, Job]:
-        with _single_threaded_children():  # workers are spawned on submit
+        with _single_threaded_children(), _start_children_quietly():
             out = {self.pool.submit(run_scene, *_args(j)): j for j in jobs}
         self.futures += list(out)
         return out
@@ -281,9 +362,18 @@ class _LocalBackend:
             return fut.result()
         except cf.process.BrokenProcessPool:
             return None
+        except cf.CancelledError:
+            raise
+        except Exception as exc:  # run_scene keeps solver failures in its result: this is outside them
+            raise WorkerError(f"a worker process failed outside the solvers ({type(exc).__name__}: "
+                              f"{str(exc).strip()[:300]})") from exc
 
     def close(self) -> None:
         self.pool.shutdown(wait=True, cancel_futures=True)
+
+    def abort(self) -> None:
+        """Stop at once (interrupt, failure): kill the workers; what they were computing is lost."""
+        kill_pool(self.pool)
 
 
 SCHEDULER_TIMEOUT_S = 10.0
@@ -314,6 +404,29 @@ def probe_scheduler(address: str, timeout_s: float = SCHEDULER_TIMEOUT_S) -> Non
     except OSError as exc:
         raise SchedulerError(f"--scheduler {address!r}: no scheduler answers there within {timeout_s:g} s "
                              f"({exc.strerror or exc}); {hint}") from None
+    full = address if "://" in address else f"tcp://{address}"
+    try:
+        identity = asyncio.run(asyncio.wait_for(_identity(full, timeout_s), timeout_s))
+    except (OSError, asyncio.TimeoutError, EOFError, ValueError, TypeError) as exc:
+        what = "no answer" if isinstance(exc, asyncio.TimeoutError) else type(exc).__name__
+        raise SchedulerError(f"--scheduler {address!r}: something listens there but is not a Dask scheduler "
+                             f"({what} to the Dask handshake within {timeout_s:g} s); {hint}") from None
+    if not isinstance(identity, dict) or identity.get("type") != "Scheduler":
+        raise SchedulerError(f"--scheduler {address!r}: the service there is not a Dask scheduler; {hint}")
+
+
+async def _identity(address: str, timeout_s: float) -> Any:
+    """The peer's answer to Dask's ``identity`` request (the Dask handshake first): a scheduler says
+    ``{"type": "Scheduler", ...}``.  Every step is bounded by the caller's timeout, whatever the peer
+    is (an HTTP server answers garbage, a silent socket never answers)."""
+    from distributed.comm import connect
+
+    comm = await connect(address, timeout=timeout_s)
+    try:
+        await comm.write({"op": "identity", "reply": True})
+        return await comm.read()
+    finally:
+        comm.abort()
 
 
 class _DaskBackend:
@@ -351,6 +464,10 @@ class _DaskBackend:
     def close(self) -> None:
         self.client.close()
 
+    def abort(self) -> None:
+        self.cancel()
+        self.close()
+
 
 def run_campaign(
     config: CampaignConfig,
@@ -365,10 +482,16 @@ def run_campaign(
 ) -> CampaignSummary:
     """Run every scene of ``config`` not yet stored in ``out`` and store the results there.
 
-    ``workers``: local worker processes (default: available CPUs; ignored with ``scheduler``).
+    ``workers``: local worker processes (default: available CPUs; ignored with ``scheduler``).  They are
+    spawned and import the caller's main module, so a script must call this under
+    ``if __name__ == "__main__":``; otherwise :class:`WorkerStartError` is raised and nothing is stored.
     ``retry_failed``: recompute stored failed scenes too.  ``progress``: tqdm bar on stderr.
     Raises :class:`compare.store.LockedError` if another campaign is writing ``out``.
     """
+    if getattr(multiprocessing.current_process(), "_inheriting", False):
+        # a spawned worker importing a script that calls this function without a main guard: the
+        # worker cannot start; end it quietly (the parent reports it once, with the fix)
+        os._exit(3)
     t0 = time.perf_counter()
     out = store.target(out)
     store.check_ours(out)
@@ -400,50 +523,55 @@ def _run_locked(config: CampaignConfig, out: Path, *, workers: int | None, sched
     unsaved: list[SceneResult] = []
     failure: list[store.CommitError] = []
     if p.jobs:  # nothing to compute: nothing is written
-        # the cluster first: an unreachable scheduler is reported before anything is written
-        backend: Any = _DaskBackend(scheduler) if scheduler else None
-        store.remove_stale_temp_files(out)
-        run = store.record_run(out, config.text, config.name, len(scenes))
-        if on_start is not None:
-            on_start(p)
-        bar = tqdm(total=len(p.jobs), unit="scene", desc=config.name, disable=not progress,
-                   file=sys.stderr, dynamic_ncols=True, smoothing=0.1)
-        bar.set_postfix(ok=0, failed=0, skipped=len(p.skipped))
-
-        def store_batch(batch: list[SceneResult]) -> None:
-            if not failure:
-                try:
-                    store.commit(out, batch, run)
-                except store.CommitError as exc:  # keep what is computed; stop starting new scenes
-                    failure.append(exc)
-                    backend.cancel()
-            if failure:
-                unsaved.extend(batch)
-            for r in batch:
-                counts[STATUS_OK if r.status == STATUS_OK else STATUS_FAILED] += 1
-                if on_result is not None:
-                    on_result(r)
-            bar.set_postfix(ok=counts[STATUS_OK], failed=counts[STATUS_FAILED], skipped=len(p.skipped),
-                            refresh=False)
-            bar.update(len(batch))
-
+        # the workers first: an unreachable scheduler, or workers that cannot start, are reported before
+        # anything is written
+        backend: Any = (_DaskBackend(scheduler) if scheduler
+                        else _LocalBackend(min(workers or default_workers(), len(p.jobs))))
+        bar = None
         try:
-            if backend is None:
-                backend = _LocalBackend(min(workers or default_workers(), len(p.jobs)))
-            try:
-                lost = _drain(backend, backend.submit_all(p.jobs), store_batch)
-            finally:
-                backend.close()
+            store.remove_stale_temp_files(out)
+            run = store.record_run(out, config.text, config.name, len(scenes))
+            if on_start is not None:
+                on_start(p)
+            bar = tqdm(total=len(p.jobs), unit="scene", desc=config.name, disable=not progress,
+                       file=sys.stderr, dynamic_ncols=True, smoothing=0.1)
+            bar.set_postfix(ok=0, failed=0, skipped=len(p.skipped))
+
+            def store_batch(batch: list[SceneResult]) -> None:
+                if not failure:
+                    try:
+                        store.commit(out, batch, run)
+                    except store.CommitError as exc:  # keep what is computed; stop starting new scenes
+                        failure.append(exc)
+                        if backend is not None:
+                            backend.cancel()
+                if failure:
+                    unsaved.extend(batch)
+                for r in batch:
+                    counts[STATUS_OK if r.status == STATUS_OK else STATUS_FAILED] += 1
+                    if on_result is not None:
+                        on_result(r)
+                bar.set_postfix(ok=counts[STATUS_OK], failed=counts[STATUS_FAILED], skipped=len(p.skipped),
+                                refresh=False)
+                bar.update(len(batch))
+
+            lost = _drain(backend, backend.submit_all(p.jobs), store_batch)
+            backend.close()
+            backend = None
             if lost and not scheduler and not failure:  # a worker died: retry in a fresh pool, then one by one
-                retry = _LocalBackend(min(workers or default_workers(), len(lost)))
-                try:
-                    lost = _drain(retry, retry.submit_all(lost), store_batch)
-                finally:
-                    retry.close()
+                backend = _LocalBackend(min(workers or default_workers(), len(lost)))
+                lost = _drain(backend, backend.submit_all(lost), store_batch)
+                backend.close()
+                backend = None
                 if lost:
                     lost = _isolate(lost, store_batch)
+        except BaseException:  # interrupt, failure: stop the workers now (what is committed stays)
+            if backend is not None:
+                backend.abort()
+            raise
         finally:
-            bar.close()
+            if bar is not None:
+                bar.close()
     if failure:
         raise _rescued(failure[0], unsaved, out, config)
     ok, failed = counts[STATUS_OK], counts[STATUS_FAILED]

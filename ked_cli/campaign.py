@@ -24,6 +24,22 @@ def _safe_name(name: str) -> str:
     return "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name) or "campaign"
 
 
+def _regular(path: Path, what: str) -> None:
+    """Refuse (exit 2) a path that exists but is not a regular file, or cannot be followed (a symbolic
+    link loop): a FIFO would block the command forever."""
+    import stat
+
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        return  # absent (or a dangling link): the command says what it needs
+    except OSError as exc:
+        raise click.UsageError(f"{what} {path}: {exc.strerror or exc}; give a results file (.h5)") from None
+    if not stat.S_ISREG(mode):
+        raise click.UsageError(f"{what} {path}: not a regular file (a FIFO, socket, device or directory); "
+                               "give a results file (.h5)")
+
+
 def _load(config: Path | None) -> Any:
     from compare.config import ConfigError, load_config
 
@@ -67,6 +83,7 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
     """
     cfg = _load(config)
     out = out or DEFAULT_DIR / f"{_safe_name(cfg.name)}.h5"
+    _regular(out, "--out")
     n = cfg.grid.size()
     if n > LARGE_GRID:
         hours = n * SECONDS_PER_SCENE / (workers or 2) / 3600 if "dynamic" in cfg.solvers else 0.0
@@ -75,29 +92,38 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
     if dry_run:
         _dry_run(cfg, out, retry_failed)
         return
+    fig_dir = (figures or _figures_dir(out)).absolute()  # still right if the working directory goes away
+    if not no_figures:
+        _check_figure_dir(fig_dir)  # before computing: a directory of the user's own files is refused now
     from compare import store
     from compare.inspect import format_counts, format_table, summary_row
-    from compare.runner import SchedulerError, SettingsMismatchError, default_workers, run_campaign
+    from compare.runner import (
+        SchedulerError,
+        SettingsMismatchError,
+        WorkerError,
+        WorkerStartError,
+        default_workers,
+        run_campaign,
+    )
 
     try:
         summary = run_campaign(cfg, out, workers=workers, scheduler=scheduler, retry_failed=retry_failed,
                                progress=progress, on_start=lambda p: click.echo(
                                    f"campaign {cfg.name!r}: {n} scenes ({len(p.jobs)} to compute, {len(p.skipped)} "
                                    f"stored), solvers {', '.join(cfg.solvers)} -> {out}", err=True))
-    except (store.LockedError, SettingsMismatchError, store.StoreError, store.CommitError, SchedulerError) as exc:
+    except (store.LockedError, SettingsMismatchError, store.StoreError, store.CommitError, SchedulerError,
+            WorkerStartError, WorkerError) as exc:
         raise click.ClickException(str(exc)) from None
     order = {k: i for i, k in enumerate(summary.keys)}
-    results = sorted((r for r in store.read_scenes(out) if r.key in order), key=lambda r: order[r.key])
+    # the resolved path: a relative --out must still name the file if the working directory went away
+    results = sorted((r for r in store.read_scenes(summary.out) if r.key in order), key=lambda r: order[r.key])
     click.echo(format_table([summary_row(r) for r in results]))
     click.echo(format_counts(results))
     click.echo(f"this run: {summary.ok} ok, {summary.failed} failed, {summary.skipped} skipped (already stored)"
                + (f", {summary.lost} lost to a crashed worker (rerun to retry)" if summary.lost else "")
                + f" in {summary.wall_s:.1f} s; results: {out}")
     if not no_figures:
-        from compare.plots import write_figures
-
-        fig_dir = figures or _figures_dir(out)
-        paths = write_figures(results, fig_dir, workers=1 if scheduler else (workers or default_workers()))
+        paths = _write_figures(results, fig_dir, workers=1 if scheduler else (workers or default_workers()))
         click.echo(f"figures: {len(paths)} PNG files (re)drawn in {fig_dir} (index.json: file -> scene)")
 
 
@@ -124,11 +150,13 @@ def _dry_run(cfg: Any, out: Path, retry_failed: bool) -> None:
 @click.option("--verify", is_flag=True, help="Check the file's integrity and schema; exit 1 on problems.")
 def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool) -> None:
     """Show a results FILE: summary table of its scenes, or one SCENE (key prefix or label) in detail."""
+    _regular(file, "FILE")
     if verify:
         _verify(file, as_json)
         return
     from compare import store
     from compare.inspect import find_scene, format_counts, format_detail, format_table, scene_detail, summary_row
+    from ked_cli.options import json_text
 
     results = _results(file)
     if scene:
@@ -136,7 +164,7 @@ def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool) -> N
             r = find_scene(results, scene)
         except ValueError as exc:
             raise click.ClickException(str(exc)) from None
-        click.echo(json.dumps(scene_detail(r), indent=2) if as_json else format_detail(r))
+        click.echo(json_text(scene_detail(r), indent=2, default=str) if as_json else format_detail(r))
         return
     rows = [summary_row(r) for r in results]
     try:
@@ -144,7 +172,7 @@ def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool) -> N
     except store.StoreError as exc:
         raise click.ClickException(str(exc)) from None
     if as_json:
-        click.echo(json.dumps({"file": str(file), "attributes": info, "scenes": rows}, indent=2, default=str))
+        click.echo(json_text({"file": str(file), "attributes": info, "scenes": rows}, indent=2, default=str))
         return
     click.echo(f"{file}: campaign {info.get('campaign_name')!r}, created {info.get('created_utc')}, "
                f"harness {info.get('harness_version')} ({info.get('git_commit', '')[:10] or 'no git'}), "
@@ -183,6 +211,8 @@ def merge_cmd(src: Path, dest: Path) -> None:
     """Add the scenes of results file SRC (e.g. a rescue file) that DEST lacks to DEST (SRC unchanged)."""
     from compare import store
 
+    _regular(src, "SRC")
+    _regular(dest, "DEST")
     try:
         added, kept = store.merge(src, dest)
     except (store.StoreError, store.CommitError, store.LockedError) as exc:
@@ -198,10 +228,29 @@ def merge_cmd(src: Path, dest: Path) -> None:
               help="Processes drawing the figures [default: available CPUs].")
 def plot_cmd(file: Path, out_dir: Path | None, workers: int | None) -> None:
     """Draw PNG figures of a results FILE: per-scene histories and coupler curves, amplification vs speed."""
-    from compare.plots import write_figures
     from compare.runner import default_workers
 
+    _regular(file, "FILE")
     results = _results(file)
     target = out_dir or _figures_dir(file)
-    paths = write_figures(results, target, workers=workers or default_workers())
+    paths = _write_figures(results, target, workers=workers or default_workers())
     click.echo(f"{len(paths)} PNG files (re)drawn in {target} ({len(results)} scenes; index.json: file -> scene)")
+
+
+def _check_figure_dir(fig_dir: Path) -> None:
+    from compare.plots import FigureDirError, check_figure_dir
+
+    try:
+        check_figure_dir(fig_dir)
+    except FigureDirError as exc:
+        raise click.ClickException(str(exc)) from None
+
+
+def _write_figures(results: list, fig_dir: Path, workers: int) -> list[Path]:
+    """The figures of ``results`` in ``fig_dir``; a file there the harness did not write is refused."""
+    from compare.plots import FigureDirError, write_figures
+
+    try:
+        return write_figures(results, fig_dir, workers=workers)
+    except FigureDirError as exc:
+        raise click.ClickException(str(exc)) from None

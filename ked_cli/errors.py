@@ -8,11 +8,15 @@ non-zero exit status: 2 for bad input, 1 for a failure while working, 130 for an
 
 from __future__ import annotations
 
+import atexit
 import errno
+import gc
 import os
 import signal
 import sys
+import traceback
 from collections.abc import Callable
+from typing import Any
 
 import click
 
@@ -23,6 +27,30 @@ EXIT_INTERRUPTED = 130
 
 class UserError(click.ClickException):
     """A problem the user can fix, with its one-line message (exit status 1)."""
+
+
+LOW_MEMORY = ("not enough memory to load the numerical libraries (the memory limit, ulimit -v, is too low: they "
+              "need about 400 MB of address space); raise the limit, e.g. ulimit -v unlimited")
+MIN_ADDRESS_SPACE = 256 * 2**20
+"""[bytes] Below this memory limit (ulimit -v) the numerical libraries abort while loading, in C."""
+
+
+def check_memory_limit() -> None:
+    """End in one line if the address-space limit is too low to even load numpy and its BLAS (which
+    would otherwise abort with its own message, or fail the import)."""
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - not POSIX
+        return
+    soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+    if soft != resource.RLIM_INFINITY and soft < MIN_ADDRESS_SPACE:
+        click.echo(f"ked: {LOW_MEMORY} (it is {soft / 2**20:.0f} MB)", err=True)
+        sys.exit(EXIT_FAILURE)
+
+
+def _internal(exc: BaseException) -> str:
+    return (f"ked: internal error ({type(exc).__name__}: {first_line(str(exc))}); please report it with the "
+            "command line")
 
 
 def first_line(text: str) -> str:
@@ -40,14 +68,69 @@ def os_message(exc: OSError) -> str:
     return f"{where}{what}" + (f" ({hints[exc.errno]})" if exc.errno in hints else "")
 
 
+_STOP_SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))
+
+
 def _terminate(signum: int, frame: object) -> None:
-    """SIGTERM is handled like Ctrl-C: the command stops cleanly (stored results are kept)."""
+    """Ctrl-C, SIGTERM and SIGHUP all stop the command cleanly (stored results are kept).  The first
+    one wins: the next ones are ignored, so they cannot interrupt the cleanup it started (stopping the
+    workers, releasing the lock) and leave the command hanging or printing a traceback."""
+    for s in _STOP_SIGNALS:
+        signal.signal(s, signal.SIG_IGN)
     raise KeyboardInterrupt
+
+
+def _from_h5py(tb: Any) -> bool:
+    return any("h5py" in (frame.filename or "") for frame in traceback.extract_tb(tb))
+
+
+def _quiet_unraisable(unraisable: Any) -> None:
+    """HDF5 objects released after a failed write (a full disk) each report the failed flush again as
+    an "Exception ignored" traceback; the failure itself was already reported in its one line."""
+    if _from_h5py(unraisable.exc_traceback) or "h5py" in repr(unraisable.object):
+        return
+    sys.__unraisablehook__(unraisable)
+
+
+def _quiet_excepthook(kind: type[BaseException], value: BaseException, tb: Any) -> None:
+    if _from_h5py(tb):  # the same, printed by h5py's deallocators through the except hook
+        return
+    sys.__excepthook__(kind, value, tb)
+
+
+def _exit(code: int) -> None:
+    """End a failed command with ``code``: release the HDF5 objects now (their errors are quiet), run
+    Python's exit handlers, and skip the C library's: HDF5 would retry closing files it could not
+    flush and crash there (a segmentation fault after the message on a full disk)."""
+    try:
+        gc.collect()
+        atexit._run_exitfuncs()
+    finally:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):
+                pass
+        os._exit(code)
 
 
 def run_guarded(command: Callable[..., object]) -> None:
     """Run a click command as a script; map every failure to one line and an exit status."""
-    signal.signal(signal.SIGTERM, _terminate)
+    for s in _STOP_SIGNALS:
+        if signal.getsignal(s) is not signal.SIG_IGN:  # e.g. nohup: a hang-up stays ignored
+            signal.signal(s, _terminate)
+    sys.unraisablehook = _quiet_unraisable
+    sys.excepthook = _quiet_excepthook
+    try:
+        _run(command)
+    except SystemExit as exc:
+        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else EXIT_FAILURE)
+        if code == 0:
+            raise
+        _exit(code)
+
+
+def _run(command: Callable[..., object]) -> None:
     try:
         command.main(standalone_mode=False, prog_name="ked")
     except click.exceptions.Exit as exc:
@@ -70,10 +153,13 @@ def run_guarded(command: Callable[..., object]) -> None:
     except OSError as exc:
         click.echo(f"ked: {os_message(exc)}", err=True)
         sys.exit(EXIT_FAILURE)
+    except ImportError as exc:
+        low = any(w in str(exc) for w in ("failed to map segment", "Cannot allocate memory"))
+        click.echo(f"ked: {LOW_MEMORY}" if low else _internal(exc), err=True)
+        sys.exit(EXIT_FAILURE)
     except MemoryError:
         click.echo("ked: out of memory; use a coarser step_deg or fewer lumps", err=True)
         sys.exit(EXIT_FAILURE)
     except Exception as exc:  # noqa: BLE001 - the last line of defence: still one line, with where to look
-        click.echo(f"ked: internal error ({type(exc).__name__}: {first_line(str(exc))}); please report it with "
-                   "the command line", err=True)
+        click.echo(_internal(exc), err=True)
         sys.exit(EXIT_FAILURE)

@@ -7,7 +7,7 @@ import importlib
 
 import click
 
-from ked_cli.errors import run_guarded
+from ked_cli.errors import check_memory_limit, run_guarded
 
 # command -> (module, attribute, one-line help shown by `ked --help` without importing the module)
 COMMANDS = {
@@ -50,4 +50,5 @@ def cli() -> None:
 
 def main() -> None:
     """Entry point of the ``ked`` script."""
+    check_memory_limit()
     run_guarded(cli)

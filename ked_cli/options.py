@@ -118,11 +118,27 @@ def load_source(linkage: str) -> Any:
 
     if linkage == "thesis":
         return thesis_fourbar()
+    _refuse_slider_crank(linkage)
     try:
         return load_linkage(linkage)
     except ConfigError as exc:
         problems = "; ".join(exc.problems)
         raise click.BadParameter(f"{linkage}: {problems}", param_hint="--linkage") from None
+
+
+def _refuse_slider_crank(linkage: str) -> None:
+    """BadParameter when ``--linkage`` names a slider-crank: only ``ked quasi`` analyses it so far."""
+    from ked_quasi.presets import slider_linkage
+    from ked_quasi.slidercrank import load_slider_crank
+
+    try:
+        slider = slider_linkage(linkage) or load_slider_crank(linkage)
+    except ValueError:
+        slider = True
+    if slider is not None:
+        raise click.BadParameter(f"{linkage}: a slider-crank is analysed by 'ked quasi' only (this command takes a "
+                                 "four-bar: thesis or a TOML file with a four-bar [linkage] table)",
+                                 param_hint="--linkage")
 
 
 def build_scene(o: SceneOptions, mechanism: str | None = None, mass_model: str | None = None) -> Any:
@@ -150,8 +166,9 @@ def refuse_fast(fourbar: Any, mass_model: Any, rpms: list[float], step_deg: floa
             raise click.BadParameter(str(exc).removeprefix("value = "), param_hint=hint) from None
 
 
-def json_text(value: Any) -> str:
-    """Strict JSON (no NaN or inf: null instead; tuples as lists) of plain data."""
+def json_text(value: Any, **dumps: Any) -> str:
+    """Strict JSON (no NaN or inf: null instead; tuples as lists) of plain data (``dumps``: options of
+    :func:`json.dumps`, e.g. ``indent``)."""
     import json
     import math
 
@@ -164,4 +181,4 @@ def json_text(value: Any) -> str:
             return None
         return v
 
-    return json.dumps(clean(value), allow_nan=False)
+    return json.dumps(clean(value), allow_nan=False, **dumps)

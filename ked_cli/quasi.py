@@ -22,8 +22,17 @@ def quasi(as_json: bool, summary: bool, **kw: Any) -> None:
     JSON keys: crank_angle_deg, dx_m, dy_m, rotation_rad (elastic deflection of P, global frame),
     f1_hz (first natural frequency of the frozen structure), transmission_angle_deg, flagged
     (near-toggle angles), flags (validity flags of the whole answer, e.g. large_deflection), valid.
+
+    A slider-crank (--linkage simeon, or a TOML [linkage] table with kind = "slider-crank") is solved
+    with its own frozen structure (crank clamped, slider resisting motion normal to its line); its mass
+    model defaults to distributed (the links' own mass), the slider's mass is always included, and the JSON
+    adds midspan_m: the coupler's midspan deflection normal to its chord.
     """
     opts = SceneOptions.pop(kw)
+    slider = slider_source(opts.linkage)
+    if slider is not None:
+        _slider(opts, slider, as_json, summary)
+        return
     if summary:
         _summary(opts, as_json)
         return
@@ -117,3 +126,101 @@ def _summary(opts: SceneOptions, as_json: bool) -> None:
         click.echo(f"{r['mechanism']:<9} {r['mass_model']:<11} {1e3 * r['peak_deflection_m']:11.3f} "
                    f"{r['peak_at_deg']:7.1f} {1e3 * r['peak_rotation_rad']:13.3f} "
                    f"{r['f1_min_hz']:7.2f}..{r['f1_max_hz']:<7.2f} {r['speed_ratio']:11.3f}")
+
+
+# -- slider-crank -----------------------------------------------------------------------------------
+def slider_source(linkage: str) -> Any:
+    """The slider-crank ``--linkage`` names (a preset or a TOML file with kind = "slider-crank"), else None."""
+    from ked_quasi.presets import slider_linkage
+    from ked_quasi.slidercrank import load_slider_crank
+
+    preset = slider_linkage(linkage)
+    if preset is not None:
+        return preset
+    try:
+        return load_slider_crank(linkage)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--linkage") from None
+
+
+def _slider(opts: SceneOptions, sc: Any, as_json: bool, summary: bool) -> None:
+    from ked_quasi import rules
+    from ked_quasi.slidercrank import build_slider_scene
+
+    ctx = click.get_current_context()
+    given = ctx.get_parameter_source("mass_model") not in (click.core.ParameterSource.DEFAULT, None)
+    if summary:
+        raise click.UsageError("--summary compares four-bar mechanisms and mass models; a slider-crank is solved "
+                               "one scene at a time (drop --summary)")
+    if opts.mechanism != "source":
+        raise click.BadParameter("a slider-crank has no Roberts cognate; use --mechanism source",
+                                 param_hint="--mechanism")
+    mass_model = opts.mass_model if given else "distributed"
+    try:
+        scene = build_slider_scene(sc, mass_model, opts.rpm, opts.step_deg, opts.lumps, opts.payload_kg,
+                                   opts.stiffness_scale, opts.direction)
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None
+    out, msgs = solve_slider(scene)
+    f1_min = min((f for f in out["f1_hz"] if f is not None), default=float("nan"))
+    try:
+        rules.check_speed_ratio(scene.omega / (2.0 * 3.141592653589793 * f1_min), opts.rpm, f1_min, "value")
+    except ValueError as exc:
+        raise click.BadParameter(str(exc).removeprefix("value = "), param_hint="--rpm") from None
+    for m in msgs:
+        click.echo(f"warning: {m}", err=True)
+    if as_json:
+        from ked_cli.options import json_text
+
+        click.echo(json_text(out))
+        return
+    _slider_table(opts, scene, out)
+
+
+def solve_slider(scene: Any) -> tuple[dict[str, Any], list[str]]:
+    """The JSON record of one slider-crank quasi-static solve (the four-bar's keys plus midspan_m) and its
+    validity messages."""
+    import numpy as np
+
+    from ked_quasi import limits
+    from ked_quasi.slider_static import slider_natural_frequencies, solve_slider_quasi_static
+
+    res = solve_slider_quasi_static(scene)
+    f1 = slider_natural_frequencies(scene, n_modes=1)[:, 0]
+    flags = limits.flags(res.deflection, scene.linkage)
+    msgs = [limits.describe(flags, res.deflection, scene.linkage)] if flags else []
+    out = {
+        "crank_angle_deg": scene.crank_angles_deg.tolist(),
+        "dx_m": res.deflection[:, 0].tolist(), "dy_m": res.deflection[:, 1].tolist(),
+        "rotation_rad": res.deflection[:, 2].tolist(), "f1_hz": f1.tolist(),
+        "transmission_angle_deg": np.degrees(res.transmission_angle).tolist(),
+        "flagged": res.flagged.tolist(), "flags": list(flags), "valid": not flags,
+        "midspan_m": res.midspan.tolist(),
+    }
+    return out, msgs
+
+
+def _slider_table(opts: SceneOptions, scene: Any, out: dict[str, Any]) -> None:
+    mm, sc = scene.mass_model, scene.linkage
+    rigid = [lk for lk, r in zip(("crank", "coupler"), sc.rigid) if r]
+    click.echo(f"Quasi-static deflection of a slider-crank: {opts.linkage} (crank {sc.crank:g} m, coupler "
+               f"{sc.coupler:g} m, offset {sc.offset:g} m, coupler point at {sc.coupler_point:g} of the coupler, "
+               f"slider "
+               f"{sc.slider_mass:g} kg" + (f", rigid {' and '.join(rigid)}" if rigid else "") + f"), mass model "
+               f"{mm.name}" + (f" ({mm.lumps} lumps per link)" if mm.name == "distributed" else "")
+               + (f", payload {mm.payload:g} kg" if mm.payload else "")
+               + f", {scene.rpm:g} rpm ({scene.omega:.4g} rad/s), step {scene.step_deg:g} deg")
+    click.echo("theta: crank angle CCW from +x (0: slider at its far dead centre when the offset is 0); dx, dy: "
+               "elastic displacement of P in the global frame; rot: elastic rotation of the section at P (CCW +); "
+               "mid: coupler midspan deflection normal to its chord (CCW normal of A->B); f1: first natural "
+               "frequency of the frozen linkage; mu: transmission angle")
+    if not out["valid"]:
+        click.echo("NOT VALID: " + ", ".join(out["flags"]) + " (see the warning above)")
+    d = _decimals(scene.step_deg)
+    w = max(9, d + 5)
+    click.echo(f"{'theta deg':>{w}} {'dx mm':>10} {'dy mm':>10} {'rot mrad':>10} {'mid mm':>10} {'f1 Hz':>9} "
+               f"{'mu deg':>7}")
+    for i, theta in enumerate(out["crank_angle_deg"]):
+        click.echo(f"{theta:{w}.{d}f} {1e3 * out['dx_m'][i]:10.4g} {1e3 * out['dy_m'][i]:10.4g} "
+                   f"{1e3 * out['rotation_rad'][i]:10.4g} {1e3 * out['midspan_m'][i]:10.4g} {out['f1_hz'][i]:9.2f} "
+                   f"{out['transmission_angle_deg'][i]:7.1f}")

@@ -35,12 +35,17 @@ def common_options(f: Any) -> Any:
 def _run(name: str, results_dir: Path | None, workers: int, fresh: bool, report_only: bool, progress: bool,
          **options: Any) -> None:
     from compare.studies import StudyPaths, run
+    from compare.studies.sections import SectionError, check_markers
 
     paths = StudyPaths(results_dir) if results_dir is not None else StudyPaths()
     if fresh and report_only:
         raise click.UsageError("--fresh and --report-only exclude each other")
-    summary = run(name, paths, workers=workers, fresh=fresh, report_only=report_only, progress=progress,
-                  echo=lambda text: click.echo(text, err=True), **options)
+    try:
+        check_markers(paths.readme)  # before the study runs: its section is written at the end
+        summary = run(name, paths, workers=workers, fresh=fresh, report_only=report_only, progress=progress,
+                      echo=lambda text: click.echo(text, err=True), **options)
+    except SectionError as exc:
+        raise click.ClickException(str(exc)) from None
     click.echo(json.dumps(summary, indent=2, default=str))
 
 
@@ -103,13 +108,17 @@ def stability(ladder: bool, retry_failed: bool, **common: Any) -> None:
               help="Dask scheduler address (e.g. tcp://10.0.0.5:8786) [default: a local cluster of --workers].")
 @click.option("--confirm", type=click.IntRange(min=0), default=200, show_default=True,
               help="Scenes of the stratified sample confirmed with Exudyn (0: none).")
-def atlas(linkages: int, seed: int, scheduler: str | None, confirm: int, **common: Any) -> None:
+@click.option("--threshold", type=click.IntRange(min=0), default=400, show_default=True,
+              help="Scenes confirmed with Exudyn within +-25 % of their family's quasi-static 10 % limit, from which "
+                   "the check's margins are chosen (0: none).")
+def atlas(linkages: int, seed: int, scheduler: str | None, confirm: int, threshold: int, **common: Any) -> None:
     """Validity atlas: the quasi-static and linear models' limits over a sample of four-bars."""
     from compare.atlas.store import AtlasFileError
     from compare.runner import SchedulerError
     from ked_cli.errors import UserError
 
     try:
-        _run("atlas", linkages=linkages, seed=seed, scheduler=scheduler, confirm=confirm, **common)
+        _run("atlas", linkages=linkages, seed=seed, scheduler=scheduler, confirm=confirm, threshold=threshold,
+             **common)
     except (AtlasFileError, SchedulerError) as exc:
         raise UserError(str(exc)) from None

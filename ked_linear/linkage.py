@@ -17,7 +17,7 @@ from ked_quasi.damping import damping_reference_hz, rayleigh_beta
 from ked_quasi.frame import condensed_structure
 from ked_quasi.scene import Scene
 
-from .periodic import Coefficients, PeriodicSystem
+from .periodic import Coefficients, PeriodicSystem, SampledCoefficients
 from .settings import LinearSettings
 
 
@@ -36,18 +36,13 @@ def linkage_system(scene: Scene, settings: LinearSettings) -> LinkageSystem:
     f_ref = damping_reference_hz(scene) if f_ref is None else float(f_ref)
     beta = rayleigh_beta(settings.damping_ratio, f_ref)
 
-    memo: dict[bytes, Coefficients] = {}  # the same angles recur (levels of the periodic solve, Floquet)
+    def direct(theta: np.ndarray) -> Coefficients:
+        cs = condensed_structure(scene, theta, prestress=settings.prestress)
+        return Coefficients(stiffness=cs.stiffness, damping=beta * cs.material_stiffness, load=cs.load,
+                            output=cs.output)
 
-    def coefficients(theta: np.ndarray) -> Coefficients:
-        key = np.ascontiguousarray(theta, dtype=float).tobytes()
-        if key not in memo:
-            if len(memo) >= 8:  # bounded: the Floquet angles do not recur
-                memo.pop(next(iter(memo)))
-            cs = condensed_structure(scene, theta, prestress=settings.prestress)
-            memo[key] = Coefficients(stiffness=cs.stiffness, damping=beta * cs.material_stiffness, load=cs.load,
-                                     output=cs.output)
-        return memo[key]
-
+    # sampled once, interpolated on the uniform grids of the periodic solve and the Floquet propagator
+    coefficients = SampledCoefficients(direct)
     mass = condensed_structure(scene, np.zeros(1)).mass
     system = PeriodicSystem(mass=mass, speed=scene.fourbar.sign * scene.omega, coefficients=coefficients)
     return LinkageSystem(system=system, damping_reference_hz=f_ref, damping_beta=beta)

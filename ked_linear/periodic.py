@@ -11,10 +11,14 @@ Method (Fourier collocation with a quasi-static split, docs/linear_model.md):
 * the dynamic operator acts on all harmonics of q (spectral derivatives on N collocation points) but,
   on the correction w, only on its first H crank harmonics (Pi_H); the rest of w follows quasi-statically.
   Collocation at the N points: K w + B Pi_H w = -B q.  With c = Pi_H w (real trigonometric coefficients,
-  2H + 1 per coordinate): (I + Pi_H K^-1 B E) c = -Pi_H K^-1 B q, one dense solve of size (2H + 1) n;
+  2H + 1 per coordinate): (I + Pi_H K^-1 B E) c = -Pi_H K^-1 B q, of size (2H + 1) n, block Toeplitz in
+  the harmonics: dense up to :data:`DENSE_LIMIT` unknowns, else GMRES preconditioned by its bands;
 * the solution at any angle is u = K^-1 (f - sigma C z' - sigma^2 M z''), z = q + Pi_H w (a trigonometric
   polynomial): with M and C zero it is the quasi-static solution exactly, and every harmonic of a
   constant-coefficient system up to H gets its exact frequency response.
+
+The coefficients of a :class:`PeriodicSystem` may be any callable; :class:`SampledCoefficients` makes
+them cheap on uniform grids (sampled once, trigonometric interpolation, error-checked).
 
 The truncation error is that of treating harmonics above H of w with one quasi-static iteration,
 ~ (k sigma / omega)^4 |q_k|; it is estimated by comparing H with the level below it (:func:`steady_state`).
@@ -26,7 +30,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse import linalg as spla
 
 
 @dataclass(frozen=True)
@@ -76,6 +79,10 @@ class PeriodicSolution:
     harmonics: int
     points: int
     kinematic: np.ndarray
+    correction: np.ndarray | None = None
+    """c = Pi_H w (2H + 1, n), real trigonometric coefficients [1, cos, sin, ...] (a start for the next level)."""
+    banded: bool = False
+    """The iterative solve needed the banded preconditioner (the next level then starts with it)."""
 
 
 def collocation_points(harmonics: int) -> int:
@@ -121,9 +128,11 @@ def _apply(matrices: np.ndarray, vectors: np.ndarray) -> np.ndarray:
     return np.einsum("mij,mj->mi", matrices, vectors)
 
 
-def solve_periodic(system: PeriodicSystem, harmonics: int, points: int | None = None) -> PeriodicSolution:
+def solve_periodic(system: PeriodicSystem, harmonics: int, points: int | None = None,
+                   start: PeriodicSolution | None = None) -> PeriodicSolution:
     """Steady state with ``harmonics`` dynamic harmonics H on ``points`` collocation points N (> 2H;
-    default :func:`collocation_points`)."""
+    default :func:`collocation_points`); ``start``: a solution at fewer harmonics of the same system,
+    the first guess of the iterative solve (the answer does not depend on it)."""
     H = int(harmonics)
     N = collocation_points(H) if points is None else int(points)
     if H < 1 or N <= 2 * H:
@@ -133,19 +142,37 @@ def solve_periodic(system: PeriodicSystem, harmonics: int, points: int | None = 
     s, m = system.speed, system.mass
     Kinv = np.linalg.inv(co.stiffness)
     q_hat = spectrum(_apply(Kinv, co.load))
-    rhs = -_apply(Kinv, s * _apply(co.damping, series(q_hat, theta, 1)) + s**2 * m * series(q_hat, theta, 2))
+    rhs = -_apply(Kinv, s * _apply(co.damping, _on_grid(q_hat, N, 1)) + s**2 * m * _on_grid(q_hat, N, 2))
     E, E1, E2 = trig_basis(theta, H)
     weight = np.r_[1.0, np.full(2 * H, 2.0)] / N  # Pi_H: c_b = weight_b sum_j E[j, b] x_j
     X, Y = Kinv @ co.damping, Kinv * m  # K^-1 C, K^-1 M
     c0 = weight[:, None] * (E.T @ rhs)
+    banded = False
     if c0.size <= DENSE_LIMIT:
         c = _solve_dense(s, E, E1, E2, weight, X, Y, c0)
     else:
-        c = _solve_krylov(s, E, E1, E2, weight, X, Y, c0)
+        c, banded = _solve_krylov(s, E, E1, E2, weight, X, Y, c0, _first_guess(start, c0.shape),
+                                  cheap=not (start is not None and start.banded))
     z_hat = q_hat.astype(complex)
     z_hat[0] += c[0]
     z_hat[1:H + 1] += 0.5 * (c[1::2] - 1j * c[2::2])
-    return PeriodicSolution(system=system, harmonics=H, points=N, kinematic=z_hat)
+    return PeriodicSolution(system=system, harmonics=H, points=N, kinematic=z_hat, correction=c,
+                            banded=banded)
+
+
+def _on_grid(coefficients: np.ndarray, N: int, derivative: int) -> np.ndarray:
+    """:func:`series` on the N-point grid theta_j = 2 pi j / N of its own spectrum, by inverse FFT."""
+    k = np.arange(coefficients.shape[0]).reshape((-1,) + (1,) * (coefficients.ndim - 1))
+    return np.fft.irfft(coefficients * (1j * k) ** derivative, n=N, axis=0) * N
+
+
+def _first_guess(start: PeriodicSolution | None, shape: tuple[int, int]) -> np.ndarray | None:
+    """The correction of ``start`` padded with zero harmonics to ``shape`` (None if there is none)."""
+    if start is None or start.correction is None or start.correction.shape[0] > shape[0]:
+        return None
+    guess = np.zeros(shape)
+    guess[:start.correction.shape[0]] = start.correction
+    return guess.ravel()
 
 
 DENSE_LIMIT = 640
@@ -153,17 +180,46 @@ DENSE_LIMIT = 640
 
 
 def _solve_dense(s, E, E1, E2, weight, X, Y, c0) -> np.ndarray:
-    """(I + G) c = c0 with G[b, a] = weight_b sum_j E[j, b] (s E1[j, a] X_j + s^2 E2[j, a] Y_j), dense."""
-    G = s * np.tensordot(E[:, :, None] * E1[:, None, :], X, axes=(0, 0))
-    G += s**2 * np.tensordot(E[:, :, None] * E2[:, None, :], Y, axes=(0, 0))  # (b, a, i, l)
+    """(I + G) c = c0 with G[b, a] = weight_b sum_j E[j, b] (s E1[j, a] X_j + s^2 E2[j, a] Y_j), dense,
+    built from the DFT of X and Y (:func:`_dense_operator`)."""
     P, n = c0.shape
-    G = (weight[:, None, None, None] * G).transpose(0, 2, 1, 3).reshape(P * n, P * n)
-    return np.linalg.solve(np.eye(P * n) + G, c0.ravel()).reshape(P, n)
+    G = _dense_operator(s, X, Y, (P - 1) // 2).reshape(P * n, P * n)
+    G[np.diag_indices_from(G)] += 1.0
+    return np.linalg.solve(G, c0.ravel()).reshape(P, n)
 
 
-def _solve_krylov(s, E, E1, E2, weight, X, Y, c0) -> np.ndarray:
-    """The same system by GMRES, matrix-free (O(N n^2) per product), preconditioned per harmonic by its
-    constant-coefficient part I + i k s mean(X) - k^2 s^2 mean(Y) (exact when K, C do not vary)."""
+def _dense_operator(s: float, X: np.ndarray, Y: np.ndarray, H: int) -> np.ndarray:
+    """G (2H + 1, n, 2H + 1, n) on the real coefficients [1, cos, sin, ...]: the complex blocks
+    G^[k, l] = (i l s) X^_{k-l} - (l s)^2 Y^_{k-l} (X^_d the DFT of X on the N collocation points:
+    block Toeplitz), combined for an input cos(l theta) = (e^{il} + e^{-il}) / 2 and sin(l theta) =
+    -i (e^{il} - e^{-il}) / 2, and read out as 2 Re (cos), -2 Im (sin), Re (mean) of harmonic k."""
+    N, n = X.shape[0], X.shape[1]
+    Xh, Yh = np.fft.fft(X, axis=0) / N, np.fft.fft(Y, axis=0) / N
+    k, l = np.arange(H + 1)[:, None], np.arange(1, H + 1)[None, :]
+
+    def blocks(lv: np.ndarray) -> np.ndarray:  # G^[k, lv], (H + 1, H, n, n)
+        d = (k - lv) % N
+        return (1j * s * lv)[..., None, None] * Xh[d] - ((s * lv) ** 2)[..., None, None] * Yh[d]
+
+    plus, minus = blocks(l), blocks(-l)
+    by_cos, by_sin = 0.5 * (plus + minus), -0.5j * (plus - minus)  # (k, l, i, j)
+    G = np.zeros((2 * H + 1, n, 2 * H + 1, n))
+    for col, B in ((slice(1, None, 2), by_cos), (slice(2, None, 2), by_sin)):
+        G[0, :, col, :] = B[0].real.transpose(1, 0, 2)
+        G[1::2, :, col, :] = 2.0 * B[1:].real.transpose(0, 2, 1, 3)
+        G[2::2, :, col, :] = -2.0 * B[1:].imag.transpose(0, 2, 1, 3)
+    return G
+
+
+def _solve_krylov(s, E, E1, E2, weight, X, Y, c0, x0=None, cheap: bool = True) -> tuple[np.ndarray, bool]:
+    """The same system by GMRES, matrix-free (O(N n^2) per product).  Preconditioned first by the
+    operator's theta-averaged part, block diagonal in the harmonics (I + i k s mean X - (k s)^2 mean Y,
+    exact when K and C do not vary: cheap, enough for slowly varying coefficients); if that has not
+    converged in :data:`CHEAP_ITERATIONS` iterations, on from there with the operator truncated to
+    the coefficients' harmonics |k - l| <= :data:`PRECONDITIONER_BANDS` (block banded: a sparse LU).
+    ``cheap``: False skips the first stage.  Returns c and whether the banded stage was needed."""
+    from scipy.sparse import linalg as spla  # here: scipy's import time is spent only when needed
+
     P, n = c0.shape
     H = (P - 1) // 2
 
@@ -175,7 +231,7 @@ def _solve_krylov(s, E, E1, E2, weight, X, Y, c0) -> np.ndarray:
     k = np.arange(1, H + 1)[:, None, None]
     blocks = np.linalg.inv(np.eye(n) + 1j * k * s * X.mean(0) - (k * s) ** 2 * Y.mean(0))  # (H, n, n)
 
-    def precondition(x: np.ndarray) -> np.ndarray:
+    def averaged(x: np.ndarray) -> np.ndarray:
         c = x.reshape(P, n)
         z = np.einsum("kij,kj->ki", blocks, c[1::2] - 1j * c[2::2])  # cos - i sin: the e^{ik theta} amplitude
         out = np.empty_like(c)
@@ -184,11 +240,76 @@ def _solve_krylov(s, E, E1, E2, weight, X, Y, c0) -> np.ndarray:
         return out.ravel()
 
     op = spla.LinearOperator((P * n, P * n), matvec=apply, dtype=float)
-    pre = spla.LinearOperator((P * n, P * n), matvec=precondition, dtype=float)
-    x, info = spla.gmres(op, c0.ravel(), M=pre, rtol=1e-11, atol=0.0, restart=200, maxiter=5)
+    tol = {"rtol": KRYLOV_TOLERANCE, "atol": KRYLOV_TOLERANCE * np.linalg.norm(c0)}
+    x = x0
+    if cheap and CHEAP_ITERATIONS > 0:
+        x, info = spla.gmres(op, c0.ravel(), x0=x0, M=spla.LinearOperator(op.shape, matvec=averaged, dtype=float),
+                             restart=CHEAP_ITERATIONS, maxiter=1, **tol)
+        if info == 0:
+            return x.reshape(P, n), False
+    lu = _banded_operator(s, X, Y, H, PRECONDITIONER_BANDS)
+
+    def banded(x: np.ndarray) -> np.ndarray:
+        return _real_form(lu.solve(_complex_form(x.reshape(P, n)).ravel()).reshape(2 * H + 1, n)).ravel()
+
+    x, info = spla.gmres(op, c0.ravel(), x0=x, M=spla.LinearOperator(op.shape, matvec=banded, dtype=float),
+                         restart=200, maxiter=5, **tol)
     if info != 0:
-        return _solve_dense(s, E, E1, E2, weight, X, Y, c0)
-    return x.reshape(P, n)
+        return _solve_dense(s, E, E1, E2, weight, X, Y, c0), True
+    return x.reshape(P, n), True
+
+
+CHEAP_ITERATIONS = 20
+"""GMRES iterations with the theta-averaged preconditioner before the banded one is built."""
+
+PRECONDITIONER_BANDS = 2
+"""Coefficient harmonics kept in the preconditioner of the iterative periodic solve (the operator's
+bands |k - l| <= this; a few GMRES iterations where the theta-average alone needs hundreds)."""
+
+KRYLOV_TOLERANCE = 1e-11
+"""Relative residual at which the iterative periodic solve stops."""
+
+
+def _complex_form(c: np.ndarray) -> np.ndarray:
+    """Real trigonometric coefficients (2H + 1, n) [1, cos, sin, ...] -> complex amplitudes a_k of
+    e^{i k theta}, k = -H .. H (2H + 1, n)."""
+    H = (c.shape[0] - 1) // 2
+    a = np.empty(c.shape, dtype=complex)
+    a[H] = c[0]
+    a[H + 1:] = 0.5 * (c[1::2] - 1j * c[2::2])
+    a[:H] = np.conj(a[H + 1:][::-1])
+    return a
+
+
+def _real_form(a: np.ndarray) -> np.ndarray:
+    """Inverse of :func:`_complex_form` (the real part of a Hermitian set of amplitudes)."""
+    H = (a.shape[0] - 1) // 2
+    c = np.empty(a.shape)
+    c[0] = a[H].real
+    c[1::2], c[2::2] = 2.0 * a[H + 1:].real, -2.0 * a[H + 1:].imag
+    return c
+
+
+def _banded_operator(s: float, X: np.ndarray, Y: np.ndarray, H: int, bands: int):
+    """Sparse LU of the collocation operator in complex amplitudes (k, l = -H .. H) kept to the bands
+    |k - l| <= ``bands``: block (k, l) = delta_kl I + (i l s) X^_{k-l} - (l s)^2 Y^_{k-l}, X^_d the DFT
+    of X on the N collocation points (exactly the operator's coupling, block Toeplitz in the harmonics)."""
+    from scipy import sparse
+    from scipy.sparse import linalg as spla
+
+    N, n = X.shape[0], X.shape[1]
+    Xh, Yh = np.fft.fft(X, axis=0) / N, np.fft.fft(Y, axis=0) / N
+    d, l = np.meshgrid(np.arange(-bands, bands + 1), np.arange(-H, H + 1), indexing="ij")
+    keep = np.abs(l + d) <= H
+    d, l = d[keep], l[keep]
+    blocks = (1j * s * l)[:, None, None] * Xh[d % N] - ((s * l) ** 2)[:, None, None] * Yh[d % N]
+    blocks[d == 0] += np.eye(n)
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    rows = ((l + d + H) * n)[:, None, None] + i
+    cols = ((l + H) * n)[:, None, None] + j
+    size = (2 * H + 1) * n
+    A = sparse.csc_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())), shape=(size, size))
+    return spla.splu(A, permc_spec="NATURAL")  # banded: natural order keeps the fill in the band
 
 
 def evaluate(solution: PeriodicSolution, theta: np.ndarray,
@@ -251,9 +372,9 @@ def steady_state(system: PeriodicSystem, theta: np.ndarray, tolerance: float, ha
         levels = [below[-1], harmonics] if below else [harmonics]
     else:
         levels = harmonic_levels(max_harmonics)
-    previous, changes, est = None, [], float("nan")
+    previous, changes, est, sol = None, [], float("nan"), None
     for H in levels:
-        sol = solve_periodic(system, H)
+        sol = solve_periodic(system, H, start=sol)
         u, y = evaluate(sol, theta, co)
         current = u if y is None else y
         if previous is not None:
@@ -274,3 +395,260 @@ def error_estimate(changes: list[float]) -> float:
         rho = d / changes[-2]
         return d * rho / (1.0 - rho)
     return d
+
+
+# --------------------------------------------------------------------------------------------------
+# coefficients sampled once on a uniform grid, trigonometric interpolation elsewhere
+
+
+class TrigInterpolant:
+    """The trigonometric interpolant of samples (G, F) at theta_j = 2 pi j / G, G even: degree G/2
+    with the Nyquist term split between +-G/2, so that it reproduces the samples.  Evaluated on a
+    uniform full-turn grid by folding its spectrum and one inverse FFT (O(G + m log m) per column)."""
+
+    def __init__(self, samples: np.ndarray):
+        G = samples.shape[0]
+        if G % 2 or G < 2:
+            raise ValueError(f"TrigInterpolant: needs an even number of samples >= 2; got {G}")
+        A = np.fft.fft(samples, axis=0) / G
+        half = G // 2
+        # frequencies -G/2 .. G/2 (G + 1 terms), the Nyquist coefficient halved at both ends; stored
+        # transposed, (F, G + 1): the FFTs then run along contiguous rows
+        spectrum = np.concatenate([A[half:half + 1] / 2, A[half + 1:], A[:half], A[half:half + 1] / 2])
+        self.spectrum = np.ascontiguousarray(spectrum.reshape(G + 1, -1).T)
+        self.frequency = np.arange(-half, half + 1)
+        self.points = G
+
+    def uniform(self, theta0: float, step_sign: float, m: int) -> np.ndarray:
+        """Values (m, F) at theta0 + step_sign * 2 pi j / m, j = 0 .. m - 1."""
+        a = self.spectrum * np.exp(1j * self.frequency * theta0)
+        if step_sign < 0:
+            a = np.conj(a)  # sum_f a_f e^{-i f t} is real: the conjugate of sum_f conj(a_f) e^{i f t}
+        residue = self.frequency % m
+        b = np.zeros((a.shape[0], m), dtype=complex)  # b[:, r]: sum of the a_f with f = r (mod m)
+        for start in range(0, a.shape[1], m):  # m consecutive frequencies have distinct residues
+            b[:, residue[start:start + m]] += a[:, start:start + m]
+        out = np.fft.irfft(b[:, :m // 2 + 1], n=m, axis=1) * m if m > 1 else b.real
+        return out.T
+
+    def at(self, theta: np.ndarray) -> np.ndarray:
+        """Values (m, F) at any angles (m,), by direct summation (O(G m) per column)."""
+        return (np.exp(1j * np.outer(theta, self.frequency)) @ self.spectrum.T).real
+
+
+def uniform_grids(theta: np.ndarray, most: int = 4) -> np.ndarray | None:
+    """If ``theta`` (m,) consists of r <= ``most`` uniform full-turn grids (theta0 + sign 2 pi j / (m/r),
+    j = 0 .. m/r - 1), one after another or interleaved (the angles of a multi-stage time stepper), the
+    index (r, m/r) of each grid's angles in ``theta``; else None."""
+    m = theta.size
+    for r in range(1, most + 1):
+        if m % r or m // r < 2:
+            continue
+        for index in (np.arange(m).reshape(r, m // r), np.arange(m).reshape(m // r, r).T):
+            d = np.diff(theta[index], axis=1)
+            step = 2.0 * np.pi / index.shape[1]
+            if np.all(np.abs(np.abs(d) - step) < 1e-9 * step) and np.all(np.sign(d) == np.sign(d[:, :1])):
+                return index
+    return None
+
+
+INTERPOLATION_TOLERANCE = 1e-9
+"""Largest error of interpolated coefficients, per field (K, C, f, output) as a fraction of its largest
+entry over the cycle, measured at the midpoints of the sampling grid before it is refined once more."""
+
+
+MEMO_ANGLES = 512
+"""Requests of at most this many angles are remembered (the last 8): the collocation grids recur."""
+
+
+class SampledCoefficients:
+    """``direct`` (theta -> :class:`Coefficients`) sampled once on a uniform grid and interpolated
+    trigonometrically on every uniform full-turn grid asked for (the collocation points of the periodic
+    solve, the stage angles of a time stepper); non-uniform angles are evaluated by ``direct``.
+
+    G doubles from ``start``: once the interpolant of G samples matches ``direct`` at the G midpoints
+    within ``tolerance`` (:func:`_field_error`), the 2 G samples (grid and midpoints) are kept, so the
+    interpolant is exact at them and, the series converging geometrically, far within ``tolerance``
+    elsewhere.  Two forms are tried on the same samples: the coefficients themselves ("stiffness"), and
+    the compliance form K^-1, K^-1 C, K^-1 f, output K^-1 ("flexibility", K etc. rebuilt per angle):
+    the frozen structure's flexibility is smooth even where its stiffness spikes (a lumped mass whose
+    flexibility nearly vanishes in one direction).  Neither passing below ``max_points`` (a linkage
+    near toggle), ``direct`` is used everywhere (``form`` "direct").
+
+    ``points``: the number of samples kept (0: direct); ``error``: the last measured midpoint error.
+    The sampling is done at the first request (or when ``form``, ``points`` or ``error`` is read)."""
+
+    def __init__(self, direct: Callable[[np.ndarray], Coefficients], tolerance: float = INTERPOLATION_TOLERANCE,
+                 start: int = 32, max_points: int = 512):
+        self.direct = direct
+        self._options = (tolerance, start, max_points)
+        self._sampled = False
+        self._memo: dict[bytes, Coefficients] = {}
+
+    form = property(lambda self: self._sample()._form)
+    points = property(lambda self: self._sample()._points)
+    error = property(lambda self: self._sample()._error)
+    interpolant = property(lambda self: self._sample()._interpolant)
+
+    def _sample(self) -> SampledCoefficients:
+        if not self._sampled:
+            self._sampled = True
+            self._form, self._points, self._error = "direct", 0, float("nan")
+            self._interpolant: TrigInterpolant | None = None
+            self._refine(*self._options)
+        return self
+
+    def _refine(self, tolerance: float, start: int, max_points: int) -> None:
+        direct = self.direct
+        G = start
+        both = direct(np.arange(2 * G) * (np.pi / G))  # the first grid and its midpoints in one evaluation
+        grid, mid = _every_other(both, 0), _every_other(both, 1)
+        history: list[float] = []
+        while True:
+            exact, layout = _pack(mid)
+            merged = _merge(grid, mid)
+            errors = {}
+            for form in ("stiffness", "flexibility"):
+                sampled = _to_form(form, grid)
+                sym = _symmetric(sampled)
+                values = TrigInterpolant(_compact(sampled, sym)).uniform(np.pi / G, 1.0, G)
+                errors[form] = _field_error(_pack(_from_form(form, _expand(values, layout, sym)))[0], exact, layout)
+                if errors[form] <= tolerance:
+                    self._form, self._points, self._error, self.layout, self.symmetric = form, 2 * G, errors[form], \
+                        layout, sym
+                    self._interpolant = TrigInterpolant(_compact(_to_form(form, merged), sym))
+                    return
+            self._error = min(errors.values(), key=lambda e: e if np.isfinite(e) else np.inf)
+            history.append(self._error)
+            # give up at max_points, or when doubling stops paying (spectral convergence gains orders of
+            # magnitude per doubling; a kink or a near-singularity gains a factor of a few)
+            slow = len(history) >= 2 and not history[-1] < 1e-2 * history[-2]
+            if 4 * G > max_points or slow or not np.isfinite(self._error):
+                return
+            grid, G = merged, 2 * G
+            mid = direct((np.arange(G) + 0.5) * (2.0 * np.pi / G))
+
+    def __call__(self, theta: np.ndarray) -> Coefficients:
+        theta = np.atleast_1d(np.asarray(theta, dtype=float))
+        if theta.size > MEMO_ANGLES:  # a propagator's stage angles: large and not asked for twice
+            return self._evaluate(theta)
+        key = theta.tobytes()
+        if key not in self._memo:
+            if len(self._memo) >= 8:  # bounded: the same angles recur (levels of the periodic solve)
+                self._memo.pop(next(iter(self._memo)))
+            self._memo[key] = self._evaluate(theta)
+        return self._memo[key]
+
+    def _evaluate(self, theta: np.ndarray) -> Coefficients:
+        index = None if self.interpolant is None else uniform_grids(theta)
+        if index is None:
+            return self.direct(theta)
+        out = np.empty((theta.size, self.interpolant.spectrum.shape[0]))
+        for row in index:
+            sign = 1.0 if theta[row[1]] > theta[row[0]] else -1.0
+            out[row] = self.interpolant.uniform(theta[row[0]], sign, row.size)
+        return _from_form(self.form, _expand(out, self.layout, self.symmetric))
+
+
+def _every_other(co: Coefficients, first: int) -> Coefficients:
+    return _coefficients([f[first::2] for f in _fields(co)])
+
+
+def _merge(a: Coefficients, b: Coefficients) -> Coefficients:
+    """Interleave the samples of ``a`` and ``b`` (a[0], b[0], a[1], ...)."""
+    fields = []
+    for fa, fb in zip(_fields(a), _fields(b)):
+        f = np.empty((2 * fa.shape[0],) + fa.shape[1:])
+        f[0::2], f[1::2] = fa, fb
+        fields.append(f)
+    return _coefficients(fields)
+
+
+def _fields(co: Coefficients) -> list[np.ndarray]:
+    return [co.stiffness, co.damping, co.load] + ([] if co.output is None else [co.output])
+
+
+def _coefficients(fields: list[np.ndarray]) -> Coefficients:
+    return Coefficients(*fields) if len(fields) == 4 else Coefficients(*fields, output=None)
+
+
+def _to_form(form: str, co: Coefficients) -> Coefficients:
+    """The sampled quantities of ``form``: the coefficients, or K^-1, K^-1 C, K^-1 f, output K^-1."""
+    if form == "stiffness":
+        return co
+    F = np.linalg.inv(co.stiffness)
+    return Coefficients(stiffness=F, damping=F @ co.damping, load=_apply(F, co.load),
+                        output=None if co.output is None else co.output @ F)
+
+
+def _from_form(form: str, co: Coefficients) -> Coefficients:
+    """The coefficients from the quantities of ``form`` (inverse of :func:`_to_form`)."""
+    if form == "stiffness":
+        return co
+    K = np.linalg.inv(co.stiffness)
+    K = 0.5 * (K + np.swapaxes(K, 1, 2))
+    return Coefficients(stiffness=K, damping=K @ co.damping, load=_apply(K, co.load),
+                        output=None if co.output is None else co.output @ K)
+
+
+def _symmetric(co: Coefficients) -> tuple[bool, ...]:
+    """Per field: square and symmetric to rounding (then only its upper triangle is interpolated)."""
+    out = []
+    for f in _fields(co):
+        square = f.ndim == 3 and f.shape[1] == f.shape[2]
+        out.append(bool(square and np.max(np.abs(f - np.swapaxes(f, 1, 2)), initial=0.0)
+                        <= 1e-13 * np.max(np.abs(f), initial=0.0)))
+    return tuple(out)
+
+
+def _compact(co: Coefficients, symmetric: tuple[bool, ...]) -> np.ndarray:
+    """Like :func:`_pack`, the symmetric fields by their upper triangles."""
+    parts = []
+    for f, sym in zip(_fields(co), symmetric):
+        parts.append(f[(slice(None), *np.triu_indices(f.shape[1]))] if sym else f.reshape(f.shape[0], -1))
+    return np.concatenate(parts, axis=1)
+
+
+def _expand(flat: np.ndarray, layout: tuple[tuple[int, ...], ...], symmetric: tuple[bool, ...]) -> Coefficients:
+    """Inverse of :func:`_compact`."""
+    parts, start, m = [], 0, flat.shape[0]
+    for shape, sym in zip(layout, symmetric):
+        if sym:
+            i, j = np.triu_indices(shape[0])
+            f = np.empty((m,) + shape)
+            f[:, i, j] = f[:, j, i] = flat[:, start:start + i.size]
+            start += i.size
+        else:
+            size = int(np.prod(shape))
+            f = flat[:, start:start + size].reshape((m,) + shape)
+            start += size
+        parts.append(f)
+    return _coefficients(parts)
+
+
+def _pack(co: Coefficients) -> tuple[np.ndarray, tuple[tuple[int, ...], ...]]:
+    """The fields of ``co`` side by side, (m, F), and their shapes (without m)."""
+    fields = _fields(co)
+    m = fields[0].shape[0]
+    return np.concatenate([f.reshape(m, -1) for f in fields], axis=1), tuple(f.shape[1:] for f in fields)
+
+
+def _unpack(flat: np.ndarray, layout: tuple[tuple[int, ...], ...]) -> Coefficients:
+    parts, start = [], 0
+    for shape in layout:
+        size = int(np.prod(shape))
+        parts.append(flat[:, start:start + size].reshape((flat.shape[0],) + shape))
+        start += size
+    return _coefficients(parts)
+
+
+def _field_error(approx: np.ndarray, exact: np.ndarray, layout: tuple[tuple[int, ...], ...]) -> float:
+    """max over the fields of max |approx - exact| / max |exact| (NaN if anything is not finite)."""
+    err, start = 0.0, 0
+    for shape in layout:
+        sl = slice(start, start + int(np.prod(shape)))
+        start = sl.stop
+        peak = np.max(np.abs(exact[:, sl]), initial=0.0)
+        if peak > 0.0:
+            err = max(err, float(np.max(np.abs(approx[:, sl] - exact[:, sl])) / peak))
+    return err if np.all(np.isfinite(approx)) and np.all(np.isfinite(exact)) else float("nan")

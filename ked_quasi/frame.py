@@ -21,7 +21,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import sparse
 
 from .kinematics import loop
 from .linkage import FourBar
@@ -116,9 +115,10 @@ def assemble(fourbar: FourBar, topo: Topology, dofs: FrameDofs, geo: Geometry,
     keep = (d[:, :, None] >= 0) & (d[:, None, :] >= 0)  # (E, 6, 6)
     e, a, b = np.nonzero(keep)
     flat = d[e, a] * dofs.n_dofs + d[e, b]
-    scatter = sparse.csr_matrix((np.ones(flat.size), (flat, np.arange(flat.size))),
-                                shape=(dofs.n_dofs**2, flat.size))  # sums coincident entries
-    K = (scatter @ ke[:, e, a, b].T).T
+    order = np.argsort(flat, kind="stable")
+    target, first = np.unique(flat[order], return_index=True)
+    K = np.zeros((n, dofs.n_dofs**2))
+    K[:, target] = np.add.reduceat(ke[:, e[order], a[order], b[order]], first, axis=1)  # sums coincident entries
     return K.reshape(n, dofs.n_dofs, dofs.n_dofs)
 
 

@@ -25,6 +25,16 @@ MAX_ROTATION_RAD = 0.1
 FLAGS = ("large_deflection", "large_rotation", "non_finite")
 
 
+def shortest_link(linkage: object) -> float:
+    """The shortest link [m] of a four-bar (ground included) or of a linkage that states its own
+    (``shortest_link``, e.g. a slider-crank)."""
+    own = getattr(linkage, "shortest_link", None)
+    if own is not None:
+        return float(own)
+    fb = linkage
+    return min(fb.crank, fb.coupler, fb.follower, fb.extender, fb.ground)  # type: ignore[attr-defined]
+
+
 def flags(deflection: np.ndarray, fourbar: object) -> tuple[str, ...]:
     """The validity flags of a (n, 3) deflection history (dx, dy [m], rotation [rad]) of ``fourbar``."""
     d = np.asarray(deflection, dtype=float)
@@ -32,7 +42,7 @@ def flags(deflection: np.ndarray, fourbar: object) -> tuple[str, ...]:
     if not np.all(np.isfinite(d)):
         out.append("non_finite")
     with np.errstate(invalid="ignore"):
-        shortest = min(fourbar.crank, fourbar.coupler, fourbar.follower, fourbar.extender, fourbar.ground)
+        shortest = shortest_link(fourbar)
         if np.nanmax(np.hypot(d[:, 0], d[:, 1]), initial=0.0) > MAX_DEFLECTION_FRACTION * shortest:
             out.append("large_deflection")
         if np.nanmax(np.abs(d[:, 2]), initial=0.0) > MAX_ROTATION_RAD:
@@ -45,7 +55,7 @@ def describe(found: tuple[str, ...], deflection: np.ndarray, fourbar: object) ->
     if not found:
         return ""
     d = np.asarray(deflection, dtype=float)
-    shortest = min(fourbar.crank, fourbar.coupler, fourbar.follower, fourbar.extender, fourbar.ground)
+    shortest = shortest_link(fourbar)
     parts = []
     if "large_deflection" in found:
         peak = float(np.nanmax(np.hypot(d[:, 0], d[:, 1])))

@@ -4,8 +4,17 @@ from __future__ import annotations
 
 from .linkage import FourBar, thesis_fourbar
 from .scene import Scene, build_scene
+from .slidercrank import SliderCrank, simeon_slider_crank
 
 LINKAGES = {"thesis": thesis_fourbar}
+
+SLIDER_LINKAGES = {"simeon": simeon_slider_crank}
+"""Named slider-crank linkages (``--linkage simeon``: the flexible slider-crank of Simeon's benchmark)."""
+
+
+def slider_linkage(name: str) -> SliderCrank | None:
+    """A named slider-crank preset (SI), or None when ``name`` names none."""
+    return SLIDER_LINKAGES[name]() if name in SLIDER_LINKAGES else None
 
 
 def linkage(name: str) -> FourBar:

@@ -196,3 +196,19 @@ def check_speed_ratio(ratio: float, rpm: float, f1_hz: float, label: str = "rpm"
             f"first natural frequency {f1_hz:.3g} Hz); crank speeds are in rev/min, lengths in metres, Young's "
             "modulus in Pa, density in kg/m^3: a unit mix-up (e.g. mm as m) or a stiffness scale far below 1 "
             "gives such an r; lower the speed or fix the units")
+
+# -- slider-crank -------------------------------------------------------------------------------
+OFFSET = Rule("offset", "m", -10.0, 10.0, "the slider line's distance from the crank pivot, within the link lengths",
+              mixup=("offsets are in metres", "mm", 1e-3))
+COUPLER_POINT = Rule("coupler_point", "", 0.0, 1.0, "a fraction of the coupler from the crank pin A (0) to the "
+                     "slider pin B (1); a point at a pin is that pin", lo_open=True, hi_open=True)
+SLIDER_MASS_KG = Rule("slider_mass", "kg", 0.0, 1e4, "a slider a linkage can drive, up to 10 t")
+
+
+def check_slider_crank_turns(crank: float, coupler: float, offset: float, label: str = "SliderCrank") -> None:
+    """Refuse a slider-crank whose crank cannot turn fully: it needs crank + |offset| < coupler (otherwise the
+    coupler cannot reach the slider line at some crank angle, or reaches it only at a toggle)."""
+    if not crank + abs(offset) < coupler:
+        raise ValueError(
+            f"{label}: the crank cannot turn fully: crank + |offset| = {crank + abs(offset):g} m must be below the "
+            f"coupler length {coupler:g} m (crank={crank:g} m, coupler={coupler:g} m, offset={offset:g} m)")

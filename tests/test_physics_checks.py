@@ -111,3 +111,67 @@ def test_dynamic_matches_quasi_static_far_below_resonance(scene_name, thesis, th
     # the instantaneous-structure assumption is exact in the limit Omega/omega1 -> 0
     scene = SCENES[scene_name](_fourbar(scene_name, thesis, thesis_cognate))
     _close(exudyn_dynamic(scene), quasi_static(scene), 0.03)
+
+
+# -- the slider-crank: the same invariants ------------------------------------------------------
+# A slider-crank solver takes a SliderScene and returns (n, 4): dx, dy [m], rotation [rad] of P and the
+# coupler's midspan deflection normal to its chord [m].  The quasi-static tier for now; the linear and Exudyn
+# tiers join SLIDER_SOLVERS when they take the slider-crank.
+
+
+def slider_quasi_static(scene) -> np.ndarray:
+    from ked_quasi.slider_static import solve_slider_quasi_static
+
+    res = solve_slider_quasi_static(scene)
+    return np.column_stack([res.deflection, res.midspan])
+
+
+SLIDER_SOLVERS = {"quasi": (slider_quasi_static, 1e-10)}
+
+
+def _simeon_scene(offset: float = 0.0, payload: float = 0.0):
+    from ked_quasi.slidercrank import SliderScene, simeon_slider_crank
+
+    sc = replace(simeon_slider_crank(), offset=offset, coupler_point=0.35)  # P off midspan: no hidden symmetry
+    mm = MassModel("distributed", lumps=4, payload=payload)
+    return SliderScene(sc, mm, rpm=120.0, step_deg=10.0)
+
+
+SLIDER_SCENES = {"simeon-offset0": lambda: _simeon_scene(), "simeon-offset-payload": lambda: _simeon_scene(0.04, 0.1)}
+
+
+def _slider_close(a: np.ndarray, b: np.ndarray, rtol: float) -> None:
+    _close(a[:, :3], b[:, :3], rtol)
+    assert np.abs(a[:, 3] - b[:, 3]).max() <= rtol * np.abs(b[:, 3]).max()
+
+
+@pytest.mark.parametrize("solver", list(SLIDER_SOLVERS))
+@pytest.mark.parametrize("scene_name", list(SLIDER_SCENES))
+def test_slider_crank_mirror_symmetry(solver, scene_name):
+    # reflecting in the x axis (offset -> -offset) and reversing the crank mirrors the response at -theta:
+    # (dx, -dy, -rotation), and the midspan deflection along the mirrored chord's CCW normal changes sign;
+    # the offset-free linkage is its own mirror
+    solve, rtol = SLIDER_SOLVERS[solver]
+    scene = SLIDER_SCENES[scene_name]()
+    sc = scene.linkage
+    d = solve(scene)
+    m = solve(replace(scene, linkage=replace(sc, offset=-sc.offset, direction="cw")))
+    idx = (-np.arange(d.shape[0])) % d.shape[0]
+    _slider_close(m[idx] * np.array([1.0, -1.0, -1.0, -1.0]), d, rtol)
+
+
+@pytest.mark.parametrize("solver", list(SLIDER_SOLVERS))
+@pytest.mark.parametrize("scene_name", list(SLIDER_SCENES))
+def test_slider_crank_low_speed_limit_scales_with_rpm_squared(solver, scene_name):
+    solve, rtol = SLIDER_SOLVERS[solver]
+    scene = SLIDER_SCENES[scene_name]()
+    _slider_close(4.0 * solve(replace(scene, rpm=scene.rpm / 2.0)), solve(scene), rtol)
+
+
+@pytest.mark.parametrize("solver", list(SLIDER_SOLVERS))
+def test_slider_crank_deflection_scales_as_inverse_stiffness(solver):
+    solve, rtol = SLIDER_SOLVERS[solver]
+    scene = SLIDER_SCENES["simeon-offset-payload"]()
+    d1 = solve(replace(scene, linkage=scene.linkage.with_stiffness_scale(10.0)))
+    d2 = solve(replace(scene, linkage=scene.linkage.with_stiffness_scale(20.0)))
+    _slider_close(2.0 * d2, d1, rtol)

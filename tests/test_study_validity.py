@@ -66,6 +66,7 @@ def test_limit_and_errors_pure():
     lim = validity_limit([0.1, 0.2, 0.3], [0.01, 0.04, 0.2], [True, True, True], 0.05)
     assert lim.status == "crossed" and (lim.r_pass, lim.r_fail) == (0.2, 0.3)
     assert lim.r_cross == pytest.approx(0.2 + 0.1 * 0.01 / 0.16)
+    assert lim.r_limit == 0.2 and lim.step == pytest.approx(0.1)  # the reported limit: first crossing
     assert validity_limit([0.1, 0.2], [0.2, 0.3], [True, True], 0.05).status == "below_grid"
     assert validity_limit([0.1, 0.2], [0.01, math.nan], [True, False], 0.05) == Limit(0.05, "failure", 0.1, 0.2)
     assert validity_limit([0.1, 0.2], [0.01, 0.02], [True, True], 0.05).status == "above_grid"
@@ -110,7 +111,9 @@ def test_validity_study_quick(tmp_path):
     r10 = crossing(0.04, e_lo, 0.25, e_hi, 0.10)
     assert math.isfinite(r10)
     row = next(line for line in section.splitlines() if line.startswith("| tiny source | extender"))
-    assert f"**{r10:.3f}**" in row
+    # the limit is the first crossing (the last passing grid ratio, the step to the first failing one); the
+    # value interpolated between them is shown for reference only
+    assert f"**0.040** (+0.210; interpolated {r10:.3f}" in row
     # rerun: everything stored, nothing computed, same section
     res = CliRunner().invoke(main, args, catch_exceptions=False)
     assert res.exit_code == 0 and '"computed": 0' in res.output

@@ -10,6 +10,12 @@
 A tier limit is the **median** over the families, with the **spread** median - 10th percentile: the
 limit minus its spread is exceeded by 90 % of the atlas's families (a design check counts it against
 the limit).
+
+Every limit is a **first crossing** on its grid (:func:`first_crossings`): the last grid ratio below which
+every scene passed, never a value interpolated between the last passing and the first failing ratio
+(between two grid ratios a resonance peak can cross the tolerance unseen); the grid step to the first
+failing ratio is kept beside it (the crossing lies in [r, r + step)).  The interpolated r5 / r10 the
+atlas file stores per family are kept as ``r5_interpolated`` / ``r10_interpolated``.
 """
 
 from __future__ import annotations
@@ -62,15 +68,37 @@ def crossed(fam: dict[str, np.ndarray], tag: str, mass_model: str | None = None)
     return m
 
 
+def first_crossings(fam: dict[str, np.ndarray], ratios: Sequence[float]) -> dict[str, np.ndarray]:
+    """A copy of the /families columns whose limits r5 / r10 are first crossings on ``ratios`` (the last
+    passing grid ratio; above_grid: the largest ratio computed, a lower bound; below_grid, failure: nan)
+    with ``r5_step`` / ``r10_step`` (first failing minus last passing grid ratio, nan unless crossed) and
+    the stored interpolated values as ``r5_interpolated`` / ``r10_interpolated``."""
+    from compare.atlas.compute import OK
+
+    out = dict(fam)
+    err = np.asarray(fam.get("history_error", np.empty((0, len(ratios)))), float)
+    ok = np.asarray(fam.get("code", np.empty((0, len(ratios)))), int) == OK
+    for tag, tol in zip(TOLERANCE_TAGS, (0.05, 0.10)):
+        if tag not in fam:
+            continue
+        lims = [validity_limit(ratios, err[i], ok[i], tol) for i in range(err.shape[0])]
+        out[f"{tag}_interpolated"] = fam[tag]
+        out[tag] = np.array([x.r_pass if x.status in ("crossed", "above_grid") else math.nan for x in lims])
+        out[f"{tag}_step"] = np.array([x.r_fail - x.r_pass if x.status == "crossed" else math.nan for x in lims])
+    return out
+
+
 @dataclass(frozen=True)
 class LinearLimit:
-    """The linear model's limit of one confirmed family: status as in the validity walk, r (crossed:
-    interpolated; above_grid: the largest confirmed ratio, a lower bound)."""
+    """The linear model's limit of one confirmed family: status as in the validity walk, r (crossed: the
+    last confirmed ratio below the first crossing, ``step`` to the first failing one; above_grid: the
+    largest confirmed ratio, a lower bound)."""
 
     family: tuple[int, str, str]
     tag: str
     status: str
     r: float
+    step: float = math.nan
 
 
 def linear_limits(confirm: dict[str, np.ndarray]) -> list[LinearLimit]:
@@ -86,13 +114,15 @@ def linear_limits(confirm: dict[str, np.ndarray]) -> list[LinearLimit]:
         ok = [confirm["status"][i] == "ok" and math.isfinite(e[j]) for j, i in enumerate(rows)]
         for tag, tol in zip(TOLERANCE_TAGS, (0.05, 0.10)):
             lim = validity_limit(r, e, ok, tol)
-            val = {"crossed": lim.r_cross, "above_grid": lim.r_pass}.get(lim.status, math.nan)
-            out.append(LinearLimit(fam, tag, lim.status, float(val)))
+            val = lim.r_pass if lim.status in ("crossed", "above_grid") else math.nan
+            step = lim.r_fail - lim.r_pass if lim.status == "crossed" else math.nan
+            out.append(LinearLimit(fam, tag, lim.status, float(val), float(step)))
     return out
 
 
 def tier_limits(fam: dict[str, np.ndarray], confirm: dict[str, np.ndarray], mass_model: str) -> TierLimits:
-    """The :class:`TierLimits` of one mass model."""
+    """The :class:`TierLimits` of one mass model (``fam`` with first-crossing limits:
+    :func:`first_crossings`)."""
     qs = {t: median_spread(np.asarray(fam[t], float)[crossed(fam, t, mass_model)]) for t in TOLERANCE_TAGS}
     lin_all = [x for x in linear_limits(confirm) if x.family[2] == mass_model]
     lin = {t: median_spread([x.r for x in lin_all if x.tag == t and x.status in ("crossed", "above_grid")])
@@ -122,7 +152,15 @@ def limits(mass_model: str, path: str | Path | None = None) -> TierLimits:
     fam = store.read(p, "families")
     if not np.any(np.asarray(fam.get("mass_model", []), dtype=object) == mass_model):
         raise ValueError(f"the atlas {p} has no family of mass model {mass_model!r}")
+    fam = first_crossings(fam, store.attrs(p).get("ratios", ()))
     return tier_limits(fam, store.read(p, "confirm"), mass_model)
+
+
+def lower_band(t: TierLimits, tolerance: float = 0.10) -> float:
+    """The linear model's lower-band limit of a mass model: its limit minus its spread (10 % limits for a
+    tolerance >= 10 %, else the 5 % ones; a nan spread counts as 0)."""
+    lim, spread = (t.linear_r10, t.linear_r10_spread) if tolerance >= 0.10 else (t.linear_r5, t.linear_r5_spread)
+    return lim - (spread if math.isfinite(spread) else 0.0)
 
 
 # --------------------------------------------------------------------------------------------------

@@ -41,9 +41,11 @@ FLAG_BITS = {"large_deflection": 1, "large_rotation": 2, "non_finite": 4}
 
 @dataclass(frozen=True)
 class Limit:
-    """A limit r* of one tolerance: ``status`` crossed / above_grid / below_grid / failure / no_data;
-    ``r`` interpolated (crossed), else the bound (r_pass above, r_fail below); ``half_bracket``: the grid
-    half-interval around a crossing (its uncertainty)."""
+    """A limit r* of one tolerance as stored per family: ``status`` crossed / above_grid / below_grid /
+    failure / no_data; ``r`` interpolated (crossed), else the bound (r_pass above, r_fail below);
+    ``half_bracket``: the grid half-interval around a crossing.  The stored interpolated value is a record
+    only: the atlas's analysis reports first crossings recomputed from the per-ratio errors
+    (:func:`compare.atlas.analysis.first_crossings`)."""
 
     status: str
     r: float

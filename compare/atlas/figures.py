@@ -149,3 +149,40 @@ def coupler_curves(curves: Sequence[dict], path: Path) -> Path:
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     return _save(fig, path)
+
+
+def threshold(e: np.ndarray, measured: np.ndarray, mass_model: np.ndarray, factor: np.ndarray, tolerance: float,
+              holds_below: float, fails_above: float, path: Path) -> Path:
+    """The threshold sample: measured (quasi-static vs Exudyn) against predicted (quasi-static vs linear)
+    error, with the tolerance and the chosen margins; the measured error over r / r10."""
+    fig = _figure((12, 4.5))
+    ax1, ax2 = fig.subplots(1, 2)
+    mm_all = np.asarray(mass_model, dtype=object)
+    for mm in MASS_MODELS:
+        m = (mm_all == mm) & np.isfinite(measured)
+        ax1.scatter(np.asarray(e)[m], np.asarray(measured)[m], s=10, marker=MARKERS[mm], color=COLORS[mm], label=mm)
+        ax2.scatter(np.asarray(factor)[m], np.asarray(measured)[m], s=10, marker=MARKERS[mm], color=COLORS[mm],
+                    label=mm)
+    lim = np.array([0.02, 0.4])
+    ax1.plot(lim, lim, "k-", lw=0.6)
+    ax1.axhline(tolerance, color="r", lw=0.8, ls=":", label=f"tolerance {tolerance:.0%}")
+    ax1.axvline(holds_below * tolerance, color="g", lw=0.8, ls="--", label=f"holds below {holds_below:g} x tol")
+    ax1.axvline(fails_above * tolerance, color="m", lw=0.8, ls="--", label=f"fails above {fails_above:g} x tol")
+    ax1.set_xlim(*lim)
+    ax1.set_ylim(*lim)
+    ax1.set_xscale("log")
+    ax1.set_yscale("log")
+    from matplotlib.ticker import NullFormatter
+
+    for axis in (ax1.xaxis, ax1.yaxis):
+        axis.set_minor_formatter(NullFormatter())
+    ax1.set_xlabel("predicted: quasi-static vs linear")
+    ax1.set_ylabel("measured: quasi-static vs Exudyn")
+    ax2.axhline(tolerance, color="r", lw=0.8, ls=":")
+    ax2.set_yscale("log")
+    ax2.set_xlabel("r / family's interpolated quasi-static r10")
+    ax2.set_ylabel("measured: quasi-static vs Exudyn")
+    for ax in (ax1, ax2):
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=7)
+    return _save(fig, path)

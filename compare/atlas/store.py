@@ -12,9 +12,14 @@ the file), appended in batches, so a killed run loses only the linkages still be
 /families         one row per family (linkage, mechanism, mass model): see compute.FamilyRecord;
                   per-ratio columns history_error, peak_error, floquet_max_abs, linear_error_estimate,
                   one_mode_error (float, (rows, ratios)), flags (bits), code (0 ok, 1 unstable, 2 failed,
-                  3 not computed); limits r5_status, r5, r5_half_bracket, r10_*; one_mode_r5, one_mode_r10
+                  3 not computed); limits r5_status, r5, r5_half_bracket, r10_* (r5, r10 interpolated: a
+                  record; the analysis uses first crossings); one_mode_r5, one_mode_r10
 /confirm          one row per Exudyn-confirmed scene (compare.atlas.confirm.ConfirmRecord)
+/threshold        one row per threshold scene (the same columns; compare.atlas.threshold)
 ```
+
+The root attribute ``verdict_margins`` (JSON, tolerance in percent -> record) holds the check's margins
+chosen from /threshold (:mod:`compare.atlas.calibration`).
 """
 
 from __future__ import annotations
@@ -111,7 +116,7 @@ def compact(path: Path) -> None:
     """Rewrite the file in one piece (appending in small batches leaves small chunks, and HDF5 does not give
     back the space of replaced tables): a new file is written with :func:`compare.store.transaction`
     next to it and renamed onto it atomically."""
-    tables = {t: read(path, t) for t in ("linkages", "families", "confirm")}
+    tables = {t: read(path, t) for t in ("linkages", "families", "confirm", "threshold")}
     with h5py.File(path, "r") as f:
         file_attrs = dict(f.attrs)
     fresh = path.with_name(path.name + ".compact")

@@ -1,5 +1,7 @@
-"""``ked study atlas``: the validity atlas (``compare.atlas``): compute (resume) the linkages and the
-Exudyn-confirmed sample into ``<results>/atlas/atlas.h5``, then its figures and README section."""
+"""``ked study atlas``: the validity atlas (``compare.atlas``): compute (resume) the linkages, the
+Exudyn-confirmed sample and the threshold sample into ``<results>/atlas/atlas.h5``, choose the check's
+margins from the threshold sample (stored in the file: :func:`compare.atlas.verdict_margins`), then its
+figures and README section."""
 
 from __future__ import annotations
 
@@ -11,6 +13,7 @@ from compare.studies import StudyPaths, remove_outputs
 
 DEFAULT_LINKAGES = 1000
 DEFAULT_CONFIRM = 200
+DEFAULT_THRESHOLD = 400
 
 
 def atlas_file(paths: StudyPaths) -> Path:
@@ -20,8 +23,10 @@ def atlas_file(paths: StudyPaths) -> Path:
 
 def run(paths: StudyPaths, *, workers: int = 2, fresh: bool = False, report_only: bool = False,
         progress: bool = False, echo: Callable[[str], Any] = print, linkages: int = DEFAULT_LINKAGES,
-        seed: int = 0, scheduler: str | None = None, confirm: int = DEFAULT_CONFIRM) -> dict[str, Any]:
+        seed: int = 0, scheduler: str | None = None, confirm: int = DEFAULT_CONFIRM,
+        threshold: int = DEFAULT_THRESHOLD) -> dict[str, Any]:
     """The study with the common signature (see :func:`compare.studies.run`)."""
+    from compare.atlas.calibration import store_margins
     from compare.atlas.confirm import run_confirm
     from compare.atlas.report import write_report
     from compare.atlas.run import run_atlas
@@ -36,7 +41,13 @@ def run(paths: StudyPaths, *, workers: int = 2, fresh: bool = False, report_only
         if confirm > 0:
             summary["confirm"] = run_confirm(path, n=confirm, seed=seed, workers=workers, scheduler=scheduler,
                                              progress=progress, echo=echo)
+        if threshold > 0:
+            from compare.atlas.threshold import run_threshold
+
+            summary["threshold"] = run_threshold(path, n=threshold, seed=seed, workers=workers, scheduler=scheduler,
+                                                 progress=progress, echo=echo)
     if not path.exists():
         raise FileNotFoundError(f"{path}: no atlas file to report on; run `ked study atlas` without --report-only")
+    summary["margins"] = store_margins(path)  # derived from the stored tables (also with --report-only)
     summary["report"] = write_report(path, paths.figures, paths.readme)
     return summary

@@ -7,9 +7,44 @@ byte-for-byte alone. :func:`replace_section` is pure; :func:`write_section` is t
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 
 TITLE = "# ked-harness results\n"
+_MARKER = re.compile(r"<!-- (BEGIN|END) (.*?) -->")
+
+
+class SectionError(ValueError):
+    """A README's section markers are malformed (the file is left as it is)."""
+
+
+def check_markers(path: str | Path) -> None:
+    """Raise :class:`SectionError` naming ``path`` unless every section in it is one BEGIN marker
+    followed by its END marker, sections neither nested nor repeated (a missing file is fine)."""
+    path = Path(path)
+    if not path.exists():
+        return
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SectionError(f"{path}: cannot be read as UTF-8 text ({exc})") from None
+    open_name, seen = None, set()
+    for m in _MARKER.finditer(text):
+        kind, name = m.groups()
+        if kind == "BEGIN" and open_name is None and name not in seen:
+            open_name = name
+        elif kind == "END" and open_name == name:
+            open_name = None
+            seen.add(name)
+        else:
+            break
+    else:
+        if open_name is None:
+            return
+        m = None
+    where = f"at {m.group(0)!r}" if m else f"<!-- END {open_name} --> is missing"
+    raise SectionError(f"{path}: malformed section markers ({where}); each section must be one "
+                       "'<!-- BEGIN name -->' line followed by its '<!-- END name -->' line: fix or remove them")
 
 
 def markers(name: str) -> tuple[str, str]:
@@ -36,6 +71,7 @@ def replace_section(text: str, name: str, body: str) -> str:
 def write_section(path: str | Path, name: str, body: str) -> Path:
     """Set section ``name`` of the README at ``path`` (created with a title if missing); atomic."""
     path = Path(path)
+    check_markers(path)
     text = path.read_text(encoding="utf-8") if path.exists() else TITLE
     new = replace_section(text, name, body)
     tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")

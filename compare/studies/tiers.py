@@ -9,7 +9,9 @@ d_dyn the quasi-static error splits into
 * the **nonlinear part** max|d_dyn - d_lin| / max|d_dyn| (large deflections, geometric nonlinearity),
 
 all vector history errors of the coupler point (``compare.metrics``).  The limits are the validity
-study's: the largest r below which every grid scene solved and stayed under the tolerance, interpolated.
+study's first crossings: the last grid r below which every grid scene solved and stayed under the
+tolerance, never interpolated (:class:`compare.studies.validity_analysis.Limit`), with the grid step to the
+first ratio that failed stated beside it.
 The study runs nothing of its own: the validity campaigns list the linear solvers, so
 ``ked study validity`` (or this study without ``--report-only``) adds them to the stored scenes.
 """
@@ -31,6 +33,8 @@ SECTION = "tiers"
 MODELS = ("quasi_static", "linear", "linear_classic")
 TOLERANCES = (0.05, 0.10)
 FIGURE = "tiers_error_parts.png"
+COARSE_STEP = 0.02
+"""A first crossing known only to a grid step above this is called coarse in the report."""
 
 
 @dataclass(frozen=True)
@@ -116,7 +120,7 @@ def limits(fam: Sequence[TierPoint], model: str, tolerance: float) -> Limit:
 
 def _fmt(lim: Limit) -> str:
     if lim.status == "crossed":
-        return f"{lim.r_cross:.3f}"
+        return f"{lim.r_limit:.3f} (+{lim.step:.3f})"
     if lim.status == "above_grid":
         return f">= {lim.r_pass:g}"
     if lim.status == "below_grid":
@@ -141,7 +145,10 @@ def markdown(points: Sequence[TierPoint], figure: Path | None, readme: Path) -> 
          "state (`compare.metrics.history_error`); the quasi-static error splits into a **dynamic part** "
          "max|d_lin - d_qs| / max|d_dyn| and a **nonlinear part** max|d_dyn - d_lin| / max|d_dyn|. Limits: the "
          "largest r = Omega/omega1_min below which every scene of the family solved and stayed under the "
-         "tolerance (interpolated on the validity study's r grid).", ""]
+         "tolerance, as the first crossing on the validity study's r grid: **r (+step)** means every grid scene up "
+         "to r passed and the next grid ratio, r + step, did not; the crossing lies in between, never interpolated (a "
+         "resonance peak between the two can cross the tolerance anywhere there). Where the step is wide, the "
+         "limit is only known to that step.", ""]
     L += ["| linkage | mechanism | mass model | quasi-static 5 % | quasi-static 10 % | linear 5 % | linear 10 % | "
           "linear, no prestress 5 % | linear, no prestress 10 % |", "|---" * 9 + "|"]
     per_model: dict[str, dict[str, list[float]]] = {}
@@ -152,10 +159,18 @@ def markdown(points: Sequence[TierPoint], figure: Path | None, readme: Path) -> 
                 lim = limits(fam, model, tol)
                 cells.append(_fmt(lim))
                 per_model.setdefault(mm, {}).setdefault(f"{model} {tol}", []).append(
-                    lim.r_cross if lim.status == "crossed" else math.nan)
+                    lim.r_limit if lim.status == "crossed" else math.nan)
         L.append(f"| {lk} | {mech} | {mm} | " + " | ".join(cells) + " |")
+    coarse = sorted({lk for (lk, _, _), fam in fams.items() for model in MODELS for tol in TOLERANCES
+                     if limits(fam, model, tol).step > COARSE_STEP})
+    if coarse:
+        L += ["", f"Grid steps above {COARSE_STEP:g} (on the {', '.join(coarse)} linkage(s)): there the stored grid is "
+              "too coarse to place the first crossing or to see a resonance between the two ratios; the limit is the "
+              "last passing ratio, a lower bound known to that step. The thesis linkage's linear limits come from a "
+              "grid of step 0.01 between 0.15 and 0.33 (`studies/validity_fine_*.toml`, 112 scenes); "
+              "the same grid for another linkage costs 16 scenes per mass model and mechanism."]
     L += ["", "**The answer, per mass model** (range over the linkages of the limits that were crossed on the "
-          "grid):", ""]
+          "grid: first crossings, see the steps in the table):", ""]
     for mm, lims in per_model.items():
         L.append(f"* {mm}: quasi-static holds to r = {_span(lims['quasi_static 0.05'])} (5 %) / "
                  f"{_span(lims['quasi_static 0.1'])} (10 %); the linear model to r = {_span(lims['linear 0.05'])} "

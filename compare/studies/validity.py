@@ -30,8 +30,9 @@ from compare.studies.validity_data import (
 )
 from compare.studies.validity_summary import FamilySummary, summarize
 
-CONFIGS = ("validity_thesis.toml", "validity_resonance.toml", "validity_stiff.toml", "validity_slender.toml",
-           "validity_damping.toml", "validity_direction.toml")
+CONFIGS = ("validity_thesis.toml", "validity_resonance.toml", "validity_fine_source_a.toml",
+           "validity_fine_source_b.toml", "validity_fine_cognate_a.toml", "validity_fine_cognate_b.toml",
+           "validity_stiff.toml", "validity_slender.toml", "validity_damping.toml", "validity_direction.toml")
 """The study's campaigns, in report order (files under ``results/studies/``)."""
 REFINE_FILE = "validity_refine.h5"
 REFERENCE_DAMPING = 0.02

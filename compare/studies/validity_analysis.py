@@ -55,11 +55,16 @@ def errors(qs: np.ndarray, dyn: np.ndarray) -> Errors:
 class Limit:
     """Largest speed ratio below which the error stays under ``tolerance`` on a ratio grid.
 
-    ``status``: "crossed" (error reaches the tolerance between ``r_pass`` and ``r_fail``; ``r_cross``
-    interpolated linearly in the error), "below_grid" (already at the smallest ratio, ``r_fail``),
-    "above_grid" (never reached up to ``r_pass``, the largest ratio), "failure" (the dynamic solver
-    failed at ``r_fail`` before the error reached the tolerance; the limit is only known to be
-    >= ``r_pass``), "no_data".
+    The limit is the **first crossing** of the tolerance walking up the grid, stated as ``r_limit``: the
+    last grid ratio below it (the crossing lies in [r_limit, r_limit + ``step``)).  ``r_cross``, the value
+    interpolated linearly in the error between ``r_pass`` and ``r_fail``, is kept for reference only and
+    never reported as a limit: between two grid ratios a resonance peak can cross the tolerance unseen
+    (interpolating across it overstates the limit).
+
+    ``status``: "crossed" (error reaches the tolerance between ``r_pass`` and ``r_fail``),
+    "below_grid" (already at the smallest ratio, ``r_fail``), "above_grid" (never reached up to
+    ``r_pass``, the largest ratio), "failure" (the dynamic solver failed at ``r_fail`` before the error
+    reached the tolerance; the limit is only known to be >= ``r_pass``), "no_data".
     """
 
     tolerance: float
@@ -67,6 +72,17 @@ class Limit:
     r_pass: float = math.nan
     r_fail: float = math.nan
     r_cross: float = math.nan
+
+    @property
+    def r_limit(self) -> float:
+        """The limit [1]: the last grid ratio below the first crossing (crossed), the largest ratio passed
+        (above_grid: a lower bound; failure: a lower bound, nan if none passed); nan below the grid."""
+        return self.r_pass if self.status in ("crossed", "above_grid", "failure") else math.nan
+
+    @property
+    def step(self) -> float:
+        """Grid step [1] from ``r_limit`` to the first ratio at or above the tolerance (nan unless crossed)."""
+        return self.r_fail - self.r_pass if self.status == "crossed" else math.nan
 
     @property
     def half_bracket(self) -> float:

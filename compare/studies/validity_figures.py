@@ -205,7 +205,7 @@ def rule_figure(summaries: Sequence[FamilySummary]) -> Figure:
             lim = fs.limits[(kind, tol)]
             if lim.status == "crossed":
                 x.append(fs.one_mode[(kind, tol)])
-                y.append(lim.r_cross)
+                y.append(lim.r_limit)
                 c.append(COLORS.get(fs.mass_model, "k"))
         a.scatter(x, y, marker=m, c=c, s=22, label=f"{kind}, {100 * tol:g} %")
     a.plot([0.03, 0.18], [0.03, 0.18], "k-", lw=0.6)
@@ -220,7 +220,7 @@ def rule_figure(summaries: Sequence[FamilySummary]) -> Figure:
         lim = fs.limits[("history", 0.10)]
         if lim.status == "crossed":
             labels.append(f"{fs.linkage}/{fs.mechanism[:3]}/{fs.mass_model}")
-            vals.append((fs.k_significant[0.01] * lim.r_cross, fs.k_significant[0.05] * lim.r_cross,
+            vals.append((fs.k_significant[0.01] * lim.r_limit, fs.k_significant[0.05] * lim.r_limit,
                          COLORS.get(fs.mass_model, "k")))
     xs = np.arange(len(vals))
     b.bar(xs - 0.2, [v[0] for v in vals], 0.4, color=[v[2] for v in vals])

@@ -39,12 +39,14 @@ def _table(head: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
 
 
 def limit_text(fs: FamilySummary, kind: str, tol: float) -> str:
-    """'0.071 ± 0.012 (0.06-0.08; fine 0.070)' or the reason there is no crossing."""
+    """'**0.060** (+0.020; interpolated 0.071, fine 0.070)' or the reason there is no crossing: the first
+    crossing on the grid (the last passing ratio, the step to the first failing one), the interpolated
+    value for reference only."""
     lim = fs.limits[(kind, tol)]
     if lim.status == "crossed":
         fine = fs.refined_cross.get((kind, tol), math.nan)
         note = f"fine {f3(fine)}" if math.isfinite(fine) else (fs.refined_note.get((kind, tol)) or "fine -")
-        return f"**{f3(lim.r_cross)}** ± {f3(fs.uncertainty(kind, tol))} ({lim.r_pass:g}-{lim.r_fail:g}; {note})"
+        return f"**{f3(lim.r_limit)}** (+{f3(lim.step)}; interpolated {f3(lim.r_cross)}, {note})"
     if lim.status == "below_grid":
         return f"< {lim.r_fail:g}"
     if lim.status == "above_grid":
@@ -106,8 +108,8 @@ def plain_answer(ref: Sequence[FamilySummary]) -> list[str]:
     p5, p10 = _crossed(ref, "peak", 0.05), _crossed(ref, "peak", 0.10)
     if h5 and h10 and p5 and p10:
         def low(fams: list[FamilySummary], kind: str, tol: float) -> str:
-            f = min(fams, key=lambda x: x.limits[(kind, tol)].r_cross)
-            return f"{f3(f.limits[(kind, tol)].r_cross)} ± {f3(f.uncertainty(kind, tol))}"
+            f = min(fams, key=lambda x: x.limits[(kind, tol)].r_limit)
+            return f"{f3(f.limits[(kind, tol)].r_limit)} (+{f3(f.limits[(kind, tol)].step)})"
         out.append(f"**In one line: on every four-bar and mass model tested (2 % damping), the quasi-static "
                    f"peak deflection is within 5 % of the dynamic steady state up to r = {low(p5, 'peak', 0.05)} "
                    f"and within 10 % up to r = {low(p10, 'peak', 0.10)}; the whole deflection history (shape "
@@ -116,7 +118,7 @@ def plain_answer(ref: Sequence[FamilySummary]) -> list[str]:
         out.append("")
         by_mm: dict[str, list[float]] = {}
         for fs in h10:
-            by_mm.setdefault(fs.mass_model, []).append(fs.limits[("history", 0.10)].r_cross)
+            by_mm.setdefault(fs.mass_model, []).append(fs.limits[("history", 0.10)].r_limit)
         means = [float(np.mean(v)) for v in by_mm.values()]
         within = max(max(v) - min(v) for v in by_mm.values())
         verdict = ("in r, what matters is where the mass sits (the harmonic content of its inertia loads), "
@@ -131,14 +133,14 @@ def plain_answer(ref: Sequence[FamilySummary]) -> list[str]:
             fams = _crossed(ref, kind, tol)
             if not fams:
                 continue
-            lo = min(fams, key=lambda f: f.limits[(kind, tol)].r_cross)
-            hi = max(fams, key=lambda f: f.limits[(kind, tol)].r_cross)
-            unc = max(f.uncertainty(kind, tol) for f in fams)
+            lo = min(fams, key=lambda f: f.limits[(kind, tol)].r_limit)
+            hi = max(fams, key=lambda f: f.limits[(kind, tol)].r_limit)
+            unc = max(f.limits[(kind, tol)].step for f in fams)
             out.append(
-                f"* {what} within {100 * tol:g} %: r up to **{f3(lo.limits[(kind, tol)].r_cross)}** "
-                f"({_name(lo)}, {lo.mass_model}) ... **{f3(hi.limits[(kind, tol)].r_cross)}** "
-                f"({_name(hi)}, {hi.mass_model}) over the {len(fams)} families with a crossing; "
-                f"largest uncertainty ± {f3(unc)}.")
+                f"* {what} within {100 * tol:g} %: r up to **{f3(lo.limits[(kind, tol)].r_limit)}** "
+                f"({_name(lo)}, {lo.mass_model}) ... **{f3(hi.limits[(kind, tol)].r_limit)}** "
+                f"({_name(hi)}, {hi.mass_model}) over the {len(fams)} families with a crossing (first crossings: "
+                f"the last passing grid ratio); largest grid step to the first failing ratio {f3(unc)}.")
     shifts = [fs.discretization_shift(k, t) for fs in ref for k in ("peak", "history") for t in TOLERANCES]
     shifts = [x for x in shifts if math.isfinite(x)]
     if shifts:
@@ -147,7 +149,7 @@ def plain_answer(ref: Sequence[FamilySummary]) -> list[str]:
                    + ("; the uncertainty is the r-grid spacing." if max(shifts) < 0.001 else "."))
     per_mm: dict[str, list[float]] = {}
     for fs in _crossed(ref, "history", 0.10):
-        per_mm.setdefault(fs.mass_model, []).append(fs.limits[("history", 0.10)].r_cross)
+        per_mm.setdefault(fs.mass_model, []).append(fs.limits[("history", 0.10)].r_limit)
     if per_mm:
         out.append("* Whole history within 10 %, per mass model (min-max over the linkages): " + "; ".join(
             f"{m} {f3(min(v))}-{f3(max(v))}" for m, v in per_mm.items()) + ".")
@@ -158,8 +160,8 @@ def rule_rows(ref: Sequence[FamilySummary]) -> list[list[str]]:
     rows = []
     for fs in ref:
         spec = " ".join(f"{a:.2f}" for a in fs.spectrum[:6])
-        dyn10 = fs.limits[("history", 0.10)].r_cross
-        dyn5 = fs.limits[("history", 0.05)].r_cross
+        dyn10 = fs.limits[("history", 0.10)].r_limit
+        dyn5 = fs.limits[("history", 0.05)].r_limit
         rows.append([_name(fs), fs.mass_model, spec, str(fs.k_significant[0.01]), str(fs.k_significant[0.05]),
                      f3(fs.one_mode[("history", 0.05)]), f3(dyn5), f3(fs.one_mode[("history", 0.10)]), f3(dyn10),
                      f3(fs.k_significant[0.01] * dyn10), f3(fs.k_significant[0.05] * dyn10),
@@ -172,7 +174,7 @@ def rule_text(ref: Sequence[FamilySummary]) -> list[str]:
     out = []
     for kind in ("history", "peak"):
         for tol in TOLERANCES:
-            pairs = [(fs, fs.one_mode[(kind, tol)], fs.limits[(kind, tol)].r_cross) for fs in _crossed(ref, kind, tol)]
+            pairs = [(fs, fs.one_mode[(kind, tol)], fs.limits[(kind, tol)].r_limit) for fs in _crossed(ref, kind, tol)]
             if not pairs:
                 continue
             ratio = [d / p for _, p, d in pairs if p > 0]
@@ -196,7 +198,7 @@ def rule_text(ref: Sequence[FamilySummary]) -> list[str]:
                    f"{int(np.sum(np.abs(amp_a - 1) <= 0.25))} within ±25 %).")
     fams = _crossed(ref, "history", 0.10)
     for frac in (0.01, 0.05):
-        c = [fs.k_significant[frac] * fs.limits[("history", 0.10)].r_cross for fs in fams]
+        c = [fs.k_significant[frac] * fs.limits[("history", 0.10)].r_limit for fs in fams]
         ks = [fs.k_significant[frac] for fs in fams]
         if c:
             out.append(f"* Rule 'k_sig r <= c' with k_sig at {100 * frac:g} % of the largest load harmonic: the "
@@ -389,10 +391,13 @@ def _setup_part(points: Sequence[Point], files: Sequence[Path], refine_file: Pat
     L += ["Errors of the quasi-static deflection d = (dx, dy) of the coupler point P against the dynamic "
           "periodic steady state: **peak error** |max|d_qs| - max|d_dyn|| / max|d_dyn| (what the brief "
           "calls the peak deflection) and **history error** max|d_qs - d_dyn| / max|d_dyn| (whole cycle, "
-          "amplitude and phase). Limit = the largest r below which every grid scene solved and stayed under "
-          "the tolerance, linear interpolation between the bracketing grid ratios; ± = half the bracketing "
-          "grid interval plus the shift of the crossing when the two bracketing scenes are rerun with twice "
-          "the elements per link and twice the steps per cycle ('fine').", ""]
+          "amplitude and phase). Limit = the first crossing of the tolerance walking up the r grid, stated as "
+          "the last grid ratio below which every grid scene solved and stayed under the tolerance (**r** "
+          "(+step): the next grid ratio, r + step, did not). Never interpolated: a resonance peak between two "
+          "grid ratios can cross the tolerance anywhere there, so the limit is known to one grid step. For "
+          "reference the value interpolated linearly between the bracketing ratios is given, and 'fine' is that "
+          "interpolated crossing when the two bracketing scenes are rerun with twice the elements per link and "
+          "twice the steps per cycle (the discretization's share of the uncertainty).", ""]
     L += ["Linkages (all links the same section; lengths in mm, E in GPa, A in mm^2, I in mm^4, rho in "
           "kg/m^3, tip payload in kg):", ""]
     L += _table(["linkage", "crank", "coupler", "follower", "ground", "extender", "coupler angle [deg]", "E", "A",
@@ -412,7 +417,7 @@ def _families_part(ref: Sequence[FamilySummary]) -> list[str]:
 
 
 def _rule_part(ref: Sequence[FamilySummary]) -> list[str]:
-    crossings = [lim.r_cross for fs in ref for lim in fs.limits.values() if lim.status == "crossed"]
+    crossings = [lim.r_limit for fs in ref for lim in fs.limits.values() if lim.status == "crossed"]
     beyond = max(crossings, default=math.nan)
     L: list[str] = []
     L += ["", "### Does a harmonic rule explain it?", ""]

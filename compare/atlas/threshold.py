@@ -1,0 +1,87 @@
+"""The threshold confirmation of the atlas: Exudyn where the check's decision is made.
+
+Selection (:func:`select_threshold`, pure and seeded): per stratum (mass model x mechanism, 8 strata,
+the sample split evenly), the families whose quasi-static 10 % limit r10 was crossed on the atlas grid,
+sorted by r10 and cut into equal chunks, one family drawn from each chunk; each drawn family gives one
+scene at r = f x r10 with f drawn uniformly from [1 - :data:`BAND`, 1 + :data:`BAND`] (one scene per
+family: the scenes are independent draws for the binomial intervals of :mod:`compare.atlas.calibration`).
+Every scene is the atlas's campaign scene (:func:`compare.atlas.compute.spec_of`: the Exudyn settings are
+the registered defaults, which are the default campaign's ``[dynamic]`` table) run by the ``quasi_static``,
+``linear`` and ``dynamic`` solvers (:func:`compare.atlas.confirm.confirm_scene`); the records are
+:class:`~compare.atlas.confirm.ConfirmRecord` rows of the atlas table ``/threshold`` (kept apart from
+``/confirm``, whose per-family ratio walks give the linear model's limits).  A failed solver is stored
+with its reason; rerunning resumes (stored keys are skipped).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from compare.atlas import store as atlas_store
+from compare.atlas.confirm import ConfirmPoint, confirm_columns, confirm_scene, failed_confirm
+from compare.atlas.generate import candidate
+from ked_quasi.massmodel import MASS_MODELS
+
+BAND = 0.25
+"""Half width of the threshold band: scenes at r within +-25 % of their family's r10."""
+MECHANISMS = ("source", "cognate")
+TABLE = "threshold"
+DEFAULT_THRESHOLD = 400
+"""Scenes of the default threshold sample (50 per stratum)."""
+
+
+def select_threshold(families: dict[str, np.ndarray], n: int, seed: int = 0,
+                     band: float = BAND) -> list[ConfirmPoint]:
+    """The stratified threshold sample of ``n`` scenes (see the module docstring)."""
+    rng = np.random.default_rng([seed, 2])
+    r10 = np.asarray(families.get("r10", []), float)
+    status = np.asarray(families.get("r10_status", []), dtype=object)
+    strata = [(mm, mech) for mm in MASS_MODELS for mech in MECHANISMS]
+    quota = [n // len(strata) + (j < n % len(strata)) for j in range(len(strata))]
+    points: list[ConfirmPoint] = []
+    for (mm, mech), q in zip(strata, quota):
+        rows = [i for i in range(r10.size) if status[i] == "crossed" and np.isfinite(r10[i])
+                and families["mass_model"][i] == mm and families["mechanism"][i] == mech]
+        if not rows or not q:
+            continue
+        order = np.array(sorted(rows, key=lambda i: r10[i]))
+        for chunk in np.array_split(order, min(q, order.size)):
+            i = int(rng.choice(chunk))
+            f = float(rng.uniform(1.0 - band, 1.0 + band))
+            r = round(f * float(r10[i]), 6)
+            points.append(ConfirmPoint(int(families["linkage"][i]), mech, mm, round(r / float(r10[i]), 4), r,
+                                       float(r10[i])))
+    return points
+
+
+def run_threshold(path: Path, *, n: int = DEFAULT_THRESHOLD, seed: int = 0, workers: int = 2,
+                  scheduler: str | None = None, progress: bool = False,
+                  echo: Callable[[str], Any] = print) -> dict[str, int]:
+    """Confirm the threshold sample's scenes not yet stored in the atlas file (resumable)."""
+    from compare import store
+    from compare.atlas.run import client, drain
+
+    atlas_store.check_atlas(path, {"seed": seed})
+    points = select_threshold(atlas_store.read(path, "families"), n, seed)
+    done = set(atlas_store.read(path, TABLE).get("key", []))
+    todo = [p for p in points if p.key not in done]
+    if todo:
+        echo(f"atlas: {len(todo)} threshold scene(s) to confirm with Exudyn")
+        t0 = time.perf_counter()
+        info = atlas_store.attrs(path)
+        meta = {k: info[k] for k in ("seed", "ratios", "ranges", "settings")}
+        links = {p.linkage: candidate(seed, p.linkage) for p in todo}
+        with store.writer_lock(path):
+            with client(workers, scheduler) as c:
+                futures = {c.submit(confirm_scene, links[p.linkage], p, pure=False): p for p in todo}
+                drain(c, futures, lambda recs: atlas_store.write(path, meta, appends={TABLE: confirm_columns(recs)}),
+                      lambda p, exc: [failed_confirm(p, f"task failed: {type(exc).__name__}: {exc}")],
+                      progress=progress, label="threshold")
+            atlas_store.compact(path)
+        echo(f"atlas: confirmed {len(todo)} threshold scene(s) in {time.perf_counter() - t0:.0f} s")
+    return {"sample": len(points), "computed": len(todo), "skipped": len(points) - len(todo)}

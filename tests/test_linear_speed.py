@@ -1,0 +1,168 @@
+"""The fast paths of the linear periodic solve: interpolated coefficients and the preconditioned
+iterative solve, each against an independent evaluation (closed form, direct evaluation, dense solve)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from compare.config import load_config
+from ked_linear import Coefficients, LinearSettings, PeriodicSystem, linkage_system, periodic, solve_linear
+from ked_linear.periodic import (
+    INTERPOLATION_TOLERANCE,
+    SampledCoefficients,
+    TrigInterpolant,
+    _field_error,
+    _pack,
+    solve_periodic,
+    uniform_grids,
+)
+
+
+def _trig_samples(theta: np.ndarray) -> np.ndarray:
+    """Two columns of a known trigonometric polynomial of degree 5 (closed form)."""
+    return np.stack([1.0 + 0.3 * np.cos(theta) - 0.2 * np.sin(3 * theta) + 0.05 * np.cos(5 * theta),
+                     np.sin(theta - 0.4) + 0.1 * np.cos(2 * theta + 1.0)], axis=1)
+
+
+@pytest.mark.parametrize("m", [1, 2, 3, 7, 12, 16, 77, 200])
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_trig_interpolant_on_uniform_grids_equals_closed_form(m, sign):
+    # 16 samples resolve degree 5 exactly: the interpolant is the polynomial itself (rounding only)
+    it = TrigInterpolant(_trig_samples(np.arange(16) * (2 * np.pi / 16)))
+    theta = 0.37 + sign * np.arange(m) * (2 * np.pi / m)
+    np.testing.assert_allclose(it.uniform(0.37, sign, m), _trig_samples(theta), atol=1e-13)
+    np.testing.assert_allclose(it.at(theta), _trig_samples(theta), atol=1e-13)
+
+
+def test_trig_interpolant_reproduces_its_samples_with_nyquist_term():
+    # degree 8 on 16 points: the Nyquist term cos(8 theta) must come back exactly at the samples
+    theta = np.arange(16) * (2 * np.pi / 16)
+    samples = np.cos(8 * theta)[:, None] + _trig_samples(theta)
+    np.testing.assert_allclose(TrigInterpolant(samples).uniform(0.0, 1.0, 16), samples, atol=1e-13)
+
+
+def test_uniform_grids_layouts():
+    t = np.arange(8) * (2 * np.pi / 8)
+    assert uniform_grids(t).shape == (1, 8)
+    assert uniform_grids(-t + 0.1).shape == (1, 8)
+    two = np.concatenate([t + 0.1, t + 0.3])  # one stage after the other
+    assert np.array_equal(uniform_grids(two), np.arange(16).reshape(2, 8))
+    inter = np.stack([t + 0.1, t + 0.3], axis=1).ravel()  # interleaved per step
+    assert np.array_equal(uniform_grids(inter), np.arange(16).reshape(8, 2).T)
+    assert uniform_grids(np.array([0.0, 0.1, 0.5, 2.0])) is None
+    assert uniform_grids(np.linspace(0, 2 * np.pi, 9)) is None  # endpoint included: not a full-turn grid
+
+
+def _spiky(theta: np.ndarray) -> Coefficients:
+    """K = 1 / (1.001 + cos theta): spiky, its inverse a trigonometric polynomial of degree 1."""
+    K = (1.0 / (1.001 + np.cos(theta)))[:, None, None]
+    return Coefficients(stiffness=K, damping=0.01 * K, load=np.sin(theta)[:, None], output=np.ones((theta.size, 1, 1)))
+
+
+def test_flexibility_form_when_stiffness_spikes():
+    # the stiffness' series converges like 0.956^k (far too slowly for 512 samples), the flexibility's is finite
+    s = SampledCoefficients(_spiky)
+    assert s.form == "flexibility" and s.points == 64
+    theta = 0.2 + np.arange(101) * (2 * np.pi / 101)
+    got, layout = _pack(s(theta))
+    assert _field_error(got, _pack(_spiky(theta))[0], layout) < 1e-12
+
+
+def test_not_smooth_falls_back_to_direct():
+    def kink(theta):  # |sin| has a kink: spectrum ~ k^-2 in both forms
+        K = (2.0 + np.abs(np.sin(theta)))[:, None, None]
+        return Coefficients(stiffness=K, damping=K, load=np.ones((theta.size, 1)))
+
+    s = SampledCoefficients(kink, max_points=256)
+    assert s.form == "direct" and s.points == 0 and s.error > INTERPOLATION_TOLERANCE
+    theta = np.arange(10) * (2 * np.pi / 10)
+    assert np.array_equal(s(theta).stiffness, kink(theta).stiffness)
+
+
+@pytest.mark.parametrize("mm", ["joints", "extender", "distributed"])
+@pytest.mark.parametrize("prestress", [True, False])
+def test_interpolated_linkage_coefficients_equal_direct(mm, prestress):
+    # the thesis linkage's coefficients are smooth: interpolated on grids never sampled (a collocation
+    # grid of 48, a propagator's stage angles running backwards) they equal direct evaluation within the
+    # stated tolerance, per field relative to its peak
+    spec = next(s for s in load_config().scenes() if s.mechanism == "source" and s.mass_model.name == mm)
+    ls = linkage_system(spec.scene(300.0), LinearSettings(prestress=prestress))
+    co = ls.system.coefficients
+    assert co.form in ("stiffness", "flexibility")
+    for theta in (np.arange(48) * (2 * np.pi / 48), -(np.arange(3 * 67) * (2 * np.pi / 67) + 0.3)):
+        got, layout = _pack(co(theta))
+        assert _field_error(got, _pack(co.direct(theta))[0], layout) < INTERPOLATION_TOLERANCE
+
+
+def _random_system(n: int, seed: int, speed: float = 1.3) -> PeriodicSystem:
+    """A smooth random LTP system: K = K0 + K1 cos + K2 sin(2 theta) (SPD), C = 0.02 K, f of 3 harmonics."""
+    rng = np.random.default_rng(seed)
+    A = rng.normal(size=(n, n))
+    K0 = A @ A.T + n * np.eye(n)
+    K1, K2 = (0.3 * (B + B.T) for B in rng.normal(size=(2, n, n)))
+    f = rng.normal(size=(3, 2, n))
+
+    def coefficients(theta):
+        K = K0 + np.cos(theta)[:, None, None] * K1 + np.sin(2 * theta)[:, None, None] * K2
+        load = sum(np.cos(k * theta)[:, None] * f[k, 0] + np.sin(k * theta)[:, None] * f[k, 1] for k in range(3))
+        return Coefficients(stiffness=K, damping=0.02 * K, load=load)
+
+    return PeriodicSystem(mass=rng.uniform(0.5, 2.0, n), speed=speed, coefficients=coefficients)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_krylov_solve_equals_dense_solve(seed, monkeypatch):
+    system = _random_system(4, seed)
+    H = 12
+    monkeypatch.setattr(periodic, "DENSE_LIMIT", 10**6)
+    dense = solve_periodic(system, H)
+    monkeypatch.setattr(periodic, "DENSE_LIMIT", 0)
+    for cheap, bands in ((30, 2), (0, 0), (0, 1), (0, 2)):  # the averaged preconditioner alone, the banded ones
+        monkeypatch.setattr(periodic, "CHEAP_ITERATIONS", cheap)
+        monkeypatch.setattr(periodic, "PRECONDITIONER_BANDS", bands)
+        krylov = solve_periodic(system, H)
+        scale = np.abs(dense.correction).max()
+        assert np.abs(krylov.correction - dense.correction).max() < 1e-10 * scale
+        assert np.abs(krylov.kinematic - dense.kinematic).max() < 1e-10 * np.abs(dense.kinematic).max()
+
+
+def test_warm_start_does_not_change_the_answer(monkeypatch):
+    system = _random_system(5, 3)
+    monkeypatch.setattr(periodic, "DENSE_LIMIT", 0)
+    low = solve_periodic(system, 8)
+    cold, warm = solve_periodic(system, 12), solve_periodic(system, 12, start=low)
+    assert np.abs(warm.correction - cold.correction).max() < 1e-10 * np.abs(cold.correction).max()
+
+
+# Regression pins: histories and max |Floquet multiplier| of three default-campaign scenes computed by the
+# dense-solve, directly-evaluated implementation this one replaced (ked-harness main at ecfb630), to
+# hold the faster one to the same answers within 0.1 % of the peak.
+PINS = {
+    ("source", "extender", 300.0, True): (
+        [[0.002300784342, 0.001619651465, -0.010648852294], [0.000463158294, -3.764068e-06, -0.001376544187],
+         [-0.002196950605, -0.000421562935, 0.009298190639], [-0.001576136816, -0.001138128667, 0.008105299486]],
+        0.10009158368085086),
+    ("cognate", "distributed", 150.0, True): (
+        [[-0.000167979948, -0.000446359622, 0.000872243039], [6.124952e-05, 0.000242921932, -0.001268895767],
+         [2.40947e-07, 0.000441288987, -0.00136729318], [0.000269003063, -0.000172891327, 0.000516290162]],
+        0.03134689084702034),
+    ("source", "joints", 225.0, False): (
+        [[0.00307586661, 0.006360214028, -0.01382018347], [-0.003587140162, 3.5467851e-05, 0.012046821557],
+         [-0.000998226128, -0.002384316529, 0.004143586161], [-0.002136105847, -0.000664552501, 0.005169728249]],
+        0.16425939267309722),
+}
+
+
+@pytest.mark.parametrize("key", list(PINS))
+def test_regression_pin_default_campaign_histories(key):
+    mech, mm, rpm, prestress = key
+    spec = next(s for s in load_config().scenes()
+                if s.mechanism == mech and s.mass_model.name == mm and s.speed.value == rpm)
+    res = solve_linear(spec.scene(rpm), LinearSettings(damping_ratio=spec.damping_ratio, prestress=prestress))
+    pinned, mu = np.array(PINS[key][0]), PINS[key][1]
+    got = res.deflection[[0, 9, 18, 27]]
+    for g in (slice(0, 2), slice(2, 3)):
+        peak = np.max(np.linalg.norm(res.deflection[:, g], axis=1))
+        assert np.max(np.linalg.norm(got[:, g] - pinned[:, g], axis=1)) < 1e-3 * peak
+    assert abs(res.floquet_max_abs - mu) < 1e-3
