@@ -431,3 +431,15 @@ def test_sdirk_block_steps_equal_resolvent_form(mm, thesis, monkeypatch):
     monkeypatch.setattr(fq, "CHUNK_BYTES", 8.0 * 37 * (4 * sys_.mass.size) ** 2)  # 37 steps: partial turns
     chunked = np.abs(multipliers(sys_, steps))
     assert np.abs(np.sort(whole) - np.sort(chunked)).max() < 1e-7
+
+
+@pytest.mark.parametrize(("mm", "lumps"), [("tip", 1), ("joints", 5), ("extender", 3), ("distributed", 1),
+                                           ("distributed", 5)])
+def test_elastic_coordinates_counted_before_any_solve(mm, lumps, thesis):
+    # the size check of solve_linear runs before the frame condensation: its count must equal the size of
+    # the condensed model it stands for (the mass coordinates condensed_structure keeps)
+    from ked_linear.solver import elastic_coordinates
+
+    base = _scene(thesis, mm, 100.0)
+    scene = replace(base, mass_model=replace(base.mass_model, lumps=lumps))
+    assert elastic_coordinates(scene) == condensed_structure(scene, np.zeros(1)).mass.size
