@@ -24,9 +24,11 @@ coefficients, but its coefficient jumps cause spurious parametric resonances whe
 up to 11 on the joints model at 1 rpm even at 32768 steps, and, damped, kick energy into the damped stiff
 modes: less accurate than SDIRK2 at equal steps, and 4 to 35 times slower on the larger models).
 
-The step matrices are built vectorized over the steps (in chunks of bounded memory) and multiplied in a
-balanced tree.  The eigenvalues of Phi are the multipliers; the periodic steady state is asymptotically
-stable iff all |mu| < 1.
+The step matrices are built vectorized over the steps (in chunks of bounded memory; SDIRK2's by blocks,
+two n x n solves per stage, never forming the 2n x 2n resolvents) from stage coefficients evaluated on two
+whole-turn grids per level (interpolated, :data:`COEFFICIENT_BYTES`), and multiplied in a balanced tree.
+The eigenvalues of Phi are the multipliers; the periodic steady state is asymptotically stable iff all
+|mu| < 1.
 """
 
 from __future__ import annotations
