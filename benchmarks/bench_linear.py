@@ -9,9 +9,9 @@ reference (8 elements per link, 5760 steps per cycle, plain cycles steady to 1e-
 (dx, dy) relative to the reference peak.  The quasi-static error is printed beside them.  Case I (tip)
 at 300 rpm uses --tip-damping (default 0.1) for every model: the Exudyn runs diverge there at 2 %
 (see bench_exudyn.py).  Then the cost of solve_linear alone versus lumps per link and grid step, the
-64-harmonic solve against the default one, the cost of the coefficients K, C, f per crank angle (direct
-frame condensation against the interpolated coefficients the solver uses), and `ked check` end to end
-in a fresh process.
+64-harmonic solve against the default one, the Floquet part alone against the whole solve, the cost
+of the coefficients K, C, f per crank angle (direct frame condensation against the interpolated
+coefficients the solver uses), and `ked check` end to end in a fresh process.
 
 Usage: .venv/bin/python benchmarks/bench_linear.py [--runs 3] [--mass-models tip,joints,...] [--rpm 100,300]
 """
@@ -96,6 +96,7 @@ def main() -> None:
     if not args.no_scaling:
         scaling(args)
     harmonics_64(args)
+    floquet_cost(args)
     coefficient_cost(args)
     check_timing(args)
 
@@ -110,6 +111,26 @@ def harmonics_64(args) -> None:
             t_def, _ = timed(solve_linear, args.runs, scene, LinearSettings(damping_ratio=zeta))
             t_64, res = timed(solve_linear, args.runs, scene, LinearSettings(damping_ratio=zeta, max_harmonics=64))
             print(f"{mm:<12}{rpm:5.0f}{t_def:9.3f}{t_64:9.3f}{t_64 / t_def:7.1f}{res.harmonics:4d}")
+
+
+def floquet_cost(args) -> None:
+    """The Floquet part of solve_linear alone (``ked_linear.floquet`` at the default tolerance, automatic
+    step levels) against the whole solve: median wall s, the steps per cycle it chose, max |mu| and
+    its error estimate."""
+    from ked_linear import floquet, linkage_system
+
+    print("\nFloquet multipliers alone against the whole linear solve: median wall s")
+    print(f"{'mass model':<12}{'rpm':>5}{'floquet':>9}{'solve':>9}{'share':>7}{'steps':>7}{'max|mu|':>10}{'+-':>9}")
+    for mm in args.mass_models.split(","):
+        for rpm in (float(x) for x in args.rpm.split(",")):
+            scene = make_scene(mass_model=mm, rpm=rpm)
+            settings = LinearSettings(damping_ratio=args.tip_damping if (mm == "tip" and rpm >= 300) else 0.02)
+            system = linkage_system(scene, settings).system
+            system.coefficients(np.zeros(1))  # the sampling of the coefficients belongs to the solve, not here
+            t_fl, fl = timed(floquet, args.runs, system, settings.floquet_tolerance)
+            t_all, _ = timed(solve_linear, args.runs, scene, settings)
+            print(f"{mm:<12}{rpm:5.0f}{t_fl:9.3f}{t_all:9.3f}{t_fl / t_all:7.0%}{fl.steps:7d}{fl.max_abs:10.5f}"
+                  f"{fl.error_estimate:9.1e}")
 
 
 def coefficient_cost(args) -> None:

@@ -24,9 +24,11 @@ coefficients, but its coefficient jumps cause spurious parametric resonances whe
 up to 11 on the joints model at 1 rpm even at 32768 steps, and, damped, kick energy into the damped stiff
 modes: less accurate than SDIRK2 at equal steps, and 4 to 35 times slower on the larger models).
 
-The step matrices are built vectorized over the steps (in chunks of bounded memory) and multiplied in a
-balanced tree.  The eigenvalues of Phi are the multipliers; the periodic steady state is asymptotically
-stable iff all |mu| < 1.
+The step matrices are built vectorized over the steps (in chunks of bounded memory; SDIRK2's by blocks,
+two n x n solves per stage, never forming the 2n x 2n resolvents) from stage coefficients evaluated on two
+whole-turn grids per level (interpolated, :data:`COEFFICIENT_BYTES`), and multiplied in a balanced tree.
+The eigenvalues of Phi are the multipliers; the periodic steady state is asymptotically stable iff all
+|mu| < 1.
 """
 
 from __future__ import annotations
@@ -79,25 +81,50 @@ def undamped(system: PeriodicSystem) -> bool:
     return not np.any(system.coefficients(np.linspace(0.0, 2.0 * np.pi, 8, endpoint=False)).damping)
 
 
+def _stage_offsets(damped: bool, h: float) -> np.ndarray:
+    """Stage times within a step (2,) [s]: Gauss-Legendre nodes, or SDIRK2's gamma h and h."""
+    return np.array([SDIRK_GAMMA * h, h]) if damped else GAUSS * h
+
+
+def _stage_coefficients(system: PeriodicSystem, steps: int, first: int, count: int, damped: bool) -> Coefficients:
+    """The coefficients at the two stage angles of steps first .. first + count - 1: the first stage's
+    (count,) then the second's; with first = 0 and count = steps two uniform full-turn grids (interpolated
+    when the coefficients are sampled, see ``periodic.SampledCoefficients``)."""
+    h = system.period / steps
+    t = (first + np.arange(count)) * h
+    c = _stage_offsets(damped, h)
+    return system.coefficients(system.speed * np.concatenate([t + c[0], t + c[1]]))
+
+
+def _steps_from(system: PeriodicSystem, co: Coefficients, lo: int, hi: int, count: int, h: float,
+                damped: bool) -> np.ndarray:
+    """Step matrices of the steps whose stage coefficients are rows lo .. hi - 1 (first stage) and
+    count + lo .. count + hi - 1 (second stage) of ``co``."""
+    K1, K2 = co.stiffness[lo:hi], co.stiffness[count + lo:count + hi]
+    C1, C2 = co.damping[lo:hi], co.damping[count + lo:count + hi]
+    if damped:
+        return _sdirk_steps_from(system.mass, K1, C1, K2, C2, h)
+    a = _state_matrices(system, Coefficients(stiffness=np.concatenate([K1, K2]), damping=np.concatenate([C1, C2]),
+                                             load=np.zeros((2 * (hi - lo), system.mass.size))))
+    return _gauss_steps(a[:hi - lo], a[hi - lo:], h)
+
+
 def step_matrices(system: PeriodicSystem, steps: int, first: int = 0, count: int | None = None) -> np.ndarray:
     """The step matrices (count, 2n, 2n) of steps first .. first + count - 1 of ``steps`` per cycle
     (default: all), step 0 starting at theta = 0: Gauss-Legendre (symplectic) if the system is undamped
     (:func:`undamped`), else SDIRK2 (L-stable)."""
     count = steps - first if count is None else count
-    h = system.period / steps
-    if not undamped(system):
-        return _sdirk_steps(system, first, count, h)
-    t = (first + np.arange(count)) * h
-    a = _state_matrices(system, system.coefficients(system.speed * np.concatenate([t + GAUSS[0] * h,
-                                                                                    t + GAUSS[1] * h])))
-    return _gauss_steps(a[:count], a[count:], h)
+    damped = not undamped(system)
+    co = _stage_coefficients(system, steps, first, count, damped)
+    return _steps_from(system, co, 0, count, count, system.period / steps, damped)
 
 
 SDIRK_GAMMA = 1.0 - 1.0 / np.sqrt(2.0)
 
 
 def _resolvent(system: PeriodicSystem, theta: np.ndarray, a: float) -> np.ndarray:
-    """(I - a A(theta))^-1 for each angle, (m, 2n, 2n), via the n x n matrix Z = M + a C + a^2 K."""
+    """(I - a A(theta))^-1 for each angle, (m, 2n, 2n), via the n x n matrix Z = M + a C + a^2 K (the
+    reference form of the resolvent; :func:`_sdirk_steps` applies it by blocks instead)."""
     co = system.coefficients(theta)
     m = system.mass
     Zi = np.linalg.inv(np.eye(m.size) * m + a * co.damping + a**2 * co.stiffness)
@@ -110,13 +137,42 @@ def _resolvent(system: PeriodicSystem, theta: np.ndarray, a: float) -> np.ndarra
 
 def _sdirk_steps(system: PeriodicSystem, first: int, count: int, h: float) -> np.ndarray:
     """Step matrices of the two-stage L-stable SDIRK method (Alexander 1977), steps first .. first +
-    count - 1 of length h: x_{j+1} = R(t_j + h) [(1 - alpha) I + alpha R(t_j + gamma h)] x_j,
-    R = (I - gamma h A)^-1, alpha = (1 - gamma) / gamma."""
-    t = (first + np.arange(count)) * h
-    theta = system.speed * np.concatenate([t + SDIRK_GAMMA * h, t + h])
-    R = _resolvent(system, theta, SDIRK_GAMMA * h)
+    count - 1 of length h (see :func:`_sdirk_steps_from`)."""
+    co = _stage_coefficients(system, int(round(system.period / h)), first, count, True)
+    return _sdirk_steps_from(system.mass, co.stiffness[:count], co.damping[:count], co.stiffness[count:],
+                             co.damping[count:], h)
+
+
+def _sdirk_steps_from(m: np.ndarray, K1: np.ndarray, C1: np.ndarray, K2: np.ndarray, C2: np.ndarray,
+                      h: float) -> np.ndarray:
+    """SDIRK2 step matrices x_{j+1} = R(t_j + h) [(1 - alpha) I + alpha R(t_j + gamma h)] x_j,
+    R = (I - gamma h A)^-1, alpha = (1 - gamma) / gamma, from the coefficients at the stage angles (K1, C1
+    at t_j + gamma h, K2, C2 at t_j + h).
+
+    By blocks, never forming R: for x = (u, v), R x = (u + a y, y) with y = Z^-1 (M v - a K u),
+    Z = M + a C + a^2 K, a = gamma h (the Z-form of :func:`_resolvent`), so a step costs two batched
+    n x n solves with 2n right-hand sides and one n x n x 2n product instead of two inverses and 2n x 2n
+    products (about half the flops, a fraction of the memory traffic)."""
+    count, n = K1.shape[0], m.size
+    a = SDIRK_GAMMA * h
     alpha = (1.0 - SDIRK_GAMMA) / SDIRK_GAMMA
-    return R[count:] @ ((1.0 - alpha) * np.eye(R.shape[-1]) + alpha * R[:count])
+    eye = np.eye(n)
+    # stage 1 on X = I: y1 = Z1^-1 [-a K1, M]
+    rhs = np.empty((count, n, 2 * n))
+    rhs[:, :, :n] = -a * K1
+    rhs[:, :, n:] = np.diag(m)
+    Y1 = np.linalg.solve(eye * m + a * C1 + a**2 * K1, rhs)
+    # B = (1 - alpha) I + alpha R1: Bu = [I, 0] + alpha a Y1, Bv = (1 - alpha) [0, I] + alpha Y1
+    Bu = (alpha * a) * Y1
+    Bu[:, :, :n] += eye
+    Bv = alpha * Y1
+    Bv[:, :, n:] += (1.0 - alpha) * eye
+    # stage 2: S = R2 B = [Bu + a y2; y2], y2 = Z2^-1 (M Bv - a K2 Bu)
+    Y2 = np.linalg.solve(eye * m + a * C2 + a**2 * K2, m[:, None] * Bv - a * (K2 @ Bu))
+    S = np.empty((count, 2 * n, 2 * n))
+    S[:, :n] = Bu + a * Y2
+    S[:, n:] = Y2
+    return S
 
 
 CHUNK_BYTES = 64e6
@@ -131,14 +187,31 @@ def _product(S: np.ndarray) -> np.ndarray:
     return S[0]
 
 
+COEFFICIENT_BYTES = 160e6
+"""Memory bound of the stage coefficients (K and C at both stage angles of every step) evaluated at once
+[bytes]: within it they are evaluated on two uniform full-turn grids (interpolated, see
+``periodic.SampledCoefficients``), beyond it chunk by chunk (partial turns: the direct frame condensation)."""
+
+
 def monodromy(system: PeriodicSystem, steps: int) -> np.ndarray:
     """Phi = S_{steps-1} ... S_1 S_0 (2n, 2n), by pairwise products (balanced tree)."""
     if np.any(system.mass <= 0.0):
         raise ValueError("Floquet analysis needs every mass > 0 (a massless coordinate has no dynamics)")
-    chunk = max(8, int(CHUNK_BYTES / (8.0 * (4 * system.mass.size) ** 2)))
-    phi = np.eye(2 * system.mass.size)
+    n = system.mass.size
+    chunk = max(8, int(CHUNK_BYTES / (8.0 * (4 * n) ** 2)))
+    damped = not undamped(system)
+    h = system.period / steps
+    whole = 8.0 * 2 * steps * (2 * n * n + 4 * n) <= COEFFICIENT_BYTES
+    co = _stage_coefficients(system, steps, 0, steps, damped) if whole else None
+    phi = np.eye(2 * n)
     for first in range(0, steps, chunk):
-        phi = _product(step_matrices(system, steps, first, min(chunk, steps - first))) @ phi
+        count = min(chunk, steps - first)
+        if whole:
+            S = _steps_from(system, co, first, first + count, steps, h, damped)
+        else:
+            S = _steps_from(system, _stage_coefficients(system, steps, first, count, damped), 0, count, count, h,
+                            damped)
+        phi = _product(S) @ phi
     return phi
 
 

@@ -156,17 +156,30 @@ def _message(status: str, mu: float, mu_err: float, est: float, tol: float, H: i
     return text
 
 
+def elastic_coordinates(scene: Scene) -> int:
+    """Elastic coordinates of the linear model of ``scene``: 2 per frame node carrying mass (as
+    ``ked_quasi.frame.condensed_structure`` keeps them), counted without any frame solve."""
+    from ked_quasi.massmodel import lumps
+    from ked_quasi.solver import node_masses
+    from ked_quasi.structure import topology
+
+    lm = lumps(scene.fourbar, scene.mass_model)
+    return 2 * int(np.count_nonzero(node_masses(topology(lm), lm) > 0))
+
+
 def solve_linear(scene: Scene, settings: LinearSettings | None = None) -> LinearResult:
     """Periodic steady state of the linear KED model of ``scene`` (see docs/linear_model.md)."""
     t0 = time.perf_counter()
     settings = LinearSettings() if settings is None else settings
     if not isinstance(settings, LinearSettings):
         raise TypeError(f"settings must be a LinearSettings, got {type(settings).__name__}")
-    ls = linkage_system(scene, settings)
-    if ls.system.mass.size > MAX_COORDINATES:
+    # refused before any work (the damping reference frequency of an oversized model alone takes a minute)
+    size = elastic_coordinates(scene)
+    if size > MAX_COORDINATES:
         raise ValueError(f"mass model: the linear KED model takes at most {MAX_COORDINATES // 2} moving lumps "
                          f"({MAX_COORDINATES} coordinates: its memory grows as their square times the Floquet "
-                         f"steps); this scene has {ls.system.mass.size // 2}: use fewer lumps per link")
+                         f"steps); this scene has {size // 2}: use fewer lumps per link")
+    ls = linkage_system(scene, settings)
     theta = scene.crank_angles
     ss = steady_state(ls.system, theta, settings.tolerance, settings.harmonics, settings.max_harmonics,
                       OUTPUT_GROUPS)

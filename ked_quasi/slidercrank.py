@@ -16,6 +16,7 @@ l1 sin(theta) + l2 sin(phi) = offset.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -347,6 +348,8 @@ def load_slider_crank(path: str) -> SliderCrank | None:
         import tomllib
     except ModuleNotFoundError:  # Python < 3.11
         import tomli as tomllib  # type: ignore[no-redef]
+    if not os.path.isfile(path):  # a FIFO would block here; the four-bar loader names what it is
+        return None
     try:
         with open(path, "rb") as fh:
             doc = tomllib.load(fh)

@@ -406,3 +406,40 @@ def test_campaign_solver_flags_weakly_damped_and_fails_marginal(thesis):
     undamped = run(_scene(thesis, "tip", 300.0), make_settings({"max_harmonics": 8}, 0.0))
     assert undamped.status == STATUS_FAILED and undamped.error_type == "Marginal"
     assert undamped.failure_class == "physical" and "marginal (undamped)" in undamped.message
+
+
+@pytest.mark.parametrize("mm", ["joints", "extender"])
+def test_sdirk_block_steps_equal_resolvent_form(mm, thesis, monkeypatch):
+    # the SDIRK2 step matrices applied by blocks (two n x n solves, never forming R) against the previous
+    # full computation R(t_j + h) [(1 - alpha) I + alpha R(t_j + gamma h)] with the explicit 2n x 2n
+    # resolvents R = (I - gamma h A)^-1 (an algebraic identity: equal to round-off); and the monodromy
+    # from coefficients evaluated chunk by chunk (direct frame condensation on partial turns) against the
+    # one from whole-turn (interpolated) coefficients: equal within the interpolation tolerance
+    import sys
+
+    fq = sys.modules["ked_linear.floquet"]
+    sys_ = linkage_system(_scene(thesis, mm, 100.0), LinearSettings(damping_ratio=0.02)).system
+    steps, h = 256, sys_.period / 256
+    t = np.arange(steps) * h
+    R = fq._resolvent(sys_, sys_.speed * np.concatenate([t + fq.SDIRK_GAMMA * h, t + h]), fq.SDIRK_GAMMA * h)
+    alpha = (1.0 - fq.SDIRK_GAMMA) / fq.SDIRK_GAMMA
+    reference = R[steps:] @ ((1.0 - alpha) * np.eye(R.shape[-1]) + alpha * R[:steps])
+    got = fq.step_matrices(sys_, steps)
+    assert np.abs(got - reference).max() <= 1e-8 * np.abs(reference).max()
+    whole = np.abs(multipliers(sys_, steps))
+    monkeypatch.setattr(fq, "COEFFICIENT_BYTES", 0.0)
+    monkeypatch.setattr(fq, "CHUNK_BYTES", 8.0 * 37 * (4 * sys_.mass.size) ** 2)  # 37 steps: partial turns
+    chunked = np.abs(multipliers(sys_, steps))
+    assert np.abs(np.sort(whole) - np.sort(chunked)).max() < 1e-7
+
+
+@pytest.mark.parametrize(("mm", "lumps"), [("tip", 1), ("joints", 5), ("extender", 3), ("distributed", 1),
+                                           ("distributed", 5)])
+def test_elastic_coordinates_counted_before_any_solve(mm, lumps, thesis):
+    # the size check of solve_linear runs before the frame condensation: its count must equal the size of
+    # the condensed model it stands for (the mass coordinates condensed_structure keeps)
+    from ked_linear.solver import elastic_coordinates
+
+    base = _scene(thesis, mm, 100.0)
+    scene = replace(base, mass_model=replace(base.mass_model, lumps=lumps))
+    assert elastic_coordinates(scene) == condensed_structure(scene, np.zeros(1)).mass.size

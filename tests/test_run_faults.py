@@ -40,8 +40,14 @@ def qs_config(tmp_path) -> Path:
     return p
 
 
+def _default_sigint() -> None:
+    """A shell runs background jobs with SIGINT ignored, and Python keeps it ignored: give the child the
+    default handler, as a terminal's foreground job has."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _start(args: list[str], **kw) -> subprocess.Popen:
-    kw = {"stdout": subprocess.PIPE, "stderr": subprocess.PIPE, **kw}
+    kw = {"stdout": subprocess.PIPE, "stderr": subprocess.PIPE, "preexec_fn": _default_sigint, **kw}
     return subprocess.Popen([*KED, *args], text=True, **kw)
 
 
