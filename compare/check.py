@@ -50,7 +50,7 @@ from ked_quasi.linkage import FourBar
 from ked_quasi.massmodel import MassModel
 
 TIERS = ("quasi-static", "borderline", "linear", "nonlinear")
-DEFAULT_DYNAMIC = (("element", "ancf"), ("elements_per_link", 4), ("spectral_radius", 0.9), ("steps_per_cycle", 720))
+DEFAULT_DYNAMIC = (("element", "ancf"), ("elements_per_link", 6), ("spectral_radius", 0.9), ("steps_per_cycle", 1080))
 """The Exudyn settings of the default campaign (so that a confirmed check is that campaign's scene)."""
 MAX_HARMONICS = HARMONICS.hi
 """Crank harmonics the check allows the linear solve when the default maximum did not converge."""
