@@ -38,7 +38,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
-from compare import metrics
+from compare import metrics, verdict_rule
 from compare.execute import run_scene
 from compare.inspect import speed_ratio
 from compare.results import SceneResult
@@ -200,7 +200,8 @@ def tier(r: SceneResult, linear_range: LinearRange, tolerance: float,
              f"r = {ratio:.3g}, the linear model's own limit unknown (no atlas)")
     if qs.flags:
         pass  # a flagged quasi-static answer is never granted: linear or nonlinear below
-    elif in_range and err < lo:
+    elif verdict_rule.calls(err, ratio, limit, True, tolerance, margins.holds_below,
+                            margins.fails_above) == verdict_rule.QUASI_STATIC:
         return "quasi-static", (f"quasi-static holds: {err:.1%} off the linear model < {lo:.1%} "
                                 f"({margins.holds_below:g} x tolerance; {where})")
     elif err <= hi:
