@@ -39,6 +39,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 from compare import metrics, verdict_rule
+from compare.config import default_dynamic
 from compare.execute import run_scene
 from compare.inspect import speed_ratio
 from compare.results import SceneResult
@@ -50,7 +51,7 @@ from ked_quasi.linkage import FourBar
 from ked_quasi.massmodel import MassModel
 
 TIERS = ("quasi-static", "borderline", "linear", "nonlinear")
-DEFAULT_DYNAMIC = (("element", "ancf"), ("elements_per_link", 4), ("spectral_radius", 0.9), ("steps_per_cycle", 720))
+DEFAULT_DYNAMIC = default_dynamic()
 """The Exudyn settings of the default campaign (so that a confirmed check is that campaign's scene)."""
 MAX_HARMONICS = HARMONICS.hi
 """Crank harmonics the check allows the linear solve when the default maximum did not converge."""
