@@ -9,6 +9,11 @@ the linear model's lower-band limit [1], for a tolerance ``tol`` and margins ``h
   solution without flags and r < r_linear; r_linear nan: unknown, never granted),
 * "borderline" where holds_below x tol <= e < fails_above x tol inside that range,
 * "not quasi-static" otherwise.
+
+:func:`compare.check.tier` grants its quasi-static tier exactly where this says quasi-static; its
+borderline tier is wider than this one (e = fails_above x tol, and e <= fails_above x tol outside the
+linear range, are borderline there, not quasi-static here): both are "not granted", so the calibrated
+unsafe rate is the check's.
 """
 
 from __future__ import annotations
