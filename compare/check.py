@@ -178,10 +178,11 @@ def tier(r: SceneResult, linear_range: LinearRange, tolerance: float,
     if "weakly_damped" in lin.flags:
         from ked_linear.solver import WEAKLY_DAMPED
 
-        mu = lin.stats.get("floquet_max_abs", math.nan)
-        return "nonlinear", (f"weakly damped: max |Floquet multiplier| {mu:.3g} >= {WEAKLY_DAMPED:g}, near a critical "
-                             "speed (parametric resonance): the linear periodic answer is not valid and the nonlinear "
-                             "model may never settle; avoid this speed or add damping")
+        mu, err = lin.stats.get("floquet_max_abs", math.nan), lin.stats.get("floquet_error", math.nan)
+        bound = f"{mu:.3g} (+- {err:.1g})" if math.isfinite(err) else f"{mu:.3g}"  # the flag counts the error
+        return "nonlinear", (f"weakly damped: max |Floquet multiplier| {bound} not < {WEAKLY_DAMPED:g}, near a "
+                             "critical speed (parametric resonance): the linear periodic answer is not valid and the "
+                             "nonlinear model may never settle; avoid this speed or add damping")
     large = [f for f in lin.flags if f not in ("unresolved", "weakly_damped")]
     if large:
         return "nonlinear", (f"deflections beyond the small-deflection range ({', '.join(large)}): "
