@@ -38,7 +38,8 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
-from compare import metrics
+from compare import metrics, verdict_rule
+from compare.config import default_dynamic
 from compare.execute import run_scene
 from compare.inspect import speed_ratio
 from compare.results import SceneResult
@@ -50,7 +51,7 @@ from ked_quasi.linkage import FourBar
 from ked_quasi.massmodel import MassModel
 
 TIERS = ("quasi-static", "borderline", "linear", "nonlinear")
-DEFAULT_DYNAMIC = (("element", "ancf"), ("elements_per_link", 6), ("spectral_radius", 0.9), ("steps_per_cycle", 1080))
+DEFAULT_DYNAMIC = default_dynamic()
 """The Exudyn settings of the default campaign (so that a confirmed check is that campaign's scene)."""
 MAX_HARMONICS = HARMONICS.hi
 """Crank harmonics the check allows the linear solve when the default maximum did not converge."""
@@ -177,10 +178,11 @@ def tier(r: SceneResult, linear_range: LinearRange, tolerance: float,
     if "weakly_damped" in lin.flags:
         from ked_linear.solver import WEAKLY_DAMPED
 
-        mu = lin.stats.get("floquet_max_abs", math.nan)
-        return "nonlinear", (f"weakly damped: max |Floquet multiplier| {mu:.3g} >= {WEAKLY_DAMPED:g}, near a critical "
-                             "speed (parametric resonance): the linear periodic answer is not valid and the nonlinear "
-                             "model may never settle; avoid this speed or add damping")
+        mu, err = lin.stats.get("floquet_max_abs", math.nan), lin.stats.get("floquet_error", math.nan)
+        bound = f"{mu:.3g} (+- {err:.1g})" if math.isfinite(err) else f"{mu:.3g}"  # the flag counts the error
+        return "nonlinear", (f"weakly damped: max |Floquet multiplier| {bound} not < {WEAKLY_DAMPED:g}, near a "
+                             "critical speed (parametric resonance): the linear periodic answer is not valid and the "
+                             "nonlinear model may never settle; avoid this speed or add damping")
     large = [f for f in lin.flags if f not in ("unresolved", "weakly_damped")]
     if large:
         return "nonlinear", (f"deflections beyond the small-deflection range ({', '.join(large)}): "
@@ -200,7 +202,8 @@ def tier(r: SceneResult, linear_range: LinearRange, tolerance: float,
              f"r = {ratio:.3g}, the linear model's own limit unknown (no atlas)")
     if qs.flags:
         pass  # a flagged quasi-static answer is never granted: linear or nonlinear below
-    elif in_range and err < lo:
+    elif verdict_rule.calls(err, ratio, limit, True, tolerance, margins.holds_below,
+                            margins.fails_above) == verdict_rule.QUASI_STATIC:
         return "quasi-static", (f"quasi-static holds: {err:.1%} off the linear model < {lo:.1%} "
                                 f"({margins.holds_below:g} x tolerance; {where})")
     elif err <= hi:

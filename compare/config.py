@@ -94,6 +94,12 @@ def default_config_text() -> str:
     return resources.files("compare").joinpath("default_campaign.toml").read_text(encoding="utf-8")
 
 
+def default_dynamic() -> tuple[tuple[str, Any], ...]:
+    """The ``[dynamic]`` settings of the embedded default campaign, sorted (name, value) pairs as a
+    campaign's scenes carry them."""
+    return tuple(sorted(tomllib.loads(default_config_text())["dynamic"].items()))
+
+
 def load_config(path: str | Path | None = None) -> CampaignConfig:
     """Read and validate a campaign file; ``None`` gives the embedded default campaign."""
     if path is None:

@@ -147,7 +147,7 @@ def transaction(path: str | Path) -> Iterator[h5py.File]:
     immutable file) raise :class:`CommitError`.
     """
     path = target(path)
-    tmp = path.with_name(f"{path.name}{TMP_MARK}{os.getpid()}-{uuid.uuid4().hex[:8]}")
+    tmp = _tmp_beside(path)
     try:
         f = _open_copy(path, tmp)
         try:
@@ -161,18 +161,36 @@ def transaction(path: str | Path) -> Iterator[h5py.File]:
         except (OSError, RuntimeError) as exc:  # HDF5 reports a full disk as either
             _close_quietly(f)
             raise CommitError(f"{path}: cannot be written ({_short(exc)}; is the disk full?)") from exc
-        try:
-            _fsync_path(tmp)
-            os.replace(tmp, path)
-        except OSError as exc:
-            raise CommitError(f"{path}: cannot be replaced ({exc.strerror or _short(exc)})") from exc
-        _fsync_path(path.parent, directory=True)
+        _install(tmp, path)
     finally:
-        if tmp.exists():
-            try:
-                tmp.unlink()
-            except OSError:
-                pass
+        _discard(tmp)
+
+
+def _tmp_beside(path: Path) -> Path:
+    """A fresh private name beside ``path`` for a copy to be renamed onto it (see :func:`stale_temps`)."""
+    return path.with_name(f"{path.name}{TMP_MARK}{os.getpid()}-{uuid.uuid4().hex[:8]}")
+
+
+def _install(tmp: Path, path: Path, copy_mode: bool = False) -> None:
+    """Atomically rename the finished file ``tmp`` onto ``path`` (with ``copy_mode``: ``path``'s
+    permissions first), synced to disk; a failure is a :class:`CommitError` and ``path`` is unchanged."""
+    try:
+        if copy_mode:
+            shutil.copymode(path, tmp)
+        _fsync_path(tmp)
+        os.replace(tmp, path)
+    except OSError as exc:
+        raise CommitError(f"{path}: cannot be replaced ({exc.strerror or _short(exc)})") from exc
+    _fsync_path(path.parent, directory=True)
+
+
+def _discard(tmp: Path) -> None:
+    """Remove a temporary copy that was not renamed into place (quietly: a leftover is only stale)."""
+    if tmp.exists():
+        try:
+            tmp.unlink()
+        except OSError:
+            pass
 
 
 @contextmanager
@@ -612,7 +630,7 @@ def upgrade(path: str | Path) -> bool:
             raise StoreError(f"{path}: schema version {version} is not supported by this harness "
                              f"(it reads {READABLE_VERSIONS}); use the harness that wrote it or another file")
         scenes = _read_for_upgrade(old, version, path)
-    tmp = path.with_name(f"{path.name}{TMP_MARK}{os.getpid()}-{uuid.uuid4().hex[:8]}")
+    tmp = _tmp_beside(path)
     try:
         try:
             with _open(path) as old, create(tmp) as new:
@@ -630,19 +648,9 @@ def upgrade(path: str | Path) -> bool:
             raise StoreError(f"{path}: upgrade to schema version {SCHEMA_VERSION} would not keep every stored "
                              f"number ({problems[0]}{f' and {len(problems) - 1} more' if len(problems) > 1 else ''}"
                              "); the file is unchanged")
-        try:
-            shutil.copymode(path, tmp)
-            _fsync_path(tmp)
-            os.replace(tmp, path)
-        except OSError as exc:
-            raise CommitError(f"{path}: cannot be replaced ({exc.strerror or _short(exc)})") from exc
-        _fsync_path(path.parent, directory=True)
+        _install(tmp, path, copy_mode=True)
     finally:
-        if tmp.exists():
-            try:
-                tmp.unlink()
-            except OSError:
-                pass
+        _discard(tmp)
     return True
 
 

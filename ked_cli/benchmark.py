@@ -53,7 +53,12 @@ def simeon(no_project: bool, steady: str | None, as_json: bool) -> None:
            "initial_velocity_residual": rep.velocity_residual}
     rows = []
     for omega in omegas:
-        s = steady_state(omega)
+        try:
+            s = steady_state(omega)
+        except RuntimeError as exc:  # no steady state, or the integration failed: an answer, not a crash
+            from ked_cli.errors import UserError
+
+            raise UserError(f"--steady-state: {exc}; try another crank speed") from None
         rows.append({"omega_rad_s": omega, "speed_ratio": abs(omega) / SimeonParameters().first_bending_rad_s,
                      "midspan_peak_m": s.peak, "cycles": s.cycles})
     if omegas:

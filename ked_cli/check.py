@@ -125,10 +125,11 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
         click.echo(textwrap.fill(r.verdict, width=WIDTH, initial_indent=" " * 9, subsequent_indent=" " * 11,
                                  break_on_hyphens=False))
     if len(rows) >= 3:
-        click.echo("Critical speeds (local maxima of max |Floquet multiplier|): "
-                   + (", ".join(f"{c.rpm:.4g} rpm (|mu| {c.max_abs:.3g})" for c in crit) or "none in this range"))
-        click.echo("Amplification peaks (linear / quasi-static peak): "
-                   + (", ".join(f"{a:.4g} rpm" for a in amp) or "none in this range"))
+        for text in ("Critical speeds (local maxima of max |Floquet multiplier|): "
+                     + (", ".join(f"{c.rpm:.4g} rpm (|mu| {c.max_abs:.3g})" for c in crit) or "none in this range"),
+                     "Amplification peaks (linear / quasi-static peak): "
+                     + (", ".join(f"{a:.4g} rpm" for a in amp) or "none in this range")):
+            click.echo(textwrap.fill(text, width=WIDTH, subsequent_indent="  ", break_on_hyphens=False))
 
 
 def _pct(x: float | None) -> str:

@@ -48,17 +48,24 @@ def quasi(as_json: bool, summary: bool, **kw: Any) -> None:
 
 def solve(scene: Any) -> tuple[dict[str, Any], list[str]]:
     """The JSON record of one quasi-static solve and its warnings (validity flags included)."""
-    import numpy as np
-
-    from ked_quasi import limits
     from ked_quasi.solver import natural_frequencies, solve_quasi_static
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         res = solve_quasi_static(scene)
         f1 = natural_frequencies(scene, n_modes=1)[:, 0]
-    flags = limits.flags(res.deflection, scene.fourbar)
-    msgs = [str(w.message) for w in caught] + ([limits.describe(flags, res.deflection, scene.fourbar)] if flags else [])
+    out, flagged = _record(scene, res, f1, scene.fourbar)
+    return out, [str(w.message) for w in caught] + flagged
+
+
+def _record(scene: Any, res: Any, f1: Any, linkage: Any) -> tuple[dict[str, Any], list[str]]:
+    """The JSON keys of a quasi-static solve that both linkages share, and its validity message (if
+    flagged by ``ked_quasi.limits``)."""
+    import numpy as np
+
+    from ked_quasi import limits
+
+    flags = limits.flags(res.deflection, linkage)
     out = {
         "crank_angle_deg": scene.crank_angles_deg.tolist(),
         "dx_m": res.deflection[:, 0].tolist(), "dy_m": res.deflection[:, 1].tolist(),
@@ -66,7 +73,7 @@ def solve(scene: Any) -> tuple[dict[str, Any], list[str]]:
         "transmission_angle_deg": np.degrees(res.transmission_angle).tolist(),
         "flagged": res.flagged.tolist(), "flags": list(flags), "valid": not flags,
     }
-    return out, msgs
+    return out, [limits.describe(flags, res.deflection, linkage)] if flags else []
 
 
 def _decimals(step_deg: float) -> int:
@@ -180,40 +187,35 @@ def _slider(opts: SceneOptions, sc: Any, as_json: bool, summary: bool) -> None:
 def solve_slider(scene: Any) -> tuple[dict[str, Any], list[str]]:
     """The JSON record of one slider-crank quasi-static solve (the four-bar's keys plus midspan_m) and its
     validity messages."""
-    import numpy as np
-
-    from ked_quasi import limits
     from ked_quasi.slider_static import slider_natural_frequencies, solve_slider_quasi_static
 
     res = solve_slider_quasi_static(scene)
     f1 = slider_natural_frequencies(scene, n_modes=1)[:, 0]
-    flags = limits.flags(res.deflection, scene.linkage)
-    msgs = [limits.describe(flags, res.deflection, scene.linkage)] if flags else []
-    out = {
-        "crank_angle_deg": scene.crank_angles_deg.tolist(),
-        "dx_m": res.deflection[:, 0].tolist(), "dy_m": res.deflection[:, 1].tolist(),
-        "rotation_rad": res.deflection[:, 2].tolist(), "f1_hz": f1.tolist(),
-        "transmission_angle_deg": np.degrees(res.transmission_angle).tolist(),
-        "flagged": res.flagged.tolist(), "flags": list(flags), "valid": not flags,
-        "midspan_m": res.midspan.tolist(),
-    }
-    return out, msgs
+    out, msgs = _record(scene, res, f1, scene.linkage)
+    return {**out, "midspan_m": res.midspan.tolist()}, msgs
+
+
+def _wrap(text: str) -> str:
+    """``text`` in lines of at most 100 columns, continuation lines indented."""
+    import textwrap
+
+    return textwrap.fill(text, width=100, subsequent_indent="  ", break_on_hyphens=False)
 
 
 def _slider_table(opts: SceneOptions, scene: Any, out: dict[str, Any]) -> None:
     mm, sc = scene.mass_model, scene.linkage
     rigid = [lk for lk, r in zip(("crank", "coupler"), sc.rigid) if r]
-    click.echo(f"Quasi-static deflection of a slider-crank: {opts.linkage} (crank {sc.crank:g} m, coupler "
+    click.echo(_wrap(f"Quasi-static deflection of a slider-crank: {opts.linkage} (crank {sc.crank:g} m, coupler "
                f"{sc.coupler:g} m, offset {sc.offset:g} m, coupler point at {sc.coupler_point:g} of the coupler, "
                f"slider "
                f"{sc.slider_mass:g} kg" + (f", rigid {' and '.join(rigid)}" if rigid else "") + f"), mass model "
                f"{mm.name}" + (f" ({mm.lumps} lumps per link)" if mm.name == "distributed" else "")
                + (f", payload {mm.payload:g} kg" if mm.payload else "")
-               + f", {scene.rpm:g} rpm ({scene.omega:.4g} rad/s), step {scene.step_deg:g} deg")
-    click.echo("theta: crank angle CCW from +x (0: slider at its far dead centre when the offset is 0); dx, dy: "
-               "elastic displacement of P in the global frame; rot: elastic rotation of the section at P (CCW +); "
-               "mid: coupler midspan deflection normal to its chord (CCW normal of A->B); f1: first natural "
-               "frequency of the frozen linkage; mu: transmission angle")
+               + f", {scene.rpm:g} rpm ({scene.omega:.4g} rad/s), step {scene.step_deg:g} deg"))
+    click.echo(_wrap("theta: crank angle CCW from +x (0: slider at its far dead centre when the offset is 0); dx, dy: "
+                     "elastic displacement of P in the global frame; rot: elastic rotation of the section at P "
+                     "(CCW +); mid: coupler midspan deflection normal to its chord (CCW normal of A->B); f1: first "
+                     "natural frequency of the frozen linkage; mu: transmission angle"))
     if not out["valid"]:
         click.echo("NOT VALID: " + ", ".join(out["flags"]) + " (see the warning above)")
     d = _decimals(scene.step_deg)

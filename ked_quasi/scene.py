@@ -13,8 +13,37 @@ from .linkage import FourBar
 from .massmodel import MassModel, lumps
 
 
+class CrankGrid:
+    """The crank-angle grid and speed of a scene with ``step_deg`` [deg] and ``rpm`` [rev/min] fields
+    (the four-bar's :class:`Scene` and the slider-crank's ``SliderScene``)."""
+
+    step_deg: float
+    rpm: float
+
+    @property
+    def n_angles(self) -> int:
+        """Number of crank angles of the grid."""
+        return rules.steps_per_turn(self.step_deg)
+
+    @property
+    def crank_angles(self) -> np.ndarray:
+        """Uniform grid over one turn, 0 <= theta < 2 pi [rad]."""
+        n = self.n_angles
+        return np.arange(n) * (2.0 * np.pi / n)
+
+    @property
+    def crank_angles_deg(self) -> np.ndarray:
+        """The grid in degrees, exact multiples of ``step_deg`` (0 <= theta < 360)."""
+        return np.arange(self.n_angles) * (360.0 / self.n_angles)
+
+    @property
+    def omega(self) -> float:
+        """Crank speed magnitude [rad/s]."""
+        return units.rpm_to_rad_s(self.rpm)
+
+
 @dataclass(frozen=True)
-class Scene:
+class Scene(CrankGrid):
     """What every solver is asked to analyse.
 
     fourbar: the mechanism (already the source or the cognate); mass_model: where its mass is;
@@ -38,27 +67,6 @@ class Scene:
         object.__setattr__(self, "step_deg", rules.check_step_deg(self.step_deg, "Scene.step_deg"))
         n_nodes = len(lumps(self.fourbar, self.mass_model).link) + 5  # lumps + joints M, A, B, Q, P
         rules.check_work(self.n_angles, 2 * n_nodes, "Scene.step_deg and MassModel.lumps")
-
-    @property
-    def n_angles(self) -> int:
-        """Number of crank angles of the grid."""
-        return rules.steps_per_turn(self.step_deg)
-
-    @property
-    def crank_angles(self) -> np.ndarray:
-        """Uniform grid over one turn, 0 <= theta < 2 pi [rad]."""
-        n = self.n_angles
-        return np.arange(n) * (2.0 * np.pi / n)
-
-    @property
-    def crank_angles_deg(self) -> np.ndarray:
-        """The grid in degrees, exact multiples of ``step_deg`` (0 <= theta < 360)."""
-        return np.arange(self.n_angles) * (360.0 / self.n_angles)
-
-    @property
-    def omega(self) -> float:
-        """Crank speed magnitude [rad/s]."""
-        return units.rpm_to_rad_s(self.rpm)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain dict (JSON, HDF5 attributes); :meth:`from_dict` inverts it."""

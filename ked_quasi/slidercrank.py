@@ -26,6 +26,7 @@ from . import rules, units
 from .linkage import DIRECTIONS, SECTION_RULES, Section, direction_sign
 from .massmodel import MassModel, default_payload
 from .rules import check_choice
+from .scene import CrankGrid
 
 KIND = "slider-crank"
 """The ``kind`` of a slider-crank in a linkage TOML table."""
@@ -276,7 +277,7 @@ def slider_lumps(sc: SliderCrank, mm: MassModel) -> SliderLumps:
 
 # -- scene --------------------------------------------------------------------------------------
 @dataclass(frozen=True)
-class SliderScene:
+class SliderScene(CrankGrid):
     """One slider-crank, one mass model, one constant crank speed, one crank-angle grid.
 
     linkage: the :class:`SliderCrank`; mass_model: one of :data:`SLIDER_MASS_MODELS`; rpm: crank speed
@@ -298,24 +299,6 @@ class SliderScene:
         object.__setattr__(self, "step_deg", rules.check_step_deg(self.step_deg, "SliderScene.step_deg"))
         n_nodes = len(slider_lumps(self.linkage, self.mass_model).link) + 4  # lumps + A, B, P, midspan
         rules.check_work(self.n_angles, 2 * n_nodes + 1, "SliderScene.step_deg and MassModel.lumps")
-
-    @property
-    def n_angles(self) -> int:
-        return rules.steps_per_turn(self.step_deg)
-
-    @property
-    def crank_angles(self) -> np.ndarray:
-        """Uniform grid over one turn, 0 <= theta < 2 pi [rad]."""
-        return np.arange(self.n_angles) * (2.0 * np.pi / self.n_angles)
-
-    @property
-    def crank_angles_deg(self) -> np.ndarray:
-        return np.arange(self.n_angles) * (360.0 / self.n_angles)
-
-    @property
-    def omega(self) -> float:
-        """Crank speed magnitude [rad/s]."""
-        return units.rpm_to_rad_s(self.rpm)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain dict (JSON); :meth:`from_dict` inverts it."""

@@ -63,3 +63,21 @@ def random_fourbars(n: int, seed: int = 7) -> list[FourBar]:
                            crank_pivot=tuple(M), follower_pivot=tuple(Q),
                            branch=str(rng.choice(["open", "crossed"])), direction=str(rng.choice(["ccw", "cw"]))))
     return out
+
+
+def quasi_deflection(scene) -> np.ndarray:
+    """The quasi-static deflection history of ``scene`` (n, 3), its validity warnings silenced."""
+    import warnings
+
+    from ked_quasi.solver import solve_quasi_static
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return solve_quasi_static(scene).deflection
+
+
+def rel_error(got: np.ndarray, expected: np.ndarray) -> tuple[float, float]:
+    """max |got - expected| relative to the expected peak: (dx, dy together), rotation."""
+    xy = np.abs(got[:, :2] - expected[:, :2]).max() / np.abs(expected[:, :2]).max()
+    rot = np.abs(got[:, 2] - expected[:, 2]).max() / np.abs(expected[:, 2]).max()
+    return float(xy), float(rot)

@@ -23,21 +23,11 @@ from exudyn_models import DynamicSettings, simulate_steady_state
 from exudyn_models.tolerance import newton_tolerances
 from ked_linear import solve_linear
 from ked_quasi.presets import make_scene
-from ked_quasi.solver import solve_quasi_static
+
+from .conftest import quasi_deflection as _quasi
+from .conftest import rel_error as _rel_error
 
 BOUND = 1e-3
-
-
-def _quasi(scene) -> np.ndarray:
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return solve_quasi_static(scene).deflection
-
-
-def _rel_error(got: np.ndarray, expected: np.ndarray) -> tuple[float, float]:
-    xy = np.abs(got[:, :2] - expected[:, :2]).max() / np.abs(expected[:, :2]).max()
-    rot = np.abs(got[:, 2] - expected[:, 2]).max() / np.abs(expected[:, 2]).max()
-    return float(xy), float(rot)
 
 
 @pytest.mark.parametrize("mechanism", ["source", "cognate"])

@@ -8,7 +8,6 @@ and the model itself at a finer discretization (convergence).
 from __future__ import annotations
 
 import json
-import warnings
 
 import numpy as np
 import pytest
@@ -21,22 +20,10 @@ from ked_quasi.kinematics import coupler_point
 from ked_quasi.massmodel import MassModel
 from ked_quasi.presets import make_scene
 from ked_quasi.scene import Scene
-from ked_quasi.solver import solve_quasi_static
 
+from .conftest import quasi_deflection as _quasi
 from .conftest import random_fourbars
-
-
-def _quasi(scene) -> np.ndarray:
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return solve_quasi_static(scene).deflection
-
-
-def _rel_error(got: np.ndarray, expected: np.ndarray) -> tuple[float, float]:
-    """max |got - expected| relative to the expected peak: (dx, dy together), rotation."""
-    xy = np.abs(got[:, :2] - expected[:, :2]).max() / np.abs(expected[:, :2]).max()
-    rot = np.abs(got[:, 2] - expected[:, 2]).max() / np.abs(expected[:, 2]).max()
-    return float(xy), float(rot)
+from .conftest import rel_error as _rel_error
 
 
 @pytest.mark.parametrize("mechanism", ["source", "cognate"])

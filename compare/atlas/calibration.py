@@ -11,12 +11,12 @@ model) and calls, for a tolerance ``tol`` and margins ``holds_below`` <= ``fails
 * "borderline" (run ``--confirm``) where holds_below x tol <= e < fails_above x tol inside that range,
 * "not quasi-static" otherwise.
 
-:func:`calls` states that rule once, vectorized; the check mirrors it.  Measured against Exudyn on the
-atlas's threshold sample (:mod:`compare.atlas.threshold`: measured error m = quasi-static vs Exudyn, the
-same history error), a call is **unsafe** when it says quasi-static and m >= tol, **over-cautious** when
-it says not quasi-static and m < tol; a borderline call is never unsafe (it says: confirm) and is counted
-apart.  Rates are over every threshold scene with an Exudyn steady state, each with its two-sided 95 %
-Clopper-Pearson interval (:func:`clopper_pearson`).
+:func:`calls` (:mod:`compare.verdict_rule`) states that rule once, vectorized; the check calls it.
+Measured against Exudyn on the atlas's threshold sample (:mod:`compare.atlas.threshold`: measured error
+m = quasi-static vs Exudyn, the same history error), a call is **unsafe** when it says quasi-static and
+m >= tol, **over-cautious** when it says not quasi-static and m < tol; a borderline call is never unsafe
+(it says: confirm) and is counted apart. Rates are over every threshold scene with an Exudyn steady
+state, each with its two-sided 95 % Clopper-Pearson interval (:func:`clopper_pearson`).
 
 :func:`choose_margins` takes the more cautious of two criteria on each side.  ``holds_below``: (a) the
 largest multiplier on :data:`HOLDS_GRID` whose unsafe-call rate has an upper 95 % bound <=
@@ -39,8 +39,9 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from scipy.stats import beta
 
-QUASI_STATIC, BORDERLINE, NOT_QUASI_STATIC = 0, 1, 2
-CALL_NAMES = ("quasi-static", "borderline", "not quasi-static")
+# re-exported: the calibration's vocabulary
+from compare.verdict_rule import BORDERLINE, CALL_NAMES, NOT_QUASI_STATIC, QUASI_STATIC, calls  # noqa: F401
+
 MAX_UNSAFE_UPPER95 = 0.03
 """Largest allowed upper 95 % bound of the unsafe-call rate at the threshold [1]."""
 HOLDS_GRID = tuple(round(0.01 * i, 2) for i in range(1, 101))
@@ -71,21 +72,6 @@ def clopper_pearson(k: int, n: int, confidence: float = 0.95) -> Rate:
     lo = 0.0 if k == 0 else float(beta.ppf(a, k, n - k + 1))
     hi = 1.0 if k == n else float(beta.ppf(1.0 - a, k + 1, n - k))
     return Rate(int(k), int(n), k / n, lo, hi)
-
-
-def calls(e: np.ndarray, r: np.ndarray, r_linear: np.ndarray, linear_ok: np.ndarray, tolerance: float,
-          holds_below: float, fails_above: float) -> np.ndarray:
-    """The check's call (:data:`QUASI_STATIC`, :data:`BORDERLINE`, :data:`NOT_QUASI_STATIC`) per scene.
-
-    ``e`` predicted error [1] (quasi-static vs linear), ``r`` speed ratio [1], ``r_linear`` the lower-band
-    linear limit at each scene [1] (nan: unknown, the quasi-static tier is not granted), ``linear_ok`` a
-    linear solution without flags; ``holds_below`` / ``fails_above`` multipliers of ``tolerance``."""
-    e, r, r_lin = (np.asarray(x, float) for x in (e, r, r_linear))
-    inside = np.asarray(linear_ok, bool) & np.isfinite(e) & np.isfinite(r_lin) & (r < r_lin)
-    out = np.full(e.shape, NOT_QUASI_STATIC, dtype=int)
-    out[inside & (e < fails_above * tolerance)] = BORDERLINE
-    out[inside & (e < holds_below * tolerance)] = QUASI_STATIC
-    return out
 
 
 @dataclass(frozen=True)
