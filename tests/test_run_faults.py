@@ -206,6 +206,35 @@ def test_disk_filling_mid_run_ends_in_the_rescue_line_only(tmp_path, size):
         subprocess.run(["umount", str(disk)], check=False)
 
 
+@pytest.mark.parametrize("free_kb", [60, 120, 180])
+def test_merge_onto_a_filling_disk_leaves_dest_as_it_was(tmp_path, free_kb):
+    # before: the rescue-style line, then "Exception ignored" tracebacks or a segfault inside HDF5's flush; a
+    # stale temp file beside DEST and a run record added to DEST although no scene was
+    import h5py
+
+    src = tmp_path / "src.h5"
+    run_campaign(parse_config(FILLS), src, workers=1, progress=False)
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    _mount("-t", "tmpfs", "-o", "size=400k", "tmpfs", str(disk))
+    try:
+        dest = disk / "dest.h5"
+        run_campaign(parse_config(QS), dest, workers=1, progress=False)
+        with h5py.File(dest, "r") as f:
+            runs_before, scenes_before = len(f["runs"]), len(f["scenes"])
+        free = os.statvfs(disk).f_bavail * os.statvfs(disk).f_frsize
+        (disk / "fill").write_bytes(b"\0" * max(0, free - free_kb * 1024))
+        res = ked("merge", str(src), str(dest), timeout=120)
+        assert_one_line_error(res, str(dest))
+        assert res.returncode == 1 and "Exception ignored" not in res.stderr
+        assert sorted(p.name for p in disk.iterdir()) == ["dest.h5", "fill"]  # no temp file left behind
+        assert store.verify(dest) == []
+        with h5py.File(dest, "r") as f:
+            assert (len(f["runs"]), len(f["scenes"])) == (runs_before, scenes_before)
+    finally:
+        subprocess.run(["umount", str(disk)], check=False)
+
+
 # -- peers that are not a Dask scheduler ------------------------------------------------------------------
 
 
