@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import json
 import warnings
 from typing import Any
 
 import click
 
-from ked_cli.options import SceneOptions, build_scene, scene_options
+from ked_cli.options import SceneOptions, build_scene, json_text, scene_options
 
 
 @click.command("quasi")
@@ -41,7 +40,7 @@ def quasi(as_json: bool, summary: bool, **kw: Any) -> None:
     for w in caught:
         click.echo(f"warning: {w}", err=True)
     if as_json:
-        click.echo(json.dumps(out))
+        click.echo(json_text(out))
         return
     _table(opts, scene, out)
 
@@ -124,7 +123,7 @@ def _summary(opts: SceneOptions, as_json: bool) -> None:
                          "f1_min_hz": float(f1.min()), "f1_max_hz": float(f1.max()),
                          "speed_ratio": float(scene.omega / (2 * np.pi * f1.min()))})
     if as_json:
-        click.echo(json.dumps(rows))
+        click.echo(json_text(rows))
         return
     click.echo(f"Quasi-static KED summary: {opts.linkage} linkage, {opts.rpm:g} rpm, step {opts.step_deg:g} deg")
     click.echo(f"{'mechanism':<9} {'mass model':<11} {'peak |d| mm':>11} {'at deg':>7} {'peak rot mrad':>13} "
@@ -177,7 +176,6 @@ def _slider(opts: SceneOptions, sc: Any, as_json: bool, summary: bool) -> None:
     for m in msgs:
         click.echo(f"warning: {m}", err=True)
     if as_json:
-        from ked_cli.options import json_text
 
         click.echo(json_text(out))
         return
