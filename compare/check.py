@@ -107,19 +107,19 @@ class VerdictMargins:
 
 
 def verdict_margins(tolerance: float = 0.10) -> VerdictMargins:
-    """The margins the atlas calibrated at ``tolerance`` [1] (``compare.atlas.verdict_margins``), or the
-    conservative default :class:`VerdictMargins` when there is no calibration at that tolerance or it cannot
-    be read."""
-    try:
-        from compare.atlas import verdict_margins as calibrated
-    except ImportError:
+    """The margins the atlas calibrated at ``tolerance`` [1] (published with the package:
+    :mod:`compare.atlas.published`), or the conservative default :class:`VerdictMargins` when there is no
+    calibration at that tolerance."""
+    from compare.atlas.published import read
+
+    m = read().get("margins", {}).get(f"{100 * tolerance:g}")
+    if not isinstance(m, dict):
         return VerdictMargins()
     try:
-        m = calibrated(tolerance)
-        return VerdictMargins(holds_below=float(m.holds_below), fails_above=float(m.fails_above),
-                              n_scenes=int(m.n_scenes), unsafe_rate=float(m.unsafe_rate),
-                              unsafe_upper95=float(m.unsafe_upper95), source=str(m.source))
-    except (OSError, ValueError, KeyError, AttributeError, TypeError, RuntimeError):
+        return VerdictMargins(holds_below=float(m["holds_below"]), fails_above=float(m["fails_above"]),
+                              n_scenes=int(m["n_scenes"]), unsafe_rate=float(m["unsafe_rate"]),
+                              unsafe_upper95=float(m["unsafe_upper95"]), source=str(m["source"]))
+    except (KeyError, TypeError, ValueError):
         return VerdictMargins()
 
 
@@ -274,18 +274,22 @@ def check_row(r: SceneResult, linear_range: LinearRange, tolerance: float,
 
 
 def linear_range(mass_model: str) -> LinearRange:
-    """The linear model's limits for a mass model, from the committed atlas (NaN when there is none)."""
-    try:
-        from compare.atlas import limits
-        from compare.atlas.compute import DAMPING
-    except ImportError:
+    """The linear model's limits for a mass model from the atlas (published with the package:
+    :mod:`compare.atlas.published`); NaN limits when there are none."""
+    from compare.atlas.published import read
+
+    rec = read()
+    t = rec.get("limits", {}).get(mass_model)
+    if not isinstance(t, dict):
         return LinearRange()
-    try:
-        t = limits(mass_model)
-    except (OSError, ValueError, KeyError):
-        return LinearRange()
-    return LinearRange(r5=t.linear_r5, r5_spread=t.linear_r5_spread, r10=t.linear_r10, r10_spread=t.linear_r10_spread,
-                       source="atlas", damping_ratio=DAMPING)
+
+    def num(key: str) -> float:
+        v = t.get(key)
+        return float(v) if isinstance(v, (int, float)) else math.nan
+
+    return LinearRange(r5=num("linear_r5"), r5_spread=num("linear_r5_spread"), r10=num("linear_r10"),
+                       r10_spread=num("linear_r10_spread"), source="atlas",
+                       damping_ratio=float(rec.get("damping_ratio", math.nan)))
 
 
 def check(source: FourBar, mechanism: str, mass_model: MassModel, rpms: Sequence[float], *,

@@ -26,6 +26,8 @@ def run(paths: StudyPaths, *, workers: int = 2, fresh: bool = False, report_only
         seed: int = 0, scheduler: str | None = None, confirm: int = DEFAULT_CONFIRM,
         threshold: int = DEFAULT_THRESHOLD) -> dict[str, Any]:
     """The study with the common signature (see :func:`compare.studies.run`)."""
+    from compare.atlas import published
+    from compare.atlas.analysis import default_path
     from compare.atlas.calibration import store_margins
     from compare.atlas.confirm import run_confirm
     from compare.atlas.report import write_report
@@ -49,5 +51,7 @@ def run(paths: StudyPaths, *, workers: int = 2, fresh: bool = False, report_only
     if not path.exists():
         raise FileNotFoundError(f"{path}: no atlas file to report on; run `ked study atlas` without --report-only")
     summary["margins"] = store_margins(path)  # derived from the stored tables (also with --report-only)
+    if path.resolve() == default_path().resolve():  # the committed atlas: publish what ked check reads
+        summary["published"] = str(published.write(path))
     summary["report"] = write_report(path, paths.figures, paths.readme)
     return summary

@@ -1,0 +1,62 @@
+"""What ``ked check`` needs from the atlas, published as package data: the tier limits of each mass model
+and the calibrated margins of the quasi-static call, in ``compare/atlas_limits.json``.
+
+``ked study atlas`` writes it from the atlas file (:func:`write`); ``ked check`` reads it through
+:mod:`importlib.resources` (:func:`read`), so an installed wheel carries the same limits as the checkout
+and the check needs neither the results directory nor HDF5.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+RESOURCE = "atlas_limits.json"
+"""The file's name inside the ``compare`` package."""
+MASS_MODELS = ("tip", "joints", "extender", "distributed")
+
+
+def build(atlas: str | Path) -> dict[str, Any]:
+    """The published record of an atlas file: {"source", "damping_ratio", "limits": {mass model: TierLimits
+    fields}, "margins": {"10": VerdictMargins fields}} (non-finite numbers as null)."""
+    from compare.atlas.analysis import limits
+    from compare.atlas.calibration import verdict_margins
+    from compare.atlas.compute import DAMPING
+
+    rec: dict[str, Any] = {"source": f"atlas {Path(atlas).name}", "damping_ratio": DAMPING, "limits": {},
+                           "margins": {}}
+    for mm in MASS_MODELS:
+        try:
+            rec["limits"][mm] = _finite(asdict(limits(mm, atlas)))
+        except ValueError:
+            continue
+    m = verdict_margins(0.10, atlas)
+    if math.isfinite(m.holds_below):
+        rec["margins"]["10"] = _finite(asdict(m))
+    return rec
+
+
+def write(atlas: str | Path, out: str | Path | None = None) -> Path:
+    """Write the published record of ``atlas`` (default: beside this package's modules, the file
+    :func:`read` finds); returns its path."""
+    path = Path(out) if out is not None else Path(__file__).resolve().parent.parent / RESOURCE
+    path.write_text(json.dumps(build(atlas), indent=1, sort_keys=True, allow_nan=False) + "\n")
+    return path
+
+
+def read() -> dict[str, Any]:
+    """The published record ({} when the package carries none or it cannot be read)."""
+    try:
+        text = resources.files("compare").joinpath(RESOURCE).read_text(encoding="utf-8")
+        rec = json.loads(text)
+    except (OSError, ValueError):
+        return {}
+    return rec if isinstance(rec, dict) else {}
+
+
+def _finite(d: dict[str, Any]) -> dict[str, Any]:
+    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in d.items()}

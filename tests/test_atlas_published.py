@@ -1,0 +1,74 @@
+"""The atlas limits ``ked check`` reads are package data (compare/atlas_limits.json): the same numbers as the
+committed atlas file, and the same in an installed wheel as in the checkout."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from compare.atlas import published
+from compare.atlas.analysis import default_path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _same(a: object, b: object) -> bool:
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, float) or isinstance(b, float):
+        return (a is None and math.isnan(b)) or (b is None and math.isnan(a)) or a == b  # type: ignore[arg-type]
+    return a == b
+
+
+def test_published_limits_are_those_of_the_committed_atlas():
+    # Expected: the record `ked study atlas` publishes equals the one built afresh from results/atlas/atlas.h5
+    # (a stale package file would give ked check other limits than the atlas the README reports).
+    if not default_path().exists():
+        pytest.skip("no committed atlas in this checkout")
+    built = json.loads(json.dumps(published.build(default_path()), allow_nan=False))
+    assert _same(published.read(), built)
+    assert set(built["limits"]) == set(published.MASS_MODELS) and "10" in built["margins"]
+
+
+def test_check_reads_the_published_limits():
+    from compare.check import linear_range, verdict_margins
+
+    rec = published.read()
+    rng = linear_range("tip")
+    assert rng.r10 == rec["limits"]["tip"]["linear_r10"] and rng.source == "atlas"
+    assert verdict_margins(0.10).holds_below == rec["margins"]["10"]["holds_below"]
+    assert verdict_margins(0.05).source.startswith("default")  # no calibration at 5 %: the conservative default
+
+
+@pytest.mark.slow
+def test_check_from_a_built_wheel_gives_the_checkout_limits(tmp_path):
+    # Expected: the wheel carries the same limits; before, ked check outside the checkout read no atlas (NaN).
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path / "dist"), str(ROOT)],
+                   check=True, capture_output=True)
+    (wheel,) = (tmp_path / "dist").glob("ked_harness-*.whl")
+    target = tmp_path / "site"
+    subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(target), str(wheel)],
+                   check=True, capture_output=True)
+    args = ["check", "--rpm", "100", "--json"]
+
+    def run(env_path: str | None, cwd: Path) -> tuple[dict, str]:
+        env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+        if env_path:
+            env["PYTHONPATH"] = env_path
+        code = (f"import sys, compare; print(compare.__file__, file=sys.stderr); from ked_cli.main import main; "
+                f"sys.argv = ['ked', *{args!r}]; main()")
+        res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=cwd, env=env,
+                             check=True)
+        return json.loads(res.stdout)[0], res.stderr.splitlines()[0]
+
+    (wheel_row, wheel_pkg), (checkout_row, _) = run(str(target), tmp_path), run(None, ROOT)
+    assert wheel_pkg.startswith(str(target))  # the installed package answered, not the checkout
+    for key in ("linear_limit_speed_ratio", "holds_below_error", "fails_above_error", "margins_source", "tier"):
+        assert wheel_row[key] == checkout_row[key], key
+    assert math.isfinite(wheel_row["linear_limit_speed_ratio"])
