@@ -35,6 +35,8 @@ from ked_quasi.linkage import FourBar
 from ked_quasi.massmodel import MassModel
 from ked_quasi.scene import variant
 
+from .test_cli_linkage import LINKAGE as STEEL_CAMPAIGN
+
 pytestmark = pytest.mark.slow
 
 TOLERANCE = 0.10
@@ -71,23 +73,9 @@ second_moment = 4.908738521234052e-10
 density = 7850.0
 """
 
-STEEL_EXAMPLE = """
-# The harness's steel example linkage (tests/test_cli_linkage.py): 10 mm square steel bar, links
-# 0.05 / 0.15 / 0.12 m, ground 0.14 m, P 0.08 m from A at 30 deg.
-[linkage]
-crank = 0.05
-coupler = 0.15
-follower = 0.12
-extender = 0.08
-coupler_angle_deg = 30.0
-ground = 0.14
-branch = "open"
-[linkage.section]
-youngs_modulus = 210.0e9
-area = 1.0e-4
-second_moment = 8.333333333333333e-10
-density = 7850.0
-"""
+STEEL_EXAMPLE = STEEL_CAMPAIGN
+"""The harness's steel example linkage (a campaign config is a linkage file: its [linkage] table is read):
+10 mm square steel bar, links 0.05 / 0.15 / 0.12 m, ground 0.14 m, P 0.08 m from A at 30 deg."""
 
 
 @dataclass(frozen=True)
