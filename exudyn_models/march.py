@@ -61,15 +61,18 @@ class _CycleCheck:
         return True
 
 
-def march(scene, settings: DynamicSettings, model: BuiltModel, start_note: str) -> RunRecord:
-    """Run the model (initial state already set) to steady state or max_cycles in one Exudyn run."""
+def march(scene, settings: DynamicSettings, model: BuiltModel, start_note: str, *, sampler=None,
+          tolerances=None) -> RunRecord:
+    """Run the model (initial state already set) to steady state or max_cycles in one Exudyn run.
+    sampler, tolerances: the cycle sampler and Newton tolerances (None: the four-bar's CycleSampler and
+    newton_tolerances; the slider-crank passes its own, exudyn_models.slider_simulate)."""
     drive, mbs = model.drive, model.mbs
     n = settings.steps_per_cycle
     h = drive.cycle_time / n
     sset = solver_settings(settings, h, drive.cycle_start(settings.max_cycles),
-                           newton_tolerances(settings, scene))
+                           newton_tolerances(settings, scene) if tolerances is None else tolerances)
     tracker = SteadyTracker(settings)
-    check = _CycleCheck(model, CycleSampler(model, scene, n), tracker, h)
+    check = _CycleCheck(model, CycleSampler(model, scene, n) if sampler is None else sampler, tracker, h)
     mbs.SetPreStepUserFunction(check)
     solver = exu.MainSolverImplicitSecondOrder()
     ok = solver.SolveSystem(mbs, sset)

@@ -52,6 +52,8 @@ from .march import march
 from .periodic import solve_periodic
 from .refine import Attempt, failure_hint, ladder, over_budget, rung_settings
 from .settings import DynamicSettings
+from .slider_builder import check_slider_settings, is_slider_scene
+from .slider_simulate import run_slider, slider_reference_frequency
 from .start import quasi_static_state, set_initial_state
 
 __all__ = ["Attempt", "DynamicResult", "SimulationError", "extrapolate_limit", "newton_abs_tolerance",
@@ -80,6 +82,8 @@ class DynamicResult:
     start: how the constant-speed phase began ("ramp", "quasi-static" or the fallback's reason).
     periodic_residuals: |Phi(y) - y| / |Phi(y)| per cycle of the periodic solve (empty when marching).
     cycle_peaks [m]: peak |d| (vector dx, dy) of every constant-speed cycle.
+    midspan (n,) [m]: a slider-crank's coupler midspan deflection normal to its chord
+        (exudyn_models.slider_simulate); None for a four-bar.
     """
 
     crank_angle: np.ndarray
@@ -101,10 +105,13 @@ class DynamicResult:
     start: str = ""
     periodic_residuals: tuple[float, ...] = ()
     cycle_peaks: tuple[float, ...] = ()
+    midspan: np.ndarray | None = None
 
 
 def _run(scene, settings: DynamicSettings, damping_beta: float) -> RunRecord:
     """One run at fixed settings: build, start, constant-speed phase (march or periodic solve)."""
+    if is_slider_scene(scene):
+        return run_slider(scene, settings, damping_beta)
     model = build_model(scene, settings, damping_beta=damping_beta)
     note = "ramp"
     if settings.start == "quasi_static":
@@ -144,13 +151,15 @@ def _result(scene, settings: DynamicSettings, solved: DynamicSettings, record: R
         message += f" (refined: {attempts[-1].rung})"
     if record.start_note not in ("ramp", "quasi-static"):
         message += f" (start: {record.start_note})"
-    return DynamicResult(crank_angle=np.asarray(scene.crank_angles, dtype=float), deflection=record.deflection,
+    d = np.asarray(record.deflection)
+    return DynamicResult(crank_angle=np.asarray(scene.crank_angles, dtype=float), deflection=d[:, :3],
                          wall_s=time.perf_counter() - t_wall, steps=record.steps,
                          newton_iterations=record.newton_iterations, cycles=tr.cycles, converged=record.converged,
                          message=message, cycle_change=tr.change, damping_reference_hz=f_ref, settings=settings,
                          cycle_changes=tuple(tr.changes), solved_settings=solved, attempts=attempts,
                          failure_class=failure_class, evidence=evidence, start=record.start_note,
-                         periodic_residuals=record.residuals, cycle_peaks=tuple(tr.peaks))
+                         periodic_residuals=record.residuals, cycle_peaks=tuple(tr.peaks),
+                         midspan=d[:, 3].copy() if d.shape[1] > 3 else None)
 
 
 def _extend(scene, settings: DynamicSettings, solved: DynamicSettings, record: RunRecord, beta: float,
@@ -202,7 +211,8 @@ def _exhausted(first: SimulationError, settings: DynamicSettings, attempts: list
 
 
 def simulate_steady_state(scene, settings: DynamicSettings | None = None) -> DynamicResult:
-    """Drive the elastic four-bar of `scene` (ked_quasi Scene) to periodic steady state.
+    """Drive the elastic four-bar of `scene` (ked_quasi Scene) or slider-crank (ked_quasi.slidercrank
+    .SliderScene, exudyn_models.slider_builder) to periodic steady state.
 
     Returns the deflection of P over one steady cycle on scene.crank_angles (see module doc).
     Raises SimulationError (with time, crank angle, likely cause, failure class and the attempts) if
@@ -214,7 +224,10 @@ def simulate_steady_state(scene, settings: DynamicSettings | None = None) -> Dyn
     settings = DynamicSettings() if settings is None else settings
     if not isinstance(settings, DynamicSettings):
         raise TypeError("settings must be a DynamicSettings")
-    f_ref = reference_frequency(scene, settings) if settings.damping_ratio > 0.0 else float("nan")
+    if is_slider_scene(scene):
+        check_slider_settings(scene, settings)
+    f_ref = (slider_reference_frequency if is_slider_scene(scene) else reference_frequency)(scene, settings) \
+        if settings.damping_ratio > 0.0 else float("nan")
     beta = rayleigh_beta(settings.damping_ratio, f_ref) if settings.damping_ratio > 0.0 else 0.0
     attempts: list[Attempt] = []
     peaks: list[tuple[float, ...]] = []
