@@ -49,6 +49,7 @@ from ked_linear.settings import HARMONICS
 from ked_quasi.harmonics import one_mode_dynamic_estimate
 from ked_quasi.linkage import FourBar
 from ked_quasi.massmodel import MassModel
+from ked_quasi.slidercrank import SliderCrank
 
 TIERS = ("quasi-static", "borderline", "linear", "nonlinear")
 DEFAULT_DYNAMIC = default_dynamic()
@@ -153,9 +154,9 @@ class CheckRow:
     """The tier the prediction alone gives (equal to ``tier`` unless a measurement decided)."""
 
 
-def spec_for(source: FourBar, mechanism: str, mass_model: MassModel, rpm: float, *, stiffness_scale: float = 1.0,
-             damping_ratio: float = 0.02, direction: str = "ccw", step_deg: float = 10.0, tolerance: float = 0.10,
-             confirm: bool = False) -> SceneSpec:
+def spec_for(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, rpm: float, *,
+             stiffness_scale: float = 1.0, damping_ratio: float = 0.02, direction: str = "ccw",
+             step_deg: float = 10.0, tolerance: float = 0.10, confirm: bool = False) -> SceneSpec:
     """The campaign scene of one check (the default campaign's grid settings: 3 modes, all outputs)."""
     solvers = ("quasi_static", "linear", "dynamic") if confirm else ("quasi_static", "linear")
     dyn = tuple(sorted(dict(DEFAULT_DYNAMIC, damping_ratio=damping_ratio).items()))
@@ -292,12 +293,16 @@ def linear_range(mass_model: str) -> LinearRange:
                        damping_ratio=float(rec.get("damping_ratio", math.nan)))
 
 
-def check(source: FourBar, mechanism: str, mass_model: MassModel, rpms: Sequence[float], *,
+def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, rpms: Sequence[float], *,
           stiffness_scale: float = 1.0, damping_ratio: float = 0.02, direction: str = "ccw", step_deg: float = 10.0,
           tolerance: float = 0.10, confirm: bool = False) -> list[CheckRow]:
-    """The design check of one linkage at each of ``rpms`` [rev/min] (see the module docstring)."""
-    rng = linear_range(mass_model.name)
-    margins = verdict_margins(tolerance)
+    """The design check of one linkage at each of ``rpms`` [rev/min] (see the module docstring).  A
+    slider-crank (``source`` a ``SliderCrank``) has no atlas: neither the linear model's limit nor calibrated
+    margins (the four-bar atlas's do not apply), so only a measurement (``confirm``) grants a tier below
+    nonlinear."""
+    slider = isinstance(source, SliderCrank)
+    rng = LinearRange() if slider else linear_range(mass_model.name)
+    margins = VerdictMargins() if slider else verdict_margins(tolerance)
     rows = []
     for rpm in rpms:
         spec = spec_for(source, mechanism, mass_model, rpm, stiffness_scale=stiffness_scale,

@@ -19,7 +19,7 @@ import numpy as np
 
 from compare.metrics import all_pairs
 from compare.results import STATUS_FAILED, STATUS_OK, RunStats, SceneResult
-from compare.scenes import SceneSpec
+from compare.scenes import FOUR_BAR, SceneSpec
 from compare.solvers import Solution, Solver
 from compare.store import utc_now
 from ked_quasi import units
@@ -52,14 +52,33 @@ class Frame:
 
 def frame(spec: SceneSpec) -> Frame:
     """Resolve the scene: frozen natural frequencies (at a probe speed), omega1_min, rpm."""
+    from ked_quasi.slider_static import slider_natural_frequencies
     from ked_quasi.solver import natural_frequencies
 
     t0 = time.perf_counter()
     probe = spec.scene(spec.speed.value if spec.speed.kind == "rpm" else 1.0)
-    freqs = np.asarray(natural_frequencies(probe, n_modes=spec.n_modes), dtype=float)
+    of = natural_frequencies if spec.kind == FOUR_BAR else slider_natural_frequencies  # its frozen structure
+    freqs = np.asarray(of(probe, n_modes=spec.n_modes), dtype=float)
     omega1_min = 2.0 * math.pi * float(np.nanmin(freqs[:, 0]))
     rpm = resolve_rpm(spec, omega1_min)
     return Frame(spec.scene(rpm), rpm, omega1_min, freqs, time.perf_counter() - t0)
+
+
+def linkage_of(scene: object) -> object:
+    """The analysed linkage of a scene: a four-bar scene's ``fourbar``, a slider-crank scene's ``linkage``."""
+    return getattr(scene, "fourbar", None) or scene.linkage  # type: ignore[attr-defined]
+
+
+def coupler_path(scene: object) -> np.ndarray:
+    """(n, 2) rigid-kinematics position [m] of the coupler point P over the scene's crank-angle grid."""
+    theta = scene.crank_angles  # type: ignore[attr-defined]
+    if hasattr(scene, "fourbar"):
+        from ked_quasi.kinematics import coupler_point
+
+        return np.asarray(coupler_point(scene.fourbar, theta), dtype=float)
+    from ked_quasi.slidercrank import slider_kinematics
+
+    return np.asarray(slider_kinematics(scene.linkage, theta, scene.rpm).P, dtype=float)  # type: ignore[attr-defined]
 
 
 def settings_of(solver: Solver, spec: SceneSpec) -> object:
@@ -111,11 +130,11 @@ def run_scene(spec: SceneSpec, solvers: Sequence[Solver] | None = None,
         return SceneResult(spec=spec, status=STATUS_FAILED, stage="setup", error_type=type(exc).__name__,
                            message=message_of(exc), failure_class="input", stats=stats())
     theta = fr.scene.crank_angles
-    from ked_quasi.kinematics import coupler_point
+    linkage = linkage_of(fr.scene)
 
     solutions = {s.name: reuse[s.name] if s.name in reuse else solve_one(s, spec, fr.scene) for s in solvers}
     base = dict(spec=spec, rpm=fr.rpm, omega1_min=fr.omega1_min, crank_angle=theta,
-                coupler_point=np.asarray(coupler_point(fr.scene.fourbar, theta), dtype=float),
+                coupler_point=coupler_path(fr.scene),
                 natural_frequencies=fr.natural_frequencies, solutions=solutions,
                 warnings="; ".join(s.warnings for s in solutions.values() if s.warnings)[:_MAX_MESSAGE])
     failed = [s for s in solutions.values() if not s.ok]
@@ -123,7 +142,7 @@ def run_scene(spec: SceneSpec, solvers: Sequence[Solver] | None = None,
         ok = {n: s for n, s in solutions.items() if s.ok}
         metrics = all_pairs(theta, {n: s.deflection for n, s in ok.items()}, {n: s.fidelity for n, s in ok.items()},
                             omega=fr.scene.omega,
-                            omega1_min=fr.omega1_min, tolerance=spec.tolerance, direction_sign=fr.scene.fourbar.sign)
+                            omega1_min=fr.omega1_min, tolerance=spec.tolerance, direction_sign=linkage.sign)
     except Exception as exc:
         return SceneResult(**base, status=STATUS_FAILED, stage="metrics", error_type=type(exc).__name__,
                            message=message_of(exc), stats=stats(fr.frequencies_wall_s))

@@ -25,8 +25,12 @@ from typing import Any
 from ked_quasi.linkage import FourBar
 from ked_quasi.massmodel import MassModel
 from ked_quasi.scene import Scene, variant
+from ked_quasi.slidercrank import KIND as SLIDER_KIND
+from ked_quasi.slidercrank import SliderCrank, SliderScene
 
 MECHANISMS = ("source", "cognate")
+FOUR_BAR = "four-bar"
+"""The kind of a four-bar scene (the slider-crank's is ked_quasi.slidercrank.KIND)."""
 DEFAULT_SOLVERS = ("quasi_static", "dynamic")
 """The solvers of a campaign that does not name its own."""
 
@@ -52,14 +56,15 @@ class SpeedSpec:
 class SceneSpec:
     """One immutable scene of a campaign (see module docstring for units).
 
-    ``linkage``: the source four-bar (its own ``direction`` is ignored: ``direction`` is the axis);
+    ``linkage``: the source four-bar or slider-crank (its own ``direction`` is ignored: ``direction`` is the
+    axis; :attr:`kind` says which);
     ``dynamic``: the explicit Exudyn settings overrides as sorted ``(name, value)`` pairs (damping
     ratio included); ``extra_settings``: other solvers' explicit overrides, ``(solver, pairs)``;
     ``solvers``: the solvers to run (not hashed).  Defaults are resolved by each solver and stored in
     the results file, but do not enter the key.
     """
 
-    linkage: FourBar
+    linkage: FourBar | SliderCrank
     mechanism: str
     mass_model: MassModel
     speed: SpeedSpec
@@ -75,12 +80,26 @@ class SceneSpec:
     solvers: tuple[str, ...] = DEFAULT_SOLVERS
 
     # -- the scene itself -------------------------------------------------------------------
-    def fourbar(self) -> FourBar:
-        """The analysed four-bar (mechanism, stiffness scale and direction applied)."""
+    @property
+    def kind(self) -> str:
+        """The linkage kind: "four-bar", or "slider-crank" when ``linkage`` is a ``SliderCrank``."""
+        return SLIDER_KIND if isinstance(self.linkage, SliderCrank) else FOUR_BAR
+
+    def fourbar(self) -> FourBar | SliderCrank:
+        """The analysed linkage (mechanism, stiffness scale and direction applied; a slider-crank has only its
+        source mechanism)."""
+        if isinstance(self.linkage, SliderCrank):
+            if self.mechanism != "source":
+                raise ValueError(f"mechanism: a slider-crank has no Roberts cognate; got {self.mechanism!r}")
+            sc = self.linkage.with_stiffness_scale(self.stiffness_scale) if self.stiffness_scale != 1.0 \
+                else self.linkage
+            return sc.with_direction(self.direction)
         return variant(self.linkage, self.mechanism, self.stiffness_scale, self.direction)
 
-    def scene(self, rpm: float) -> Scene:
-        """The ``ked_quasi.Scene`` at a resolved crank speed [rev/min]."""
+    def scene(self, rpm: float) -> Scene | SliderScene:
+        """The ``ked_quasi.Scene`` (a ``SliderScene`` for a slider-crank) at a resolved crank speed [rev/min]."""
+        if isinstance(self.linkage, SliderCrank):
+            return SliderScene(self.fourbar(), self.mass_model, rpm=rpm, step_deg=self.step_deg)
         return Scene(self.fourbar(), self.mass_model, rpm=rpm, step_deg=self.step_deg)
 
     def settings_for(self, solver: str) -> dict[str, Any]:
@@ -124,10 +143,13 @@ class SceneSpec:
     def from_dict(d: dict[str, Any]) -> SceneSpec:
         known = {"linkage", "mechanism", "mass_model", "speed", "stiffness_scale", "damping_ratio", "direction",
                  "step_deg", "n_modes", "outputs", "tolerance", "dynamic", "solvers"}
-        try:
-            linkage = FourBar.from_dict(d["linkage"])
-        except ValueError:  # stored as failed because it cannot assemble: read it all the same
-            linkage = FourBar.from_dict(d["linkage"], full_turn=False)
+        if d["linkage"].get("kind") == SLIDER_KIND:
+            linkage = SliderCrank.from_dict(d["linkage"])
+        else:
+            try:
+                linkage = FourBar.from_dict(d["linkage"])
+            except ValueError:  # stored as failed because it cannot assemble: read it all the same
+                linkage = FourBar.from_dict(d["linkage"], full_turn=False)
         return SceneSpec(
             linkage=linkage,
             mechanism=str(d["mechanism"]),
@@ -164,9 +186,11 @@ class SceneSpec:
 
 
 @functools.lru_cache(maxsize=64)
-def _linkage_dict(fourbar: FourBar) -> dict[str, Any]:
+def _linkage_dict(fourbar: FourBar | SliderCrank) -> dict[str, Any]:
     """The source linkage as hashed into keys (its direction is a grid axis of its own); cached: a
-    grid shares one linkage (callers must not modify the result)."""
+    grid shares one linkage (callers must not modify the result).  A four-bar's dict has no ``kind`` (its
+    keys are those of the campaigns stored before the slider-crank); a slider-crank's has
+    ``kind = "slider-crank"``, so the two kinds never share a key."""
     d = fourbar.to_dict()
     del d["direction"]
     return d
@@ -186,7 +210,7 @@ def canonical_json(obj: Any) -> str:
 class Grid:
     """The axes of a campaign grid and the settings every scene shares (see :class:`SceneSpec`)."""
 
-    linkage: FourBar
+    linkage: FourBar | SliderCrank
     mechanisms: tuple[str, ...]
     mass_models: tuple[MassModel, ...]
     speeds: tuple[SpeedSpec, ...]

@@ -9,7 +9,7 @@ from dataclasses import asdict
 
 import click
 
-from ked_cli.options import RuleType, json_text, linkage_option, load_source, refuse_fast
+from ked_cli.options import RuleType, json_text, linkage_option, load_source, refuse_fast, refuse_fast_slider
 from ked_quasi import rules
 from ked_quasi.linkage import DIRECTIONS
 from ked_quasi.massmodel import MASS_MODELS
@@ -70,6 +70,9 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     and fails_above x tolerance the tier is borderline (run --confirm).  With --confirm the errors
     measured against Exudyn decide the tier.
 
+    A slider-crank (--linkage simeon or a TOML [linkage] table with kind = "slider-crank"; mass model
+    distributed unless given) has no validity atlas: only --confirm grants a tier below nonlinear.
+
     \b
     JSON keys per speed: speed_ratio, quasi_static_peak_m, linear_peak_m,
     linear_vs_quasi_static, quasi_static_error_estimate, floquet_max_abs, tier
@@ -86,18 +89,30 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     quasi-static peak; else empty).
     """
     from compare.check import check as run_check
+    from ked_cli.quasi import slider_source
     from ked_quasi.massmodel import MassModel, default_payload
     from ked_quasi.scene import variant
 
     speeds = list(rpms) + _rpm_range(rpm_range) or [300.0]
+    slider = slider_source(linkage)
+    if slider is not None:
+        mass_model = _slider_mass_model(mechanism, mass_model)
     try:
         mm = MassModel(mass_model, lumps=lumps, payload=default_payload(mass_model) if payload_kg is None
                        else payload_kg)
-        refuse_fast(variant(load_source(linkage), mechanism, stiffness_scale, direction), mm, speeds, 10.0, "--rpm")
-        rows = run_check(load_source(linkage), mechanism, mm, speeds, stiffness_scale=stiffness_scale,
+        if slider is None:
+            source = load_source(linkage)
+            refuse_fast(variant(source, mechanism, stiffness_scale, direction), mm, speeds, 10.0, "--rpm")
+        else:
+            from compare.check import spec_for
+
+            source = slider
+            refuse_fast_slider(spec_for(slider, mechanism, mm, speeds[0], stiffness_scale=stiffness_scale,
+                                        direction=direction).scene(speeds[0]), speeds, "--rpm")
+        rows = run_check(source, mechanism, mm, speeds, stiffness_scale=stiffness_scale,
                          damping_ratio=damping_ratio, direction=direction, tolerance=tolerance, confirm=confirm)
         crit, amp = (), ()
-        if len(rows) >= 3:  # critical speeds: local maxima over the range (compare.critical)
+        if len(rows) >= 3 and slider is None:  # critical speeds: local maxima over the range (compare.critical)
             from compare.critical import check_critical
 
             crit, amp, rows = check_critical(rows, load_source(linkage), mechanism, mm,
@@ -130,6 +145,17 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
                      "Amplification peaks (linear / quasi-static peak): "
                      + (", ".join(f"{a:.4g} rpm" for a in amp) or "none in this range")):
             click.echo(textwrap.fill(text, width=WIDTH, subsequent_indent="  ", break_on_hyphens=False))
+
+
+def _slider_mass_model(mechanism: str, mass_model: str) -> str:
+    """The mass model of a slider-crank check: distributed unless --mass-model was given; the source
+    mechanism only."""
+    if mechanism != "source":
+        raise click.BadParameter("a slider-crank has no Roberts cognate; use --mechanism source",
+                                 param_hint="--mechanism")
+    ctx = click.get_current_context()
+    given = ctx.get_parameter_source("mass_model") not in (click.core.ParameterSource.DEFAULT, None)
+    return mass_model if given else "distributed"
 
 
 def _pct(x: float | None) -> str:

@@ -155,6 +155,42 @@ def build_scene(o: SceneOptions, mechanism: str | None = None, mass_model: str |
     return scene
 
 
+def build_slider(o: SceneOptions, sc: Any) -> Any:
+    """The ``SliderScene`` the options describe for a slider-crank ``sc`` (as ``ked quasi`` builds it: mass
+    model distributed unless --mass-model is given, the source mechanism only, the speed-ratio bound)."""
+    from ked_quasi.slider_static import slider_natural_frequencies
+    from ked_quasi.slidercrank import build_slider_scene
+
+    ctx = click.get_current_context(silent=True)
+    given = ctx is not None and ctx.get_parameter_source("mass_model") not in (click.core.ParameterSource.DEFAULT,
+                                                                                 None)
+    if o.mechanism != "source":
+        raise click.BadParameter("a slider-crank has no Roberts cognate; use --mechanism source",
+                                 param_hint="--mechanism")
+    try:
+        scene = build_slider_scene(sc, o.mass_model if given else "distributed", o.rpm, o.step_deg, o.lumps,
+                                   o.payload_kg, o.stiffness_scale, o.direction)
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None
+    refuse_fast_slider(scene, [o.rpm], "--rpm", slider_natural_frequencies)
+    return scene
+
+
+def refuse_fast_slider(scene: Any, rpms: list[float], hint: str, frequencies: Any = None) -> None:
+    """BadParameter for ``hint`` when a crank speed's r = Omega/omega1_min of a slider-crank scene is above the
+    rules' bound."""
+    from ked_quasi.slider_static import slider_natural_frequencies
+    from ked_quasi.units import rpm_to_rad_s
+
+    f1 = (frequencies or slider_natural_frequencies)(scene, n_modes=1)[:, 0]
+    f1_min = float(min((f for f in f1 if f == f), default=math.nan))
+    for rpm in rpms:
+        try:
+            rules.check_speed_ratio(rpm_to_rad_s(rpm) / (2.0 * math.pi * f1_min), rpm, f1_min, "value")
+        except ValueError as exc:
+            raise click.BadParameter(str(exc).removeprefix("value = "), param_hint=hint) from None
+
+
 def refuse_fast(fourbar: Any, mass_model: Any, rpms: list[float], step_deg: float, hint: str) -> None:
     """BadParameter for ``hint`` when a crank speed's r = Omega/omega1_min is above the rules' bound."""
     from compare.config import check_speed

@@ -9,7 +9,7 @@ from typing import Any
 
 import click
 
-from ked_cli.options import SceneOptions, build_scene, scene_options
+from ked_cli.options import SceneOptions, build_scene, build_slider, scene_options
 
 ELEMENT_TYPES = ("ancf", "gebeam")
 
@@ -86,14 +86,24 @@ def simulate(as_json: bool, **kw: Any) -> None:
     refinement ladder was needed) and attempts (every run: rung, outcome, wall_s, cycles,
     elements_per_link, steps_per_cycle, message).  Exit status 1 when no steady state was reached (the
     JSON still says converged=false and holds the last cycle).
+
+    A slider-crank (--linkage simeon, or a TOML [linkage] table with kind = "slider-crank") runs its own
+    model (rigid or beam crank, beam coupler, slider held on its line; start from the ramp, marching);
+    its mass model defaults to distributed, and the JSON adds midspan_m: the coupler's midspan deflection
+    normal to its chord (same meaning as in `ked quasi`).
     """
+    from ked_cli.quasi import slider_source
+
     opts = SceneOptions.pop(kw)
     settings = dynamic_settings(kw)
-    scene = build_scene(opts)
+    slider = slider_source(opts.linkage)
+    scene = build_slider(opts, slider) if slider is not None else build_scene(opts)
     from exudyn_models.simulate import SimulationError, simulate_steady_state
 
     try:
         res = simulate_steady_state(scene, settings)
+    except ValueError as exc:  # input the model does not take (e.g. a slider-crank with a rigid coupler)
+        raise click.UsageError(str(exc)) from None
     except SimulationError as exc:
         raise click.ClickException(f"simulation failed ({exc.failure_class}): {exc}") from None
     d = res.deflection
@@ -106,10 +116,12 @@ def simulate(as_json: bool, **kw: Any) -> None:
         "solved_settings": dataclasses.asdict(res.solved_settings or res.settings),
         "attempts": [attempt_dict(a) for a in res.attempts],
     }
+    if res.midspan is not None:
+        out["midspan_m"] = res.midspan.tolist()
     if as_json:
         click.echo(json.dumps(out))
     else:
-        _table(opts, res, out)
+        _table(dataclasses.replace(opts, mass_model=scene.mass_model.name), res, out)
     if not res.converged:
         raise click.ClickException(f"no periodic steady state ({res.failure_class or 'numerical'}): {res.message}"
                                    f"{'; ' + res.evidence if res.evidence else ''} (the last cycle is not an answer)")
@@ -130,7 +142,8 @@ def _table(opts: SceneOptions, res: Any, out: dict[str, Any]) -> None:
         click.echo("refinement ladder: " + "; ".join(a.text() for a in res.attempts))
     if not res.converged:
         return
-    click.echo(f"{'theta deg':>9} {'dx mm':>10} {'dy mm':>10} {'rot mrad':>10}")
+    mid = out.get("midspan_m")
+    click.echo(f"{'theta deg':>9} {'dx mm':>10} {'dy mm':>10} {'rot mrad':>10}" + (f" {'mid mm':>10}" if mid else ""))
     for i, theta in enumerate(out["crank_angle_deg"]):
         click.echo(f"{theta:9.1f} {1e3 * out['dx_m'][i]:10.4g} {1e3 * out['dy_m'][i]:10.4g} "
-                   f"{1e3 * out['rotation_rad'][i]:10.4g}")
+                   f"{1e3 * out['rotation_rad'][i]:10.4g}" + (f" {1e3 * mid[i]:10.4g}" if mid else ""))

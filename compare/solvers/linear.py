@@ -3,11 +3,18 @@ elastic motion, periodic steady state solved directly, stability from the Floque
 
 from __future__ import annotations
 
+import importlib.util
 from typing import Any
 
 import numpy as np
 
 from compare.solvers import COMPONENTS, STATUS_FAILED, STATUS_OK, Solution, Solver, register
+
+
+class NotModelled(ValueError):
+    """A scene this solver does not model (stored as a failure of class "input")."""
+
+    failure_class = "input"
 
 
 def settings_class() -> type:
@@ -28,6 +35,8 @@ def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Sol
     multiplier as evidence; a weakly damped stable one carries the flag "weakly_damped"."""
     from ked_linear import describe_flags, result_flags, solve_linear
 
+    if not hasattr(scene, "fourbar") and importlib.util.find_spec("ked_linear.slider") is None:
+        raise NotModelled("the linear KED model of a slider-crank is not available in this version")
     res = solve_linear(scene, settings)
     stats = {"wall_s": float(res.wall_s), "floquet_max_abs": float(res.floquet_max_abs),
              "floquet_error": float(res.floquet_error), "floquet_steps": int(res.floquet_steps),

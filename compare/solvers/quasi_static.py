@@ -24,18 +24,22 @@ def make_settings(overrides: dict[str, Any], damping_ratio: float) -> QuasiStati
 
 
 def run(scene: Any, settings: QuasiStaticSettings, outputs: tuple[str, ...] = COMPONENTS) -> Solution:
-    """Quasi-static deflection of P on the scene grid (near-toggle warnings kept)."""
+    """Quasi-static deflection of P on the scene grid (near-toggle warnings kept); a slider-crank scene is
+    solved by its own frozen structure (ked_quasi.slider_static)."""
     from ked_quasi import limits
+    from ked_quasi.slider_static import solve_slider_quasi_static
     from ked_quasi.solver import solve_quasi_static
 
+    slider = not hasattr(scene, "fourbar")
+    linkage = scene.linkage if slider else scene.fourbar
     t0 = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        res = solve_quasi_static(scene)
+        res = (solve_slider_quasi_static if slider else solve_quasi_static)(scene)
     wall = time.perf_counter() - t0
     d = res.deflection
-    flags = limits.flags(d, scene.fourbar)
-    notes = sorted({str(w.message) for w in caught}) + ([limits.describe(flags, d, scene.fourbar)] if flags else [])
+    flags = limits.flags(d, linkage)
+    notes = sorted({str(w.message) for w in caught}) + ([limits.describe(flags, d, linkage)] if flags else [])
     return Solution(
         solver=SOLVER.name, status=STATUS_OK,
         deflection={c: d[:, COMPONENTS.index(c)].copy() for c in outputs},
