@@ -22,12 +22,13 @@ except ModuleNotFoundError:  # pragma: no cover - Python 3.10
     import tomli as tomllib  # type: ignore[no-redef]
 
 from compare import solvers as solver_registry
-from compare.scenes import DEFAULT_SOLVERS, MECHANISMS, Grid, Items, SceneSpec, SpeedSpec
+from compare.scenes import DEFAULT_SOLVERS, FOUR_BAR, MECHANISMS, SLIDER_KIND, Grid, Items, SceneSpec, SpeedSpec
 from compare.solvers import COMPONENTS
 from ked_quasi import rules
 from ked_quasi.linkage import BRANCHES, DIRECTIONS, LINKS, SECTION_RULES, THESIS_RPM, FourBar, thesis_fourbar
 from ked_quasi.massmodel import MASS_MODELS, PLACEMENTS, MassModel, default_payload
 from ked_quasi.scene import variant
+from ked_quasi.slidercrank import SliderCrank, simeon_slider_crank, slider_from_table
 
 DEFAULT_TOLERANCE = 0.10
 SECTION_KEYS = tuple(SECTION_RULES)
@@ -220,8 +221,13 @@ def _speeds(c: _Checker, grid: dict[str, Any]) -> tuple[SpeedSpec, ...]:
     return tuple(SpeedSpec("rpm", v) for v in rpms) + tuple(SpeedSpec("ratio", v) for v in ratios)
 
 
-def _check_mechanisms(c: _Checker, source: FourBar, mechanisms: tuple[str, ...]) -> None:
-    """Every requested mechanism must be crank-drivable (refused at load, not stored as failed)."""
+def _check_mechanisms(c: _Checker, source: FourBar | SliderCrank, mechanisms: tuple[str, ...]) -> None:
+    """Every requested mechanism must be crank-drivable (refused at load, not stored as failed); a slider-crank
+    has only its source mechanism."""
+    if isinstance(source, SliderCrank):
+        if tuple(mechanisms) != ("source",):
+            c.err("grid.mechanisms", "a slider-crank has no Roberts cognate: use [\"source\"]")
+        return
     for mech in mechanisms:
         try:
             variant(source, mech)
@@ -237,10 +243,40 @@ def _check_speed_ratios(c: _Checker, grid: Grid) -> None:
     if not rpms:
         return
     k = min(grid.stiffness_scales)
+    if isinstance(grid.linkage, SliderCrank):
+        _check_slider_grid(c, grid, max(rpms), k)
+        return
     for mech, mm in itertools.product(grid.mechanisms, grid.mass_models):
         try:
             check_speed(variant(grid.linkage, mech, k), mm, max(rpms), grid.step_deg,
                         label=f"grid.rpm ({mech}, {mm.name}, stiffness x{k:g})")
+        except ValueError as exc:
+            c.problems.append(str(exc))
+            c.bad.add("grid.rpm")
+            return
+
+
+def _check_slider_grid(c: _Checker, grid: Grid, rpm: float, k: float) -> None:
+    """A slider-crank grid: mass models that apply to it, and r = Omega/omega1_min within the bound at the
+    fastest rpm and the smallest stiffness scale (as for a four-bar)."""
+    import numpy as np
+
+    from ked_quasi.slider_static import slider_natural_frequencies
+    from ked_quasi.slidercrank import SLIDER_MASS_MODELS, SliderScene
+    from ked_quasi.units import rpm_to_rad_s
+
+    bad = [mm.name for mm in grid.mass_models if mm.name not in SLIDER_MASS_MODELS]
+    if bad:
+        c.err("grid.mass_models", f"{', '.join(bad)}: not a mass model of a slider-crank (allowed: "
+                                  f"{', '.join(SLIDER_MASS_MODELS)})")
+        return
+    sc = grid.linkage.with_stiffness_scale(k) if k != 1.0 else grid.linkage
+    for mm in grid.mass_models:
+        scene = SliderScene(sc, mm, rpm, grid.step_deg)
+        f1 = float(np.nanmin(slider_natural_frequencies(scene, n_modes=1)[:, 0]))
+        try:
+            rules.check_speed_ratio(rpm_to_rad_s(rpm) / (2.0 * math.pi * f1), rpm, f1,
+                                    f"grid.rpm ({mm.name}, stiffness x{k:g})")
         except ValueError as exc:
             c.problems.append(str(exc))
             c.bad.add("grid.rpm")
@@ -303,12 +339,29 @@ def load_linkage(path: str | Path) -> FourBar:
     return fb
 
 
-def linkage_from_table(c: _Checker, tab: dict[str, Any]) -> FourBar | None:
-    """A ``[linkage]`` table (campaign schema) -> the source :class:`FourBar` (None after a problem)."""
+def linkage_from_table(c: _Checker, tab: dict[str, Any]) -> FourBar | SliderCrank | None:
+    """A ``[linkage]`` table (campaign schema) -> the source :class:`FourBar` (None after a problem); with
+    ``kind = "slider-crank"`` (or ``preset = "simeon"``) the :class:`~ked_quasi.slidercrank.SliderCrank`
+    (keys: :func:`ked_quasi.slidercrank.slider_from_table`)."""
+    kind = c.string(tab, "linkage.kind", default=FOUR_BAR, choices=(FOUR_BAR, SLIDER_KIND))
+    if kind is None:
+        return None
+    if kind == SLIDER_KIND or tab.get("preset") == "simeon":
+        if tab.get("preset") == "simeon":
+            c.keys(tab, "linkage", ("preset", "kind"))
+            return None if c.problems else simeon_slider_crank()
+        try:
+            return slider_from_table(tab)
+        except ValueError as exc:
+            msg = str(exc)
+            c.problems.append(msg if msg.startswith("linkage") else f"linkage: {msg}")
+            c.bad.add("linkage")
+            return None
+    tab = {k: v for k, v in tab.items() if k != "kind"}
     c.keys(tab, "linkage", ("preset", *_LINKAGE_NUMBERS, "coupler_angle_deg", "ground", "branch", "section",
-                            "sections"))
+                            "sections", "kind"))
     explicit = "preset" not in tab and any(k in tab for k in (*_LINKAGE_NUMBERS, "coupler_angle_deg", "ground"))
-    if "preset" in tab and c.string(tab, "linkage.preset", choices=("thesis",)) is None:
+    if "preset" in tab and c.string(tab, "linkage.preset", choices=("thesis", "simeon")) is None:
         return None
     base = None if explicit else thesis_fourbar().to_dict()
     vals: dict[str, Any] = {}

@@ -86,6 +86,17 @@ def write_parameters(g: h5py.Group, spec: SceneSpec) -> None:
     a["outputs"] = ",".join(spec.outputs)
     a["solvers"] = ",".join(spec.solvers)
     lk = spec.linkage
+    a["kind"] = spec.kind
+    if spec.kind != "four-bar":  # a slider-crank
+        for name in ("crank", "coupler", "offset"):
+            a[f"{name}_m"] = getattr(lk, name)
+        a["coupler_point"], a["slider_mass_kg"] = lk.coupler_point, lk.slider_mass
+        a["links"] = ",".join(("crank", "coupler"))
+        a["rigid"] = ",".join(str(r).lower() for r in lk.rigid)
+        for field, attr in (("youngs_modulus", "youngs_modulus_Pa"), ("area", "area_m2"),
+                            ("second_moment", "second_moment_m4"), ("density", "density_kg_m3")):
+            a[attr] = np.array([getattr(s, field) for s in lk.sections])
+        return
     for name in ("crank", "coupler", "follower", "extender"):
         a[f"{name}_m"] = getattr(lk, name)
     a["coupler_angle_rad"] = lk.coupler_angle

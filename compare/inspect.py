@@ -187,17 +187,28 @@ def scene_detail(r: SceneResult) -> dict[str, Any]:
     }
 
 
+def _linkage_lines(s: Any) -> list[str]:
+    """The mechanism and linkage lines of a scene's description (four-bar or slider-crank)."""
+    lk = s.linkage
+    if s.kind != "four-bar":
+        rigid = [n for n, r in zip(("crank", "coupler"), lk.rigid) if r]
+        return [f"  mechanism   : slider-crank, direction {s.direction}",
+                f"  linkage [m] : crank {lk.crank:.4g}, coupler {lk.coupler:.4g}, offset {lk.offset:.4g}, coupler "
+                f"point at {lk.coupler_point:.4g} of the coupler, slider {lk.slider_mass:.4g} kg"
+                + (f", rigid {' and '.join(rigid)}" if rigid else "")]
+    return [f"  mechanism   : {s.mechanism}, branch {lk.branch}, direction {s.direction}",
+            f"  linkage [m] : crank {lk.crank:.4g}, coupler {lk.coupler:.4g}, follower {lk.follower:.4g}, "
+            f"extender {lk.extender:.4g}, coupler angle {math.degrees(lk.coupler_angle):.4g} deg"]
+
+
 def format_detail(r: SceneResult) -> str:
     """Human-readable description of one scene (no arrays)."""
     s = r.spec
-    lk = s.linkage
     lines = [
         f"scene {r.key}  {s.label}",
         f"  status      : {r.status}" + (f" (stage {r.stage}, {r.failure_class or 'unclassified'}, {r.error_type}: "
                                          f"{r.message})" if not r.ok else ""),
-        f"  mechanism   : {s.mechanism}, branch {lk.branch}, direction {s.direction}",
-        f"  linkage [m] : crank {lk.crank:.4g}, coupler {lk.coupler:.4g}, follower {lk.follower:.4g}, "
-        f"extender {lk.extender:.4g}, coupler angle {math.degrees(lk.coupler_angle):.4g} deg",
+        *_linkage_lines(s),
         f"  mass model  : {s.mass_model.name} (lumps {s.mass_model.lumps}, payload {s.mass_model.payload:.4g} kg)",
         f"  speed       : {s.speed.label()} -> {r.rpm:.4g} rpm; omega1_min {r.omega1_min:.4g} rad/s; "
         f"Omega/omega1_min = {speed_ratio(r):.4g}",

@@ -127,7 +127,7 @@ def load_source(linkage: str) -> Any:
 
 
 def _refuse_slider_crank(linkage: str) -> None:
-    """BadParameter when ``--linkage`` names a slider-crank: only ``ked quasi`` analyses it so far."""
+    """BadParameter when ``--linkage`` names a slider-crank (for the commands that take only a four-bar)."""
     from ked_quasi.presets import slider_linkage
     from ked_quasi.slidercrank import load_slider_crank
 
@@ -136,9 +136,9 @@ def _refuse_slider_crank(linkage: str) -> None:
     except ValueError:
         slider = True
     if slider is not None:
-        raise click.BadParameter(f"{linkage}: a slider-crank is analysed by 'ked quasi' only (this command takes a "
-                                 "four-bar: thesis or a TOML file with a four-bar [linkage] table)",
-                                 param_hint="--linkage")
+        raise click.BadParameter(f"{linkage}: this command does not take a slider-crank yet ('ked quasi', "
+                                 "'simulate', 'check' and 'run' do); it takes a four-bar: thesis or a TOML file "
+                                 "with a four-bar [linkage] table", param_hint="--linkage")
 
 
 def build_scene(o: SceneOptions, mechanism: str | None = None, mass_model: str | None = None) -> Any:
