@@ -1,0 +1,179 @@
+"""The slider-crank through the harness: scene specs and keys, campaigns, ked simulate / check / run / merge.
+
+The four-bar's content keys are a contract (stored campaigns resume by them): they are checked against a
+stored results file and against the default campaign's keys before the slider-crank existed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import json
+import math
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from compare.check import spec_for
+from compare.config import ConfigError, load_config, parse_config
+from compare.execute import run_scene
+from compare.scenes import SceneSpec
+from compare.solvers import get
+from exudyn_models import DynamicSettings
+from exudyn_models.simulate import simulate_steady_state
+from ked_cli.main import cli
+from ked_quasi.massmodel import MassModel
+from ked_quasi.slider_static import solve_slider_quasi_static
+from ked_quasi.slidercrank import SliderScene, simeon_slider_crank
+
+DEFAULT_CAMPAIGN_KEYS_SHA256 = "d4ad256c158f5ba449a4e0b7acd871fc9d3f717f683cd80ad015087c1d854962"
+"""SHA-256 of the default campaign's 40 scene keys, comma-joined in grid order, computed with the harness
+before the slider-crank entered the scene specs (regression pin of a contract: four-bar keys never change)."""
+
+SLIDER_CAMPAIGN = """
+[campaign]
+name = "slider"
+step_deg = 30.0
+solvers = ["quasi_static", "dynamic"]
+
+[linkage]
+preset = "simeon"
+
+[grid]
+mass_models = ["distributed"]
+rpm = [238.7]
+
+[dynamic]
+elements_per_link = 4
+steps_per_cycle = 360
+"""
+
+
+def test_default_campaign_keys_unchanged():
+    keys = [s.key for s in load_config(None).scenes()]
+    assert len(keys) == 40
+    assert hashlib.sha256(",".join(keys).encode()).hexdigest() == DEFAULT_CAMPAIGN_KEYS_SHA256
+
+
+def test_stored_reference_keys_unchanged():
+    """The committed reference results file (written by an earlier harness) holds exactly the keys its
+    config gives today, and every stored scene's parameters read back to its own key."""
+    cfg = load_config("results/reference/reference.toml")
+    with h5py.File("results/reference/reference.h5", "r") as f:
+        stored = set(f["scenes"])
+        for key in stored:
+            spec = SceneSpec.from_dict(json.loads(f["scenes"][key]["parameters"].attrs["json"]))
+            assert spec.key == key and spec.kind == "four-bar"
+    assert {s.key for s in cfg.scenes()} == stored
+
+
+def test_slider_spec_kind_key_and_round_trip():
+    mm = MassModel("distributed", lumps=5, payload=0.0)
+    spec = spec_for(simeon_slider_crank(), "source", mm, 1432.4)
+    assert spec.kind == "slider-crank"
+    assert spec.key_dict()["linkage"]["kind"] == "slider-crank"
+    back = SceneSpec.from_dict(json.loads(json.dumps(spec.to_dict())))
+    assert back.key == spec.key and back.kind == "slider-crank"
+    assert isinstance(spec.scene(1432.4), SliderScene)
+    with pytest.raises(ValueError, match="cognate"):
+        spec_for(simeon_slider_crank(), "cognate", mm, 1432.4).scene(1432.4)
+
+
+def test_campaign_config_slider():
+    cfg = parse_config(SLIDER_CAMPAIGN)
+    (spec,) = cfg.scenes()
+    assert spec.kind == "slider-crank" and spec.linkage == simeon_slider_crank()
+    table = SLIDER_CAMPAIGN.replace('preset = "simeon"', 'kind = "slider-crank"\ncrank = 0.05\ncoupler = 0.2\n'
+                                    'offset = 0.02\nslider_mass = 0.1\n[linkage.section]\nyoungs_modulus = 2e11\n'
+                                    'area = 6.4e-5\nsecond_moment = 3.4e-10\ndensity = 7870.0')
+    (spec,) = parse_config(table).scenes()
+    assert spec.linkage.offset == 0.02
+    with pytest.raises(ConfigError, match="extender: not a mass model of a slider-crank"):
+        parse_config(SLIDER_CAMPAIGN.replace('mass_models = ["distributed"]', 'mass_models = ["extender"]'))
+    with pytest.raises(ConfigError, match="no Roberts cognate"):
+        parse_config(SLIDER_CAMPAIGN.replace("[grid]", '[grid]\nmechanisms = ["source", "cognate"]'))
+    with pytest.raises(ConfigError, match="linkage.kind"):
+        parse_config(SLIDER_CAMPAIGN.replace('preset = "simeon"', 'kind = "six-bar"'))
+
+
+def test_campaign_scene_is_the_solvers_answer():
+    """One campaign scene of the slider-crank runs the quasi-static and Exudyn solvers on the same scene:
+    their stored histories are the direct calls' (same code path), the verdict compares them."""
+    (spec,) = parse_config(SLIDER_CAMPAIGN).scenes()
+    r = run_scene(spec)
+    assert r.ok, r.message
+    scene = spec.scene(r.rpm)
+    qs = solve_slider_quasi_static(scene)
+    assert np.allclose(r.solutions["quasi_static"].deflection["dx"], qs.deflection[:, 0], rtol=0, atol=1e-15)
+    dyn = simulate_steady_state(scene, get("dynamic").make_settings(spec.settings_for("dynamic"), 0.02))
+    assert np.allclose(r.solutions["dynamic"].deflection["dy"], dyn.deflection[:, 1], rtol=0, atol=1e-12)
+    assert math.isfinite(r.metrics["quasi_static_vs_dynamic"].verdict_error)
+    assert np.allclose(r.coupler_point[0], [0.3, 0.0])  # P at the rod's midspan at crank angle 0
+
+
+def test_linear_solver_on_a_slider_scene_is_an_input_failure_until_modelled():
+    if importlib.util.find_spec("ked_linear.slider") is not None:
+        pytest.skip("the linear slider-crank model exists: its own tests cover it")
+    spec = spec_for(simeon_slider_crank(), "source", MassModel("distributed", lumps=5, payload=0.0), 477.5)
+    r = run_scene(spec, [get("quasi_static"), get("linear")])
+    lin = r.solutions["linear"]
+    assert not lin.ok and lin.failure_class == "input" and "slider-crank" in lin.message
+    assert r.solutions["quasi_static"].ok
+
+
+def test_cli_simulate_simeon():
+    out = CliRunner().invoke(cli, ["simulate", "--linkage", "simeon", "--rpm", "477.5", "--step-deg", "30",
+                                   "--elements-per-link", "4", "--steps-per-cycle", "360", "--json"])
+    assert out.exit_code == 0, out.output
+    d = json.loads(out.output)
+    assert d["converged"] and len(d["midspan_m"]) == 12
+    scene = SliderScene(simeon_slider_crank(), MassModel("distributed", lumps=5, payload=0.0), 477.5, 30.0)
+    res = simulate_steady_state(scene, DynamicSettings(elements_per_link=4, steps_per_cycle=360))
+    assert np.allclose(d["midspan_m"], res.midspan, rtol=0, atol=1e-12)
+    text = CliRunner().invoke(cli, ["simulate", "--linkage", "simeon", "--rpm", "477.5", "--step-deg", "30",
+                                    "--elements-per-link", "4", "--steps-per-cycle", "360"])
+    assert text.exit_code == 0 and "mass model distributed" in text.output and "mid mm" in text.output
+    bad = CliRunner().invoke(cli, ["simulate", "--linkage", "simeon", "--mechanism", "cognate"])
+    assert bad.exit_code == 2 and "cognate" in bad.output and "Traceback" not in bad.output
+
+
+def test_cli_check_simeon_confirm():
+    """`ked check --linkage simeon --rpm 1432.4 --confirm` (150 rad/s) runs every tier it has: the measured
+    quasi-static error decides; the prediction names why it could not (no linear model / no atlas)."""
+    out = CliRunner().invoke(cli, ["check", "--linkage", "simeon", "--rpm", "1432.4", "--confirm", "--json"])
+    assert out.exit_code == 0, out.output
+    (row,) = json.loads(out.output)
+    assert row["decided_by"] == "measured" and row["verdict"].startswith("measured:")
+    assert abs(row["speed_ratio"] - 150.0 / 1276.7) < 0.005  # omega1 of the frozen rod: data sheet
+    q = row["confirmed"]["quasi_static_vs_dynamic"]
+    assert 0.0 < q < 1.0
+    if not math.isfinite(row["confirmed"].get("linear_vs_dynamic") or math.nan):  # no linear slider model yet
+        assert row["tier"] == ("quasi-static" if q < 0.10 else "nonlinear")
+    text = CliRunner().invoke(cli, ["check", "--linkage", "simeon", "--rpm", "1432.4"])
+    assert text.exit_code == 0 and "mass model distributed" in text.output
+
+
+@pytest.mark.slow
+def test_campaign_files_of_both_kinds_merge(tmp_path):
+    """A slider-crank campaign and a four-bar campaign, each in its own file, join in one results file by
+    ked merge (content keys never collide: the slider-crank's carry its kind); the file verifies."""
+    slider, fourbar = tmp_path / "slider.toml", tmp_path / "fourbar.toml"
+    slider.write_text(SLIDER_CAMPAIGN)
+    fourbar.write_text(SLIDER_CAMPAIGN.replace('preset = "simeon"', 'preset = "thesis"').replace(
+        '"distributed"', '"tip"').replace('"quasi_static", "dynamic"', '"quasi_static"').replace("238.7", "30.0"))
+    runner = CliRunner()
+    for cfg in (slider, fourbar):
+        out = runner.invoke(cli, ["run", str(cfg), "--out", str(cfg.with_suffix(".h5")), "--workers", "1",
+                                  "--no-figures", "--no-progress"])
+        assert out.exit_code == 0, out.output
+    out = runner.invoke(cli, ["merge", str(slider.with_suffix(".h5")), str(fourbar.with_suffix(".h5"))])
+    assert out.exit_code == 0, out.output
+    out = runner.invoke(cli, ["inspect", str(fourbar.with_suffix(".h5")), "--json"])
+    assert out.exit_code == 0, out.output
+    verify = runner.invoke(cli, ["inspect", str(fourbar.with_suffix(".h5")), "--verify"])
+    assert verify.exit_code == 0 and "2 complete scenes" in verify.output
+    with h5py.File(fourbar.with_suffix(".h5"), "r") as f:
+        kinds = sorted(f["scenes"][k]["parameters"].attrs.get("kind", "four-bar") for k in f["scenes"])
+    assert kinds == ["four-bar", "slider-crank"]
