@@ -1,9 +1,11 @@
-"""Exudyn flexible-multibody models of the four-bar.
+"""Exudyn flexible-multibody models of the four-bar and the slider-crank.
 
 Every link is an elastic beam (ANCF cable by default), the crank is driven at constant speed (from the
 quasi-static state, or after a smooth start-up ramp), and the coupler-point deflection is returned over
 one periodic steady cycle (solved directly or marched to), on the same scene definition and kinematics
-as ked_quasi. Newton failures are retried along a refinement ladder; failures are classified.
+as ked_quasi. Newton failures are retried along a refinement ladder; failures are classified. A
+slider-crank scene (ked_quasi.slidercrank.SliderScene) runs its own model (slider_builder, slider_simulate)
+through the same machinery; slider_midspan_history gives Simeon's benchmark mechanism's midspan history.
 """
 
 from .builder import BuiltModel, build_model
@@ -13,6 +15,7 @@ from .modal import frozen_natural_frequencies
 from .refine import Attempt
 from .settings import ELEMENT_TYPES, LEGACY_DEFAULTS, PERIODIC_METHODS, STARTS, DynamicSettings
 from .simulate import DynamicResult, simulate_steady_state
+from .slider_simulate import slider_midspan_history
 
 __all__ = [
     "ELEMENT_TYPES",
@@ -30,4 +33,5 @@ __all__ = [
     "rayleigh_beta",
     "reference_frequency",
     "simulate_steady_state",
+    "slider_midspan_history",
 ]
