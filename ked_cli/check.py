@@ -139,7 +139,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
         click.echo(line.rstrip())
         click.echo(textwrap.fill(r.verdict, width=WIDTH, initial_indent=" " * 9, subsequent_indent=" " * 11,
                                  break_on_hyphens=False))
-    if len(rows) >= 3:
+    if len(rows) >= 3 and slider is None:  # no Floquet analysis of a slider-crank yet
         for text in ("Critical speeds (local maxima of max |Floquet multiplier|): "
                      + (", ".join(f"{c.rpm:.4g} rpm (|mu| {c.max_abs:.3g})" for c in crit) or "none in this range"),
                      "Amplification peaks (linear / quasi-static peak): "
