@@ -11,9 +11,9 @@ import pytest
 from click.testing import CliRunner
 
 from compare import store
-from compare.studies.sections import section_of
+from compare.limits import Limit, crossing, errors, one_mode_curves, one_mode_errors, validity_limit
+from compare.sections import section_of
 from compare.studies.validity import CONFIGS, REFINE_FILE, load_study
-from compare.studies.validity_analysis import Limit, crossing, errors, one_mode_curves, one_mode_errors, validity_limit
 from compare.studies.validity_figures import FIGURES
 from compare.studies.validity_report import render_section
 from ked_cli.main import cli as main

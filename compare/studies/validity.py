@@ -15,11 +15,11 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 
 from compare.config import CampaignConfig, load_config
+from compare.limits import ERROR_KINDS, TOLERANCES
+from compare.paths import CONFIG_DIR, StudyPaths, remove_outputs
 from compare.runner import run_campaign
 from compare.scenes import SceneSpec
-from compare.studies import CONFIG_DIR, StudyPaths, remove_outputs
-from compare.studies.sections import write_section
-from compare.studies.validity_analysis import ERROR_KINDS, TOLERANCES
+from compare.sections import write_section
 from compare.studies.validity_data import (
     RETRY_MAX_RATIO,
     RETRY_STEP_FACTOR,

@@ -1,6 +1,6 @@
 """Validity study, data edge: read campaign HDF5 files into flat :class:`Point` records.
 
-Everything downstream (:mod:`compare.studies.validity_analysis`, ``validity_figures``,
+Everything downstream (:mod:`compare.limits`, ``validity_figures``,
 ``validity_report``) is pure and works on these records.  Units: SI; deflections of the coupler
 point P in m (dx, dy, global frame), crank angle in rad, speeds in rad/s or rev/min where named.
 """

@@ -26,12 +26,13 @@ import numpy as np
 
 from compare import store
 from compare.metrics import cycle_error
+from compare.paths import RESULTS, StudyPaths, remove_outputs
 from compare.results import SceneResult
 from compare.scenes import SceneSpec, canonical_json
+from compare.sections import write_section
 from compare.solvers import COMPONENTS
 from compare.solvers.dynamic import settings_for as build_settings
-from compare.studies import StudyPaths, remove_outputs, study_io
-from compare.studies.sections import write_section
+from compare.studies import study_io
 from compare.studies.wp_analysis import (
     REFERENCE,
     Discretization,
@@ -40,12 +41,11 @@ from compare.studies.wp_analysis import (
     is_reference,
 )
 
-ROOT = Path(__file__).resolve().parents[2]
-STUDIES = ROOT / "results" / "studies"
+STUDIES = RESULTS / "studies"
 CONFIGS = ("work_precision.toml", "work_precision_quasi.toml", "work_precision_refcheck.toml")
 OUT = STUDIES / "work_precision.h5"
-FIGURES = ROOT / "results" / "figures"
-README = ROOT / "results" / "README.md"
+FIGURES = RESULTS / "figures"
+README = RESULTS / "README.md"
 SECTION = "work-precision"
 LUMPS = (1, 2, 3, 4, 5, 6, 8, 12, 16, 24, 32, 48, 64)
 LUMPS_REFERENCE = 256
