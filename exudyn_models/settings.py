@@ -17,7 +17,8 @@ PERIODIC_METHODS = ("off", "anderson")
 RULES: dict[str, rules.Rule | rules.Choice | rules.Flag] = {
     "element": rules.Choice("element", ELEMENT_TYPES),
     "elements_per_link": rules.Rule("elements_per_link", "per link", 1, 64, "beyond 64 very short, stiff elements "
-                                    "make Newton's tolerance unreachable (exudyn_models.refine caps its ladder there)",
+                                    "make Newton's tolerance unreachable (the refinement ladder's cap); 4 (default) "
+                                    "to 16 work well",
                                     integer=True),
     "steps_per_cycle": rules.Rule("steps_per_cycle", "per cycle", 8, 1_000_000, "at least 8 steps per crank "
                                   "revolution, at most a million", integer=True),
