@@ -28,10 +28,12 @@ from compare.paths import RESULTS, StudyPaths, remove_outputs
 from compare.results import SceneResult
 from compare.sections import write_section
 from compare.solvers import COMPONENTS
+from compare.solvers.dynamic import legacy_defaults
 from compare.solvers.dynamic import settings_for as build_settings
 from compare.studies import stability_report, study_io
 from compare.studies.stability_analysis import check, deviation, peak, quasi_report
 from compare.studies.work_precision import family_key, ked_scene
+from ked_quasi.solver import solve_quasi_static
 
 CONFIG_DIR = RESULTS / "studies" / "stability"
 OUT = RESULTS / "studies" / "stability.h5"
@@ -110,7 +112,6 @@ def _dyn(r: SceneResult) -> np.ndarray | None:
 def is_default(r: SceneResult) -> bool:
     """Resolved Exudyn settings equal to the defaults (damping ratio aside; a field the stored settings
     lack counts as its legacy value, see ``compare.solvers.dynamic.legacy_defaults``)."""
-    from compare.solvers.dynamic import legacy_defaults
     from exudyn_models import DynamicSettings
 
     stored = {**legacy_defaults(), **r.dynamic_settings}
@@ -159,8 +160,6 @@ def refused_row(config: str, message: str) -> CaseRow:
 
 def case_rows(results: Sequence[SceneResult], cases: dict[str, tuple[str, str]], ladder: bool = True) -> list[CaseRow]:
     """One row per stored scene of the stability campaign (in config order)."""
-    from ked_quasi.solver import solve_quasi_static
-
     by_key = {r.key: r for r in results}
     defaults = {family_key(r.spec): r for r in results if r.ok and is_default(r)}
     rows = []

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
 from compare.config import CampaignConfig, load_config
@@ -62,8 +62,6 @@ def explicit_campaign(base: CampaignConfig, name: str, specs: Sequence[SceneSpec
 
 def with_dynamic(spec: SceneSpec, **overrides: object) -> SceneSpec:
     """The scene with some pinned ``[dynamic]`` settings changed (a new content key)."""
-    from dataclasses import replace
-
     d = dict(spec.dynamic)
     d.update(overrides)
     return replace(spec, dynamic=tuple(sorted(d.items())))
