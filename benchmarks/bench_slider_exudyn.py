@@ -29,7 +29,7 @@ import numpy as np
 
 from exudyn_models import DynamicSettings
 from exudyn_models.simulate import simulate_steady_state
-from exudyn_models.slider_simulate import simeon_damping, simeon_scene, slider_midspan_history
+from exudyn_models.slider_simeon import simeon_damping, simeon_scene, slider_midspan_history
 from ked_bench.simeon import MODEL_PI, SimeonModel, SimeonParameters, integrate
 from ked_quasi.slider_static import solve_slider_quasi_static
 from ked_quasi.slidercrank import build_slider_scene, simeon_slider_crank

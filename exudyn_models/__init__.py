@@ -15,7 +15,7 @@ from .modal import frozen_natural_frequencies
 from .refine import Attempt
 from .settings import ELEMENT_TYPES, LEGACY_DEFAULTS, PERIODIC_METHODS, STARTS, DynamicSettings
 from .simulate import DynamicResult, simulate_steady_state
-from .slider_simulate import slider_midspan_history
+from .slider_simeon import slider_midspan_history
 
 __all__ = [
     "ELEMENT_TYPES",

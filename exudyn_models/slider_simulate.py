@@ -1,5 +1,5 @@
-"""The elastic slider-crank run to periodic steady state: sampling, tolerances, damping reference, and the
-midspan history of Simeon's benchmark mechanism.
+"""The elastic slider-crank run to periodic steady state: sampling, tolerances, damping reference (Simeon's
+benchmark mechanism: exudyn_models.slider_simeon).
 
 The run is the four-bar's (exudyn_models.simulate: refinement ladder, failure classes, DynamicResult) with
 the slider-crank's own model (exudyn_models.slider_builder) and sampler; the constant-speed phase is
@@ -138,48 +138,3 @@ def run_slider(scene: SliderScene, settings: DynamicSettings, damping_beta: floa
     return march(scene, settings, model, "ramp",
                  sampler=SliderSampler(model, scene, settings.steps_per_cycle),
                  tolerances=slider_tolerances(settings, scene))
-
-
-# -- Simeon's benchmark mechanism ----------------------------------------------------------------------
-def simeon_damping() -> tuple[float, float]:
-    """(damping ratio [1], reference frequency [Hz]) matching Simeon's damped model: his first bending mode's
-    ratio DQ11 / (2 sqrt(KQ11 MQ11)) (2.59 %) at the rod's first bending frequency (pinned-pinned, 203.2 Hz),
-    both from ked_bench.simeon."""
-    from ked_bench.simeon import SimeonParameters, rod_matrices
-
-    par = SimeonParameters(damped=True)
-    rod = rod_matrices(par)
-    zeta = float(rod.dq[0, 0] / (2.0 * math.sqrt(rod.kq[0, 0] * rod.mq[0, 0])))
-    return zeta, par.first_bending_rad_s / (2.0 * math.pi)
-
-
-def simeon_scene(omega: float, step_deg: float = 5.0) -> SliderScene:
-    """The ``--linkage simeon`` scene (distributed mass: the rod's own, the slider; rigid crank) at crank
-    speed ``omega`` [rad/s] (> 0, CCW)."""
-    from ked_quasi.slidercrank import build_slider_scene, simeon_slider_crank
-
-    if not (math.isfinite(omega) and omega > 0.0):
-        raise ValueError(f"omega: must be a positive crank speed [rad/s]; got {omega!r}")
-    return build_slider_scene(simeon_slider_crank(), "distributed", omega * 60.0 / (2.0 * math.pi), step_deg)
-
-
-def slider_midspan_history(omega: float, *, step_deg: float = 5.0, settings: DynamicSettings | None = None):
-    """Exudyn's periodic steady state of Simeon's slider-crank at crank speed ``omega`` [rad/s]: the rod's
-    midspan transverse deflection over one cycle, damped like Simeon's model (:func:`simeon_damping`).
-
-    settings: Exudyn settings (its damping_ratio and damping_reference_hz are replaced by Simeon's); None:
-    6 ANCF elements on the rod, 1080 steps per cycle (the default campaign's discretization).  Returns
-    (crank_angle (n,) [rad] from 0 in steps of step_deg, midspan (n,) [m], the DynamicResult) with
-    n = 360 / step_deg (72 at the default, the grid of ked_bench.simeon.steady_state).  Raises
-    SimulationError when no run goes through; check result.converged before using the history.
-    """
-    from dataclasses import replace
-
-    from .simulate import simulate_steady_state
-
-    zeta, f_ref = simeon_damping()
-    base = DynamicSettings(elements_per_link=6, steps_per_cycle=1080) if settings is None else settings
-    s = replace(base, damping_ratio=zeta, damping_reference_hz=f_ref)
-    scene = simeon_scene(omega, step_deg)
-    res = simulate_steady_state(scene, s)
-    return np.asarray(res.crank_angle), np.asarray(res.midspan), res
