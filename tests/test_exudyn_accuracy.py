@@ -96,6 +96,13 @@ def test_low_speed_step_leaves_the_default_campaign_alone():
     n = low_speed_steps(scene, d, rayleigh_beta(d.damping_ratio, f1), f1)
     assert n % d.steps_per_cycle == 0 and 2 * d.steps_per_cycle <= n <= 4 * d.steps_per_cycle
     assert low_speed_steps(scene, d, 0.0, f1) == d.steps_per_cycle  # no damping, no damped velocity error
+    # a deliberately coarse run outside the quasi-static regime keeps its steps (results/reference: 72 steps
+    # per cycle at 40 and 240 rpm): there the estimate does not exceed the ordinary step error (2 pi / N)^2
+    coarse = DynamicSettings(elements_per_link=2, steps_per_cycle=72, spectral_radius=0.6)
+    for rpm in (40.0, 240.0):
+        scene = make_scene(mass_model="extender", mechanism_name="cognate", rpm=rpm, step_deg=20.0)
+        f1 = reference_frequency(scene, coarse)
+        assert low_speed_steps(scene, coarse, rayleigh_beta(coarse.damping_ratio, f1), f1) == 72
 
 
 @pytest.mark.slow
