@@ -7,7 +7,7 @@
   axis): the quasi-static one joined by a line, the others as markers, whose vibration a line between
   samples would alias.  An answer outside its model's range (validity flags) or of a failed solver is
   grey and hollow, "NOT VALID" and its flags in the legend, and leaves the axis limits to the valid
-  answers.  The scene key is in the PNG's metadata (``Title``) and in ``index.json``.
+  answers (it may run off them).  The scene key is in the PNG's metadata (``Title``) and in ``index.json``.
 - ``amplification.png``: dynamic amplification and verdict error vs speed ratio r = Omega/omega1_min
   (rpm on a second axis, or per family in the legend), one line per (mechanism, mass model, stiffness,
   damping, direction) family; points whose quasi-static answer or reference is outside its model's
@@ -101,6 +101,18 @@ def valid(sol: Any) -> bool:
     return sol.ok and not sol.flags
 
 
+def _limit(set_lim: Any, arrays: Sequence[np.ndarray]) -> None:
+    """Axis limits spanning ``arrays`` (the answers drawn as valid) with a 5 % margin; an answer not
+    valid that reaches beyond them runs off the axes (its legend says it is not valid)."""
+    values = np.concatenate([np.ravel(a) for a in arrays]) if arrays else np.empty(0)
+    values = values[np.isfinite(values)]
+    if values.size == 0:
+        return
+    lo, hi = float(values.min()), float(values.max())
+    pad = 0.05 * (hi - lo) or 0.05 * max(abs(hi), 1e-12)
+    set_lim(lo - pad, hi + pad)
+
+
 def _grid_text(r: SceneResult) -> str:
     step = r.spec.step_deg
     return (f"crank angle [deg]; stored every {step:g} deg: {registry.label(SAMPLED)} as a line, "
@@ -135,12 +147,15 @@ def scene_figure(r: SceneResult) -> Figure:
         deg = np.degrees(r.crank_angle)
         for i, c in enumerate(comps):
             ax = fig.add_subplot(gs[i, 0])
+            shown = []
             for name, sol in r.solutions.items():
                 if c in sol.deflection:
                     d = np.append(sol.deflection[c], sol.deflection[c][:1])
-                    scale = valid(sol) or not valid_any[c]
+                    if valid(sol) or not valid_any[c]:
+                        shown.append(_SCALE[c] * d)
                     ax.plot(np.append(deg, 360.0), _SCALE[c] * d, label=solver_legend(name, sol),
-                            scalex=scale, scaley=scale, **_line_style(name, sol, styles, 3))
+                            **_line_style(name, sol, styles, 3))
+            _limit(ax.set_ylim, shown)
             ax.set_ylabel(_LABELS[c])
             ax.set_xlim(0, 360)
             ax.set_xticks(range(0, 361, 60))
@@ -161,15 +176,18 @@ def scene_figure(r: SceneResult) -> Figure:
         closed = np.vstack([P, P[:1]])
         ax.plot(closed[:, 0], closed[:, 1], "k-", lw=1.5, label="rigid")
         valid_xy = any("dx" in s.deflection and "dy" in s.deflection and valid(s) for s in r.solutions.values())
+        shown = [closed]
         for name, sol in r.solutions.items():
             side = sol.deflection
             if "dx" in side and "dy" in side:
                 D = P + k * 1e3 * np.column_stack([side["dx"], side["dy"]])
                 D = np.vstack([D, D[:1]])
-                scale = valid(sol) or not valid_xy
-                ax.plot(D[:, 0], D[:, 1], label=f"{solver_legend(name, sol, short=True)} (x{k:g})", scalex=scale,
-                        scaley=scale,
+                if valid(sol) or not valid_xy:
+                    shown.append(D)
+                ax.plot(D[:, 0], D[:, 1], label=f"{solver_legend(name, sol, short=True)} (x{k:g})",
                         **(_line_style(name, sol, styles, 2.5) | {"lw": 1.0}))
+        _limit(ax.set_xlim, [a[:, 0] for a in shown])
+        _limit(ax.set_ylim, [a[:, 1] for a in shown])
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_xlabel("x [mm]")
         ax.set_ylabel("y [mm]")
