@@ -101,16 +101,17 @@ def valid(sol: Any) -> bool:
     return sol.ok and not sol.flags
 
 
-def _limit(set_lim: Any, arrays: Sequence[np.ndarray]) -> None:
-    """Axis limits spanning ``arrays`` (the answers drawn as valid) with a 5 % margin; an answer not
-    valid that reaches beyond them runs off the axes (its legend says it is not valid)."""
-    values = np.concatenate([np.ravel(a) for a in arrays]) if arrays else np.empty(0)
-    values = values[np.isfinite(values)]
-    if values.size == 0:
+def _scale_to(ax: Any, points: Sequence[np.ndarray]) -> None:
+    """Data limits of ``ax`` from ``points`` ((n, 2) arrays: the answers drawn as valid) alone, then
+    autoscaled (margins and aspect as usual); an answer not valid that reaches beyond them runs off the
+    axes (its legend says it is not valid)."""
+    xy = np.vstack(points) if points else np.empty((0, 2))
+    xy = xy[np.all(np.isfinite(xy), axis=1)]
+    if len(xy) == 0:
         return
-    lo, hi = float(values.min()), float(values.max())
-    pad = 0.05 * (hi - lo) or 0.05 * max(abs(hi), 1e-12)
-    set_lim(lo - pad, hi + pad)
+    ax.ignore_existing_data_limits = True
+    ax.update_datalim(xy)
+    ax.autoscale_view()
 
 
 def _grid_text(r: SceneResult) -> str:
@@ -152,10 +153,10 @@ def scene_figure(r: SceneResult) -> Figure:
                 if c in sol.deflection:
                     d = np.append(sol.deflection[c], sol.deflection[c][:1])
                     if valid(sol) or not valid_any[c]:
-                        shown.append(_SCALE[c] * d)
+                        shown.append(np.column_stack([np.append(deg, 360.0), _SCALE[c] * d]))
                     ax.plot(np.append(deg, 360.0), _SCALE[c] * d, label=solver_legend(name, sol),
                             **_line_style(name, sol, styles, 3))
-            _limit(ax.set_ylim, shown)
+            _scale_to(ax, shown)
             ax.set_ylabel(_LABELS[c])
             ax.set_xlim(0, 360)
             ax.set_xticks(range(0, 361, 60))
@@ -186,8 +187,7 @@ def scene_figure(r: SceneResult) -> Figure:
                     shown.append(D)
                 ax.plot(D[:, 0], D[:, 1], label=f"{solver_legend(name, sol, short=True)} (x{k:g})",
                         **(_line_style(name, sol, styles, 2.5) | {"lw": 1.0}))
-        _limit(ax.set_xlim, [a[:, 0] for a in shown])
-        _limit(ax.set_ylim, [a[:, 1] for a in shown])
+        _scale_to(ax, shown)
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_xlabel("x [mm]")
         ax.set_ylabel("y [mm]")
