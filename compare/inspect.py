@@ -360,9 +360,13 @@ def format_detail(r: SceneResult) -> str:
 
 def sort_key(r: SceneResult) -> tuple:
     """Grid-like display order: mechanism, mass model, stiffness, damping, direction, speed."""
-    s = r.spec
+    return spec_sort_key(r.spec)
+
+
+def spec_sort_key(s: Any) -> tuple:
+    """:func:`sort_key` of a scene not yet computed (a :class:`~compare.scenes.SceneSpec`)."""
     return (s.mechanism, s.mass_model.name, s.stiffness_scale, s.damping_ratio, s.direction,
-            s.speed.kind, s.speed.value, r.key)
+            s.speed.kind, s.speed.value, s.key)
 
 
 def find_scene(results: Sequence[SceneResult], ident: str) -> SceneResult:

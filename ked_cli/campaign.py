@@ -141,9 +141,7 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
 
     try:
         summary = run_campaign(cfg, out, workers=workers, scheduler=scheduler, retry_failed=retry_failed,
-                               progress=progress, on_start=lambda p: click.echo(wrap(
-                                   f"campaign {cfg.name!r}: {n} scenes ({len(p.jobs)} to compute, {len(p.skipped)} "
-                                   f"stored), solvers {', '.join(cfg.solvers)} -> {out}"), err=True))
+                               progress=progress, on_start=lambda p: click.echo(_start_line(cfg, n, p, out), err=True))
     except (store.LockedError, SettingsMismatchError, store.StoreError, store.CommitError, SchedulerError,
             WorkerStartError, WorkerError) as exc:
         raise click.ClickException(str(exc)) from None
@@ -163,6 +161,14 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
         click.echo(wrap(f"figures: {len(paths)} PNG files (re)drawn in {fig_dir} (index.json: file -> scene)"))
 
 
+def _start_line(cfg: Any, n: int, p: Any, out: Path) -> str:
+    """The one line that starts a run; the results file by its name alone where its path would make
+    the line longer than 100 columns (the last line of the run names the whole path)."""
+    head = (f"campaign {cfg.name!r}: {n} scenes ({len(p.jobs)} to compute, {len(p.skipped)} stored), "
+            f"solvers {', '.join(cfg.solvers)} -> ")
+    return head + (str(out) if len(head) + len(str(out)) <= 100 else out.name)
+
+
 def _dry_run(cfg: Any, out: Path, retry_failed: bool) -> None:
     from compare import store
     from compare.runner import plan
@@ -175,7 +181,9 @@ def _dry_run(cfg: Any, out: Path, retry_failed: bool) -> None:
     todo = {s.key for s in p.todo}
     click.echo(wrap(f"campaign {cfg.name!r}: {len(scenes)} scenes, {len(p.todo)} to run, "
                     f"{len(p.skipped)} already in {out}; solvers {', '.join(cfg.solvers)}"))
-    for s in scenes:
+    from compare.inspect import spec_sort_key
+
+    for s in sorted(scenes, key=spec_sort_key):  # the order of the summary table
         click.echo(f"  {s.key}  {'run ' if s.key in todo else 'skip'}  {s.label}")
 
 
@@ -232,10 +240,10 @@ def _verify(file: Path, as_json: bool) -> None:
         click.echo(json.dumps({"file": str(file), "valid": not problems, "scenes": n, "problems": problems,
                                "stale_temp_files": [str(p) for p in stale]}, indent=2))
     else:
-        for p in problems:
-            click.echo(wrap(f"PROBLEM {p}"))
+        for p in problems:  # one line per problem, like an error (greppable): not wrapped
+            click.echo(f"PROBLEM {p}")
         for p in stale:
-            click.echo(wrap(f"note: stale temporary file (ignored, removed by the next run): {p}"))
+            click.echo(f"note: stale temporary file (ignored, removed by the next run): {p}")
         click.echo(wrap(f"{file}: {'INVALID' if problems else 'valid'}, {n} complete scenes"
                         + (f", {len(problems)} problem(s)" if problems else "")))
     sys.exit(1 if problems else 0)

@@ -81,11 +81,14 @@ def test_inspect_outputs_fit_and_list_scenes_in_run_order(campaign):
 
 
 def test_dry_run_fits_and_names_the_file_after_the_config(campaign, tmp_path, monkeypatch):
-    cfg, _, _ = campaign
+    cfg, _, run_text = campaign
     monkeypatch.chdir(tmp_path)
     code, text = _run("run", str(cfg), "--dry-run")
     assert code == 0 and _too_wide(text) == []
     assert "ked_results/width.h5" in text  # no [campaign] name: the config file's name
+    listed = re.findall(r"^  ([0-9a-f]{16})  ", text, re.M)
+    table = re.findall(r"^([0-9a-f]{8,16})  ", run_text, re.M)
+    assert len(listed) == len(table) == 8 and all(k.startswith(p) for k, p in zip(listed, table))  # one order
     code, text = _run("run", "--dry-run")  # the default campaign keeps its file
     assert code == 0 and _too_wide(text) == [] and "ked_results/thesis-default.h5" in text
 
