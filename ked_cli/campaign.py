@@ -164,8 +164,8 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
 def _start_line(cfg: Any, n: int, p: Any, out: Path) -> str:
     """The one line that starts a run; the results file by its name alone where its path would make
     the line longer than 100 columns (the last line of the run names the whole path)."""
-    head = (f"campaign {cfg.name!r}: {n} scenes ({len(p.jobs)} to compute, {len(p.skipped)} stored), "
-            f"solvers {', '.join(cfg.solvers)} -> ")
+    head = (f"campaign {cfg.name!r}: {n} scenes ({len(p.jobs)} to run, {len(p.skipped)} stored), "
+            f"solvers {'+'.join(cfg.solvers)} -> ")
     return head + (str(out) if len(head) + len(str(out)) <= 100 else out.name)
 
 
