@@ -162,11 +162,13 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
 
 
 def _start_line(cfg: Any, n: int, p: Any, out: Path) -> str:
-    """The one line that starts a run; the results file by its name alone where its path would make
-    the line longer than 100 columns (the last line of the run names the whole path)."""
-    head = (f"campaign {cfg.name!r}: {n} scenes ({len(p.jobs)} to run, {len(p.skipped)} stored), "
-            f"solvers {'+'.join(cfg.solvers)} -> ")
-    return head + (str(out) if len(head) + len(str(out)) <= 100 else out.name)
+    """The one line that starts a run, in at most 100 columns where it can: without the solvers (the
+    table has a column for each) and then with the results file's name alone (the last line of the run
+    names the whole path) where the whole line would be longer."""
+    head = f"campaign {cfg.name!r}: {n} scenes ({len(p.jobs)} to run, {len(p.skipped)} stored)"
+    solvers = f", solvers {'+'.join(cfg.solvers)}"
+    lines = [f"{head}{solvers} -> {out}", f"{head} -> {out}", f"{head}{solvers} -> {out.name}", f"{head} -> {out.name}"]
+    return next((ln for ln in lines if len(ln) <= 100), lines[-1])
 
 
 def _dry_run(cfg: Any, out: Path, retry_failed: bool) -> None:

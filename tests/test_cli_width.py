@@ -10,6 +10,7 @@ their warnings).  JSON output is a contract and is not looked at here.
 
 from __future__ import annotations
 
+import json
 import re
 
 import pytest
@@ -56,8 +57,8 @@ def campaign(tmp_path_factory):
 def test_run_output_fits_and_runs_three_solvers(campaign):
     _, _, text = campaign
     assert _too_wide(text) == []
-    # a config without [campaign] solvers runs the three tiers: the linear KED column is there
-    assert "solvers quasi_static+linear+dynamic" in text
+    # a config without [campaign] solvers runs the three tiers: a column per solver besides quasi-static
+    assert re.search(r"^ +qs +qs rot +linear *$", text, re.M), text
     joined = text.replace("\n  ", " ")  # continuation lines of wrapped notes
     assert re.search(r"^\* .*quasi-static in \d scenes? \(large_deflection", joined, re.M), text  # names the solver
     assert "failed " in text and "(Exudyn)" in text  # the failure reason names the solver
@@ -72,6 +73,9 @@ def test_inspect_outputs_fit_and_list_scenes_in_run_order(campaign):
     for key in keys.findall(text):
         code, detail = _run("inspect", str(out), key)
         assert code == 0 and _too_wide(detail) == [], _too_wide(detail)
+    code, js = _run("inspect", str(out), "--json")  # a config without [campaign] solvers: the three tiers
+    assert code == 0 and set().union(*(r["solvers"] for r in json.loads(js)["scenes"])) == {
+        "quasi_static", "linear", "dynamic"}
     code, text = _run("inspect", str(out), "--verify")
     assert code == 0 and _too_wide(text) == []
     code, wide = _run("inspect", str(out), "--wide")  # the full layout: long titles, whole keys
