@@ -6,7 +6,7 @@ from typing import Any
 
 import click
 
-from ked_cli.options import SceneOptions, build_scene, json_text, scene_options
+from ked_cli.options import SceneOptions, build_scene, json_text, scene_options, wrap
 from ked_quasi import rules
 
 
@@ -60,7 +60,7 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
         "message": res.message, "status": res.status, "floquet_error": res.floquet_error,
     }
     if flags:
-        click.echo(f"warning: {describe_flags(flags, res, scene.fourbar)}", err=True)
+        click.echo(wrap(f"warning: {describe_flags(flags, res, scene.fourbar)}"), err=True)
     if as_json:
         click.echo(json_text(out))
     else:
@@ -70,12 +70,12 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
 
 
 def _table(opts: SceneOptions, scene: Any, res: Any, out: dict[str, Any]) -> None:
-    click.echo(f"Linear KED steady-state deflection of P: {opts.describe()}")
-    click.echo(f"{res.message}; r = Omega/omega1_min = {res.speed_ratio:.3g}; {res.wall_s * 1e3:.1f} ms")
+    click.echo(wrap(f"Linear KED steady-state deflection of P: {opts.describe()}"))
+    click.echo(wrap(f"{res.message}; r = Omega/omega1_min = {res.speed_ratio:.3g}; {res.wall_s * 1e3:.1f} ms"))
     if not res.stable:
         return
     if not out["valid"]:
-        click.echo("NOT VALID: " + ", ".join(out["flags"]) + " (see the warning above)")
+        click.echo(wrap("NOT VALID: " + ", ".join(out["flags"]) + " (see the warning above)"))
     step = rules.steps_per_turn(scene.step_deg)
     d = max(1, len(f"{360 / step:g}".split(".")[-1]) if "." in f"{360 / step:g}" else 1)
     click.echo(f"{'theta deg':>9} {'dx mm':>10} {'dy mm':>10} {'rot mrad':>10}")

@@ -166,6 +166,19 @@ def refuse_fast(fourbar: Any, mass_model: Any, rpms: list[float], step_deg: floa
             raise click.BadParameter(str(exc).removeprefix("value = "), param_hint=hint) from None
 
 
+WIDTH = 100
+"""Columns of every human-readable line a command prints."""
+
+
+def wrap(text: str, indent: str = "  ") -> str:
+    """``text`` in lines of at most :data:`WIDTH` columns, continuation lines indented (long words,
+    e.g. paths, are never split)."""
+    import textwrap
+
+    return textwrap.fill(text, width=WIDTH, subsequent_indent=indent, break_on_hyphens=False,
+                         break_long_words=False)
+
+
 def json_text(value: Any, **dumps: Any) -> str:
     """Strict JSON (no NaN or inf: null instead; tuples as lists) of plain data (``dumps``: options of
     :func:`json.dumps`, e.g. ``indent``)."""
