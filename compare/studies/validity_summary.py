@@ -190,3 +190,53 @@ def summarize(points: Sequence[Point],
 
     return [summarize_family(f, fams[f], loads_of) for f in sorted(fams, key=order)
             if any(not p.refined for p in fams[f])]
+
+
+@dataclass(frozen=True, eq=False)
+class LimitRange:
+    """One (error kind, tolerance) over the families whose limit was crossed on the grid: the families with
+    the lowest and the highest first crossing, how many crossed, the largest grid step [1] to the first
+    failing ratio."""
+
+    low: FamilySummary
+    high: FamilySummary
+    families: int
+    step: float
+
+
+@dataclass(frozen=True, eq=False)
+class Answer:
+    """The validity answer over the reference families (speed ratios r [1]): per (kind, tolerance) the
+    range of the crossed limits (absent: none crossed); whether all four crossed somewhere (``complete``);
+    of the 10 % history limit the spread [1] between the mass models' means over the linkages and the
+    largest spread [1] between the linkages of one mass model, and its (min, max) per mass model; the
+    discretization shifts [1] of the crossings (refined minus base, finite ones)."""
+
+    ranges: dict[tuple[str, float], LimitRange]
+    complete: bool
+    between_mass_models: float
+    within_mass_model: float
+    history10: dict[str, tuple[float, float]]
+    shifts: tuple[float, ...]
+
+
+def answer(ref: Sequence[FamilySummary]) -> Answer:
+    """The findings behind the study's answer (``ref``: the reference families)."""
+    ranges = {}
+    for key in [(k, t) for k in ("peak", "history") for t in TOLERANCES]:
+        fams = [fs for fs in ref if fs.limits[key].status == "crossed"]
+        if fams:
+            ranges[key] = LimitRange(min(fams, key=lambda f: f.limits[key].r_limit),
+                                     max(fams, key=lambda f: f.limits[key].r_limit), len(fams),
+                                     max(f.limits[key].step for f in fams))
+    by_mm: dict[str, list[float]] = {}
+    for fs in ref:
+        if fs.limits[("history", 0.10)].status == "crossed":
+            by_mm.setdefault(fs.mass_model, []).append(fs.limits[("history", 0.10)].r_limit)
+    means = [float(np.mean(v)) for v in by_mm.values()]
+    shifts = [fs.discretization_shift(k, t) for fs in ref for k in ("peak", "history") for t in TOLERANCES]
+    return Answer(ranges=ranges, complete=len(ranges) == 2 * len(TOLERANCES),
+                  between_mass_models=max(means) - min(means) if means else math.nan,
+                  within_mass_model=max((max(v) - min(v) for v in by_mm.values()), default=math.nan),
+                  history10={m: (min(v), max(v)) for m, v in by_mm.items()},
+                  shifts=tuple(x for x in shifts if math.isfinite(x)))
