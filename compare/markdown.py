@@ -11,6 +11,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 
 def num(x: Any, spec: str = ".3g", scale: float = 1.0) -> str:
     """``scale * x`` formatted with ``spec``; "-" if not finite, ``str(x)`` if not a number."""
@@ -47,3 +49,13 @@ def table(columns: Sequence[Column | str], rows: Sequence[Sequence[str]], *, den
     rule = [("---:" if c.right else "---") for c in cols]
     line = "|" + "|".join(rule) + "|" if dense else "| " + " | ".join(rule) + " |"
     return ["| " + " | ".join(c.header for c in cols) + " |", line] + ["| " + " | ".join(r) + " |" for r in rows]
+
+
+def median_range(values: Any, spec: str = ".3f") -> str:
+    """'**median** [P10-P90]' of the finite values; "-" if none."""
+    v = np.asarray(values, float)
+    v = v[np.isfinite(v)]
+    if not v.size:
+        return "-"
+    p10, p50, p90 = np.percentile(v, [10, 50, 90])
+    return f"**{p50:{spec}}** [{p10:{spec}}-{p90:{spec}}]"
