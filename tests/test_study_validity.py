@@ -16,7 +16,7 @@ from compare.sections import section_of
 from compare.studies.validity import CONFIGS, REFINE_FILE, load_study
 from compare.studies.validity_figures import FIGURES, reference
 from compare.studies.validity_report import render_section
-from compare.studies.validity_summary import answer
+from compare.studies.validity_summary import answer, claims
 from ked_cli.main import cli as main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -175,3 +175,12 @@ def test_committed_validity_answer():
     pins = {"tip": (0.09, 0.11), "joints": (0.07, 0.07), "extender": (0.09, 0.11), "distributed": (0.08, 0.09)}
     assert found.history10.keys() == pins.keys()
     assert all(found.history10[m] == pytest.approx(pins[m]) for m in pins)
+    # the thesis's claims: quasi-statically every deflection scales with omega^2, so the 400/300 rpm peak
+    # ratio is (4/3)^2 for every family (and r scales with rpm); regression pin: on the committed files each
+    # cognate's quasi-static peak differs from its source's by more than 10 %
+    c = claims(summaries)
+    assert len(c.doubling) >= 8 and len(c.cognate) >= 8
+    for _, a, b in c.doubling:
+        assert b.qs_peak / a.qs_peak == pytest.approx((4 / 3) ** 2, rel=1e-6)
+        assert b.r / a.r == pytest.approx(4 / 3, rel=1e-9)
+    assert all(abs(k.qs_peak / s.qs_peak - 1) > 0.1 for _, s, k in c.cognate)

@@ -12,14 +12,13 @@ from pathlib import Path
 
 import numpy as np
 
-from compare.limits import TOLERANCES, one_mode_curves, peak_of, peak_ratio
+from compare.limits import TOLERANCES, one_mode_curves, peak_ratio
 from compare.markdown import num, pct, table
 from compare.studies.validity_data import RETRY_MAX_RATIO, RETRY_STEP_FACTOR, Point, run_starts
 from compare.studies.validity_figures import reference
-from compare.studies.validity_summary import Answer, FamilySummary, Slot, answer
+from compare.studies.validity_summary import Answer, Claims, FamilySummary, answer, claims
 from ked_quasi.units import rad_s_to_rpm
 
-THESIS_RPM = (300.0, 400.0)
 f3 = partial(num, spec=".3f")
 mm = partial(num, spec=".2f", scale=1e3)
 
@@ -174,63 +173,28 @@ def rule_text(ref: Sequence[FamilySummary]) -> list[str]:
     return out
 
 
-def _slot_at(slots: Sequence[Slot], rpm: float) -> Slot | None:
-    return next((s for s in slots if s.point.spec.speed.value == rpm), None)
+def _ratio(x: float) -> str:
+    return f"{x:.3f}" if math.isfinite(x) else "-"
 
 
-def _peaks(s: Slot | None) -> tuple[float, float, float]:
-    """(qs peak, dyn peak, r) [m, m, 1] of a slot (dyn nan if it failed)."""
-    if s is None:
-        return math.nan, math.nan, math.nan
-    return peak_of(s.point.qs), (peak_of(s.point.dyn) if s.ok else math.nan), s.r
-
-
-def _fail_note(s: Slot | None) -> str:
-    if s is None or s.ok:
-        return ""
-    return f"dyn. failed ({s.point.error_type})"
-
-
-def claims_rows(summaries: Sequence[FamilySummary]) -> tuple[list[list[str]], list[list[str]]]:
-    """(doubling rows, cognate rows) from the rpm scenes of the thesis families."""
-    fams = [fs for fs in summaries if fs.rpm_points and fs.damping == 0.02 and fs.direction == "ccw"]
-    dbl, cog = [], []
-    for fs in fams:
-        a, b = (_slot_at(fs.rpm_points, x) for x in THESIS_RPM)
-        q3, d3, r3 = _peaks(a)
-        q4, d4, r4 = _peaks(b)
-        e3, e4 = (pct(s.errors.history, ".0f") if s is not None and s.ok else "-" for s in (a, b))
-        dbl.append([_name(fs), fs.mass_model, f"{r3:.3f} / {r4:.3f}", mm(q3), mm(q4), f"{peak_ratio(q4, q3):.3f}",
-                    mm(d3), mm(d4), f"{peak_ratio(d4, d3):.3f}" if math.isfinite(peak_ratio(d4, d3)) else "-",
-                    f"{e3} / {e4}",
-                    "; ".join(x for x in (_fail_note(a), _fail_note(b)) if x)])
-    src = {(fs.linkage, fs.mass_model): fs for fs in fams if fs.mechanism == "source"}
-    for fs in fams:
-        if fs.mechanism != "cognate" or (fs.linkage, fs.mass_model) not in src:
-            continue
-        s = src[(fs.linkage, fs.mass_model)]
-        for rpm in THESIS_RPM:
-            qs_s, dy_s, _ = _peaks(_slot_at(s.rpm_points, rpm))
-            qs_c, dy_c, _ = _peaks(_slot_at(fs.rpm_points, rpm))
-            cog.append([fs.mass_model, f"{rpm:.0f}", mm(qs_s), mm(qs_c), f"{peak_ratio(qs_c, qs_s):.3f}",
-                        mm(dy_s), mm(dy_c),
-                        f"{peak_ratio(dy_c, dy_s):.3f}" if math.isfinite(peak_ratio(dy_c, dy_s)) else "-"])
+def claims_rows(c: Claims) -> tuple[list[list[str]], list[list[str]]]:
+    """(doubling rows, cognate rows) of the claims' findings."""
+    dbl = [[_name(fs), fs.mass_model, f"{a.r:.3f} / {b.r:.3f}", mm(a.qs_peak), mm(b.qs_peak),
+            f"{peak_ratio(b.qs_peak, a.qs_peak):.3f}", mm(a.dyn_peak), mm(b.dyn_peak),
+            _ratio(peak_ratio(b.dyn_peak, a.dyn_peak)), f"{pct(a.error, '.0f')} / {pct(b.error, '.0f')}",
+            "; ".join(f"dyn. failed ({x.failure})" for x in (a, b) if x.failure is not None)]
+           for fs, a, b in c.doubling]
+    cog = [[fs.mass_model, f"{s.rpm:.0f}", mm(s.qs_peak), mm(k.qs_peak), f"{peak_ratio(k.qs_peak, s.qs_peak):.3f}",
+            mm(s.dyn_peak), mm(k.dyn_peak), _ratio(peak_ratio(k.dyn_peak, s.dyn_peak))] for fs, s, k in c.cognate]
     return dbl, cog
 
 
-def claims_text(summaries: Sequence[FamilySummary]) -> list[str]:
-    """Generated sentences on the two thesis claims."""
-    fams = [fs for fs in summaries if fs.rpm_points and fs.damping == 0.02 and fs.direction == "ccw"]
-    dyn, err, qs = [], [], []
-    for fs in fams:
-        a, b = (_slot_at(fs.rpm_points, x) for x in THESIS_RPM)
-        q3, d3, _ = _peaks(a)
-        q4, d4, _ = _peaks(b)
-        qs.append(peak_ratio(q4, q3))
-        if math.isfinite(peak_ratio(d4, d3)):
-            dyn.append((peak_ratio(d4, d3), fs))
-        if a is not None and a.ok:
-            err.append((a.errors.history, fs))
+def claims_text(c: Claims) -> list[str]:
+    """Sentences on the two thesis claims, from their findings."""
+    qs = [peak_ratio(b.qs_peak, a.qs_peak) for _, a, b in c.doubling]
+    dyn = [(peak_ratio(b.dyn_peak, a.dyn_peak), fs) for fs, a, b in c.doubling]
+    dyn = [(x, fs) for x, fs in dyn if math.isfinite(x)]
+    err = [(a.error, fs) for fs, a, _ in c.doubling if math.isfinite(a.error)]
     out = []
     if dyn:
         lo, hi = min(dyn, key=lambda t: t[0]), max(dyn, key=lambda t: t[0])
@@ -249,15 +213,16 @@ def claims_text(summaries: Sequence[FamilySummary]) -> list[str]:
     return out
 
 
-def cognate_text(rows: Sequence[Sequence[str]]) -> list[str]:
-    """Generated sentence on the cognate claim from the cognate table rows."""
-    qs = [float(r[4]) for r in rows if r[4] != "-"]
-    dyn = [(float(r[7]), r) for r in rows if r[7] != "-"]
+def cognate_text(c: Claims) -> list[str]:
+    """The sentence on the cognate claim, from its findings."""
+    qs = [x for x in (peak_ratio(k.qs_peak, s.qs_peak) for _, s, k in c.cognate) if math.isfinite(x)]
+    dyn = [(peak_ratio(k.dyn_peak, s.dyn_peak), fs, s.rpm) for fs, s, k in c.cognate]
+    dyn = [t for t in dyn if math.isfinite(t[0])]
     if not qs or not dyn:
         return []
-    same = [f"{r[0]} at {r[1]} rpm ({v:.3f})" for v, r in dyn if abs(v - 1.0) < 0.1]
+    same = [f"{fs.mass_model} at {rpm:.0f} rpm ({v:.3f})" for v, fs, rpm in dyn if abs(v - 1.0) < 0.1]
     return ["", f"Cognate / source peak: quasi-static {min(qs):.3f} ... {max(qs):.3f}, dynamic "
-            f"{min(v for v, _ in dyn):.3f} ... {max(v for v, _ in dyn):.3f}. The claim holds in "
+            f"{min(v for v, _, _ in dyn):.3f} ... {max(v for v, _, _ in dyn):.3f}. The claim holds in "
             f"{len(dyn) - len(same)} of {len(dyn)} solved comparisons"
             + (f"; the peaks agree within 10 % dynamically for {', '.join(same)}." if same else ".")]
 
@@ -414,20 +379,21 @@ def _rule_part(ref: Sequence[FamilySummary]) -> list[str]:
 
 def _claims_part(summaries: Sequence[FamilySummary]) -> list[str]:
     L: list[str] = []
-    dbl, cog = claims_rows(summaries)
+    found = claims(summaries)
+    dbl, cog = claims_rows(found)
     if dbl:
         L += ["", "### The thesis's claims, checked with dynamics", ""]
         L += ["'The deflection doubles for +100 rpm (300 -> 400 rpm)': peak |d| of P [mm]; quasi-static "
               "ratios are (4/3)^2 by construction:", ""]
         L += table(["linkage", "mass model", "r at 300 / 400 rpm", "qs 300", "qs 400", "qs ratio", "dyn 300",
                      "dyn 400", "dyn ratio", "history error 300 / 400", "note"], dbl)
-    L += claims_text(summaries)
+    L += claims_text(found)
     if cog:
         L += ["", "'The cognate does not share the source's KED deflection': peak |d| of P [mm] at the same "
               "crank speed:", ""]
         L += table(["mass model", "rpm", "source qs", "cognate qs", "qs cognate/source", "source dyn",
                      "cognate dyn", "dyn cognate/source"], cog)
-    L += cognate_text(cog)
+    L += cognate_text(found)
     return L
 
 

@@ -25,6 +25,7 @@ from compare.limits import (
     errors,
     harmonic_spectrum,
     one_mode_limit,
+    peak_of,
     validity_limit,
 )
 from compare.studies.validity_data import Point
@@ -240,3 +241,49 @@ def answer(ref: Sequence[FamilySummary]) -> Answer:
                   within_mass_model=max((max(v) - min(v) for v in by_mm.values()), default=math.nan),
                   history10={m: (min(v), max(v)) for m, v in by_mm.items()},
                   shifts=tuple(x for x in shifts if math.isfinite(x)))
+
+
+THESIS_RPM = (300.0, 400.0)
+"""The thesis's two crank speeds [rpm] whose deflections it compares."""
+
+
+@dataclass(frozen=True, eq=False)
+class AtRpm:
+    """One family's scene at a crank speed [rpm]: speed ratio r [1], quasi-static and dynamic peaks |d| of P
+    [m] (nan: no scene, or the dynamic model failed), history error [1] (nan: no dynamic solution) and the
+    exception type of a failed dynamic run (None if it solved or there is no scene)."""
+
+    rpm: float
+    r: float
+    qs_peak: float
+    dyn_peak: float
+    error: float
+    failure: str | None
+
+
+@dataclass(frozen=True, eq=False)
+class Claims:
+    """The thesis's claims checked with dynamics: per thesis family (2 % damping, ccw, with rpm scenes)
+    its scenes at 300 and 400 rpm; per cognate family with a source twin, (source, cognate) at each rpm."""
+
+    doubling: tuple[tuple[FamilySummary, AtRpm, AtRpm], ...]
+    cognate: tuple[tuple[FamilySummary, AtRpm, AtRpm], ...]
+
+
+def at_rpm(fs: FamilySummary, rpm: float) -> AtRpm:
+    """The family's scene at ``rpm`` (all nan when it has none)."""
+    s = next((s for s in fs.rpm_points if s.point.spec.speed.value == rpm), None)
+    if s is None:
+        return AtRpm(rpm, math.nan, math.nan, math.nan, math.nan, None)
+    return AtRpm(rpm, s.r, peak_of(s.point.qs), peak_of(s.point.dyn) if s.ok else math.nan,
+                 s.errors.history if s.ok else math.nan, None if s.ok else s.point.error_type)
+
+
+def claims(summaries: Sequence[FamilySummary]) -> Claims:
+    """The findings behind the two thesis claims (doubling for +100 rpm; the cognate's different deflection)."""
+    fams = [fs for fs in summaries if fs.rpm_points and fs.damping == 0.02 and fs.direction == "ccw"]
+    src = {(fs.linkage, fs.mass_model): fs for fs in fams if fs.mechanism == "source"}
+    return Claims(
+        doubling=tuple((fs, *(at_rpm(fs, x) for x in THESIS_RPM)) for fs in fams),
+        cognate=tuple((fs, at_rpm(src[(fs.linkage, fs.mass_model)], rpm), at_rpm(fs, rpm)) for fs in fams
+                      if fs.mechanism == "cognate" and (fs.linkage, fs.mass_model) in src for rpm in THESIS_RPM))
