@@ -83,8 +83,10 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
 
 
 def _table(opts: SceneOptions, scene: Any, res: Any, out: dict[str, Any]) -> None:
-    click.echo(f"Linear KED steady-state deflection of P: {opts.describe()}")
-    click.echo(f"{res.message}; r = Omega/omega1_min = {res.speed_ratio:.3g}; {res.wall_s * 1e3:.1f} ms")
+    from ked_cli.quasi import _wrap
+
+    click.echo(_wrap(f"Linear KED steady-state deflection of P: {opts.describe()}"))
+    click.echo(_wrap(f"{res.message}; r = Omega/omega1_min = {res.speed_ratio:.3g}; {res.wall_s * 1e3:.1f} ms"))
     if not res.stable:
         return
     if not out["valid"]:
