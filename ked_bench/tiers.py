@@ -4,7 +4,7 @@ For each crank speed Omega the reference (:func:`ked_bench.simeon.steady_state`:
 its damping matrix, marched from a rigid start to its periodic steady state) gives q1(theta), the rod's
 lateral midspan deflection relative to its chord over one crank cycle.  The harness's tiers give the same
 quantity on the same crank angles for the preset ``--linkage simeon`` (``ked_quasi.simeon_slider_crank``,
-rod mass in ``lumps`` midpoint lumps, the slider mass at B):
+the rod's mass in midpoint lumps, :data:`QS_LUMPS` and :data:`LUMPS`, the slider mass at B):
 
 * quasi-static: ``ked_quasi.slider_static.solve_slider_quasi_static(...).midspan``;
 * linear KED: ``ked_linear.solve_linear(...).midspan`` with the reference's damping, the first-mode ratio
@@ -31,8 +31,12 @@ SPEEDS = tuple(float(w) for w in range(25, 325, 25))
 """The crank speeds of the benchmark sweep [rad/s]: 25, 50, ..., 300."""
 
 LUMPS = 16
-"""Midpoint lumps of the rod's mass in the harness's models of the benchmark (the lumping changes the
-linear tier's peak by 0.1 % of the peak from 16 to 32 lumps at 150 rad/s; docs/linear_model.md)."""
+"""Midpoint lumps of the rod's mass in the linear tier of the benchmark (its cost grows as the cube of the
+coordinates; the lumping error at 16 lumps is ~0.15 % of the peak, docs/linear_model.md)."""
+
+QS_LUMPS = 128
+"""Midpoint lumps of the rod's mass in the quasi-static tier of the benchmark (cheap: converged, so that its
+error is the dynamic part it misses plus the reference's two-mode difference)."""
 
 
 def reference_damping_ratio() -> float:
@@ -67,7 +71,7 @@ def linear_settings(prestress: bool = False):
                           prestress=prestress)
 
 
-def quasi_static_midspan(omega: float, samples: int = 72, lumps: int = LUMPS) -> np.ndarray:
+def quasi_static_midspan(omega: float, samples: int = 72, lumps: int = QS_LUMPS) -> np.ndarray:
     """The quasi-static tier's midspan deflection [m] at ``samples`` crank angles from 0."""
     from ked_quasi.slider_static import solve_slider_quasi_static
 
@@ -126,7 +130,7 @@ def compare_speed(omega: float, reference: SteadyState | None = None, lumps: int
     ref = steady_state(omega) if reference is None else reference
     n = ref.crank_angle.size
     notes: list[str] = []
-    qs = history_error(quasi_static_midspan(omega, n, lumps), ref.midspan)
+    qs = history_error(quasi_static_midspan(omega, n), ref.midspan)
     lin_errors, status = [], "ok"
     for prestress in (False, True):
         res = linear_midspan(omega, n, lumps, prestress)
@@ -147,6 +151,6 @@ def compare_speed(omega: float, reference: SteadyState | None = None, lumps: int
                            notes=tuple(notes))
 
 
-__all__ = ["LUMPS", "SPEEDS", "SpeedComparison", "compare_speed", "exudyn_midspan", "linear_midspan",
+__all__ = ["LUMPS", "QS_LUMPS", "SPEEDS", "SpeedComparison", "compare_speed", "exudyn_midspan", "linear_midspan",
            "linear_settings", "quasi_static_midspan", "reference_damping_ratio", "reference_first_bending_hz",
            "simeon_scene"]
