@@ -70,6 +70,19 @@ def test_cli_speeds_option_refuses_bad_ranges_in_one_line():
         assert "--speeds" in res.stderr and "Traceback" not in res.stderr
 
 
+def test_text_output_fits_100_columns(capsys):
+    from ked_cli.benchmark import _speeds_table
+
+    res = subprocess.run([sys.executable, "-m", "ked_cli", "benchmark", "simeon", "--speeds", "none"],
+                         capture_output=True, text=True, check=True)
+    row = {"omega_rad_s": 300.0, "speed_ratio": 0.235, "reference_peak_m": 7.8e-3, "quasi_static_error": 0.266,
+           "linear_error": 0.0028, "linear_prestressed_error": 1.5311, "dynamic_error": None,
+           "notes": ["dynamic: the Exudyn model of the slider-crank is not available yet"]}
+    _speeds_table([row])
+    for text in (res.stdout, capsys.readouterr().out):
+        assert max(len(line) for line in text.splitlines()) <= 100
+
+
 @pytest.mark.slow
 def test_full_sweep_json_contract_and_linear_within_2_percent_up_to_r_0_15():
     # The benchmark: 25..300 rad/s step 25 (default --speeds), each reference marched to its
