@@ -73,7 +73,11 @@ def test_output_map_gives_the_quasi_static_deflection_of_p_and_the_midspan(name,
         assert np.max(np.abs(y[:, col] - ref)) < 1e-8 * np.max(np.abs(ref)) + 1e-12 * scale
 
 
-@pytest.mark.parametrize("name,sc,mm", SCENES[::2], ids=[s[0] for s in SCENES[::2]])
+LOW_SPEED = [*SCENES[::2], ("elastic crank, offset, cw", replace(elastic_crank(0.02), direction="cw"),
+                             MassModel("distributed", lumps=3))]
+
+
+@pytest.mark.parametrize("name,sc,mm", LOW_SPEED, ids=[s[0] for s in LOW_SPEED])
 def test_low_speed_limit_is_the_quasi_static_solution(name, sc, mm):
     # Limit: at r ~ 1e-3 the inertia of the elastic motion changes the answer by ~(k r)^2 and the damping by
     # ~2 zeta k r per crank harmonic k of the load (k <= 3 carry it): bound 6 zeta r; the quasi-static solver
@@ -121,6 +125,16 @@ def test_frozen_frequency_is_the_pinned_pinned_rod():
     f = slider_frozen_frequencies(scene)[:, 0]
     exact = (np.pi / sc.coupler) ** 2 * math.sqrt(rod.bending_stiffness / rod.mass_per_length) / (2 * np.pi)
     np.testing.assert_allclose(f, exact, rtol=1e-3)
+
+
+def test_linkage_system_dispatches_a_slider_crank():
+    from ked_linear import linkage_system
+
+    scene = SliderScene(simeon_slider_crank(), MassModel("distributed", lumps=4), rpm=300.0, step_deg=30.0)
+    ls = linkage_system(scene, LinearSettings(damping_reference_hz=200.0))
+    # 4 rod lumps (x, y) and the slider along its line; outputs dx, dy, rotation, midspan
+    assert ls.system.mass.size == 9 and ls.damping_reference_hz == 200.0
+    assert ls.system.coefficients(scene.crank_angles).output.shape == (12, 4, 9)
 
 
 def test_rigid_coupler_is_refused_in_one_line():
