@@ -98,6 +98,8 @@ def test_full_sweep_json_contract_and_linear_within_2_percent_up_to_r_0_15():
         assert r["dynamic_error"] is None
         if r["speed_ratio"] <= 0.15:
             assert r["linear_error"] < 0.02, r
-    # the quasi-static error grows with the speed (the dynamic part it misses, ~ r^2)
-    qs = [r["quasi_static_error"] for r in rows]
-    assert all(b > a for a, b in zip(qs, qs[1:]))
+    # the quasi-static error grows with the speed (the dynamic part it misses, ~ r^2) below the first
+    # harmonic resonances k r = 1 of the rod's first mode (k <= 6 carry the load: r < 1/6); near r = 0.2
+    # (k = 5) it need not (measured: 24.3 % at r = 0.196, 24.1 % at 0.215)
+    qs = [r["quasi_static_error"] for r in rows if r["speed_ratio"] < 1 / 6]
+    assert len(qs) == 8 and all(b > a for a, b in zip(qs, qs[1:]))
