@@ -193,24 +193,17 @@ def solve_slider(scene: Any) -> tuple[dict[str, Any], list[str]]:
     return {**out, "midspan_m": res.midspan.tolist()}, msgs
 
 
-def _wrap(text: str) -> str:
-    """``text`` in lines of at most 100 columns, continuation lines indented."""
-    import textwrap
-
-    return textwrap.fill(text, width=100, subsequent_indent="  ", break_on_hyphens=False)
-
-
 def _slider_table(opts: SceneOptions, scene: Any, out: dict[str, Any]) -> None:
     mm, sc = scene.mass_model, scene.linkage
     rigid = [lk for lk, r in zip(("crank", "coupler"), sc.rigid) if r]
-    click.echo(_wrap(f"Quasi-static deflection of a slider-crank: {opts.linkage} (crank {sc.crank:g} m, coupler "
+    click.echo(wrap(f"Quasi-static deflection of a slider-crank: {opts.linkage} (crank {sc.crank:g} m, coupler "
                f"{sc.coupler:g} m, offset {sc.offset:g} m, coupler point at {sc.coupler_point:g} of the coupler, "
                f"slider "
                f"{sc.slider_mass:g} kg" + (f", rigid {' and '.join(rigid)}" if rigid else "") + f"), mass model "
                f"{mm.name}" + (f" ({mm.lumps} lumps per link)" if mm.name == "distributed" else "")
                + (f", payload {mm.payload:g} kg" if mm.payload else "")
                + f", {scene.rpm:g} rpm ({scene.omega:.4g} rad/s), step {scene.step_deg:g} deg"))
-    click.echo(_wrap("theta: crank angle CCW from +x (0: slider at its far dead centre when the offset is 0); dx, dy: "
+    click.echo(wrap("theta: crank angle CCW from +x (0: slider at its far dead centre when the offset is 0); dx, dy: "
                      "elastic displacement of P in the global frame; rot: elastic rotation of the section at P "
                      "(CCW +); mid: coupler midspan deflection normal to its chord (CCW normal of A->B); f1: first "
                      "natural frequency of the frozen linkage; mu: transmission angle"))
