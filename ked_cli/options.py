@@ -136,7 +136,7 @@ def _refuse_slider_crank(linkage: str) -> None:
     except ValueError:
         slider = True
     if slider is not None:
-        raise click.BadParameter(f"{linkage}: this command does not take a slider-crank yet ('ked quasi', "
+        raise click.BadParameter(f"{linkage}: this command does not take a slider-crank yet ('ked quasi', 'linear', "
                                  "'simulate', 'check' and 'run' do); it takes a four-bar: thesis or a TOML file "
                                  "with a four-bar [linkage] table", param_hint="--linkage")
 
@@ -200,6 +200,19 @@ def refuse_fast(fourbar: Any, mass_model: Any, rpms: list[float], step_deg: floa
             check_speed(fourbar, mass_model, max(rpms), step_deg, label="value")
         except ValueError as exc:
             raise click.BadParameter(str(exc).removeprefix("value = "), param_hint=hint) from None
+
+
+WIDTH = 100
+"""Columns of every human-readable line a command prints."""
+
+
+def wrap(text: str, indent: str = "  ") -> str:
+    """``text`` in lines of at most :data:`WIDTH` columns, continuation lines indented (long words,
+    e.g. paths, are never split)."""
+    import textwrap
+
+    return textwrap.fill(text, width=WIDTH, subsequent_indent=indent, break_on_hyphens=False,
+                         break_long_words=False)
 
 
 def json_text(value: Any, **dumps: Any) -> str:

@@ -12,11 +12,13 @@ import json
 import math
 from dataclasses import replace
 
+import click
 import numpy as np
 import pytest
 from click.testing import CliRunner
 
 from ked_cli.main import cli
+from ked_cli.options import load_source
 from ked_quasi import MassModel
 from ked_quasi.linkage import Section
 from ked_quasi.slider_static import solve_slider_quasi_static, stiffness_deflections
@@ -286,6 +288,8 @@ def test_other_commands_refuse_a_slider_crank_in_one_line(tmp_path):
     path = tmp_path / "slider.toml"
     path.write_text(TOML)
     for linkage in ("simeon", str(path)):
-        res = CliRunner().invoke(cli, ["linear", "--linkage", linkage])
-        assert res.exit_code == 2 and "does not take a slider-crank yet" in res.output
+        with pytest.raises(click.BadParameter, match="does not take a slider-crank"):
+            load_source(linkage)  # the four-bar-only code paths refuse it in one line (every command dispatches first)
+        res = CliRunner().invoke(cli, ["simulate", "--linkage", linkage, "--mechanism", "cognate"])
+        assert res.exit_code == 2 and "no Roberts cognate" in res.output
         assert "Traceback" not in res.output
