@@ -7,7 +7,6 @@ stored results file and against the default campaign's keys before the slider-cr
 from __future__ import annotations
 
 import hashlib
-import importlib.util
 import json
 import math
 
@@ -113,14 +112,14 @@ def test_campaign_scene_is_the_solvers_answer():
     assert np.allclose(r.coupler_point[0], [0.3, 0.0])  # P at the rod's midspan at crank angle 0
 
 
-def test_linear_solver_on_a_slider_scene_is_an_input_failure_until_modelled():
-    if importlib.util.find_spec("ked_linear.slider") is not None:
-        pytest.skip("the linear slider-crank model exists: its own tests cover it")
+def test_linear_solver_runs_a_slider_scene_through_the_registry():
+    """The registry's linear solver on a slider-crank scene (ked_linear.slider) stores an answer with the
+    slider-crank's validity flags; at r = 0.04 it is within 2 % of the quasi-static answer (the dynamic part
+    is ~r^2 of it, a few harmonics amplified: measured 1 % by the reference model at 50 rad/s)."""
     spec = spec_for(simeon_slider_crank(), "source", MassModel("distributed", lumps=5, payload=0.0), 477.5)
     r = run_scene(spec, [get("quasi_static"), get("linear")])
-    lin = r.solutions["linear"]
-    assert not lin.ok and lin.failure_class == "input" and "slider-crank" in lin.message
-    assert r.solutions["quasi_static"].ok
+    assert r.ok, r.message
+    assert r.metrics["quasi_static_vs_linear"].verdict_error < 0.02
 
 
 def test_cli_simulate_simeon():

@@ -3,18 +3,11 @@ elastic motion, periodic steady state solved directly, stability from the Floque
 
 from __future__ import annotations
 
-import importlib.util
 from typing import Any
 
 import numpy as np
 
 from compare.solvers import COMPONENTS, STATUS_FAILED, STATUS_OK, Solution, Solver, register
-
-
-class NotModelled(ValueError):
-    """A scene this solver does not model (stored as a failure of class "input")."""
-
-    failure_class = "input"
 
 
 def settings_class() -> type:
@@ -41,9 +34,7 @@ def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Sol
     multiplier as evidence; a weakly damped stable one carries the flag "weakly_damped"."""
     from ked_linear import describe_flags, result_flags, solve_linear
 
-    if not hasattr(scene, "fourbar") and importlib.util.find_spec("ked_linear.slider") is None:
-        raise NotModelled("the linear KED model of a slider-crank is not available in this version")
-    res = solve_linear(scene, settings)
+    res = solve_linear(scene, settings)  # a slider-crank scene dispatches to ked_linear.slider
     stats = {"wall_s": float(res.wall_s), "floquet_max_abs": float(res.floquet_max_abs),
              "floquet_error": float(res.floquet_error), "floquet_steps": int(res.floquet_steps),
              "harmonics": int(res.harmonics), "collocation_points": int(res.collocation_points),
@@ -53,8 +44,9 @@ def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Sol
         return Solution(SOLVER.name, STATUS_FAILED, stats=stats, message=res.message,
                         error_type="Marginal" if res.status == "marginal" else "Unstable", failure_class="physical")
     d = np.asarray(res.deflection, dtype=float)
-    flags = result_flags(res, scene.fourbar)
-    note = describe_flags(flags, res, scene.fourbar)
+    linkage = getattr(scene, "fourbar", None) or scene.linkage  # a four-bar, or a slider-crank
+    flags = result_flags(res, linkage)
+    note = describe_flags(flags, res, linkage)
     return Solution(SOLVER.name, STATUS_OK, {c: d[:, COMPONENTS.index(c)].copy() for c in outputs}, stats=stats,
                     flags=flags, warnings=note)
 
