@@ -168,3 +168,39 @@ def test_regression_pin_default_campaign_histories(key):
         peak = np.max(np.linalg.norm(res.deflection[:, g], axis=1))
         assert np.max(np.linalg.norm(got[:, g] - pinned[:, g], axis=1)) < 1e-3 * peak
     assert abs(res.floquet_max_abs - mu) < 1e-3
+
+
+class _Terminal:
+    """A stderr that says it is a terminal and keeps what is written to it."""
+
+    def __init__(self, tty: bool):
+        self.tty, self.parts = tty, []
+
+    def isatty(self) -> bool:
+        return self.tty
+
+    def write(self, text: str) -> int:
+        self.parts.append(text)
+        return len(text)
+
+    def flush(self) -> None:
+        return None
+
+
+@pytest.mark.parametrize("tty", [True, False])
+def test_check_progress_bar_only_on_a_terminal(tty, monkeypatch):
+    # a check over several speeds shows a tqdm bar on stderr once it has run PROGRESS_DELAY_S (here 0:
+    # at once) when stderr is a terminal, and writes nothing to a file or pipe
+    import sys
+
+    from compare import check as chk
+    from ked_quasi.linkage import thesis_fourbar
+    from ked_quasi.massmodel import MassModel, default_payload
+
+    err = _Terminal(tty)
+    monkeypatch.setattr(sys, "stderr", err)
+    monkeypatch.setattr(chk, "PROGRESS_DELAY_S", 0.0)
+    rows = chk.check(thesis_fourbar(), "source", MassModel("tip", payload=default_payload("tip")), [50.0, 100.0])
+    assert [r.rpm for r in rows] == [50.0, 100.0]
+    text = "".join(err.parts)
+    assert ("ked check" in text and "0/2" in text) if tty else text == ""  # the bar at its start
