@@ -610,20 +610,32 @@ def _compact(co: Coefficients, symmetric: tuple[bool, ...]) -> np.ndarray:
 
 
 def _expand(flat: np.ndarray, layout: tuple[tuple[int, ...], ...], symmetric: tuple[bool, ...]) -> Coefficients:
-    """Inverse of :func:`_compact`."""
+    """Inverse of :func:`_compact` (a symmetric field by one gather of its triangle's columns)."""
     parts, start, m = [], 0, flat.shape[0]
     for shape, sym in zip(layout, symmetric):
         if sym:
-            i, j = np.triu_indices(shape[0])
-            f = np.empty((m,) + shape)
-            f[:, i, j] = f[:, j, i] = flat[:, start:start + i.size]
-            start += i.size
+            index = _triangle_index(shape[0])
+            parts.append(np.take(flat[:, start:start + index.max() + 1], index, axis=1).reshape((m,) + shape))
+            start += shape[0] * (shape[0] + 1) // 2
         else:
             size = int(np.prod(shape))
-            f = flat[:, start:start + size].reshape((m,) + shape)
+            parts.append(flat[:, start:start + size].reshape((m,) + shape))
             start += size
-        parts.append(f)
     return _coefficients(parts)
+
+
+_TRIANGLES: dict[int, np.ndarray] = {}
+
+
+def _triangle_index(n: int) -> np.ndarray:
+    """For each entry (i, j) of an n x n matrix, row-major, its column in the upper triangle's list
+    ``np.triu_indices(n)`` (of (min, max))."""
+    if n not in _TRIANGLES:
+        i, j = np.triu_indices(n)
+        where = np.empty((n, n), dtype=np.intp)
+        where[i, j] = where[j, i] = np.arange(i.size)
+        _TRIANGLES[n] = where.ravel()
+    return _TRIANGLES[n]
 
 
 def _pack(co: Coefficients) -> tuple[np.ndarray, tuple[tuple[int, ...], ...]]:

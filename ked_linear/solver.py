@@ -5,7 +5,7 @@ from __future__ import annotations
 import contextlib
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -13,7 +13,7 @@ from ked_quasi.scene import Scene
 from ked_quasi.solver import natural_frequencies
 
 from .floquet import floquet
-from .linkage import frozen_frequencies, linkage_system
+from .linkage import frequencies_of, linkage_system
 from .periodic import steady_state
 from .settings import HARMONICS, LinearSettings
 
@@ -207,7 +207,11 @@ def _solve_linear(scene: Scene, settings: LinearSettings | None) -> LinearResult
         raise ValueError(f"mass model: the linear KED model takes at most {MAX_COORDINATES // 2} moving lumps "
                          f"({MAX_COORDINATES} coordinates: its memory grows as their square times the Floquet "
                          f"steps); this scene has {size // 2}: use fewer lumps per link")
-    ls = linkage_system(scene, settings)
+    # the unstressed first frozen frequency on the grid: the speed ratio's omega1_min and, by default, the
+    # damping reference (its mean, as ked_quasi.damping.damping_reference_hz): computed once for both
+    f1 = natural_frequencies(scene, n_modes=1)[:, 0]
+    f_ref = float(np.mean(f1)) if settings.damping_reference_hz is None else settings.damping_reference_hz
+    ls = linkage_system(scene, replace(settings, damping_reference_hz=f_ref))
     theta = scene.crank_angles
     ss = steady_state(ls.system, theta, settings.tolerance, settings.harmonics, settings.max_harmonics,
                       OUTPUT_GROUPS)
@@ -219,7 +223,6 @@ def _solve_linear(scene: Scene, settings: LinearSettings | None) -> LinearResult
     marginal = not stable and settings.damping_ratio == 0.0 and fl.max_abs - 1.0 <= err
     status = "ok" if stable else "marginal" if marginal else "unstable"
     deflection = ss.output if stable else np.full_like(ss.output, np.nan)
-    f1 = natural_frequencies(scene, n_modes=1)[:, 0]
     return LinearResult(
         crank_angle=theta, deflection=deflection, status=status, stable=stable,
         message=_message(status, fl.max_abs, fl.error_estimate, ss.error_estimate, settings.tolerance,
@@ -228,6 +231,7 @@ def _solve_linear(scene: Scene, settings: LinearSettings | None) -> LinearResult
         harmonics=ss.solution.harmonics, collocation_points=ss.solution.points, error_estimate=ss.error_estimate,
         damping_reference_hz=ls.damping_reference_hz, damping_beta=ls.damping_beta,
         speed_ratio=float(scene.omega / (2.0 * np.pi * np.min(f1))),
-        frozen_f1_hz=frozen_frequencies(scene, theta, settings.prestress)[:, 0], settings=settings,
+        frozen_f1_hz=frequencies_of(ls.system.coefficients(theta).stiffness, ls.system.mass)[:, 0],
+        settings=settings,
         wall_s=time.perf_counter() - t0,
     )
