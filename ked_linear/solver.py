@@ -171,6 +171,28 @@ def elastic_coordinates(scene: Scene) -> int:
 
 _CONTROLLERS: dict[bool, object] = {}
 
+RECALLED = 4
+"""Linear systems (with their sampled coefficients) and Floquet results kept for a repeated solve of the
+same scene with other periodic-solve settings (``ked check`` solving again with more harmonics): the
+system and its multipliers do not depend on them."""
+
+_RECALL: dict[tuple, object] = {}
+
+
+def _recall(key: tuple, compute):
+    """compute() once per key among the last :data:`RECALLED` of each kind (key[0]); a key that cannot be
+    hashed is computed every time."""
+    try:
+        hash(key)
+    except TypeError:
+        return compute()
+    if key not in _RECALL:
+        same_kind = [k for k in _RECALL if k[0] == key[0]]
+        for k in same_kind[:max(0, len(same_kind) - RECALLED + 1)]:
+            del _RECALL[k]
+        _RECALL[key] = compute()
+    return _RECALL[key]
+
 
 def single_threaded_blas() -> contextlib.AbstractContextManager:
     """A context in which BLAS/LAPACK run on one thread (``threadpoolctl``; a no-op without it).
@@ -211,11 +233,13 @@ def _solve_linear(scene: Scene, settings: LinearSettings | None) -> LinearResult
     # damping reference (its mean, as ked_quasi.damping.damping_reference_hz): computed once for both
     f1 = natural_frequencies(scene, n_modes=1)[:, 0]
     f_ref = float(np.mean(f1)) if settings.damping_reference_hz is None else settings.damping_reference_hz
-    ls = linkage_system(scene, replace(settings, damping_reference_hz=f_ref))
+    system_key = (scene, settings.damping_ratio, f_ref, settings.prestress)
+    ls = _recall(("system", *system_key), lambda: linkage_system(scene, replace(settings, damping_reference_hz=f_ref)))
     theta = scene.crank_angles
     ss = steady_state(ls.system, theta, settings.tolerance, settings.harmonics, settings.max_harmonics,
                       OUTPUT_GROUPS)
-    fl = floquet(ls.system, settings.floquet_tolerance, settings.floquet_steps)
+    fl = _recall(("floquet", *system_key, settings.floquet_tolerance, settings.floquet_steps),
+                 lambda: floquet(ls.system, settings.floquet_tolerance, settings.floquet_steps))
     # the uncertainty counts against stability: a multiplier within its error of 1 is no attracting orbit
     err = fl.error_estimate if np.isfinite(fl.error_estimate) else 0.0
     stable = bool(fl.max_abs + err < 1.0)

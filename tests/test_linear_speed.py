@@ -204,3 +204,34 @@ def test_check_progress_bar_only_on_a_terminal(tty, monkeypatch):
     assert [r.rpm for r in rows] == [50.0, 100.0]
     text = "".join(err.parts)
     assert ("ked check" in text and "0/2" in text) if tty else text == ""  # the bar at its start
+
+
+def test_blas_single_threaded_inside_solve():
+    # the linear model's small batched matrix operations run on one BLAS thread (threadpoolctl's own
+    # report of every loaded BLAS library), and the limit is lifted afterwards
+    from threadpoolctl import threadpool_info
+
+    from ked_linear.solver import single_threaded_blas
+
+    before = [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+    with single_threaded_blas():
+        assert all(i["num_threads"] == 1 for i in threadpool_info() if i["user_api"] == "blas")
+    assert [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"] == before
+
+
+def test_recalled_system_and_multipliers_give_the_fresh_answer(monkeypatch):
+    # a second solve of the same scene with more harmonics reuses the linear system and its Floquet
+    # multipliers (they do not depend on the periodic solve's settings): the answer equals a solve from
+    # scratch (the recall emptied) to round-off
+    from ked_linear import solver
+    from ked_quasi.presets import make_scene
+
+    scene = make_scene(mass_model="joints", rpm=150.0)
+    monkeypatch.setattr(solver, "_RECALL", {})
+    solve_linear(scene, LinearSettings(max_harmonics=16))
+    again = solve_linear(scene, LinearSettings(max_harmonics=32))
+    assert len(solver._RECALL) == 2
+    monkeypatch.setattr(solver, "_RECALL", {})
+    fresh = solve_linear(scene, LinearSettings(max_harmonics=32))
+    assert again.floquet_max_abs == fresh.floquet_max_abs and again.harmonics == fresh.harmonics
+    np.testing.assert_allclose(again.deflection, fresh.deflection, rtol=0, atol=1e-12 * np.abs(fresh.deflection).max())
