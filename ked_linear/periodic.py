@@ -470,7 +470,7 @@ class SampledCoefficients:
     within ``tolerance`` (:func:`_field_error`), the 2 G samples (grid and midpoints) are kept, so the
     interpolant is exact at them and, the series converging geometrically, far within ``tolerance``
     elsewhere.  Two forms are tried on the same samples: the coefficients themselves ("stiffness"), and
-    the compliance form K^-1, K^-1 C, K^-1 f, output K^-1 ("flexibility", K etc. rebuilt per angle):
+    the compliance form K^-1, K^-1 C K^-1, K^-1 f, output K^-1 ("flexibility", K etc. rebuilt per angle):
     the frozen structure's flexibility is smooth even where its stiffness spikes (a lumped mass whose
     flexibility nearly vanishes in one direction).  Neither passing below ``max_points`` (a linkage
     near toggle), ``direct`` is used everywhere (``form`` "direct").
@@ -573,11 +573,14 @@ def _coefficients(fields: list[np.ndarray]) -> Coefficients:
 
 
 def _to_form(form: str, co: Coefficients) -> Coefficients:
-    """The sampled quantities of ``form``: the coefficients, or K^-1, K^-1 C, K^-1 f, output K^-1."""
+    """The sampled quantities of ``form``: the coefficients, or K^-1, K^-1 C K^-1, K^-1 f, output K^-1
+    (the damping congruent with the flexibility: smooth where C spikes with K, e.g. C = beta K_E of a
+    lump whose support stiffens 1000-fold within a few degrees near toggle, the thesis tip model)."""
     if form == "stiffness":
         return co
     F = np.linalg.inv(co.stiffness)
-    return Coefficients(stiffness=F, damping=F @ co.damping, load=_apply(F, co.load),
+    F = 0.5 * (F + np.swapaxes(F, 1, 2))
+    return Coefficients(stiffness=F, damping=F @ co.damping @ F, load=_apply(F, co.load),
                         output=None if co.output is None else co.output @ F)
 
 
@@ -587,7 +590,7 @@ def _from_form(form: str, co: Coefficients) -> Coefficients:
         return co
     K = np.linalg.inv(co.stiffness)
     K = 0.5 * (K + np.swapaxes(K, 1, 2))
-    return Coefficients(stiffness=K, damping=K @ co.damping, load=_apply(K, co.load),
+    return Coefficients(stiffness=K, damping=K @ co.damping @ K, load=_apply(K, co.load),
                         output=None if co.output is None else co.output @ K)
 
 
