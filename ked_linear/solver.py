@@ -212,9 +212,20 @@ def single_threaded_blas() -> contextlib.AbstractContextManager:
     return _CONTROLLERS[key].limit(limits=1, user_api="blas")
 
 
+def _is_slider(scene: object) -> bool:
+    from ked_quasi.slidercrank import SliderScene
+
+    return isinstance(scene, SliderScene)
+
+
 def solve_linear(scene: Scene, settings: LinearSettings | None = None) -> LinearResult:
-    """Periodic steady state of the linear KED model of ``scene`` (see docs/linear_model.md)."""
+    """Periodic steady state of the linear KED model of ``scene`` (see docs/linear_model.md); a slider-crank
+    scene goes to :func:`ked_linear.slider.solve_slider_linear`."""
     with single_threaded_blas():
+        if _is_slider(scene):
+            from .slider import solve_slider_linear
+
+            return solve_slider_linear(scene, settings)
         return _solve_linear(scene, settings)
 
 

@@ -11,15 +11,15 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
 from compare.config import CampaignConfig, load_config
+from compare.limits import ERROR_KINDS, TOLERANCES
+from compare.paths import CONFIG_DIR, StudyPaths, remove_outputs
 from compare.runner import run_campaign
 from compare.scenes import SceneSpec
-from compare.studies import CONFIG_DIR, StudyPaths, remove_outputs
-from compare.studies.sections import write_section
-from compare.studies.validity_analysis import ERROR_KINDS, TOLERANCES
+from compare.sections import write_section
 from compare.studies.validity_data import (
     RETRY_MAX_RATIO,
     RETRY_STEP_FACTOR,
@@ -62,8 +62,6 @@ def explicit_campaign(base: CampaignConfig, name: str, specs: Sequence[SceneSpec
 
 def with_dynamic(spec: SceneSpec, **overrides: object) -> SceneSpec:
     """The scene with some pinned ``[dynamic]`` settings changed (a new content key)."""
-    from dataclasses import replace
-
     d = dict(spec.dynamic)
     d.update(overrides)
     return replace(spec, dynamic=tuple(sorted(d.items())))
