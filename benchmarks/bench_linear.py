@@ -13,7 +13,12 @@ at 300 rpm uses --tip-damping (default 0.1) for every model: the Exudyn runs div
 of the coefficients K, C, f per crank angle (direct frame condensation against the interpolated
 coefficients the solver uses), and `ked check` end to end in a fresh process.
 
+With ``--against DIR`` it only times solve_linear of this checkout against the one in DIR (an older
+checkout, e.g. ``git worktree add /tmp/old main``), both in worker processes asked in turn, scene by
+scene (same run, same load): median CPU seconds of each, their ratio, default and 64-harmonic settings.
+
 Usage: .venv/bin/python benchmarks/bench_linear.py [--runs 3] [--mass-models tip,joints,...] [--rpm 100,300]
+       .venv/bin/python benchmarks/bench_linear.py --against DIR [--runs 5]
 """
 
 from __future__ import annotations
@@ -42,9 +47,18 @@ def error(d: np.ndarray, ref: np.ndarray) -> float:
     return float(np.linalg.norm(d[:, :2] - ref[:, :2], axis=1).max() / np.linalg.norm(ref[:, :2], axis=1).max())
 
 
+def forget() -> None:
+    """Empty solve_linear's recall of recent systems and multipliers (if this checkout has one): a
+    repeated solve of the same scene would otherwise time the recalled part as free."""
+    import sys
+
+    getattr(sys.modules.get("ked_linear.solver"), "_RECALL", {}).clear()
+
+
 def timed(fn, runs: int, *fn_args):
     walls, res = [], None
     for _ in range(runs):
+        forget()
         t0 = time.perf_counter()
         res = fn(*fn_args)
         walls.append(time.perf_counter() - t0)
@@ -90,8 +104,12 @@ def main() -> None:
     ap.add_argument("--rpm", default="100,300")
     ap.add_argument("--tip-damping", type=float, default=0.1)
     ap.add_argument("--no-scaling", action="store_true")
+    ap.add_argument("--against", default=None, metavar="DIR", help="time against the checkout in DIR only")
     args = ap.parse_args()
     warnings.simplefilter("ignore")
+    if args.against:
+        against(args)
+        return
     side_by_side(args)
     if not args.no_scaling:
         scaling(args)
@@ -164,6 +182,62 @@ def check_timing(args: argparse.Namespace) -> None:
                            check=True, capture_output=True)
             walls.append(time.perf_counter() - t0)
         print(f"  {mm:12s} {statistics.median(walls):6.2f}")
+
+
+
+WORKER = """
+import sys, time, warnings
+warnings.simplefilter("ignore")
+from ked_linear import LinearSettings, solve_linear
+from ked_quasi.presets import make_scene
+for line in sys.stdin:
+    mm, rpm, zeta, max_h = line.split()
+    scene = make_scene(mass_model=mm, rpm=float(rpm))
+    settings = LinearSettings(damping_ratio=float(zeta), max_harmonics=int(max_h))
+    getattr(sys.modules.get("ked_linear.solver"), "_RECALL", {}).clear()  # time every solve from scratch
+    t0, c0 = time.perf_counter(), time.process_time()
+    solve_linear(scene, settings)
+    print(time.perf_counter() - t0, time.process_time() - c0, flush=True)
+"""
+
+
+def against(args: argparse.Namespace) -> None:
+    """solve_linear here against the checkout ``args.against``: median CPU s per scene, in turn."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    here = str(Path(__file__).resolve().parents[1])
+    workers = {}
+    for name, root in (("new", here), ("old", str(Path(args.against).resolve()))):
+        env = dict(os.environ, PYTHONPATH=root)
+        workers[name] = subprocess.Popen([sys.executable, "-c", WORKER], stdin=subprocess.PIPE,
+                                         stdout=subprocess.PIPE, text=True, env=env, cwd=root)
+    print(f"solve_linear wall and CPU ms (all threads), median of {args.runs}, each asked in turn: this checkout "
+          f"(new) vs {args.against} (old)")
+    print(f"{'mass model':<12}{'rpm':>5}{'H max':>6}{'new wall':>9}{'old wall':>9}{'ratio':>7}{'new cpu':>9}"
+          f"{'old cpu':>9}{'ratio':>7}")
+    try:
+        for max_h in (32, 64):
+            for mm in args.mass_models.split(","):
+                for rpm in (float(x) for x in args.rpm.split(",")):
+                    zeta = args.tip_damping if (mm == "tip" and rpm >= 300) else 0.02
+                    walls: dict[str, list[list[float]]] = {"new": [], "old": []}
+                    for _ in range(args.runs + 1):  # the first run of each warms up (imports, caches)
+                        for name, w in workers.items():
+                            w.stdin.write(f"{mm} {rpm} {zeta} {max_h}\n")
+                            w.stdin.flush()
+                            walls[name].append([float(x) for x in w.stdout.readline().split()])
+                    row = f"{mm:<12}{rpm:5.0f}{max_h:6d}"
+                    for i in (0, 1):
+                        new, old = (1e3 * statistics.median(t[i] for t in walls[k][1:]) for k in ("new", "old"))
+                        row += f"{new:9.1f}{old:9.1f}{old / new:7.2f}"
+                    print(row, flush=True)
+    finally:
+        for w in workers.values():
+            w.stdin.close()
+            w.wait()
 
 
 if __name__ == "__main__":

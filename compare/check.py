@@ -35,6 +35,7 @@ scene again with up to :data:`MAX_HARMONICS` before judging, and says so in the 
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
@@ -304,21 +305,66 @@ def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, 
     rng = LinearRange() if slider else linear_range(mass_model.name)
     margins = VerdictMargins() if slider else verdict_margins(tolerance)
     rows = []
-    for rpm in rpms:
-        spec = spec_for(source, mechanism, mass_model, rpm, stiffness_scale=stiffness_scale,
-                        damping_ratio=damping_ratio, direction=direction, step_deg=step_deg, tolerance=tolerance)
-        r = _run(spec)
-        if _unresolved(r):
-            spec = with_more_harmonics(spec)
-            r = _run(spec)
-        if confirm:
-            r = _run(replace(spec, solvers=(*spec.solvers, "dynamic")))
-        row = check_row(r, rng, tolerance, margins)
-        if spec.extra_settings:
-            row = replace(row, verdict=f"{row.verdict} [linear model solved with {row.linear_harmonics} crank "
-                                       "harmonics: the default at most 32 did not converge]")
-        rows.append(row)
+    with _progress(len(rpms)) as bar:
+        for rpm in rpms:
+            rows.append(_check_one(source, mechanism, mass_model, rpm, rng, margins, bar,
+                                   stiffness_scale=stiffness_scale, damping_ratio=damping_ratio,
+                                   direction=direction, step_deg=step_deg, tolerance=tolerance, confirm=confirm))
+            bar.update(1)
     return rows
+
+
+PROGRESS_DELAY_S = 2.0
+"""A check running longer than this shows a progress bar on stderr (only on a terminal)."""
+
+
+class _NoBar:
+    """The progress bar's interface, doing nothing (not a terminal)."""
+
+    def __enter__(self) -> _NoBar:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+    def update(self, n: int = 1) -> None:
+        return None
+
+    def set_postfix_str(self, text: str) -> None:
+        return None
+
+
+def _progress(total: int):
+    """A tqdm bar over the speeds on stderr, shown once the check has run :data:`PROGRESS_DELAY_S`
+    (tqdm's delay; it appears at the next stage of a speed or the next speed), cleared at the end; a
+    do-nothing bar when stderr is no terminal (tqdm not even imported: it costs start-up time)."""
+    if not (hasattr(sys.stderr, "isatty") and sys.stderr.isatty()):
+        return _NoBar()
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc="ked check", unit="speed", delay=PROGRESS_DELAY_S, leave=False, file=sys.stderr)
+
+
+def _check_one(source: FourBar, mechanism: str, mass_model: MassModel, rpm: float, rng: LinearRange,
+               margins: VerdictMargins, bar, *, stiffness_scale: float, damping_ratio: float, direction: str,
+               step_deg: float, tolerance: float, confirm: bool) -> CheckRow:
+    """The check at one speed (the progress bar says which stage runs)."""
+    bar.set_postfix_str(f"{rpm:g} rpm")
+    spec = spec_for(source, mechanism, mass_model, rpm, stiffness_scale=stiffness_scale,
+                    damping_ratio=damping_ratio, direction=direction, step_deg=step_deg, tolerance=tolerance)
+    r = _run(spec)
+    if _unresolved(r):
+        bar.set_postfix_str(f"{rpm:g} rpm, {MAX_HARMONICS} harmonics")
+        spec = with_more_harmonics(spec)
+        r = _run(spec)
+    if confirm:
+        bar.set_postfix_str(f"{rpm:g} rpm, Exudyn")
+        r = _run(replace(spec, solvers=(*spec.solvers, "dynamic")))
+    row = check_row(r, rng, tolerance, margins)
+    if spec.extra_settings:
+        row = replace(row, verdict=f"{row.verdict} [linear model solved with {row.linear_harmonics} crank "
+                                   "harmonics: the default at most 32 did not converge]")
+    return row
 
 
 def _run(spec: SceneSpec) -> SceneResult:

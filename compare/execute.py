@@ -18,10 +18,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from compare.metrics import all_pairs
-from compare.results import STATUS_FAILED, STATUS_OK, RunStats, SceneResult
+from compare.results import STATUS_FAILED, STATUS_OK, RunStats, SceneResult, utc_now
 from compare.scenes import FOUR_BAR, SceneSpec
 from compare.solvers import Solution, Solver
-from compare.store import utc_now
 from ked_quasi import units
 
 _MAX_MESSAGE = 2000
@@ -151,3 +150,4 @@ def run_scene(spec: SceneSpec, solvers: Sequence[Solver] | None = None,
         return SceneResult(**base, metrics=metrics, status=STATUS_FAILED, stage=f.solver, error_type=f.error_type,
                            message=f.message, failure_class=f.failure_class, stats=stats(fr.frequencies_wall_s))
     return SceneResult(**base, metrics=metrics, status=STATUS_OK, stats=stats(fr.frequencies_wall_s))
+

@@ -7,6 +7,7 @@ rotation rad, natural frequencies Hz, coupler point m, wall times s.
 
 from __future__ import annotations
 
+import datetime as _dt
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -110,3 +111,8 @@ class SceneResult:
         missing)."""
         ref = self.reference
         return self.metrics.get(pair_name("quasi_static", ref)) if ref else None
+
+
+def utc_now() -> str:
+    """Current UTC time, ISO 8601 with seconds (the stamps of :class:`RunStats` and the stores)."""
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")

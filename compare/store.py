@@ -14,7 +14,6 @@ Everything is plain HDF5 (groups, numeric datasets, string/number attributes, no
 from __future__ import annotations
 
 import dataclasses
-import datetime as _dt
 import os
 import platform
 import shutil
@@ -32,7 +31,7 @@ import numpy as np
 
 from compare import h5layout
 from compare.metrics import all_pairs
-from compare.results import SceneResult
+from compare.results import SceneResult, utc_now  # noqa: F401 (store.utc_now: its users' name)
 from compare.solvers import Solution
 from ked_quasi.linkage import direction_sign
 from ked_quasi.units import rpm_to_rad_s
@@ -55,11 +54,6 @@ class StoreError(ValueError):
 
 # --------------------------------------------------------------------------------------------------
 # provenance
-
-
-def utc_now() -> str:
-    """Current UTC time, ISO 8601 with seconds."""
-    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 
 
 def _version(dist: str) -> str:

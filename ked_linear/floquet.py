@@ -156,23 +156,35 @@ def _sdirk_steps_from(m: np.ndarray, K1: np.ndarray, C1: np.ndarray, K2: np.ndar
     count, n = K1.shape[0], m.size
     a = SDIRK_GAMMA * h
     alpha = (1.0 - SDIRK_GAMMA) / SDIRK_GAMMA
-    eye = np.eye(n)
     # stage 1 on X = I: y1 = Z1^-1 [-a K1, M]
-    rhs = np.empty((count, n, 2 * n))
-    rhs[:, :, :n] = -a * K1
-    rhs[:, :, n:] = np.diag(m)
-    Y1 = np.linalg.solve(eye * m + a * C1 + a**2 * K1, rhs)
+    diag = np.arange(n)
+    rhs = np.zeros((count, n, 2 * n))
+    np.multiply(K1, -a, out=rhs[:, :, :n])
+    rhs[:, diag, n + diag] = m
+    Y1 = np.linalg.solve(_z_matrix(m, K1, C1, a), rhs)
     # B = (1 - alpha) I + alpha R1: Bu = [I, 0] + alpha a Y1, Bv = (1 - alpha) [0, I] + alpha Y1
-    Bu = (alpha * a) * Y1
-    Bu[:, :, :n] += eye
-    Bv = alpha * Y1
-    Bv[:, :, n:] += (1.0 - alpha) * eye
+    Bu = Y1 * (alpha * a)
+    Bu[:, diag, diag] += 1.0
+    Bv = np.multiply(Y1, alpha, out=Y1)
+    Bv[:, diag, n + diag] += 1.0 - alpha
     # stage 2: S = R2 B = [Bu + a y2; y2], y2 = Z2^-1 (M Bv - a K2 Bu)
-    Y2 = np.linalg.solve(eye * m + a * C2 + a**2 * K2, m[:, None] * Bv - a * (K2 @ Bu))
+    rhs = K2 @ Bu
+    rhs *= -a
+    rhs += m[:, None] * Bv
     S = np.empty((count, 2 * n, 2 * n))
-    S[:, :n] = Bu + a * Y2
-    S[:, n:] = Y2
+    S[:, n:] = np.linalg.solve(_z_matrix(m, K2, C2, a), rhs)
+    np.multiply(S[:, n:], a, out=S[:, :n])
+    S[:, :n] += Bu
     return S
+
+
+def _z_matrix(m: np.ndarray, K: np.ndarray, C: np.ndarray, a: float) -> np.ndarray:
+    """Z = M + a C + a^2 K per angle (count, n, n), with one temporary."""
+    Z = K * (a * a)
+    Z += a * C
+    idx = np.arange(m.size)
+    Z[:, idx, idx] += m
+    return Z
 
 
 CHUNK_BYTES = 64e6

@@ -61,6 +61,12 @@ def frozen_frequencies(scene: Scene, crank_angle: np.ndarray | None = None, pres
     grid), the lowest first; an imaginary frequency (buckled prestressed structure) is returned negative."""
     theta = scene.crank_angles if crank_angle is None else np.atleast_1d(np.asarray(crank_angle, float))
     cs = condensed_structure(scene, theta, prestress=prestress)
-    w = 1.0 / np.sqrt(cs.mass)
-    lam = np.linalg.eigvalsh(w[:, None] * cs.stiffness * w[None, :])[:, :n_modes]
+    return frequencies_of(cs.stiffness, cs.mass, n_modes)
+
+
+def frequencies_of(stiffness: np.ndarray, mass: np.ndarray, n_modes: int = 1) -> np.ndarray:
+    """Natural frequencies [Hz] (m, n_modes) of (diag(mass), stiffness (m, n, n)), the lowest first,
+    an imaginary one negative (as :func:`frozen_frequencies`)."""
+    w = 1.0 / np.sqrt(mass)
+    lam = np.linalg.eigvalsh(w[:, None] * stiffness * w[None, :])[:, :n_modes]
     return np.sign(lam) * np.sqrt(np.abs(lam)) / (2.0 * np.pi)

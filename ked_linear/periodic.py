@@ -470,7 +470,7 @@ class SampledCoefficients:
     within ``tolerance`` (:func:`_field_error`), the 2 G samples (grid and midpoints) are kept, so the
     interpolant is exact at them and, the series converging geometrically, far within ``tolerance``
     elsewhere.  Two forms are tried on the same samples: the coefficients themselves ("stiffness"), and
-    the compliance form K^-1, K^-1 C, K^-1 f, output K^-1 ("flexibility", K etc. rebuilt per angle):
+    the compliance form K^-1, K^-1 C K^-1, K^-1 f, output K^-1 ("flexibility", K etc. rebuilt per angle):
     the frozen structure's flexibility is smooth even where its stiffness spikes (a lumped mass whose
     flexibility nearly vanishes in one direction).  Neither passing below ``max_points`` (a linkage
     near toggle), ``direct`` is used everywhere (``form`` "direct").
@@ -573,11 +573,14 @@ def _coefficients(fields: list[np.ndarray]) -> Coefficients:
 
 
 def _to_form(form: str, co: Coefficients) -> Coefficients:
-    """The sampled quantities of ``form``: the coefficients, or K^-1, K^-1 C, K^-1 f, output K^-1."""
+    """The sampled quantities of ``form``: the coefficients, or K^-1, K^-1 C K^-1, K^-1 f, output K^-1
+    (the damping congruent with the flexibility: smooth where C spikes with K, e.g. C = beta K_E of a
+    lump whose support stiffens 1000-fold within a few degrees near toggle, the thesis tip model)."""
     if form == "stiffness":
         return co
     F = np.linalg.inv(co.stiffness)
-    return Coefficients(stiffness=F, damping=F @ co.damping, load=_apply(F, co.load),
+    F = 0.5 * (F + np.swapaxes(F, 1, 2))
+    return Coefficients(stiffness=F, damping=F @ co.damping @ F, load=_apply(F, co.load),
                         output=None if co.output is None else co.output @ F)
 
 
@@ -587,7 +590,7 @@ def _from_form(form: str, co: Coefficients) -> Coefficients:
         return co
     K = np.linalg.inv(co.stiffness)
     K = 0.5 * (K + np.swapaxes(K, 1, 2))
-    return Coefficients(stiffness=K, damping=K @ co.damping, load=_apply(K, co.load),
+    return Coefficients(stiffness=K, damping=K @ co.damping @ K, load=_apply(K, co.load),
                         output=None if co.output is None else co.output @ K)
 
 
@@ -610,20 +613,32 @@ def _compact(co: Coefficients, symmetric: tuple[bool, ...]) -> np.ndarray:
 
 
 def _expand(flat: np.ndarray, layout: tuple[tuple[int, ...], ...], symmetric: tuple[bool, ...]) -> Coefficients:
-    """Inverse of :func:`_compact`."""
+    """Inverse of :func:`_compact` (a symmetric field by one gather of its triangle's columns)."""
     parts, start, m = [], 0, flat.shape[0]
     for shape, sym in zip(layout, symmetric):
         if sym:
-            i, j = np.triu_indices(shape[0])
-            f = np.empty((m,) + shape)
-            f[:, i, j] = f[:, j, i] = flat[:, start:start + i.size]
-            start += i.size
+            index = _triangle_index(shape[0])
+            parts.append(np.take(flat[:, start:start + index.max() + 1], index, axis=1).reshape((m,) + shape))
+            start += shape[0] * (shape[0] + 1) // 2
         else:
             size = int(np.prod(shape))
-            f = flat[:, start:start + size].reshape((m,) + shape)
+            parts.append(flat[:, start:start + size].reshape((m,) + shape))
             start += size
-        parts.append(f)
     return _coefficients(parts)
+
+
+_TRIANGLES: dict[int, np.ndarray] = {}
+
+
+def _triangle_index(n: int) -> np.ndarray:
+    """For each entry (i, j) of an n x n matrix, row-major, its column in the upper triangle's list
+    ``np.triu_indices(n)`` (of (min, max))."""
+    if n not in _TRIANGLES:
+        i, j = np.triu_indices(n)
+        where = np.empty((n, n), dtype=np.intp)
+        where[i, j] = where[j, i] = np.arange(i.size)
+        _TRIANGLES[n] = where.ravel()
+    return _TRIANGLES[n]
 
 
 def _pack(co: Coefficients) -> tuple[np.ndarray, tuple[tuple[int, ...], ...]]:

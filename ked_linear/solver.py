@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
+import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -11,7 +13,7 @@ from ked_quasi.scene import Scene
 from ked_quasi.solver import natural_frequencies
 
 from .floquet import floquet
-from .linkage import frozen_frequencies, linkage_system
+from .linkage import frequencies_of, linkage_system
 from .periodic import steady_state
 from .settings import HARMONICS, LinearSettings
 
@@ -167,6 +169,49 @@ def elastic_coordinates(scene: Scene) -> int:
     return 2 * int(np.count_nonzero(node_masses(topology(lm), lm) > 0))
 
 
+_CONTROLLERS: dict[bool, object] = {}
+
+RECALLED = 4
+"""Linear systems (with their sampled coefficients) and Floquet results kept for a repeated solve of the
+same scene with other periodic-solve settings (``ked check`` solving again with more harmonics): the
+system and its multipliers do not depend on them."""
+
+_RECALL: dict[tuple, object] = {}
+
+
+def _recall(key: tuple, compute):
+    """compute() once per key among the last :data:`RECALLED` of each kind (key[0]); a key that cannot be
+    hashed is computed every time."""
+    try:
+        hash(key)
+    except TypeError:
+        return compute()
+    if key not in _RECALL:
+        same_kind = [k for k in _RECALL if k[0] == key[0]]
+        for k in same_kind[:max(0, len(same_kind) - RECALLED + 1)]:
+            del _RECALL[k]
+        _RECALL[key] = compute()
+    return _RECALL[key]
+
+
+def single_threaded_blas() -> contextlib.AbstractContextManager:
+    """A context in which BLAS/LAPACK run on one thread (``threadpoolctl``; a no-op without it).
+
+    The linear model's work is many small and batched matrix operations (n <= 240): a threaded BLAS
+    splits each tiny call over its threads and pays their synchronization, 5-7x slower than one thread
+    on a loaded 2-core machine (measured: tip 253 -> 37 ms, extender 318 -> 111 ms at 100 rpm), and no
+    faster on an idle one.  The controller is found once per set of loaded BLAS libraries (scipy's own
+    OpenBLAS is loaded with scipy.linalg)."""
+    try:
+        from threadpoolctl import ThreadpoolController
+    except ImportError:  # pragma: no cover - threadpoolctl is a dependency
+        return contextlib.nullcontext()
+    key = "scipy.linalg" in sys.modules
+    if key not in _CONTROLLERS:
+        _CONTROLLERS[key] = ThreadpoolController()
+    return _CONTROLLERS[key].limit(limits=1, user_api="blas")
+
+
 def _is_slider(scene: object) -> bool:
     from ked_quasi.slidercrank import SliderScene
 
@@ -176,10 +221,15 @@ def _is_slider(scene: object) -> bool:
 def solve_linear(scene: Scene, settings: LinearSettings | None = None) -> LinearResult:
     """Periodic steady state of the linear KED model of ``scene`` (see docs/linear_model.md); a slider-crank
     scene goes to :func:`ked_linear.slider.solve_slider_linear`."""
-    if _is_slider(scene):
-        from .slider import solve_slider_linear
+    with single_threaded_blas():
+        if _is_slider(scene):
+            from .slider import solve_slider_linear
 
-        return solve_slider_linear(scene, settings)
+            return solve_slider_linear(scene, settings)
+        return _solve_linear(scene, settings)
+
+
+def _solve_linear(scene: Scene, settings: LinearSettings | None) -> LinearResult:
     t0 = time.perf_counter()
     settings = LinearSettings() if settings is None else settings
     if not isinstance(settings, LinearSettings):
@@ -190,11 +240,17 @@ def solve_linear(scene: Scene, settings: LinearSettings | None = None) -> Linear
         raise ValueError(f"mass model: the linear KED model takes at most {MAX_COORDINATES // 2} moving lumps "
                          f"({MAX_COORDINATES} coordinates: its memory grows as their square times the Floquet "
                          f"steps); this scene has {size // 2}: use fewer lumps per link")
-    ls = linkage_system(scene, settings)
+    # the unstressed first frozen frequency on the grid: the speed ratio's omega1_min and, by default, the
+    # damping reference (its mean, as ked_quasi.damping.damping_reference_hz): computed once for both
+    f1 = natural_frequencies(scene, n_modes=1)[:, 0]
+    f_ref = float(np.mean(f1)) if settings.damping_reference_hz is None else settings.damping_reference_hz
+    system_key = (scene, settings.damping_ratio, f_ref, settings.prestress)
+    ls = _recall(("system", *system_key), lambda: linkage_system(scene, replace(settings, damping_reference_hz=f_ref)))
     theta = scene.crank_angles
     ss = steady_state(ls.system, theta, settings.tolerance, settings.harmonics, settings.max_harmonics,
                       OUTPUT_GROUPS)
-    fl = floquet(ls.system, settings.floquet_tolerance, settings.floquet_steps)
+    fl = _recall(("floquet", *system_key, settings.floquet_tolerance, settings.floquet_steps),
+                 lambda: floquet(ls.system, settings.floquet_tolerance, settings.floquet_steps))
     # the uncertainty counts against stability: a multiplier within its error of 1 is no attracting orbit
     err = fl.error_estimate if np.isfinite(fl.error_estimate) else 0.0
     stable = bool(fl.max_abs + err < 1.0)
@@ -202,7 +258,6 @@ def solve_linear(scene: Scene, settings: LinearSettings | None = None) -> Linear
     marginal = not stable and settings.damping_ratio == 0.0 and fl.max_abs - 1.0 <= err
     status = "ok" if stable else "marginal" if marginal else "unstable"
     deflection = ss.output if stable else np.full_like(ss.output, np.nan)
-    f1 = natural_frequencies(scene, n_modes=1)[:, 0]
     return LinearResult(
         crank_angle=theta, deflection=deflection, status=status, stable=stable,
         message=_message(status, fl.max_abs, fl.error_estimate, ss.error_estimate, settings.tolerance,
@@ -211,6 +266,7 @@ def solve_linear(scene: Scene, settings: LinearSettings | None = None) -> Linear
         harmonics=ss.solution.harmonics, collocation_points=ss.solution.points, error_estimate=ss.error_estimate,
         damping_reference_hz=ls.damping_reference_hz, damping_beta=ls.damping_beta,
         speed_ratio=float(scene.omega / (2.0 * np.pi * np.min(f1))),
-        frozen_f1_hz=frozen_frequencies(scene, theta, settings.prestress)[:, 0], settings=settings,
+        frozen_f1_hz=frequencies_of(ls.system.coefficients(theta).stiffness, ls.system.mass)[:, 0],
+        settings=settings,
         wall_s=time.perf_counter() - t0,
     )

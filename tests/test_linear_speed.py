@@ -80,12 +80,13 @@ def test_not_smooth_falls_back_to_direct():
     assert np.array_equal(s(theta).stiffness, kink(theta).stiffness)
 
 
-@pytest.mark.parametrize("mm", ["joints", "extender", "distributed"])
+@pytest.mark.parametrize("mm", ["tip", "joints", "extender", "distributed"])
 @pytest.mark.parametrize("prestress", [True, False])
 def test_interpolated_linkage_coefficients_equal_direct(mm, prestress):
-    # the thesis linkage's coefficients are smooth: interpolated on grids never sampled (a collocation
-    # grid of 48, a propagator's stage angles running backwards) they equal direct evaluation within the
-    # stated tolerance, per field relative to its peak
+    # the thesis linkage's coefficients are smooth (the tip model's in the compliance form: its damping
+    # C = beta K_E spikes with the support stiffness near 90 deg, K^-1 C K^-1 does not): interpolated on
+    # grids never sampled (a collocation grid of 48, a propagator's stage angles running backwards) they
+    # equal direct evaluation within the stated tolerance, per field relative to its peak
     spec = next(s for s in load_config().scenes() if s.mechanism == "source" and s.mass_model.name == mm)
     ls = linkage_system(spec.scene(300.0), LinearSettings(prestress=prestress))
     co = ls.system.coefficients
@@ -168,3 +169,70 @@ def test_regression_pin_default_campaign_histories(key):
         peak = np.max(np.linalg.norm(res.deflection[:, g], axis=1))
         assert np.max(np.linalg.norm(got[:, g] - pinned[:, g], axis=1)) < 1e-3 * peak
     assert abs(res.floquet_max_abs - mu) < 1e-3
+
+
+class _Terminal:
+    """A stderr that says it is a terminal and keeps what is written to it."""
+
+    def __init__(self, tty: bool):
+        self.tty, self.parts = tty, []
+
+    def isatty(self) -> bool:
+        return self.tty
+
+    def write(self, text: str) -> int:
+        self.parts.append(text)
+        return len(text)
+
+    def flush(self) -> None:
+        return None
+
+
+@pytest.mark.parametrize("tty", [True, False])
+def test_check_progress_bar_only_on_a_terminal(tty, monkeypatch):
+    # a check over several speeds shows a tqdm bar on stderr once it has run PROGRESS_DELAY_S (here 0:
+    # at once) when stderr is a terminal, and writes nothing to a file or pipe
+    import sys
+
+    from compare import check as chk
+    from ked_quasi.linkage import thesis_fourbar
+    from ked_quasi.massmodel import MassModel, default_payload
+
+    err = _Terminal(tty)
+    monkeypatch.setattr(sys, "stderr", err)
+    monkeypatch.setattr(chk, "PROGRESS_DELAY_S", 0.0)
+    rows = chk.check(thesis_fourbar(), "source", MassModel("tip", payload=default_payload("tip")), [50.0, 100.0])
+    assert [r.rpm for r in rows] == [50.0, 100.0]
+    text = "".join(err.parts)
+    assert ("ked check" in text and "0/2" in text) if tty else text == ""  # the bar at its start
+
+
+def test_blas_single_threaded_inside_solve():
+    # the linear model's small batched matrix operations run on one BLAS thread (threadpoolctl's own
+    # report of every loaded BLAS library), and the limit is lifted afterwards
+    from threadpoolctl import threadpool_info
+
+    from ked_linear.solver import single_threaded_blas
+
+    before = [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+    with single_threaded_blas():
+        assert all(i["num_threads"] == 1 for i in threadpool_info() if i["user_api"] == "blas")
+    assert [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"] == before
+
+
+def test_recalled_system_and_multipliers_give_the_fresh_answer(monkeypatch):
+    # a second solve of the same scene with more harmonics reuses the linear system and its Floquet
+    # multipliers (they do not depend on the periodic solve's settings): the answer equals a solve from
+    # scratch (the recall emptied) to round-off
+    from ked_linear import solver
+    from ked_quasi.presets import make_scene
+
+    scene = make_scene(mass_model="joints", rpm=150.0)
+    monkeypatch.setattr(solver, "_RECALL", {})
+    solve_linear(scene, LinearSettings(max_harmonics=16))
+    again = solve_linear(scene, LinearSettings(max_harmonics=32))
+    assert len(solver._RECALL) == 2
+    monkeypatch.setattr(solver, "_RECALL", {})
+    fresh = solve_linear(scene, LinearSettings(max_harmonics=32))
+    assert again.floquet_max_abs == fresh.floquet_max_abs and again.harmonics == fresh.harmonics
+    np.testing.assert_allclose(again.deflection, fresh.deflection, rtol=0, atol=1e-12 * np.abs(fresh.deflection).max())

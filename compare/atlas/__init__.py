@@ -6,8 +6,18 @@ four-bars (``generate``), computed on a Dask cluster (``run``), confirmed on a s
 its quasi-static call calibrated on the threshold sample (``threshold``, ``calibration``).
 """
 
-from compare.atlas.analysis import TierLimits, limits
-from compare.atlas.calibration import VerdictMargins, verdict_margins
-from compare.atlas.generate import Linkage, Reject, Sample, generate
+import importlib
+
+_EXPORTS = {"TierLimits": "analysis", "limits": "analysis", "VerdictMargins": "calibration",
+            "verdict_margins": "calibration", "Linkage": "generate", "Reject": "generate", "Sample": "generate",
+            "generate": "generate"}
 
 __all__ = ["Linkage", "Reject", "Sample", "TierLimits", "VerdictMargins", "generate", "limits", "verdict_margins"]
+
+
+def __getattr__(name: str):
+    """The package's names, imported on first use: ``ked check`` reads only :mod:`compare.atlas.published`
+    and must not pay for scipy.stats (calibration) at start-up."""
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(f"compare.atlas.{_EXPORTS[name]}"), name)
+    raise AttributeError(f"module 'compare.atlas' has no attribute {name!r}")
