@@ -48,8 +48,8 @@ from ked_quasi.slidercrank import SliderScene, slider_kinematics, slider_lumps
 
 from .floquet import floquet
 from .periodic import Coefficients, PeriodicSystem, SampledCoefficients, steady_state
+from .result import MAX_COORDINATES, LinearResult, _message
 from .settings import LinearSettings
-from .solver import MAX_COORDINATES, LinearResult, _message
 
 OUTPUTS = ("dx", "dy", "rotation", "midspan")
 """Rows of the output map: dx, dy [m] and rotation [rad] of the section at P, the midspan deflection [m]."""
