@@ -161,8 +161,8 @@ class WorkerError(RuntimeError):
     """A local worker failed outside the solvers (a failure of the run, not a property of a scene)."""
 
 
-WORKER_START_HINT = ("if a Python script calls run_campaign, call it under `if __name__ == \"__main__\":` "
-                     "(every worker process imports the script)")
+WORKER_START_HINT = ("if a Python script calls run_campaign (or run_scenes, run_tasks, run_atlas), call it under "
+                     "`if __name__ == \"__main__\":` (every worker process imports the script)")
 
 
 _STOP_SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))
@@ -239,6 +239,14 @@ def worker_init() -> None:
 
 
 _worker_init = worker_init  # the name older pickles and callers use
+
+
+def exit_if_starting_worker() -> None:
+    """In a spawned worker that is importing a script which starts a run without a main guard: end it
+    quietly now (it cannot start; the parent reports it once, with the fix, :data:`WORKER_START_HINT`).
+    Called first by every entry point that starts workers."""
+    if getattr(multiprocessing.current_process(), "_inheriting", False):
+        os._exit(3)
 
 
 def _ready() -> int:
@@ -503,10 +511,7 @@ def run_tasks(tasks: Sequence[T], fn: Callable[..., R], *, workers: int | None =
     task functions keep their own failures in their results.  On an interrupt or any failure the workers
     are stopped at once (what was delivered stays delivered).  Returns the number of tasks that gave no
     result (cancelled after a stop)."""
-    if getattr(multiprocessing.current_process(), "_inheriting", False):
-        # a spawned worker importing a script that calls this without a main guard: the worker cannot
-        # start; end it quietly (the parent reports it once, with the fix)
-        os._exit(3)
+    exit_if_starting_worker()
     if not tasks:
         return 0
     calls = {i: args(t) for i, t in enumerate(tasks)}  # by index: tasks need not be hashable
@@ -596,6 +601,7 @@ def run_scenes(
     with every stored result; ``on_start``: with the plan, once the workers are there.  Raises
     :class:`compare.store.LockedError` if another process is writing ``out`` and scenes are to be
     computed (with nothing to compute, nothing is written: a read-only file system is fine)."""
+    exit_if_starting_worker()
     t0 = time.perf_counter()
     specs = tuple(specs)
     out = store.target(out)
@@ -692,8 +698,7 @@ def run_campaign(
     ``retry_failed``: recompute stored failed scenes too.  ``progress``: tqdm bar on stderr.
     Raises :class:`compare.store.LockedError` if another campaign is writing ``out``.
     """
-    if getattr(multiprocessing.current_process(), "_inheriting", False):
-        os._exit(3)  # a spawned worker importing a script without a main guard (see run_tasks)
+    exit_if_starting_worker()
     return run_scenes(config.scenes(), out, name=config.name, config_text=config.text, workers=workers,
                       scheduler=scheduler, retry_failed=retry_failed, progress=progress, on_result=on_result,
                       on_start=on_start)

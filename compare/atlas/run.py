@@ -135,6 +135,9 @@ def run_atlas(path: Path, *, linkages: int = 1000, seed: int = 0, workers: int =
               ratios: Sequence[float] = RATIOS, progress: bool = False,
               echo: Callable[[str], Any] = print) -> RunSummary:
     """Compute every linkage of ``generate(linkages, seed)`` not yet stored in ``path`` (see module docstring)."""
+    from compare.runner import exit_if_starting_worker
+
+    exit_if_starting_worker()  # a worker importing a script without a main guard writes nothing
     t0 = time.perf_counter()
     path = store.target(path)
     info = meta(seed, ratios)
