@@ -158,3 +158,27 @@ def test_stability_configs_cover_the_required_cases() -> None:
     assert all("transmission angle" in refused[c] for c in ("05_near_toggle.toml", "06_change_point.toml"))
     scales = {s.stiffness_scale for c in configs if c.name not in refused for s in load_config(c).scenes()}
     assert {1000.0, 0.01} <= scales
+
+
+def test_step_search_of_a_newton_failure_is_the_refinement_ladder() -> None:
+    """``ked study stability --ladder``: a Newton failure from a run without the ladder is rerun with it.
+    The independent reference is a campaign of the same scene with the ladder on (the default): the steps
+    per cycle found and the rungs tried (with their outcomes) must be those it stores."""
+    import re
+
+    from compare.studies.stability import ladder_search
+
+    text = ("[campaign]\nstep_deg = 30.0\nn_modes = 1\n[grid]\nmass_models = ['tip']\n"
+            "speed_ratios = [0.3]\n[dynamic]\nelements_per_link = 1\nsteps_per_cycle = 90\n")
+    failed = run_scene(_scene(text + "refine = false\n"))
+    assert failed.error_type == "SimulationError"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        steps, log = ladder_search(failed)
+    reference = run_scene(_scene(text))
+    assert reference.ok and steps == reference.stat("dynamic", "solved_steps_per_cycle")
+
+    def rungs(attempts: str) -> str:  # wall times differ from run to run
+        return re.sub(r", \d+\.\d s", "", attempts)
+
+    assert rungs(log) == rungs(reference.stat("dynamic", "attempts")) and log.startswith("requested")
