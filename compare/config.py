@@ -32,29 +32,6 @@ from ked_quasi.scene import variant
 DEFAULT_TOLERANCE = 0.10
 SECTION_KEYS = tuple(SECTION_RULES)
 
-# Range rules for known exudyn_models.DynamicSettings fields: (kind, low, high, low_open).
-# kind: "int", "float", "str:<a>|<b>", "bool".  Unknown-but-existing fields are type-checked
-# against their default value only.
-_DYNAMIC_RULES: dict[str, tuple[str, float | None, float | None, bool]] = {
-    "element": ("str:ancf|gebeam", None, None, False),
-    "elements_per_link": ("int", 1, 64, False),
-    "steps_per_cycle": ("int", 8, 1_000_000, False),
-    "spectral_radius": ("float", 0.0, 1.0, False),
-    "damping_reference_hz": ("float", 0.0, 1e6, True),
-    "steady_tol": ("float", 0.0, 1.0, True),
-    "max_cycles": ("int", 1, 10_000, False),
-    "min_cycles": ("int", 1, 10_000, False),
-    "ramp_cycles": ("float", 0.0, 1000.0, True),
-    "newton_abs_tol": ("float", 0.0, 1e6, True),
-    "newton_rel_tol": ("float", 0.0, 1.0, True),
-    "newton_max_iterations": ("int", 1, 1000, False),
-    "sparse": ("bool", None, None, False),
-    "start": ("str:ramp|quasi_static", None, None, False),
-    "periodic": ("str:off|anderson", None, None, False),
-    "anderson_memory": ("int", 1, 20, False),
-    "refine": ("bool", None, None, False),
-    "refine_budget_s": ("float", 0.0, 1e6, True),
-}
 class ConfigError(ValueError):
     """Invalid campaign configuration; ``problems`` lists ``"toml.path: message"`` strings."""
 
@@ -144,7 +121,9 @@ TOP_TABLES = ("campaign", "linkage", "grid", "dynamic")
 def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config") -> CampaignConfig:
     """Validate a parsed TOML document; raise :class:`ConfigError` listing every problem."""
     c = _Checker()
-    extra_tables = tuple(n for n in solver_registry.names() if n not in ("dynamic", "quasi_static"))
+    # every solver with settings has its table ([dynamic] is stored apart: its own grid axis and keys)
+    extra_tables = tuple(n for n in solver_registry.names()
+                         if n != "dynamic" and solver_registry.get(n).setting_fields())
     c.keys(doc, "", (*TOP_TABLES, *extra_tables))
     camp = c.table(doc, "campaign")
     c.keys(camp, "campaign", ("name", "tolerance", "outputs", "step_deg", "n_modes", "solvers"))
@@ -387,54 +366,39 @@ def _mass_models(c: _Checker, grid: dict[str, Any]) -> tuple[MassModel, ...]:
 
 
 def _extra_settings(c: _Checker, doc: dict[str, Any], tables: tuple[str, ...]) -> tuple[tuple[str, Items], ...]:
-    """Settings tables of solvers other than Exudyn (e.g. ``[linear]``): checked by building the
-    solver's settings from them."""
-    out = []
-    for name in tables:
-        if name not in doc:
-            continue
-        tab = c.table(doc, name)
-        solver = solver_registry.get(name)
-        fields = solver.setting_fields()
-        c.keys(tab, name, tuple(k for k in fields if k != "damping_ratio"))
-        try:
-            solver.make_settings(dict(tab), 0.02)
-        except (TypeError, ValueError) as exc:
-            c.err(name, str(exc))
-        out.append((name, tuple(sorted(tab.items()))))
-    return tuple(out)
+    """Settings tables of solvers other than Exudyn (e.g. ``[linear]``), each checked like ``[dynamic]``."""
+    return tuple((name, _settings_table(c, name, c.table(doc, name))) for name in tables if name in doc)
 
 
 def _dynamic(c: _Checker, tab: dict[str, Any], prefix: str = "dynamic",
              check_settings: bool = True) -> tuple[tuple[str, Any], ...]:
-    fields = _dynamic_fields()
+    return _settings_table(c, "dynamic", tab, prefix, check_settings)
+
+
+def _settings_table(c: _Checker, name: str, tab: dict[str, Any], prefix: str | None = None,
+                    check_settings: bool = True) -> Items:
+    """One solver's settings table (``[dynamic]``, ``[linear]``, ...), the same for every solver: each key a
+    field of the solver's settings (the damping ratio is a grid axis), each value checked by the rule the
+    solver declares for it (:attr:`compare.solvers.Solver.setting_rules`, the rules its settings class
+    checks; a field without one: the type of its default), then the solver's settings built from them."""
+    prefix = prefix or name
+    solver = solver_registry.get(name)
+    fields, rules_of = solver.setting_fields(), solver.setting_rules()
     out: dict[str, Any] = {}
     for key in tab:
         p = f"{prefix}.{key}"
         if key == "damping_ratio":
-            c.err(p, "set damping in grid.damping_ratios (a grid axis), not in [dynamic]")
+            c.err(p, f"set damping in grid.damping_ratios (a grid axis), not in [{name}]")
             continue
         if key not in fields:
             c.err(p, f"unknown key (allowed: {', '.join(sorted(k for k in fields if k != 'damping_ratio'))})")
             continue
-        rule = _DYNAMIC_RULES.get(key)
-        if rule is not None:
-            kind, lo, hi, lo_open = rule
-            if kind == "int":
-                v = c.integer(tab, p, lo=int(lo), hi=int(hi))
-            elif kind == "float":
-                v = c.number(tab, p, lo=lo, hi=hi, lo_open=lo_open)
-            elif kind.startswith("str:"):
-                v = c.string(tab, p, choices=tuple(kind[4:].split("|")))
-            else:
-                v = c.boolean(tab, p)
-        else:
-            v = c.like(tab, p, fields[key])
+        v = c.rule(tab, p, rules_of[key]) if key in rules_of else c.like(tab, p, fields[key])
         if v is not None:
             out[key] = v
-    if check_settings and not any(p.startswith(f"{prefix}.") for p in c.bad):
+    if check_settings and not any(b.startswith(f"{prefix}.") for b in c.bad):
         try:
-            solver_registry.get("dynamic").make_settings(out, 0.02)
+            solver.make_settings(out, 0.02)
         except (TypeError, ValueError) as exc:
             c.err(prefix, str(exc))
     return tuple(sorted(out.items()))
@@ -482,11 +446,6 @@ def _dynamic_variants(c: _Checker, grid: dict[str, Any],
     if len(set(out)) != len(out):
         c.err(path, "duplicate variants")
     return tuple(out) or ((),)
-
-
-def _dynamic_fields() -> dict[str, Any]:
-    """Field name -> default value of the Exudyn model's settings."""
-    return solver_registry.get("dynamic").setting_fields()
 
 
 # --------------------------------------------------------------------------------------------------

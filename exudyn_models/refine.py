@@ -112,11 +112,7 @@ def over_budget(t_start: float, budget_s: float, attempts: Sequence[Attempt], se
 
 def failure_hint(settings: DynamicSettings, step_index: int, time_s: float) -> str:
     """Likely cause and way out of a Newton failure, from the settings and where it failed."""
-    n, el = settings.steps_per_cycle, settings.elements_per_link
-    if el > MAX_ELEMENTS_PER_LINK:
-        return (f"Likely cause: elements_per_link = {el} is outside the range where the solver works (1.."
-                f"{MAX_ELEMENTS_PER_LINK}; very short, stiff elements make Newton's tolerance unreachable). "
-                "Way out: 4 (default) to 16 elements per link")
+    n = settings.steps_per_cycle  # (elements beyond the working range are refused by DynamicSettings)
     if n < MIN_WORKING_STEPS_PER_CYCLE:
         return (f"Likely cause: steps_per_cycle = {n} is outside the range where the solver works (at least "
                 f"{MIN_WORKING_STEPS_PER_CYCLE}, default 720; one step spans {360.0 / n:.3g} deg of crank "

@@ -8,9 +8,45 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ked_quasi import rules
+
 ELEMENT_TYPES = ("ancf", "gebeam")
 STARTS = ("ramp", "quasi_static")
 PERIODIC_METHODS = ("off", "anderson")
+
+RULES: dict[str, rules.Rule | rules.Choice | rules.Flag] = {
+    "element": rules.Choice("element", ELEMENT_TYPES),
+    "elements_per_link": rules.Rule("elements_per_link", "per link", 1, 64, "beyond 64 very short, stiff elements "
+                                    "make Newton's tolerance unreachable (the refinement ladder's cap); 4 (default) "
+                                    "to 16 work well",
+                                    integer=True),
+    "steps_per_cycle": rules.Rule("steps_per_cycle", "per cycle", 8, 1_000_000, "at least 8 steps per crank "
+                                  "revolution, at most a million", integer=True),
+    "spectral_radius": rules.Rule("spectral_radius", "", 0.0, 1.0, "the generalized-alpha spectral radius"),
+    "damping_ratio": rules.DAMPING_RATIO,
+    "damping_reference_hz": rules.DAMPING_REFERENCE_HZ,
+    "ramp_cycles": rules.Rule("ramp_cycles", "cycles", 0.0, 1000.0, "a start-up ramp of crank revolutions",
+                              lo_open=True),
+    "steady_tol": rules.Rule("steady_tol", "", 0.0, 1.0, "a fraction of the peak", lo_open=True),
+    "min_cycles": rules.Rule("min_cycles", "cycles", 1, 10_000, "crank revolutions at constant speed",
+                             integer=True),
+    "max_cycles": rules.Rule("max_cycles", "cycles", 1, 10_000, "crank revolutions at constant speed",
+                             integer=True),
+    "extrapolate": rules.Flag("extrapolate"),
+    "newton_abs_tol": rules.Rule("newton_abs_tol", "N", 0.0, 1e6, "a residual force", lo_open=True),
+    "newton_rel_tol": rules.Rule("newton_rel_tol", "", 0.0, 1.0, "a relative residual", lo_open=True),
+    "newton_max_iterations": rules.Rule("newton_max_iterations", "", 1, 10_000, "Newton iterations per step (the "
+                                        "refinement ladder quadruples them)", integer=True),
+    "sparse": rules.Flag("sparse"),
+    "start": rules.Choice("start", STARTS),
+    "periodic": rules.Choice("periodic", PERIODIC_METHODS),
+    "anderson_memory": rules.Rule("anderson_memory", "cycles", 1, 20, "previous cycles of the Anderson mixing",
+                                  integer=True),
+    "refine": rules.Flag("refine"),
+    "refine_budget_s": rules.Rule("refine_budget_s", "s", 0.0, 1e6, "a wall-time budget", lo_open=True),
+}
+"""The allowed values of every :class:`DynamicSettings` field: the class and the campaign config's
+``[dynamic]`` table check each value with the same rule."""
 
 
 @dataclass(frozen=True)
@@ -84,37 +120,10 @@ class DynamicSettings:
     refine_budget_s: float = 120.0
 
     def __post_init__(self) -> None:
-        if self.element not in ELEMENT_TYPES:
-            raise ValueError(f"element must be one of {ELEMENT_TYPES}, got {self.element!r}")
-        for name in ("elements_per_link", "steps_per_cycle", "min_cycles", "max_cycles",
-                     "newton_max_iterations"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
-                raise ValueError(f"{name} must be a positive integer, got {value!r}")
-        if self.start not in STARTS:
-            raise ValueError(f"start must be one of {STARTS}, got {self.start!r}")
-        if self.periodic not in PERIODIC_METHODS:
-            raise ValueError(f"periodic must be one of {PERIODIC_METHODS}, got {self.periodic!r}")
-        if isinstance(self.anderson_memory, bool) or not isinstance(self.anderson_memory, int) \
-                or not 1 <= self.anderson_memory <= 20:
-            raise ValueError(f"anderson_memory must be an integer in 1..20, got {self.anderson_memory!r}")
-        if not isinstance(self.refine, bool):
-            raise ValueError(f"refine must be True or False, got {self.refine!r}")
-        if isinstance(self.refine_budget_s, bool) or not self.refine_budget_s > 0.0:
-            raise ValueError(f"refine_budget_s must be positive [s], got {self.refine_budget_s!r}")
+        rules.check_fields(self, RULES)
         if self.min_cycles > self.max_cycles:
-            raise ValueError(f"min_cycles ({self.min_cycles}) must not exceed max_cycles ({self.max_cycles})")
-        if not 0.0 <= self.spectral_radius <= 1.0:
-            raise ValueError(f"spectral_radius must be in [0, 1], got {self.spectral_radius!r}")
-        if not 0.0 <= self.damping_ratio < 1.0:
-            raise ValueError(f"damping_ratio must be in [0, 1), got {self.damping_ratio!r}")
-        if self.damping_reference_hz is not None and not self.damping_reference_hz > 0.0:
-            raise ValueError(f"damping_reference_hz must be positive or None, got {self.damping_reference_hz!r}")
-        if not self.ramp_cycles > 0.0:
-            raise ValueError(f"ramp_cycles must be positive, got {self.ramp_cycles!r}")
-        for name in ("steady_tol", "newton_abs_tol", "newton_rel_tol"):
-            if not getattr(self, name) > 0.0:
-                raise ValueError(f"{name} must be positive, got {getattr(self, name)!r}")
+            raise ValueError(f"DynamicSettings.min_cycles ({self.min_cycles}) must not exceed max_cycles "
+                             f"({self.max_cycles})")
 
 
 LEGACY_DEFAULTS: dict[str, object] = {

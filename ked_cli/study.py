@@ -34,8 +34,8 @@ def common_options(f: Any) -> Any:
 
 def _run(name: str, results_dir: Path | None, workers: int, fresh: bool, report_only: bool, progress: bool,
          **options: Any) -> None:
+    from compare.sections import SectionError, check_markers
     from compare.studies import StudyPaths, run
-    from compare.studies.sections import SectionError, check_markers
 
     paths = StudyPaths(results_dir) if results_dir is not None else StudyPaths()
     if fresh and report_only:

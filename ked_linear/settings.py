@@ -13,7 +13,14 @@ TOLERANCE = rules.Rule("tolerance", "", 1e-12, 0.1, "relative error of the histo
 FLOQUET_STEPS = rules.Rule("floquet_steps", "per cycle", 8, 65536, "time steps of the monodromy propagator",
                            integer=True)
 FLOQUET_TOLERANCE = rules.Rule("floquet_tolerance", "", 1e-12, 0.5, "absolute error of the largest |multiplier|")
-REFERENCE_HZ = rules.Rule("damping_reference_hz", "Hz", 0.0, 1e9, "a natural frequency", lo_open=True)
+
+RULES: dict[str, rules.Rule | rules.Choice | rules.Flag] = {
+    "damping_ratio": rules.DAMPING_RATIO, "damping_reference_hz": rules.DAMPING_REFERENCE_HZ,
+    "prestress": rules.Flag("prestress"), "harmonics": HARMONICS, "max_harmonics": HARMONICS,
+    "tolerance": TOLERANCE, "floquet_steps": FLOQUET_STEPS, "floquet_tolerance": FLOQUET_TOLERANCE,
+}
+"""The allowed values of every :class:`LinearSettings` field: the class and the campaign config's
+``[linear]`` table check each value with the same rule."""
 
 
 @dataclass(frozen=True)
@@ -46,25 +53,9 @@ class LinearSettings:
     floquet_tolerance: float = 1e-3
 
     def __post_init__(self) -> None:
-        _set(self, "damping_ratio", rules.DAMPING_RATIO.check(self.damping_ratio, "LinearSettings.damping_ratio"))
-        if self.damping_reference_hz is not None:
-            _set(self, "damping_reference_hz",
-                 REFERENCE_HZ.check(self.damping_reference_hz, "LinearSettings.damping_reference_hz"))
-        if not isinstance(self.prestress, bool):
-            raise ValueError(f"LinearSettings.prestress: must be True or False; got {self.prestress!r}")
-        if self.harmonics is not None:
-            _set(self, "harmonics", HARMONICS.check(self.harmonics, "LinearSettings.harmonics"))
-        _set(self, "max_harmonics", HARMONICS.check(self.max_harmonics, "LinearSettings.max_harmonics"))
-        _set(self, "tolerance", TOLERANCE.check(self.tolerance, "LinearSettings.tolerance"))
-        if self.floquet_steps is not None:
-            _set(self, "floquet_steps", FLOQUET_STEPS.check(self.floquet_steps, "LinearSettings.floquet_steps"))
-        _set(self, "floquet_tolerance",
-             FLOQUET_TOLERANCE.check(self.floquet_tolerance, "LinearSettings.floquet_tolerance"))
+        rules.check_fields(self, RULES)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain dict (JSON, HDF5 attributes); ``LinearSettings(**d)`` inverts it."""
         return asdict(self)
 
-
-def _set(obj: LinearSettings, name: str, value: object) -> None:
-    object.__setattr__(obj, name, value)

@@ -9,7 +9,9 @@ accepted by all, and every refusal says what is allowed and why.  Units: SI unle
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 
@@ -87,6 +89,54 @@ def check_choice(label: str, value: object, allowed: tuple[str, ...]) -> str:
     return value
 
 
+@dataclass(frozen=True)
+class Choice:
+    """The allowed words of one parameter (same interface as :class:`Rule`)."""
+
+    name: str
+    choices: tuple[str, ...]
+    why: str = ""
+
+    def allowed(self) -> str:
+        return f"one of {', '.join(self.choices)}"
+
+    def check(self, value: object, label: str | None = None) -> str:
+        """``value`` if it is one of the choices; ValueError naming ``label`` and the choices otherwise."""
+        return check_choice(label or self.name, value, self.choices)
+
+
+@dataclass(frozen=True)
+class Flag:
+    """A yes/no parameter: True or False only (same interface as :class:`Rule`)."""
+
+    name: str
+    why: str = ""
+
+    def allowed(self) -> str:
+        return "true or false"
+
+    def check(self, value: object, label: str | None = None) -> bool:
+        if not isinstance(value, bool):
+            raise ValueError(f"{label or self.name}: must be true or false; got {value!r}")
+        return value
+
+
+def check_fields(obj: object, rules_of: Mapping[str, Rule | Choice | Flag]) -> None:
+    """Check every field of the frozen dataclass ``obj`` named in ``rules_of`` with its rule and store the
+    checked value (float or int as the rule says); a field whose default is None accepts None ("automatic").
+    The settings classes of every solver call this from ``__post_init__``, so that the class and the
+    campaign config (which checks each key with the same rule) accept exactly the same values."""
+    cls = type(obj).__name__
+    for f in dataclasses.fields(obj):  # type: ignore[arg-type]
+        rule = rules_of.get(f.name)
+        if rule is None:
+            continue
+        value = getattr(obj, f.name)
+        if value is None and f.default is None:
+            continue
+        object.__setattr__(obj, f.name, rule.check(value, f"{cls}.{f.name}"))
+
+
 # -- linkage ------------------------------------------------------------------------------------
 LENGTH = Rule("length", "m", 0.0, 10.0, "a link of a machine linkage, up to 10 m", lo_open=True,
               mixup=("lengths are in metres", "mm", 1e-3))
@@ -124,6 +174,8 @@ STEP_DEG = Rule("step_deg", "deg", 0.01, 45.0,
                 "at least 8 samples per turn to resolve peaks and harmonics, at most 36 000 angles; "
                 "it must divide 360")
 DAMPING_RATIO = Rule("damping_ratio", "", 0.0, 0.99, "a modal damping ratio below critical")
+DAMPING_REFERENCE_HZ = Rule("damping_reference_hz", "Hz", 0.0, 1e6, "the frequency at which the damping ratio "
+                            "holds: a natural frequency of the linkage", lo_open=True)
 N_MODES = Rule("n_modes", "", 1, 20, "natural frequencies stored per crank angle", integer=True)
 TOLERANCE = Rule("tolerance", "", 0.0, 10.0, "the relative error of a verdict", lo_open=True)
 

@@ -18,7 +18,7 @@ from compare.atlas.generate import RANGES, candidate, generate
 from compare.atlas.report import FIGURES, write_report
 from compare.atlas.run import run_atlas
 from compare.atlas.threshold import run_threshold, select_threshold
-from compare.studies.sections import section_of
+from compare.sections import section_of
 from ked_linear import LinearSettings, solve_linear
 from ked_quasi import Scene, natural_frequencies, solve_quasi_static
 from ked_quasi.cognates import mechanism as cognate_of
@@ -334,7 +334,7 @@ def _resonant(r: np.ndarray) -> np.ndarray:
 def test_first_crossing_is_not_interpolated_across_a_resonance():
     from scipy.optimize import brentq
 
-    from compare.studies.validity_analysis import validity_limit
+    from compare.limits import validity_limit
 
     # the true first crossing of 10 %, found on the function itself
     true = brentq(lambda x: float(_resonant(np.array([x]))[0]) - 0.10, 0.2501, 0.277)

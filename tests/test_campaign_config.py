@@ -66,7 +66,7 @@ BAD = [
     ("bad section key", "[linkage.sections.crank]\nyoung = 1.0", "linkage.sections.crank.young", "unknown key"),
     ("unknown dynamic setting", "[dynamic]\nsteps = 10", "dynamic.steps", "unknown key"),
     ("dynamic wrong type", "[dynamic]\nsteps_per_cycle = 72.5", "dynamic.steps_per_cycle", "must be an integer"),
-    ("dynamic out of range", "[dynamic]\nspectral_radius = 1.5", "dynamic.spectral_radius", "must be <="),
+    ("dynamic out of range", "[dynamic]\nspectral_radius = 1.5", "dynamic.spectral_radius", "a number in [0, 1]"),
     ("bad element", "[dynamic]\nelement = 'truss'", "dynamic.element", "must be one of"),
     ("damping in the wrong place", "[dynamic]\ndamping_ratio = 0.05", "dynamic.damping_ratio", "grid.damping_ratios"),
     ("inconsistent dynamic settings", "[dynamic]\nmin_cycles = 9\nmax_cycles = 3", "dynamic", "min_cycles"),

@@ -107,12 +107,18 @@ def test_exhausted_budget_is_numerical_and_lists_the_attempts():
     assert "Tried:" in str(exc) and "requested" in str(exc)
 
 
-@pytest.mark.parametrize(("field", "value"), [("steps_per_cycle", 10), ("elements_per_link", 1000)])
+@pytest.mark.parametrize(("field", "value"), [("steps_per_cycle", 10)])
 def test_failure_outside_the_working_range_names_its_cause(field, value):
     scene = make_scene(mass_model="tip")
     with pytest.raises(SimulationError, match=f"Likely cause: {field} = {value}.*Way out") as info:
         simulate_steady_state(scene, DynamicSettings(refine=False, **{field: value}))
     assert info.value.failure_class == "numerical"
+
+
+def test_elements_beyond_the_working_range_are_refused_with_the_cause():
+    # beyond 64 elements per link Newton's tolerance is unreachable (the ladder's cap): refused up front
+    with pytest.raises(ValueError, match=r"elements_per_link: must be an integer in \[1, 64\].*Newton"):
+        DynamicSettings(elements_per_link=1000)
 
 
 def test_undamped_marching_never_settles_and_is_classified_physical():

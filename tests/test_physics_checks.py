@@ -10,8 +10,10 @@ predicts independently of the method:
 * stiffness scaling: well below resonance deflection scales as 1/E;
 * the rigid coupler curves of source and cognate coincide (checked in test_linkage).
 
-The quasi-static solver satisfies them to round-off; the Exudyn model within its discretization
-tolerance at speeds far below its first natural frequency.
+The four-bar checks run on every solver of the registry (``compare.solvers.names()``), through the
+registry as a campaign runs it, each to the tolerance its ``Solver.physics_rtol`` declares: the
+quasi-static solver satisfies them to round-off; the linear and Exudyn models within their dynamic
+content and discretization at speeds far below the first natural frequency.
 """
 
 from __future__ import annotations
@@ -21,8 +23,19 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from compare import solvers as registry
+from compare.solvers import COMPONENTS
 from ked_quasi import MassModel, Scene, solve_quasi_static
 from ked_quasi.linkage import THESIS_TIP_MASS_KG
+
+
+def deflection(name: str, scene: Scene) -> np.ndarray:
+    """(n, 3) deflection of P of registered solver ``name`` on ``scene`` with its default settings (damping
+    ratio 0.02), through the registry as a campaign runs it; the solver must succeed."""
+    solver = registry.get(name)
+    sol = solver.run(scene, solver.make_settings({}, 0.02), COMPONENTS)
+    assert sol.ok, f"{name}: {sol.message}"
+    return sol.array(COMPONENTS)
 
 
 def quasi_static(scene: Scene) -> np.ndarray:
@@ -30,27 +43,16 @@ def quasi_static(scene: Scene) -> np.ndarray:
 
 
 def exudyn_dynamic(scene: Scene) -> np.ndarray:
-    from exudyn_models import DynamicSettings, simulate_steady_state
-
-    res = simulate_steady_state(scene, DynamicSettings())
-    assert res.converged, res.message
-    return res.deflection
+    return deflection("dynamic", scene)
 
 
-def linear_dynamic(scene: Scene) -> np.ndarray:
-    from ked_linear import solve_linear
-
-    res = solve_linear(scene)
-    assert res.stable, res.message
-    return res.deflection
-
-
-# (solver, relative tolerance on the peak) - the dynamic model carries discretization and residual
-# dynamic content at these low speeds (speed ratio ~0.05).  The linear KED model (exact mirror symmetry)
-# departs from rpm^2 and 1/E scaling by its dynamic content: ~(k r)^2 per harmonic plus the damping lag
-# 2 zeta k r, 1.3 % of the peak for the tip scene at r = 0.055 (and the change between r and r/2 is below
-# that), so the same 2 % as the Exudyn model.
-SOLVERS = {"quasi": (quasi_static, 1e-10), "exudyn": (exudyn_dynamic, 0.02), "linear": (linear_dynamic, 0.02)}
+# Every registered solver is checked, to the relative tolerance (on the peak) its Solver declares
+# (``physics_rtol``): round-off for the quasi-static method; the Exudyn model carries discretization and
+# residual dynamic content at these low speeds (speed ratio ~0.05); the linear KED models (exact mirror
+# symmetry) depart from rpm^2 and 1/E scaling by their dynamic content: ~(k r)^2 per harmonic plus the
+# damping lag 2 zeta k r, 1.3 % of the peak for the tip scene at r = 0.055 (and the change between r and
+# r/2 is below that), so the same 2 % as the Exudyn model.  A solver registered later (a test registers
+# one) joins through :data:`PHYSICS_CHECKS`.
 
 SCENES = {
     "tip-source": lambda fb: Scene(fb, MassModel("tip", payload=THESIS_TIP_MASS_KG), rpm=30.0, step_deg=10.0),
@@ -76,34 +78,48 @@ def mirror(fb):
                    direction="cw" if fb.direction == "ccw" else "ccw")
 
 
-@pytest.mark.parametrize("solver", list(SOLVERS))
-@pytest.mark.parametrize("scene_name", ["tip-source"])
-def test_mirror_symmetry(solver, scene_name, thesis, thesis_cognate):
-    solve, rtol = SOLVERS[solver]
-    scene = SCENES[scene_name](_fourbar(scene_name, thesis, thesis_cognate))
-    d = solve(scene)
-    m = solve(replace(scene, fourbar=mirror(scene.fourbar)))
+def check_mirror_symmetry(name: str, fourbar) -> None:
+    scene, rtol = SCENES["tip-source"](fourbar), registry.get(name).physics_rtol
+    d = deflection(name, scene)
+    m = deflection(name, replace(scene, fourbar=mirror(scene.fourbar)))
     idx = (-np.arange(d.shape[0])) % d.shape[0]  # crank angle -theta on the same grid
     _close(m[idx] * np.array([1.0, -1.0, -1.0]), d, rtol)
 
 
-@pytest.mark.parametrize("solver", list(SOLVERS))
+def check_low_speed_limit_scales_with_rpm_squared(name: str, fourbar, scene_name: str) -> None:
+    scene, rtol = SCENES[scene_name](fourbar), registry.get(name).physics_rtol
+    _close(4.0 * deflection(name, replace(scene, rpm=scene.rpm / 2.0)), deflection(name, scene), rtol)
+
+
+def check_deflection_scales_as_inverse_stiffness(name: str, fourbar) -> None:
+    scene, rtol = SCENES["tip-source"](fourbar), registry.get(name).physics_rtol
+    d1 = deflection(name, replace(scene, fourbar=fourbar.with_stiffness_scale(10.0)))
+    d2 = deflection(name, replace(scene, fourbar=fourbar.with_stiffness_scale(20.0)))
+    _close(2.0 * d2, d1, rtol)
+
+
+def run_physics_checks(name: str, thesis, thesis_cognate) -> None:
+    """Every check of this module on solver ``name`` (what the parametrized tests below run one by one)."""
+    check_mirror_symmetry(name, thesis)
+    for scene_name in SCENES:
+        check_low_speed_limit_scales_with_rpm_squared(name, _fourbar(scene_name, thesis, thesis_cognate), scene_name)
+    check_deflection_scales_as_inverse_stiffness(name, thesis)
+
+
+@pytest.mark.parametrize("solver", registry.names())
+def test_mirror_symmetry(solver, thesis):
+    check_mirror_symmetry(solver, thesis)
+
+
+@pytest.mark.parametrize("solver", registry.names())
 @pytest.mark.parametrize("scene_name", list(SCENES))
 def test_low_speed_limit_scales_with_rpm_squared(solver, scene_name, thesis, thesis_cognate):
-    solve, rtol = SOLVERS[solver]
-    scene = SCENES[scene_name](_fourbar(scene_name, thesis, thesis_cognate))
-    d1 = solve(scene)
-    d2 = solve(replace(scene, rpm=scene.rpm / 2.0))
-    _close(4.0 * d2, d1, rtol)
+    check_low_speed_limit_scales_with_rpm_squared(solver, _fourbar(scene_name, thesis, thesis_cognate), scene_name)
 
 
-@pytest.mark.parametrize("solver", list(SOLVERS))
+@pytest.mark.parametrize("solver", registry.names())
 def test_deflection_scales_as_inverse_stiffness(solver, thesis):
-    solve, rtol = SOLVERS[solver]
-    scene = SCENES["tip-source"](thesis)
-    d1 = solve(replace(scene, fourbar=thesis.with_stiffness_scale(10.0)))
-    d2 = solve(replace(scene, fourbar=thesis.with_stiffness_scale(20.0)))
-    _close(2.0 * d2, d1, rtol)
+    check_deflection_scales_as_inverse_stiffness(solver, thesis)
 
 
 @pytest.mark.parametrize("scene_name", list(SCENES))

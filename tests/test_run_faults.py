@@ -307,7 +307,7 @@ def test_fifo_or_symlink_loop_is_refused_in_one_line(tmp_path, qs_config, qs_res
 
 
 def test_malformed_study_readme_markers_are_named_in_one_line(tmp_path):
-    from compare.studies.sections import SectionError, write_section
+    from compare.sections import SectionError, write_section
 
     readme = tmp_path / "README.md"
     text = "# results\n<!-- BEGIN stability -->\nold text\n"  # its END marker was deleted by hand

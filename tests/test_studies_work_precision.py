@@ -11,7 +11,7 @@ import pytest
 
 from compare.config import load_config
 from compare.metrics import cycle_error
-from compare.studies.sections import markers, replace_section
+from compare.sections import markers, replace_section
 from compare.studies.work_precision import CONFIGS, STUDIES, family_key, lump_convergence
 from compare.studies.wp_analysis import (
     Choice,
@@ -122,7 +122,7 @@ def test_choose_lists_timing_ties() -> None:
 
 
 def _section(name: str) -> str:
-    from compare.studies.sections import markers
+    from compare.sections import markers
 
     text = (Path(__file__).resolve().parents[1] / "results" / "README.md").read_text(encoding="utf-8")
     begin, end = markers(name)

@@ -11,9 +11,9 @@ import pytest
 from click.testing import CliRunner
 
 from compare import store
-from compare.studies.sections import section_of
+from compare.limits import Limit, crossing, errors, one_mode_curves, one_mode_errors, validity_limit
+from compare.sections import section_of
 from compare.studies.validity import CONFIGS, REFINE_FILE, load_study
-from compare.studies.validity_analysis import Limit, crossing, errors, one_mode_curves, one_mode_errors, validity_limit
 from compare.studies.validity_figures import FIGURES
 from compare.studies.validity_report import render_section
 from ked_cli.main import cli as main
@@ -71,6 +71,17 @@ def test_limit_and_errors_pure():
     assert validity_limit([0.1, 0.2], [0.01, math.nan], [True, False], 0.05) == Limit(0.05, "failure", 0.1, 0.2)
     assert validity_limit([0.1, 0.2], [0.01, 0.02], [True, True], 0.05).status == "above_grid"
     assert math.isnan(crossing(0.1, 0.2, 0.2, 0.3, 0.05))
+
+
+def test_limit_text_states_the_first_crossing_or_the_bound():
+    # the table form (tiers study): the last passing grid ratio and the step to the first failing one;
+    # a bound otherwise (the walk's inputs make each status, see test_limit_and_errors_pure)
+    assert validity_limit([0.1, 0.2, 0.3], [0.01, 0.04, 0.2], [True] * 3, 0.05).text == "0.200 (+0.100)"
+    assert validity_limit([0.1, 0.2], [0.01, 0.02], [True, True], 0.05).text == ">= 0.2"
+    assert validity_limit([0.1, 0.2], [0.2, 0.3], [True, True], 0.05).text == "< 0.1"
+    assert validity_limit([0.1, 0.2], [0.01, math.nan], [True, False], 0.05).text == ">= 0.1 (Exudyn failed at 0.2)"
+    assert validity_limit([0.1], [math.nan], [False], 0.05).text == "-"  # failed at the first ratio
+    assert validity_limit([], [], [], 0.05).text == "-"
 
 
 def test_vectorized_one_mode_equals_ked_quasi_estimate():

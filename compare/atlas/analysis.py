@@ -27,7 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
-from compare.studies.validity_analysis import validity_limit
+from compare.atlas import store
+from compare.atlas.compute import OK
+from compare.limits import validity_limit
+from compare.paths import ATLAS_FILE
 
 TOLERANCE_TAGS = ("r5", "r10")
 
@@ -73,8 +76,6 @@ def first_crossings(fam: dict[str, np.ndarray], ratios: Sequence[float]) -> dict
     passing grid ratio; above_grid: the largest ratio computed, a lower bound; below_grid, failure: nan)
     with ``r5_step`` / ``r10_step`` (first failing minus last passing grid ratio, nan unless crossed) and
     the stored interpolated values as ``r5_interpolated`` / ``r10_interpolated``."""
-    from compare.atlas.compute import OK
-
     out = dict(fam)
     err = np.asarray(fam.get("history_error", np.empty((0, len(ratios)))), float)
     ok = np.asarray(fam.get("code", np.empty((0, len(ratios)))), int) == OK
@@ -134,17 +135,13 @@ def tier_limits(fam: dict[str, np.ndarray], confirm: dict[str, np.ndarray], mass
 
 def default_path() -> Path:
     """The committed atlas file of this checkout."""
-    from compare.studies import ROOT
-
-    return ROOT / "results" / "atlas" / "atlas.h5"
+    return ATLAS_FILE
 
 
 def limits(mass_model: str, path: str | Path | None = None) -> TierLimits:
     """The atlas's tier limits for ``mass_model`` (tip, joints, extender, distributed), read from the
     stored atlas (default: ``results/atlas/atlas.h5``).  FileNotFoundError if there is no atlas file,
     ValueError if it holds no family of that mass model."""
-    from compare.atlas import store
-
     p = Path(path) if path is not None else default_path()
     if not p.exists():
         raise FileNotFoundError(f"{p}: no atlas file; run `ked study atlas` to compute it")

@@ -33,11 +33,18 @@ the quasi-static tier) and ``bound_met`` is False.
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import asdict, dataclass
+from pathlib import Path
 
 import numpy as np
 from scipy.stats import beta
+
+from compare import store as base_store
+from compare.atlas import store
+from compare.atlas.analysis import default_path, limits, lower_band
+from compare.atlas.threshold import BAND, TABLE
 
 # re-exported: the calibration's vocabulary
 from compare.verdict_rule import BORDERLINE, CALL_NAMES, NOT_QUASI_STATIC, QUASI_STATIC, calls  # noqa: F401
@@ -218,12 +225,6 @@ def threshold_data(path: object, tolerance: float = 0.10) -> ThresholdData:
     """The threshold scenes of an atlas file: the /threshold table and the /confirm scenes within the band
     (r within +-25 % of the family's r10), joined with each mass model's lower-band linear limit
     (:func:`compare.atlas.analysis.limits`, :func:`compare.atlas.analysis.lower_band`)."""
-    from pathlib import Path
-
-    from compare.atlas import store
-    from compare.atlas.analysis import limits, lower_band
-    from compare.atlas.threshold import BAND, TABLE
-
     p = Path(path)  # type: ignore[arg-type]
     thr, conf = store.read(p, TABLE), store.read(p, "confirm")
     in_band = np.abs(np.asarray(conf.get("factor", []), float) - 1.0) <= BAND + 1e-12
@@ -251,13 +252,6 @@ def threshold_margins(path: object, tolerance: float = 0.10) -> Margins:
 def store_margins(path: object, tolerance: float = 0.10) -> dict[str, object] | None:
     """Choose the margins from the file's threshold table and store them (attribute :data:`ATTR`) when they
     changed; returns the record (None without a threshold table)."""
-    import json
-    from pathlib import Path
-
-    from compare import store as base_store
-    from compare.atlas import store
-    from compare.atlas.threshold import TABLE
-
     p = Path(path)  # type: ignore[arg-type]
     if not store.read(p, TABLE):
         return None
@@ -304,11 +298,6 @@ def verdict_margins(tolerance: float = 0.10, path: object = None) -> VerdictMarg
     """The margins stored in the atlas file (default: the committed ``results/atlas/atlas.h5``, read like
     :func:`compare.atlas.analysis.limits`).  Never raises for a missing or unreadable file, a file without
     calibration or an uncalibrated tolerance: it returns multipliers nan with ``source`` saying why."""
-    from pathlib import Path
-
-    from compare.atlas import store
-    from compare.atlas.analysis import default_path
-
     p = Path(path) if path is not None else default_path()  # type: ignore[arg-type]
     if not p.exists():
         return _uncalibrated(f"no atlas file {p}: margins not calibrated")

@@ -22,10 +22,11 @@ from compare import metrics
 from compare import solvers as registry
 from compare.atlas.generate import Linkage
 from compare.execute import frame, resolve_rpm, solve_one
+from compare.limits import one_mode_curves, one_mode_limit, validity_limit
 from compare.scenes import SceneSpec, SpeedSpec
-from compare.studies.validity_analysis import one_mode_curves, one_mode_limit, validity_limit
 from ked_quasi.harmonics import significant_harmonic
 from ked_quasi.massmodel import MassModel
+from ked_quasi.solver import solve_quasi_static
 
 RATIOS = (0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.09, 0.10, 0.115, 0.13, 0.15, 0.175, 0.2, 0.25, 0.3, 0.4, 0.5)
 """The speed-ratio sweep r = Omega / omega1_min (dense where the limits are)."""
@@ -108,15 +109,13 @@ def flag_bits(flags: tuple[str, ...]) -> int:
 
 
 def limit_of(ratios: tuple[float, ...], err: list[float], ok: list[bool], tol: float) -> Limit:
-    """The validity study's walk up the grid (:func:`compare.studies.validity_analysis.validity_limit`)."""
+    """The validity study's walk up the grid (:func:`compare.limits.validity_limit`)."""
     lim = validity_limit(ratios, err, ok, tol)
     r = {"crossed": lim.r_cross, "above_grid": lim.r_pass, "below_grid": lim.r_fail}.get(lim.status, lim.r_pass)
     return Limit(lim.status, float(r), float(lim.half_bracket))
 
 
 def _loads_and_shape(scene: object) -> tuple[np.ndarray, np.ndarray, float]:
-    from ked_quasi.solver import solve_quasi_static
-
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = solve_quasi_static(scene)

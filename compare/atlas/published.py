@@ -15,6 +15,10 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from compare.atlas.analysis import limits
+from compare.atlas.calibration import verdict_margins
+from compare.atlas.compute import DAMPING
+
 RESOURCE = "atlas_limits.json"
 """The file's name inside the ``compare`` package."""
 MASS_MODELS = ("tip", "joints", "extender", "distributed")
@@ -23,10 +27,6 @@ MASS_MODELS = ("tip", "joints", "extender", "distributed")
 def build(atlas: str | Path) -> dict[str, Any]:
     """The published record of an atlas file: {"source", "damping_ratio", "limits": {mass model: TierLimits
     fields}, "margins": {"10": VerdictMargins fields}} (non-finite numbers as null)."""
-    from compare.atlas.analysis import limits
-    from compare.atlas.calibration import verdict_margins
-    from compare.atlas.compute import DAMPING
-
     rec: dict[str, Any] = {"source": f"atlas {Path(atlas).name}", "damping_ratio": DAMPING, "limits": {},
                            "margins": {}}
     for mm in MASS_MODELS:

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from compare import solvers
 from compare.atlas import calibration as cal
 from compare.atlas import figures
 from compare.atlas import store as atlas_store
@@ -25,6 +26,10 @@ from compare.atlas.analysis import (
 )
 from compare.atlas.compute import RATIOS, spec_of, xy
 from compare.atlas.generate import candidate
+from compare.atlas.threshold import TABLE
+from compare.execute import frame, solve_one
+from compare.sections import write_section
+from ked_quasi.kinematics import coupler_point
 from ked_quasi.massmodel import MASS_MODELS
 
 SECTION = "atlas"
@@ -349,10 +354,6 @@ def confirm_text(conf: dict[str, np.ndarray]) -> list[str]:
 
 def coupler_curve_data(atlas: Path, fam: dict[str, np.ndarray], seed: int) -> list[dict[str, Any]]:
     """Recompute the most and the least forgiving families (largest / smallest r10) at r = 0.1."""
-    from compare import solvers
-    from compare.execute import frame, solve_one
-    from ked_quasi.kinematics import coupler_point
-
     m = np.flatnonzero(crossed(fam, "r10"))
     out = []
     for label, i in (("most forgiving", m[np.argmax(fam["r10"][m])]), ("least forgiving", m[np.argmin(fam["r10"][m])])):
@@ -402,8 +403,6 @@ def load(atlas: Path) -> tuple[dict[str, Any], dict[str, np.ndarray], dict[str, 
 
 def threshold_of(atlas: Path) -> tuple[cal.ThresholdData | None, cal.Margins | None]:
     """The threshold sample and its chosen margins (None, None without one)."""
-    from compare.atlas.threshold import TABLE
-
     if not atlas_store.read(atlas, TABLE):
         return None, None
     return cal.threshold_data(atlas), cal.threshold_margins(atlas)
@@ -473,8 +472,6 @@ def markdown(atlas: Path, readme: Path, figs: dict[str, Path], cs_rule: tuple[np
 
 def write_report(atlas: Path, figures_dir: Path, readme: Path) -> dict[str, Any]:
     """Figures and the README section from the stored atlas."""
-    from compare.studies.sections import write_section
-
     info, fam, links, conf = load(atlas)
     thr, margins = threshold_of(atlas)
     feats = features(fam, links)

@@ -22,9 +22,11 @@ from typing import Any
 
 import numpy as np
 
+from compare import store
 from compare.atlas import store as atlas_store
 from compare.atlas.confirm import ConfirmPoint, confirm_columns, confirm_scene, failed_confirm
 from compare.atlas.generate import candidate
+from compare.atlas.run import run_records
 from ked_quasi.massmodel import MASS_MODELS
 
 BAND = 0.25
@@ -63,9 +65,6 @@ def run_threshold(path: Path, *, n: int = DEFAULT_THRESHOLD, seed: int = 0, work
                   scheduler: str | None = None, progress: bool = False,
                   echo: Callable[[str], Any] = print) -> dict[str, int]:
     """Confirm the threshold sample's scenes not yet stored in the atlas file (resumable)."""
-    from compare import store
-    from compare.atlas.run import run_records
-
     atlas_store.check_atlas(path, {"seed": seed})
     points = select_threshold(atlas_store.read(path, "families"), n, seed)
     done = set(atlas_store.read(path, TABLE).get("key", []))

@@ -13,7 +13,7 @@ module level of an importable module.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -79,7 +79,13 @@ class Solver:
     ``make_settings(overrides, damping_ratio)``; ``run(scene, settings, outputs)``
     returns the :class:`Solution` (it may raise: the campaign stores the exception as a failure);
     ``legacy_defaults()``: for settings fields added after results were stored, the value that
-    reproduces the older behaviour (stored settings without the field count as that value).
+    reproduces the older behaviour (stored settings without the field count as that value);
+    ``setting_rules()``: field name -> the :class:`ked_quasi.rules.Rule` (or ``Choice``, ``Flag``) its
+    settings class checks the field with: the campaign config checks the solver's table with the same
+    rules (a function, like ``settings_class``); ``physics_rtol``: the relative tolerance (on the peak)
+    to which the solver meets the shared physics checks at low speed (speed ratio about 0.05: mirror
+    symmetry, rpm^2 and 1/E scaling; ``tests/test_physics_checks.py`` runs them on every registered
+    solver): round-off for a quasi-static method, its discretization and dynamic content otherwise.
     """
 
     name: str
@@ -90,6 +96,8 @@ class Solver:
     run: Callable[[Scene, Any, tuple[str, ...]], Solution]
     description: str = ""
     legacy_defaults: Callable[[], dict[str, Any]] = dict
+    setting_rules: Callable[[], Mapping[str, Any]] = dict
+    physics_rtol: float = 0.02
 
     def settings_dict(self, settings: Any) -> dict[str, Any]:
         """Resolved settings as a JSON-able dict."""

@@ -15,6 +15,12 @@ def settings_class() -> type:
     return DynamicSettings
 
 
+def setting_rules() -> dict[str, Any]:
+    from exudyn_models.settings import RULES
+
+    return RULES
+
+
 def make_settings(overrides: dict[str, Any], damping_ratio: float) -> Any:
     """``DynamicSettings`` from the explicit overrides (the scene's damping ratio included in them)."""
     return settings_class()(**overrides)
@@ -72,7 +78,7 @@ def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Sol
 
 SOLVER = register(Solver(
     name="dynamic", label="dynamic (Exudyn)", fidelity=10, settings_class=settings_class,
-    make_settings=make_settings, run=run, legacy_defaults=legacy_defaults,
+    make_settings=make_settings, run=run, legacy_defaults=legacy_defaults, setting_rules=setting_rules,
     description="Exudyn flexible multibody model (ANCF or geometrically exact beams), periodic steady state",
 ))
 

@@ -16,6 +16,12 @@ def settings_class() -> type:
     return LinearSettings
 
 
+def setting_rules() -> dict[str, Any]:
+    from ked_linear.settings import RULES
+
+    return RULES
+
+
 def make_settings(overrides: dict[str, Any], damping_ratio: float) -> Any:
     """``LinearSettings`` from the explicit overrides, damped like the scene (its damping ratio)."""
     return settings_class()(**{"damping_ratio": damping_ratio, **overrides})
@@ -46,8 +52,9 @@ def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Sol
 
 SOLVER = register(Solver(
     name="linear", label="linear KED", fidelity=5, settings_class=settings_class, make_settings=make_settings,
-    run=run, description="linear time-periodic KED (ked_linear): frozen structure plus the inertia of the elastic "
-                         "motion, periodic steady state and Floquet stability",
+    run=run, setting_rules=setting_rules,
+    description="linear time-periodic KED (ked_linear): frozen structure plus the inertia of the elastic motion, "
+                "periodic steady state and Floquet stability",
 ))
 
 
@@ -64,6 +71,6 @@ def run_classic(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS
 
 CLASSIC = register(Solver(
     name="linear_classic", label="linear KED (no prestress)", fidelity=4, settings_class=settings_class,
-    make_settings=make_classic_settings, run=run_classic,
+    make_settings=make_classic_settings, run=run_classic, setting_rules=setting_rules,
     description="the classical linear KED model: as 'linear' without the geometric stiffness of the axial forces",
 ))

@@ -45,6 +45,6 @@ def run(scene: Any, settings: QuasiStaticSettings, outputs: tuple[str, ...] = CO
 
 SOLVER = register(Solver(
     name="quasi_static", label="quasi-static", fidelity=0, settings_class=settings_class,
-    make_settings=make_settings, run=run,
+    make_settings=make_settings, run=run, physics_rtol=1e-10,
     description="instantaneous-structure flexibility method (ked_quasi): inertia loads on the frozen linkage",
 ))

@@ -11,36 +11,14 @@ from the stored files without computing.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
-ROOT = Path(__file__).resolve().parents[2]
-CONFIG_DIR = ROOT / "results" / "studies"
-"""The checked-in study configs."""
+from compare.paths import COMMITTED, StudyPaths
+
 STUDIES = ("validity", "work-precision", "stability", "tiers", "atlas")
 
 
-@dataclass(frozen=True)
-class StudyPaths:
-    """Where a study writes: ``results`` holds ``studies/`` (HDF5), ``figures/`` and ``README.md``."""
-
-    results: Path = ROOT / "results"
-
-    @property
-    def studies(self) -> Path:
-        return self.results / "studies"
-
-    @property
-    def figures(self) -> Path:
-        return self.results / "figures"
-
-    @property
-    def readme(self) -> Path:
-        return self.results / "README.md"
-
-
-def run(name: str, paths: StudyPaths = StudyPaths(), *, workers: int = 2, fresh: bool = False,
+def run(name: str, paths: StudyPaths = COMMITTED, *, workers: int = 2, fresh: bool = False,
         report_only: bool = False, progress: bool = False, echo: Callable[[str], Any] = print,
         **options: Any) -> dict[str, Any]:
     """Run (resume) study ``name`` into ``paths`` and regenerate its figures and README section;
@@ -56,11 +34,3 @@ def run(name: str, paths: StudyPaths = StudyPaths(), *, workers: int = 2, fresh:
               "atlas": atlas}[name]
     return module.run(paths, workers=workers, fresh=fresh, report_only=report_only, progress=progress, echo=echo,
                       **options)
-
-
-def remove_outputs(files: list[Path], echo: Callable[[str], Any]) -> None:
-    """Delete a study's stored HDF5 files (only on an explicit ``fresh``)."""
-    for f in files:
-        if f.exists():
-            f.unlink()
-            echo(f"removed {f} (--fresh)")

@@ -9,7 +9,14 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from compare.studies import StudyPaths, remove_outputs
+from compare.atlas import published
+from compare.atlas.analysis import default_path
+from compare.atlas.calibration import store_margins
+from compare.atlas.confirm import run_confirm
+from compare.atlas.report import write_report
+from compare.atlas.run import run_atlas
+from compare.atlas.threshold import run_threshold
+from compare.paths import StudyPaths, remove_outputs
 
 DEFAULT_LINKAGES = 1000
 DEFAULT_CONFIRM = 200
@@ -26,13 +33,6 @@ def run(paths: StudyPaths, *, workers: int = 2, fresh: bool = False, report_only
         seed: int = 0, scheduler: str | None = None, confirm: int = DEFAULT_CONFIRM,
         threshold: int = DEFAULT_THRESHOLD) -> dict[str, Any]:
     """The study with the common signature (see :func:`compare.studies.run`)."""
-    from compare.atlas import published
-    from compare.atlas.analysis import default_path
-    from compare.atlas.calibration import store_margins
-    from compare.atlas.confirm import run_confirm
-    from compare.atlas.report import write_report
-    from compare.atlas.run import run_atlas
-
     path = atlas_file(paths)
     if fresh:
         remove_outputs([path], echo)
@@ -44,8 +44,6 @@ def run(paths: StudyPaths, *, workers: int = 2, fresh: bool = False, report_only
             summary["confirm"] = run_confirm(path, n=confirm, seed=seed, workers=workers, scheduler=scheduler,
                                              progress=progress, echo=echo)
         if threshold > 0:
-            from compare.atlas.threshold import run_threshold
-
             summary["threshold"] = run_threshold(path, n=threshold, seed=seed, workers=workers, scheduler=scheduler,
                                                  progress=progress, echo=echo)
     if not path.exists():

@@ -26,18 +26,20 @@ import numpy as np
 from compare import store
 from compare.config import load_config
 from compare.inspect import speed_ratio
+from compare.paths import RESULTS, StudyPaths, remove_outputs
 from compare.results import SceneResult
+from compare.sections import write_section
 from compare.solvers import COMPONENTS
+from compare.solvers.dynamic import legacy_defaults
 from compare.solvers.dynamic import settings_for as build_settings
-from compare.studies import StudyPaths, remove_outputs, study_io
-from compare.studies.sections import write_section
+from compare.studies import stability_report, study_io
 from compare.studies.stability_analysis import check, deviation, peak, quasi_report
 from compare.studies.work_precision import family_key, ked_scene
+from ked_quasi.solver import solve_quasi_static
 
-ROOT = Path(__file__).resolve().parents[2]
-CONFIG_DIR = ROOT / "results" / "studies" / "stability"
-OUT = ROOT / "results" / "studies" / "stability.h5"
-README = ROOT / "results" / "README.md"
+CONFIG_DIR = RESULTS / "studies" / "stability"
+OUT = RESULTS / "studies" / "stability.h5"
+README = RESULTS / "README.md"
 SECTION = "stability"
 
 
@@ -109,7 +111,6 @@ def _dyn(r: SceneResult) -> np.ndarray | None:
 def is_default(r: SceneResult) -> bool:
     """Resolved Exudyn settings equal to the defaults (damping ratio aside; a field the stored settings
     lack counts as its legacy value, see ``compare.solvers.dynamic.legacy_defaults``)."""
-    from compare.solvers.dynamic import legacy_defaults
     from exudyn_models import DynamicSettings
 
     stored = {**legacy_defaults(), **r.dynamic_settings}
@@ -148,8 +149,6 @@ def refused_row(config: str, message: str) -> CaseRow:
 
 def case_rows(results: Sequence[SceneResult], cases: dict[str, tuple[str, str]], ladder: bool = True) -> list[CaseRow]:
     """One row per stored scene of the stability campaign (in config order)."""
-    from ked_quasi.solver import solve_quasi_static
-
     by_key = {r.key: r for r in results}
     defaults = {family_key(r.spec): r for r in results if r.ok and is_default(r)}
     rows = []
@@ -223,8 +222,6 @@ def run_study(out: Path = OUT, *, workers: int | None = 2, fresh: bool = True, r
 
 def report(out: Path = OUT, readme: Path = README) -> Path:
     """The README section from the stored ``/study/cases`` table of ``out`` (no computation)."""
-    from compare.studies import stability_report
-
     tables, attrs = study_io.read_tables(out)
     return write_section(readme, SECTION, stability_report.markdown(tables, attrs))
 

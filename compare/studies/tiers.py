@@ -10,7 +10,7 @@ d_dyn the quasi-static error splits into
 
 all vector history errors of the coupler point (``compare.metrics``).  The limits are the validity
 study's first crossings: the last grid r below which every grid scene solved and stayed under the
-tolerance, never interpolated (:class:`compare.studies.validity_analysis.Limit`), with the grid step to the
+tolerance, never interpolated (:class:`compare.limits.Limit`), with the grid step to the
 first ratio that failed stated beside it.
 The study runs nothing of its own: the validity campaigns list the linear solvers, so
 ``ked study validity`` (or this study without ``--report-only``) adds them to the stored scenes.
@@ -24,9 +24,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from compare import metrics, store
-from compare.studies import CONFIG_DIR, StudyPaths
-from compare.studies.sections import write_section
-from compare.studies.validity_analysis import Limit, validity_limit
+from compare.limits import Limit, validity_limit
+from compare.paths import CONFIG_DIR, StudyPaths
+from compare.sections import write_section
+from compare.studies import validity
 from compare.studies.validity_data import linkage_json, read_points
 
 SECTION = "tiers"
@@ -118,18 +119,6 @@ def limits(fam: Sequence[TierPoint], model: str, tolerance: float) -> Limit:
                           [p.dyn_ok and math.isfinite(p.error[model]) for p in fam], tolerance)
 
 
-def _fmt(lim: Limit) -> str:
-    if lim.status == "crossed":
-        return f"{lim.r_limit:.3f} (+{lim.step:.3f})"
-    if lim.status == "above_grid":
-        return f">= {lim.r_pass:g}"
-    if lim.status == "below_grid":
-        return f"< {lim.r_fail:g}"
-    if lim.status == "failure":
-        return f">= {lim.r_pass:g} (Exudyn failed at {lim.r_fail:g})" if math.isfinite(lim.r_pass) else "-"
-    return "-"
-
-
 def _span(values: list[float]) -> str:
     v = [x for x in values if math.isfinite(x)]
     return f"{min(v):.3f}-{max(v):.3f}" if v else "-"
@@ -157,7 +146,7 @@ def markdown(points: Sequence[TierPoint], figure: Path | None, readme: Path) -> 
         for model in MODELS:
             for tol in TOLERANCES:
                 lim = limits(fam, model, tol)
-                cells.append(_fmt(lim))
+                cells.append(lim.text)
                 per_model.setdefault(mm, {}).setdefault(f"{model} {tol}", []).append(
                     lim.r_limit if lim.status == "crossed" else math.nan)
         L.append(f"| {lk} | {mech} | {mm} | " + " | ".join(cells) + " |")
@@ -252,8 +241,6 @@ def run(paths: StudyPaths, *, workers: int = 2, fresh: bool = False, report_only
         progress: bool = False, echo: Callable[[str], object] = print) -> dict:
     """The study with the common signature (see :func:`compare.studies.run`); computing means resuming
     the validity campaigns (which adds missing linear solutions); ``fresh`` is the validity study's."""
-    from compare.studies import validity
-
     configs = [CONFIG_DIR / c for c in validity.CONFIGS]
     if not report_only:
         validity.run(paths, workers=workers, fresh=fresh, progress=progress, echo=echo, retry=False, refine=False)

@@ -16,17 +16,17 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from compare import store
 from compare.config import load_config
+from compare.limits import ERROR_KINDS, TOLERANCES
+from compare.paths import CONFIG_DIR, StudyPaths, remove_outputs
 from compare.results import SceneResult
-from compare.runner import run_campaign, run_scenes
+from compare.runner import resolved_settings, run_campaign, run_scenes
 from compare.scenes import SceneSpec
-from compare.studies import CONFIG_DIR, StudyPaths, remove_outputs
-from compare.studies.sections import write_section
-from compare.studies.validity_analysis import ERROR_KINDS, TOLERANCES
+from compare.sections import write_section
 from compare.studies.validity_data import RETRY_MAX_RATIO, Point, linkage_json, quasi_static_loads, read_points
 from compare.studies.validity_summary import FamilySummary, summarize
 
@@ -49,8 +49,6 @@ def explicit_text(specs: Sequence[SceneSpec]) -> str:
 
 def with_dynamic(spec: SceneSpec, **overrides: object) -> SceneSpec:
     """The scene with some pinned ``[dynamic]`` settings changed (a new content key)."""
-    from dataclasses import replace
-
     d = dict(spec.dynamic)
     d.update(overrides)
     return replace(spec, dynamic=tuple(sorted(d.items())))
@@ -62,8 +60,6 @@ def ladder_retries(points: Sequence[Point], stored: Sequence[SceneResult]) -> li
     are recomputed with the ladder.  A failure left after the ladder is final (above, near and past
     resonance a retry costs minutes and rarely settles); a scene with a stored retry of an earlier version
     of the study (same speed, more steps per cycle) is not retried again."""
-    from compare.runner import resolved_settings
-
     by_key = {r.key: r for r in stored}
     speeds: dict[tuple, list[Point]] = {}
     for p in points:

@@ -1,6 +1,6 @@
 """Validity study, data edge: read campaign HDF5 files into flat :class:`Point` records.
 
-Everything downstream (:mod:`compare.studies.validity_analysis`, ``validity_figures``,
+Everything downstream (:mod:`compare.limits`, ``validity_figures``,
 ``validity_report``) is pure and works on these records.  Units: SI; deflections of the coupler
 point P in m (dx, dy, global frame), crank angle in rad, speeds in rad/s or rev/min where named.
 """
@@ -12,12 +12,14 @@ import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
+import h5py
 import numpy as np
 
 from compare import metrics, store
 from compare.inspect import speed_ratio
 from compare.results import SceneResult
-from compare.scenes import SceneSpec
+from compare.scenes import SceneSpec, canonical_json
+from ked_quasi.solver import solve_quasi_static
 
 RETRY_STEP_FACTOR = 4
 """Earlier versions of the study retried a Newton failure once as a scene with this many times the steps
@@ -142,8 +144,6 @@ def read_points(path: str | Path, linkage: str | None = None, refined: bool = Fa
 
 def run_starts(path: str | Path) -> list[str]:
     """ISO-8601 start times of every ``ked run`` recorded in a campaign file (``/runs/*``)."""
-    import h5py
-
     with h5py.File(path, "r") as f:
         runs = f.get("runs")
         return [] if runs is None else [str(g.attrs["started_utc"]) for g in runs.values()]
@@ -151,8 +151,6 @@ def run_starts(path: str | Path) -> list[str]:
 
 def linkage_json(spec: SceneSpec) -> str:
     """Canonical JSON of a scene's source linkage (identifies the four-bar across files)."""
-    from compare.scenes import canonical_json
-
     return canonical_json(spec.key_dict()["linkage"])
 
 
@@ -160,8 +158,6 @@ def quasi_static_loads(spec: SceneSpec) -> tuple[np.ndarray, np.ndarray]:
     """Recompute the scene's quasi-static solution at 1 rad/s-equivalent shape: returns
     (loads (n, N, 2) [N], deflection (n, 2) [m]) at the scene's grid and an arbitrary speed.  The shape
     of both is independent of the speed (they scale with Omega^2), which is all the harmonic rule needs."""
-    from ked_quasi.solver import solve_quasi_static
-
     scene = spec.scene(100.0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -13,7 +13,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from compare.studies.validity_analysis import TOLERANCES, one_mode_curves  # noqa: E402
+from compare.limits import TOLERANCES, one_mode_curves  # noqa: E402
 from compare.studies.validity_summary import FamilySummary  # noqa: E402
 
 DPI = 100

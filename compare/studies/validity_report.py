@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from compare.studies.validity_analysis import TOLERANCES, one_mode_curves, peak_of, peak_ratio
+from compare.limits import TOLERANCES, one_mode_curves, peak_of, peak_ratio
 from compare.studies.validity_data import RETRY_MAX_RATIO, RETRY_STEP_FACTOR, Point, run_starts
 from compare.studies.validity_figures import reference
 from compare.studies.validity_summary import FamilySummary, Slot

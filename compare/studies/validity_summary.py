@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from compare.studies.validity_analysis import (
+from compare.limits import (
     ERROR_KINDS,
     TOLERANCES,
     Errors,

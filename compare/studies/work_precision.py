@@ -14,6 +14,7 @@ are computed; ``--fresh`` recomputes everything.
 
 from __future__ import annotations
 
+import json
 import math
 import statistics
 import time
@@ -22,16 +23,18 @@ from collections.abc import Callable, Sequence
 from dataclasses import asdict
 from pathlib import Path
 
+import h5py
 import numpy as np
 
 from compare import store
 from compare.metrics import cycle_error
+from compare.paths import RESULTS, StudyPaths, remove_outputs
 from compare.results import SceneResult
 from compare.scenes import SceneSpec, canonical_json
+from compare.sections import write_section
 from compare.solvers import COMPONENTS
 from compare.solvers.dynamic import settings_for as build_settings
-from compare.studies import StudyPaths, remove_outputs, study_io
-from compare.studies.sections import write_section
+from compare.studies import study_io
 from compare.studies.wp_analysis import (
     REFERENCE,
     Discretization,
@@ -39,13 +42,16 @@ from compare.studies.wp_analysis import (
     WPPoint,
     is_reference,
 )
+from ked_linear import LinearSettings, solve_linear
+from ked_quasi.massmodel import MassModel
+from ked_quasi.presets import linkage
+from ked_quasi.solver import Scene, solve_quasi_static
 
-ROOT = Path(__file__).resolve().parents[2]
-STUDIES = ROOT / "results" / "studies"
+STUDIES = RESULTS / "studies"
 CONFIGS = ("work_precision.toml", "work_precision_quasi.toml", "work_precision_refcheck.toml")
 OUT = STUDIES / "work_precision.h5"
-FIGURES = ROOT / "results" / "figures"
-README = ROOT / "results" / "README.md"
+FIGURES = RESULTS / "figures"
+README = RESULTS / "README.md"
 SECTION = "work-precision"
 LUMPS = (1, 2, 3, 4, 5, 6, 8, 12, 16, 24, 32, 48, 64)
 LUMPS_REFERENCE = 256
@@ -153,8 +159,6 @@ def reference_scenes(results: Sequence[SceneResult]) -> list[SceneResult]:
 def quasi_points(results: Sequence[SceneResult], repeats: int) -> list[dict]:
     """Quasi-static solver on every reference scene: error [1] against the dynamic reference, median
     solve time [s] over ``repeats`` solves, speed ratio, quasi-static and dynamic peaks [m]."""
-    from ked_quasi.solver import solve_quasi_static
-
     out = []
     for r in reference_scenes(results):
         scene = ked_scene(r)
@@ -175,8 +179,6 @@ def linear_points(results: Sequence[SceneResult], repeats: int = 5, slow_s: floa
     [s] over ``repeats`` solves (at most 3 when the first takes over ``slow_s``) and their spread (max - min)
     / median [1], its harmonics, own error
     estimate [1], largest |Floquet multiplier| and stability, peak [m]."""
-    from ked_linear import LinearSettings, solve_linear
-
     out = []
     for r in reference_scenes(results):
         scene, settings = ked_scene(r), LinearSettings(damping_ratio=r.spec.damping_ratio)
@@ -205,10 +207,6 @@ def lump_convergence(models: Sequence[str] = ("extender", "distributed"),
                      reference: int = LUMPS_REFERENCE, repeats: int = 15) -> list[LumpPoint]:
     """Quasi-static deflection with n lumps per link against n = ``reference`` (thesis source linkage,
     300 rpm; the relative error does not depend on the speed since all loads scale with omega^2)."""
-    from ked_quasi.massmodel import MassModel
-    from ked_quasi.presets import linkage
-    from ked_quasi.solver import Scene, solve_quasi_static
-
     fb = linkage("thesis")
     out = []
     for model in models:
@@ -227,10 +225,6 @@ def lump_convergence(models: Sequence[str] = ("extender", "distributed"),
 def stored_study(out: Path, scenes: int) -> tuple[dict[str, list[dict]], dict]:
     """The ``/study`` tables (name -> rows) and attrs stored in ``out`` by a run of the same configs over
     ``scenes`` scenes, as :func:`study_io.write_tables` takes them back; ({}, {}) if there are none."""
-    import json
-
-    import h5py
-
     if not out.exists():
         return {}, {}
     with h5py.File(out, "r") as f:

@@ -16,6 +16,8 @@ from typing import Any
 import matplotlib
 
 matplotlib.use("Agg")
+import json
+
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
@@ -28,9 +30,11 @@ from compare.studies.wp_analysis import (  # noqa: E402
     WPPoint,
     choose,
     coarsest_failures,
+    observed_order,
     pareto_mask,
     summary,
 )
+from ked_linear import UNRESOLVED_ESTIMATE
 
 DPI = 100
 LINEAR_COLOR = "teal"
@@ -51,8 +55,6 @@ def wp_points(tables: dict[str, dict[str, np.ndarray]]) -> list[WPPoint]:
 
 
 def default_disc(attrs: dict[str, Any]) -> Discretization:
-    import json
-
     d = attrs["defaults"]
     d = json.loads(d) if isinstance(d, str) else d
     return Discretization(d["element"], int(d["elements_per_link"]), int(d["steps_per_cycle"]),
@@ -215,8 +217,6 @@ def _disc(d: Discretization) -> str:
 
 def markdown(tables: dict, attrs: dict, figures: Sequence[Path], base: Path) -> str:
     """The README section (every number from ``tables``/``attrs``)."""
-    import json
-
     points, dflt = wp_points(tables), default_disc(attrs)
     fams = families(points)
     ref = attrs["reference"]
@@ -324,8 +324,6 @@ def _linear_lines(linear: list[dict], quasi: list[dict], points: Sequence[WPPoin
     against the cheapest dynamic run as accurate on the scenes with dynamic runs) and a row per mass model."""
     if not linear:
         return []
-    from ked_linear import UNRESOLVED_ESTIMATE
-
     qs = {(q["mass_model"], f"{q['speed_ratio']:.3g}"): q for q in quasi}
     pairs = [(r, qs.get((r["mass_model"], f"{r['speed_ratio']:.3g}"))) for r in linear]
     pairs = [(r, q) for r, q in pairs if q is not None]
@@ -422,8 +420,6 @@ def _lumps_lines(tables: dict, fig: str) -> list[str]:
           for r in rows(tables.get("lumps", {}))]
     if not lp:
         return []
-    from compare.studies.wp_analysis import observed_order
-
     ref = lp[0]["reference_lumps"]
     ns = sorted({r["lumps"] for r in lp})
     series: dict[tuple[str, str], dict[int, dict]] = {}

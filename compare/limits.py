@@ -1,5 +1,6 @@
-"""Validity study, pure analysis: errors of the quasi-static solution against the dynamic steady
-state, the largest speed ratio at which it stays within a tolerance, and the harmonic rule.
+"""Validity limits, pure analysis (used by the validity and tiers studies and the atlas): errors of the
+quasi-static solution against the dynamic steady state, the largest speed ratio at which it stays within
+a tolerance (:class:`Limit`, the first crossing on a ratio grid), and the harmonic rule.
 
 Deflection d(theta) = (dx, dy) of the coupler point P [m] on a uniform full-turn crank-angle grid.
 Speed ratio r = Omega / omega1_min [1].  Errors are dimensionless fractions:
@@ -88,6 +89,21 @@ class Limit:
     def half_bracket(self) -> float:
         """Half width of the bracketing grid interval (the r-grid uncertainty) [1]."""
         return 0.5 * (self.r_fail - self.r_pass) if self.status == "crossed" else math.nan
+
+    @property
+    def text(self) -> str:
+        """The limit as a table states it: '0.060 (+0.020)' (crossed: the limit and the step to the first
+        failing ratio), '>= 0.5' (never reached: a lower bound), '< 0.02' (already at the smallest ratio),
+        '>= 0.1 (Exudyn failed at 0.2)' (ended by a failed dynamic run), '-' (no data)."""
+        if self.status == "crossed":
+            return f"{self.r_limit:.3f} (+{self.step:.3f})"
+        if self.status == "above_grid":
+            return f">= {self.r_pass:g}"
+        if self.status == "below_grid":
+            return f"< {self.r_fail:g}"
+        if self.status == "failure" and math.isfinite(self.r_pass):
+            return f">= {self.r_pass:g} (Exudyn failed at {self.r_fail:g})"
+        return "-"
 
 
 def validity_limit(r: Sequence[float], err: Sequence[float], ok: Sequence[bool], tolerance: float) -> Limit:

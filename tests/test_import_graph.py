@@ -1,0 +1,168 @@
+"""The harness's packages import each other without cycles.
+
+Every ``import`` statement of every ``.py`` file of the packages is read with ``ast`` -- at module level
+and inside functions (a function-level import that closes a loop is a cycle that merely waits for the
+call) -- and resolved to the module it loads: relative imports against the importing package,
+``from pkg import name`` to ``pkg.name`` when that is a submodule, and an import of ``a.b.c`` from outside
+package ``a`` also to ``a`` and ``a.b``, whose ``__init__`` runs first.  Imports under
+``if TYPE_CHECKING:`` never run and are left out.  The graph of modules must have no cycle (a strongly
+connected component of more than one module, or a module importing itself).
+"""
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("ked_quasi", "ked_linear", "exudyn_models", "compare", "ked_cli", "ked_bench")
+
+
+def _modules() -> dict[str, Path]:
+    """Module name -> file, for every .py file of the packages (a package is its ``__init__``)."""
+    found = {}
+    for package in PACKAGES:
+        for path in sorted((ROOT / package).rglob("*.py")):
+            parts = list(path.relative_to(ROOT).with_suffix("").parts)
+            if parts[-1] == "__init__":
+                parts = parts[:-1]
+            found[".".join(parts)] = path
+    return found
+
+
+def _is_type_checking(test: ast.expr) -> bool:
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
+
+
+def _import_nodes(tree: ast.AST):
+    """Every Import/ImportFrom node of the tree, module- or function-level, except under TYPE_CHECKING."""
+    stack = [tree]
+    while stack:
+        node = stack.pop()
+        if isinstance(node, (ast.Import, ast.ImportFrom)):
+            yield node
+        if isinstance(node, ast.If) and _is_type_checking(node.test):
+            stack.extend(node.orelse)
+            continue
+        stack.extend(ast.iter_child_nodes(node))
+
+
+def _targets(module: str, is_package: bool, node: ast.Import | ast.ImportFrom, known: set[str]) -> set[str]:
+    """The harness modules one import statement loads (names outside the packages are dropped)."""
+    if isinstance(node, ast.Import):
+        names = [alias.name for alias in node.names]
+    else:
+        if node.level:
+            package = module.split(".") if is_package else module.split(".")[:-1]
+            package = package[:len(package) - (node.level - 1)]
+            base = ".".join(package + ([node.module] if node.module else []))
+        else:
+            base = node.module or ""
+        submodules = [f"{base}.{alias.name}" for alias in node.names if f"{base}.{alias.name}" in known]
+        # ``from pkg import name`` reads pkg itself unless every name is a submodule (then pkg is a parent).
+        names = submodules + ([base] if len(submodules) < len(node.names) else [])
+    loaded = set()
+    for name in names:
+        parts = name.split(".")
+        for i in range(1, len(parts) + 1):
+            prefix = ".".join(parts[:i])
+            # The __init__ of a package the importer sits in is already running: not a new load.
+            inside = module == prefix or module.startswith(prefix + ".")
+            if prefix in known and (i == len(parts) or not inside):
+                loaded.add(prefix)
+    return loaded
+
+
+def import_graph() -> dict[str, set[str]]:
+    """Module -> the harness modules it imports (anywhere in its code)."""
+    modules = _modules()
+    known = set(modules)
+    graph = {}
+    for module, path in modules.items():
+        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+        edges = set()
+        for node in _import_nodes(tree):
+            edges |= _targets(module, path.name == "__init__.py", node, known)
+        edges.discard(module) if path.name == "__init__.py" else None
+        graph[module] = edges
+    return graph
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """One cycle (a -> ... -> a) through each strongly connected component of more than one module,
+    and every module importing itself (Tarjan's algorithm, iterative)."""
+    index, low, on_stack, stack, components = {}, {}, set(), [], []
+    counter = 0
+    for root in sorted(graph):
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = counter
+        counter += 1
+        stack.append(root)
+        on_stack.add(root)
+        while work:
+            node, children = work[-1]
+            child = next(children, None)
+            if child is not None:
+                if child not in index:
+                    index[child] = low[child] = counter
+                    counter += 1
+                    stack.append(child)
+                    on_stack.add(child)
+                    work.append((child, iter(sorted(graph[child]))))
+                elif child in on_stack:
+                    low[node] = min(low[node], index[child])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[node])
+            if low[node] == index[node]:
+                component = []
+                while True:
+                    member = stack.pop()
+                    on_stack.discard(member)
+                    component.append(member)
+                    if member == node:
+                        break
+                if len(component) > 1 or node in graph[node]:
+                    components.append(sorted(component))
+    return [_cycle_in(graph, component) for component in sorted(components)]
+
+
+def _cycle_in(graph: dict[str, set[str]], component: list[str]) -> list[str]:
+    """A shortest cycle through the component's first module (breadth-first inside the component)."""
+    start, members = component[0], set(component)
+    parent = {start: None}
+    queue = [start]
+    while queue:
+        node = queue.pop(0)
+        for child in sorted(graph[node] & members):
+            if child == start:
+                path = [node]
+                while parent[path[-1]] is not None:
+                    path.append(parent[path[-1]])
+                return [*reversed(path), start]
+            if child not in parent:
+                parent[child] = node
+                queue.append(child)
+    raise AssertionError(f"no cycle through {start}")  # unreachable for a strongly connected component
+
+
+def test_graph_sees_every_kind_of_import():
+    """The walker itself: a relative, a function-level and a ``from package import submodule`` import
+    are resolved (each is written in the package sources, so a broken walker fails here)."""
+    graph = import_graph()
+    assert "compare.solvers" in graph["compare.solvers.quasi_static"]  # from compare.solvers import ...
+    assert "exudyn_models.settings" in graph["exudyn_models"]  # from .settings import ... (relative)
+    assert graph["ked_cli.main"], "ked_cli.main imports its commands"
+    # A deliberate cycle is found and reported with its path.
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c", "a"]]
+    assert cycles({"a": {"a"}}) == [["a", "a"]]
+    assert cycles({"a": {"b"}, "b": set()}) == []
+
+
+def test_no_import_cycles():
+    found = cycles(import_graph())
+    assert not found, f"{len(found)} import cycle(s) among {', '.join(PACKAGES)}:\n" + "\n".join(
+        " -> ".join(cycle) for cycle in found)
