@@ -108,7 +108,7 @@ def stability(ladder: bool, retry_failed: bool, **common: Any) -> None:
               help="Linkages in the atlas (the first N accepted of the seeded sample; more resumes and extends).")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Seed of the linkage sample.")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
-              help="Dask scheduler address (e.g. tcp://10.0.0.5:8786) [default: a local cluster of --workers].")
+              help="Dask scheduler address (e.g. tcp://10.0.0.5:8786) [default: --workers local worker processes].")
 @click.option("--confirm", type=click.IntRange(min=0), default=200, show_default=True,
               help="Scenes of the stratified sample confirmed with Exudyn (0: none).")
 @click.option("--threshold", type=click.IntRange(min=0), default=400, show_default=True,
