@@ -22,7 +22,7 @@ except ModuleNotFoundError:  # pragma: no cover - Python 3.10
     import tomli as tomllib  # type: ignore[no-redef]
 
 from compare import solvers as solver_registry
-from compare.scenes import DEFAULT_SOLVERS, MECHANISMS, Grid, Items, SceneSpec, SpeedSpec
+from compare.scenes import MECHANISMS, Grid, Items, SceneSpec, SpeedSpec
 from compare.solvers import COMPONENTS
 from ked_quasi import rules
 from ked_quasi.linkage import BRANCHES, DIRECTIONS, LINKS, SECTION_RULES, THESIS_RPM, FourBar, thesis_fourbar
@@ -30,6 +30,9 @@ from ked_quasi.massmodel import MASS_MODELS, PLACEMENTS, MassModel, default_payl
 from ked_quasi.scene import variant
 
 DEFAULT_TOLERANCE = 0.10
+CONFIG_SOLVERS = ("quasi_static", "linear", "dynamic")
+"""The solvers of a config without ``[campaign] solvers``: the three tiers (quasi-static, linear KED,
+Exudyn), as the default campaign runs them."""
 SECTION_KEYS = tuple(SECTION_RULES)
 
 class ConfigError(ValueError):
@@ -135,7 +138,7 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
     outputs = tuple(x for x in COMPONENTS if x in outputs)  # canonical order: same scenes, same keys
     step_deg = c.check(camp, "campaign.step_deg", rules.check_step_deg, default=10.0)
     n_modes = c.rule(camp, "campaign.n_modes", rules.N_MODES, default=3)
-    solvers = c.choices(camp, "campaign.solvers", solver_registry.names(), default=DEFAULT_SOLVERS)
+    solvers = c.choices(camp, "campaign.solvers", solver_registry.names(), default=CONFIG_SOLVERS)
     if solvers and "quasi_static" not in solvers:
         c.err("campaign.solvers", "must include 'quasi_static' (every verdict measures it)")
     linkage = linkage_from_table(c, c.table(doc, "linkage"))

@@ -11,6 +11,7 @@ amplification [1], wall time [s].
 from __future__ import annotations
 
 import math
+import textwrap
 from collections.abc import Sequence
 from dataclasses import asdict
 from typing import Any
@@ -82,15 +83,35 @@ def verdict_text(holds: bool | None) -> str:
     return "-" if holds is None else ("holds" if holds else "FAILS")
 
 
-def _columns(rows: Sequence[dict[str, Any]]) -> list[tuple[str, str, str]]:
+WIDTH = 100
+"""Columns of every human-readable line (tables, notes) by default."""
+
+
+def _wrap(text: str, indent: str = "  ", width: int = WIDTH) -> str:
+    """``text`` wrapped to ``width`` columns (continuation lines indented); long words never split."""
+    return textwrap.fill(text, width=width, subsequent_indent=indent, break_on_hyphens=False, break_long_words=False)
+
+
+def _columns(rows: Sequence[dict[str, Any]], wide: bool = True) -> list[tuple[str, str, str]]:
+    """(row key, title, format) of the table's columns; a title's "\n" splits it over header lines.
+    ``wide``: every column with long titles; else the compact layout (short titles, no status or
+    wall time: the verdict column says "failed", the reasons follow the table)."""
     extra = sorted({k[len(_OTHER):] for row in rows for k in row if k.startswith(_OTHER)}, key=registry.fidelity)
+    if wide:
+        cols = [("key", "key", "{}"), ("label", "scene", "{}"), ("rpm", "rpm", "{:.1f}"),
+                ("speed_ratio", "Omega/w1", "{:.3f}"), ("status", "status", "{}"),
+                ("verdict_error", "quasi-static err %", "%"), ("relative_error_rotation", "qs rot err %", "%")]
+        cols += [(_OTHER + k, f"{registry.label(k)} err %", "%") for k in extra]
+        cols += [("max_amplification", "amplif.", "{:.3f}"), ("holds", "verdict", ""),
+                 ("wall_s", "wall s", "{:.1f}")]
+        if any(row.get("reason") for row in rows):
+            cols.append(("reason", "reason (failed scenes)", "{}"))
+        return cols
     cols = [("key", "key", "{}"), ("label", "scene", "{}"), ("rpm", "rpm", "{:.1f}"),
-            ("speed_ratio", "Omega/w1", "{:.3f}"), ("status", "status", "{}"),
-            ("verdict_error", "quasi-static err %", "%"), ("relative_error_rotation", "qs rot err %", "%")]
-    cols += [(_OTHER + k, f"{registry.label(k)} err %", "%") for k in extra]
-    cols += [("max_amplification", "amplif.", "{:.3f}"), ("holds", "verdict", ""), ("wall_s", "wall s", "{:.1f}")]
-    if any(row.get("reason") for row in rows):
-        cols.append(("reason", "reason (failed scenes)", "{}"))
+            ("speed_ratio", "r", "{:.3f}"), ("verdict_error", "qs\nerr %", "%"),
+            ("relative_error_rotation", "qs rot\nerr %", "%")]
+    cols += [(_OTHER + k, "\n".join(k.split("_")) + "\nerr %", "%") for k in extra]
+    cols += [("max_amplification", "amplif.", "{:.3f}"), ("holds", "verdict", "")]
     return cols
 
 
@@ -101,41 +122,152 @@ _QUASI_STATIC_KEYS = ("verdict_error", "relative_error_rotation", "max_relative_
 FLAG_MARK = "*"
 FLAG_NOTE = (f"{FLAG_MARK} that solver's answer is outside the range where its model holds (validity flags, "
              "e.g. large_deflection); the number is not a valid answer: `ked inspect FILE KEY` names the flags")
+"""The note of the wide layout before it named the solvers (kept for callers; see :func:`flag_note`)."""
+
+
+def _solver_of(key: str) -> str | None:
+    return ("quasi_static" if key in _QUASI_STATIC_KEYS else key[len(_OTHER):] if key.startswith(_OTHER)
+            else None)
 
 
 def _flagged(row: dict[str, Any], key: str) -> bool:
-    solver = ("quasi_static" if key in _QUASI_STATIC_KEYS else key[len(_OTHER):] if key.startswith(_OTHER)
-              else None)
+    solver = _solver_of(key)
     return solver is not None and bool(row.get(f"flags_{solver}"))
 
 
-def format_table(rows: Sequence[dict[str, Any]]) -> str:
-    """Fixed-width text table of summary rows; an error whose solver's answer carries validity flags is
-    marked with :data:`FLAG_MARK` and explained in a note under the table."""
-    cols = _columns(rows)
-    marked = any(_flagged(row, key) and row.get(key) is not None for row in rows for key, _, _ in cols)
+def flag_note(rows: Sequence[dict[str, Any]]) -> str:
+    """The note under a table whose errors carry :data:`FLAG_MARK`: which solver's answers are outside
+    their model's range, in how many scenes, and the flags (empty if none)."""
+    found: dict[str, tuple[int, set[str]]] = {}
+    for row in rows:
+        for k, v in row.items():
+            if k.startswith("flags_") and v:
+                n, flags = found.get(k[len("flags_"):], (0, set()))
+                found[k[len("flags_"):]] = (n + 1, flags | set(v))
+    if not found:
+        return ""
+    parts = [f"{registry.label(s)} in {n} scene{'s' if n != 1 else ''} ({', '.join(sorted(f))})"
+             for s, (n, f) in sorted(found.items(), key=lambda kv: registry.fidelity(kv[0]))]
+    return _wrap(f"{FLAG_MARK} an error of an answer outside the range where its model holds, not a valid answer: "
+                 + "; ".join(parts) + ". `ked inspect FILE KEY` names the flags of each solver.")
+
+
+def _short_keys(rows: Sequence[dict[str, Any]], n: int = 8) -> dict[str, str]:
+    """Key -> its shortest prefix of at least ``n`` hex digits that no other row's key shares (a
+    prefix names the scene in `ked inspect FILE KEY`)."""
+    keys = [str(row.get("key", "")) for row in rows]
+    out = {}
+    for k in keys:
+        m = n
+        while m < len(k) and any(o != k and o.startswith(k[:m]) for o in keys):
+            m += 1
+        out[k] = k[:m]
+    return out
+
+
+def _common_segments(labels: Sequence[str]) -> list[tuple[int, str]]:
+    """(position, text) of the label segments ("/"-separated) that every label shares."""
+    split = [lb.split("/") for lb in labels]
+    if not split or len({len(s) for s in split}) != 1:
+        return []
+    return [(i, seg) for i, seg in enumerate(split[0]) if all(s[i] == seg for s in split)]
+
+
+def _render(rows: Sequence[dict[str, Any]], cols: list[tuple[str, str, str]], marked: bool,
+            text: dict[str, dict[str, str]] | None = None) -> list[str]:
+    """The table's lines (header lines, a rule, one line per row); ``text``: row key -> column ->
+    replacement cell text."""
 
     def cell(row: dict[str, Any], key: str, fmt: str) -> str:
+        own = (text or {}).get(str(row.get("key")), {})
+        if key in own:
+            return own[key]
         v = row.get(key)
         if key == "holds":
-            return verdict_text(v)
+            return "failed" if row.get("status") not in (None, "ok") and text is not None else verdict_text(v)
         if v is None or v == "":
             return "-"
         mark = FLAG_MARK if _flagged(row, key) else " " if marked else ""
-        return f"{100.0 * v:.1f}{mark}" if fmt == "%" else fmt.format(v)
+        out = f"{100.0 * v:.1f}" if fmt == "%" else fmt.format(v)
+        if text is not None and len(out) > 7 and isinstance(v, float):  # compact: 3 digits of a huge number
+            out = f"{100.0 * v:.3g}" if fmt == "%" else f"{v:.3g}"
+        return out + mark if fmt == "%" else out
 
-    table = [[title for _, title, _ in cols]] + [[cell(row, key, fmt) for key, _, fmt in cols] for row in rows]
-    widths = [max(len(r[i]) for r in table) for i in range(len(cols))]
+    titles = [title.split("\n") for _, title, _ in cols]
+    depth = max(len(t) for t in titles)
+    head = [[""] * (depth - len(t)) + t for t in titles]
+    body = [[cell(row, key, fmt) for key, _, fmt in cols] for row in rows]
+    widths = [max([len(x) for x in head[i]] + [len(r[i]) for r in body]) for i in range(len(cols))]
     left = {"key", "label", "status", "holds", "reason"}
-    lines = []
-    for n, r in enumerate(table):
-        parts = [r[i].ljust(widths[i]) if cols[i][0] in left else r[i].rjust(widths[i]) for i in range(len(cols))]
-        lines.append("  ".join(parts).rstrip())
-        if n == 0:
-            lines.append("  ".join("-" * w for w in widths))
-    if marked:
-        lines.append(FLAG_NOTE)
-    return "\n".join(lines)
+
+    # two spaces around a text column, one between two numbers (right-aligned, so they stay apart)
+    seps = ["" if i == 0 else " " if text is not None and cols[i][0] not in left and cols[i - 1][0] not in left
+            else "  " for i in range(len(cols))]
+
+    def line(parts: Sequence[str]) -> str:
+        return "".join(seps[i] + (p.ljust(widths[i]) if cols[i][0] in left else p.rjust(widths[i]))
+                       for i, p in enumerate(parts)).rstrip()
+
+    lines = [line([h[d] for h in head]) for d in range(depth)]
+    lines.append(line(["-" * w for w in widths]))
+    return lines + [line(r) for r in body]
+
+
+def format_table(rows: Sequence[dict[str, Any]], wide: bool = True, width: int = WIDTH) -> str:
+    """Fixed-width text table of summary rows; an error whose solver's answer carries validity flags is
+    marked with :data:`FLAG_MARK` and explained in a note under the table, naming the solver.
+
+    ``wide``: every column with its long title (the failure reason in the last column; lines may be
+    longer than ``width``); else the compact layout of at most ``width`` columns: keys shortened to a
+    unique prefix, label segments that every scene shares stated above the table where the full labels
+    do not fit, r = Omega/omega1_min, no status or wall time, failure reasons listed under the table."""
+    cols = _columns(rows, wide)
+    marked = any(_flagged(row, key) and row.get(key) is not None for row in rows for key, _, _ in cols)
+    note = flag_note(rows) if marked else ""
+    if wide:
+        return "\n".join(_render(rows, cols, marked) + ([note] if note else []))
+    keys = _short_keys(rows)
+    text = {str(row.get("key")): {"key": keys[str(row.get("key", ""))]} for row in rows}
+    lines = _render(rows, cols, marked, text)
+    above = []
+    labels = [str(row.get("label", "")) for row in rows]
+    if max(map(len, lines)) > width and len(rows) > 1:
+        common = _common_segments(labels)
+        drop = {i for i, _ in common}
+        if drop and len(drop) < len(labels[0].split("/")):
+            for row, lb in zip(rows, labels):
+                text[str(row.get("key"))]["label"] = "/".join(s for i, s in enumerate(lb.split("/")) if i not in drop)
+            above = [_wrap("every scene: " + ", ".join(
+                f"{_SEGMENT_NAMES[i] if i < len(_SEGMENT_NAMES) else 'part'} {seg}" for i, seg in common)
+                + " (scene column: the rest of the label)")]
+            lines = _render(rows, cols, marked, text)
+    over = max(map(len, lines)) - width
+    if over > 0:  # a label too long even so: shorten it (the key names the scene; --wide shows it whole)
+        room = max(8, max(len(text[str(r.get("key"))].get("label", lb)) for r, lb in zip(rows, labels)) - over)
+        for row, lb in zip(rows, labels):
+            t = text[str(row.get("key"))].get("label", lb)
+            text[str(row.get("key"))]["label"] = t if len(t) <= room else t[: room - 3] + "..."
+        lines = _render(rows, cols, marked, text)
+    legend = _wrap("r = Omega/omega1_min; errors: history error relative to the reference's peak, qs = "
+                   "quasi-static (the verdict: its vector (dx, dy) error; rot: its rotation's error), other "
+                   "solvers: their vector error; --wide: all columns and whole labels")
+    reasons = [_wrap(f"failed {keys[str(row.get('key', ''))]}: {_failure_text(row)}", indent="    ")
+               for row in rows if row.get("reason")]
+    return "\n".join(above + lines + [legend] + ([note] if note else []) + reasons)
+
+
+def _failure_text(row: dict[str, Any]) -> str:
+    """Where (the solver's label when a solver failed), why and the first line of the message."""
+    stage = str(row.get("stage") or "")
+    where = registry.label(stage) if stage in registry.names() else stage
+    cls = f"{row['failure_class']}: " if row.get("failure_class") else ""
+    first = str(row.get("message") or "").split("\n")[0].split(" (time=")[0]
+    text = f"{where}: {cls}{first}"
+    return text if len(text) <= 180 else text[:177] + "..."
+
+
+_SEGMENT_NAMES = ("mechanism", "mass model", "speed", "stiffness", "damping", "direction")
+"""What each "/"-separated segment of a scene label states (:attr:`compare.scenes.SceneSpec.label`)."""
 
 
 def format_counts(results: Sequence[SceneResult]) -> str:
@@ -148,6 +280,7 @@ def format_counts(results: Sequence[SceneResult]) -> str:
     text = (f"{len(results)} scenes: {len(ok)} ok, {len(failed)} failed{f' ({by_class})' if failed else ''}; "
             f"quasi-static holds in {holds} of {len(ok)} ok scenes (verdict: {VERDICT_METRIC} "
             "against the highest-fidelity solver of the scene, below the campaign tolerance)")
+    text = _wrap(text)
     if failed:
         text += "\nfailed scenes: `ked inspect FILE KEY` shows the whole message"
     return text
@@ -222,14 +355,18 @@ def format_detail(r: SceneResult) -> str:
             lines.append(f"    {c.component:<9}  {c.units:<5}  {c.max_abs_error:<11.4g}  {c.rms_error:<11.4g}  "
                          f"{c.history_error:>7.1%}  {c.peak_error:>8.1%}  {math.degrees(c.phase_shift):>10.2f}  "
                          f"{c.amplification:>7.3f}")
-    return "\n".join(lines)
+    return "\n".join(_wrap(ln, indent=" " * 16) if len(ln) > WIDTH else ln for ln in lines)
 
 
 def sort_key(r: SceneResult) -> tuple:
     """Grid-like display order: mechanism, mass model, stiffness, damping, direction, speed."""
-    s = r.spec
+    return spec_sort_key(r.spec)
+
+
+def spec_sort_key(s: Any) -> tuple:
+    """:func:`sort_key` of a scene not yet computed (a :class:`~compare.scenes.SceneSpec`)."""
     return (s.mechanism, s.mass_model.name, s.stiffness_scale, s.damping_ratio, s.direction,
-            s.speed.kind, s.speed.value, r.key)
+            s.speed.kind, s.speed.value, s.key)
 
 
 def find_scene(results: Sequence[SceneResult], ident: str) -> SceneResult:

@@ -40,6 +40,8 @@ def solver_settings(settings: DynamicSettings, step: float, end_time: float,
     nw = ti.newton
     nw.absoluteTolerance = settings.newton_abs_tol if tol is None else tol.abs_n
     nw.relativeTolerance = settings.newton_rel_tol if tol is None else tol.rel
+    if tol is not None and tol.increment:
+        nw.residualMode = 1  # test the coordinate increment [m] (exudyn_models.tolerance)
     nw.useModifiedNewton = True
     nw.modifiedNewtonJacUpdatePerStep = True
     nw.maxIterations = settings.newton_max_iterations
@@ -181,7 +183,8 @@ class RunRecord:
 
     deflection (n, 3) of the returned cycle; steps, newton_iterations: totals; converged; extrapolated:
     the returned cycle is the extrapolated limit; tracker: the cycles; start_note: how the constant-speed
-    phase began; residuals: periodic-solve residuals per cycle (empty when marching); message."""
+    phase began; residuals: periodic-solve residuals per cycle (empty when marching); message;
+    steps_per_cycle: the steps per cycle the run used (exudyn_models.lowspeed; 0 = not recorded)."""
 
     deflection: np.ndarray
     steps: int
@@ -192,3 +195,4 @@ class RunRecord:
     start_note: str
     residuals: tuple[float, ...] = ()
     message: str = ""
+    steps_per_cycle: int = 0

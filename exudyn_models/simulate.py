@@ -48,6 +48,7 @@ from .cycles import (  # noqa: F401 - re-exported (the public home of these name
 from .damping import rayleigh_beta, reference_frequency
 from .errors import SimulationError
 from .failure import Extension, classify, classify_newton_failure, cycles_to_grant, evidence_of
+from .lowspeed import run_settings
 from .march import march
 from .periodic import solve_periodic
 from .refine import Attempt, failure_hint, ladder, over_budget, rung_settings
@@ -104,7 +105,15 @@ class DynamicResult:
 
 
 def _run(scene, settings: DynamicSettings, damping_beta: float) -> RunRecord:
-    """One run at fixed settings: build, start, constant-speed phase (march or periodic solve)."""
+    """One run at fixed settings: build, start, constant-speed phase (march or periodic solve). At low
+    speed the steps per cycle are raised (exudyn_models.lowspeed; recorded in RunRecord.steps_per_cycle)."""
+    settings = run_settings(scene, settings, damping_beta)
+    record = _run_as_given(scene, settings, damping_beta)
+    record.steps_per_cycle = settings.steps_per_cycle
+    return record
+
+
+def _run_as_given(scene, settings: DynamicSettings, damping_beta: float) -> RunRecord:
     model = build_model(scene, settings, damping_beta=damping_beta)
     note = "ramp"
     if settings.start == "quasi_static":
@@ -142,6 +151,8 @@ def _result(scene, settings: DynamicSettings, solved: DynamicSettings, record: R
         message = f"{message} [{failure_class}: {evidence}]"
     if solved != settings:
         message += f" (refined: {attempts[-1].rung})"
+    if record.steps_per_cycle not in (0, solved.steps_per_cycle):
+        message += f" (low speed: {record.steps_per_cycle} steps per cycle)"
     if record.start_note not in ("ramp", "quasi-static"):
         message += f" (start: {record.start_note})"
     return DynamicResult(crank_angle=np.asarray(scene.crank_angles, dtype=float), deflection=record.deflection,

@@ -15,6 +15,18 @@ same scene: cheap, vectorized); L [m]: the longest link; F_qs [N]: the largest d
 in that solution. The given values stay upper bounds (nothing is ever loosened); at the speeds where
 the deflection is large they are the ones used (thesis linkage: from ~35 rpm up for the relative
 tolerance). The round-off floor keeps the absolute tolerance reachable for very stiff links.
+
+Where the force the deflection needs, ABS_FRACTION * F_qs, is below that round-off floor, no force test
+can resolve the deflection: the residual of the axial forces (E*A ~ 1e7 N times a strain round-off of
+1e-16, summed over the coordinates) is itself ~1e-8 N, and a tolerance of 1e-15 E*A makes Newton fail.
+There the test is on the Newton increment instead (Exudyn newton.residualMode = 1: converged when the
+L2 norm of the coordinate increment is below max(INCREMENT_FRACTION * d_qs, INCREMENT_ROUNDOFF * L) [m]),
+whose round-off is that
+force divided by the axial stiffness, ~1e-16 m. Measured (thesis cognate, extender, 1 rpm, 4 elements,
+720 steps, no damping): 3.4e-4 of the peak left by the force test at its lowest workable floor (1e-14 E*A;
+6.0e-3 at the 1e-13 E*A floor), 5.1e-5 with the increment test at 1e-4, 1e-5 or 1e-6 of d_qs alike
+(the rest is the time step's, falling like h^2). Thesis linkage: every mass model at 1 rpm, the extender
+and distributed models at 10 rpm and the extender model at 30 rpm.
 """
 
 from __future__ import annotations
@@ -40,18 +52,34 @@ Newton part of the error near 1e-5 of the peak."""
 ABS_FRACTION = 1e-5
 """Absolute Newton tolerance per unit of the largest quasi-static d'Alembert load F_qs [N]."""
 
+INCREMENT_FRACTION = 1e-5
+"""Newton increment tolerance [m] per unit of d_qs, used where ABS_FRACTION * F_qs is below the round-off
+floor (module doc)."""
+
+INCREMENT_ROUNDOFF = 2e-12
+"""Lower bound of the increment tolerance per unit of the longest link [m/m]. Measured: links 1e6 x
+stiffer (deflection 1e-8 m at 300 rpm, distributed mass) fail Newton at an increment tolerance of 1.2e-13 m
+and pass at 1.2e-12 m; at nominal stiffness (1 rpm, cognate extender, d_qs 1.5e-8 m) 1e-6 to 1e-4 of d_qs
+give the same history, so this bound (1.5e-12 m = 1e-4 d_qs there) costs no accuracy."""
+
 
 @dataclass(frozen=True)
 class NewtonTolerances:
     """Tolerances handed to Exudyn's Newton solver: abs_n [N] (residual), rel [1]; d_qs [m] and F_qs [N]:
-    the quasi-static peak deflection and load they were scaled to (NaN when not available)."""
+    the quasi-static peak deflection and load they were scaled to (NaN when not available).
+    increment: the test is on the Newton increment instead of the residual; abs_n and rel are then both
+    that increment tolerance [m] (Exudyn's residualMode 1 wants them equal)."""
 
     abs_n: float
     rel: float
     d_qs: float = math.nan
     f_qs: float = math.nan
+    increment: bool = False
 
     def text(self) -> str:
+        if self.increment:
+            return (f"Newton increment tolerance {self.abs_n:.3g} m (quasi-static peak {self.d_qs:.3g} m; "
+                    "the force the deflection needs is below the residual's round-off)")
         return f"Newton tolerances abs {self.abs_n:.3g} N, rel {self.rel:.3g} (quasi-static peak {self.d_qs:.3g} m)"
 
 
@@ -92,6 +120,10 @@ def newton_tolerances(settings: DynamicSettings, scene) -> NewtonTolerances:
     rel, abs_n = settings.newton_rel_tol, settings.newton_abs_tol
     if math.isfinite(d_qs) and d_qs > 0.0:
         rel = min(rel, REL_FRACTION * d_qs / length)
+    floor = roundoff_floor(fourbar)
     if math.isfinite(f_qs) and f_qs > 0.0:
         abs_n = min(abs_n, ABS_FRACTION * f_qs)
-    return NewtonTolerances(abs_n=max(abs_n, roundoff_floor(fourbar)), rel=rel, d_qs=d_qs, f_qs=f_qs)
+        if ABS_FRACTION * f_qs < floor and math.isfinite(d_qs) and d_qs > 0.0:
+            x = max(INCREMENT_FRACTION * d_qs, INCREMENT_ROUNDOFF * length)
+            return NewtonTolerances(abs_n=x, rel=x, d_qs=d_qs, f_qs=f_qs, increment=True)
+    return NewtonTolerances(abs_n=max(abs_n, floor), rel=rel, d_qs=d_qs, f_qs=f_qs)

@@ -12,15 +12,15 @@ def benchmark() -> None:
     """Published benchmarks of flexible mechanisms, reproduced by independent implementations."""
 
 
-def _speeds(text: str) -> list[float]:
+def _speeds(text: str, option: str = "--steady-state") -> list[float]:
     try:
         values = [float(v) for v in text.split(",") if v.strip()]
     except ValueError:
         raise click.BadParameter(f"{text!r}: give crank speeds in rad/s separated by commas, e.g. 50,150",
-                                 param_hint="--steady-state") from None
+                                 param_hint=option) from None
     if not values or any(not (0.0 < abs(v) <= 1000.0) for v in values):
         raise click.BadParameter(f"{text!r}: each crank speed must be nonzero and at most 1000 rad/s in size",
-                                 param_hint="--steady-state")
+                                 param_hint=option)
     return values
 
 
@@ -32,8 +32,12 @@ def _speeds(text: str) -> list[float]:
               help="Also march the damped reference model (published damping matrix) from a rigid start to "
                    "its periodic steady state at these crank speeds [rad/s] and print the rod's peak "
                    "midspan deflection.")
+@click.option("--speeds", "speeds", default="25:300:25", show_default=True, metavar="RAD_S[,RAD_S...]|FROM:TO:STEP",
+              help="Crank speeds [rad/s] of the tier comparison (reference model marched to its damped steady "
+                   "state, ~20 s per speed, against the quasi-static and linear tiers), as a list or a range; "
+                   "'none' skips it.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-def simeon(no_project: bool, steady: str | None, as_json: bool) -> None:
+def simeon(no_project: bool, steady: str | None, speeds: str, as_json: bool) -> None:
     """Simeon's flexible slider-crank (Test Set for IVP solvers, problem "crank"): the published state at
     t = 0.1 s (linear stiffness, no damping) against this harness's independent implementation of the
     published equations (ked_bench.simeon: index-1 form, scipy DOP853).
@@ -41,12 +45,20 @@ def simeon(no_project: bool, steady: str | None, as_json: bool) -> None:
     JSON keys: published, reproduced (component name -> value, SI), relative_error (per component),
     max_relative_error (components 1-7, the positions, as the test set scores them), projected,
     initial_velocity_residual; with --steady-state also steady_states (a list of {omega_rad_s,
-    speed_ratio, midspan_peak_m, cycles}).  The comparison of the harness's own tiers with this
-    reference needs the slider-crank in every tier, which the harness does not model yet.
+    speed_ratio, midspan_peak_m, cycles}); speeds (a list of {omega_rad_s, speed_ratio (Omega over the
+    rod's first bending frequency), quasi_static_error, linear_error, dynamic_error,
+    linear_prestressed_error, reference_peak_m, linear_status, notes}): the history error, max |a - ref| /
+    max |ref| over the cycle, of each tier's rod midspan deflection (normal to its chord) against the
+    reference model's damped periodic steady state (published damping matrix, rigid start); the linear
+    tier with the reference's first-mode damping ratio (2.59 %) at the rod's first bending frequency and,
+    like the reference, without geometric stiffness (linear_prestressed_error: with it, the harness's
+    default); null where a tier gives no answer, the reason in notes (dynamic_error: the slider-crank's
+    Exudyn model is not available yet).
     """
     from ked_bench.simeon import COMPONENTS, SimeonParameters, reproduce, steady_state
 
     omegas = _speeds(steady) if steady is not None else []
+    sweep = _sweep(speeds)
     rep = reproduce(project=not no_project)
     out = {"published": rep.published, "reproduced": rep.reproduced, "relative_error": rep.relative_error,
            "max_relative_error": rep.max_relative_error, "projected": rep.projected,
@@ -63,6 +75,8 @@ def simeon(no_project: bool, steady: str | None, as_json: bool) -> None:
                      "midspan_peak_m": s.peak, "cycles": s.cycles})
     if omegas:
         out["steady_states"] = rows
+    if sweep:
+        out["speeds"] = _compare(sweep)
     if as_json:
         click.echo(json_text(out))
         return
@@ -72,11 +86,68 @@ def simeon(no_project: bool, steady: str | None, as_json: bool) -> None:
         click.echo(f"{name:<10} {rep.published[name]:>24.15e} {rep.reproduced[name]:>24.15e} "
                    f"{rep.relative_error[name]:>10.1e}")
     how = "projected onto the velocity constraint" if rep.projected else "as printed"
-    click.echo(f"max relative error, components 1-7: {rep.max_relative_error:.1e} (initial velocities {how}; "
-               f"their residual {rep.velocity_residual:.1e})")
+    click.echo(f"max relative error, components 1-7: {rep.max_relative_error:.1e}")
+    click.echo(f"(initial velocities {how}; their residual {rep.velocity_residual:.1e})")
     if rows:
         click.echo("\nDamped reference model, periodic steady state (rigid start):")
         click.echo(f"{'omega [rad/s]':>13} {'r':>7} {'peak midspan q1 [mm]':>21} {'cycles':>7}")
         for row in rows:
             click.echo(f"{row['omega_rad_s']:>13g} {row['speed_ratio']:>7.4f} {1e3 * row['midspan_peak_m']:>21.5f} "
                        f"{row['cycles']:>7d}")
+    if sweep:
+        _speeds_table(out["speeds"])
+
+
+def _sweep(text: str) -> list[float]:
+    """--speeds: 'none', a list 'a,b,c' or a range 'from:to:step' [rad/s] (inclusive)."""
+    if text.strip().lower() == "none":
+        return []
+    if ":" not in text:
+        values = _speeds(text, "--speeds")
+        if any(v < 0.0 for v in values):
+            raise click.BadParameter(f"{text!r}: the benchmark's crank turns CCW; give positive speeds",
+                                     param_hint="--speeds")
+        return values
+    try:
+        lo, hi, step = (float(v) for v in text.split(":"))
+    except ValueError:
+        raise click.BadParameter(f"{text!r}: give FROM:TO:STEP in rad/s, e.g. 25:300:25", param_hint="--speeds") \
+            from None
+    if not (0.0 < lo <= hi <= 1000.0 and step > 0.0) or (hi - lo) / step > 100:
+        raise click.BadParameter(f"{text!r}: need 0 < FROM <= TO <= 1000 rad/s and STEP > 0, at most 100 steps",
+                                 param_hint="--speeds")
+    return [lo + k * step for k in range(int((hi - lo) / step + 1e-9) + 1)]
+
+
+def _compare(omegas: list[float]) -> list[dict]:
+    from ked_bench.simeon import steady_state
+    from ked_bench.tiers import compare_speed
+    from ked_cli.errors import UserError
+
+    rows = []
+    for omega in omegas:
+        try:
+            ref = steady_state(omega)
+        except RuntimeError as exc:
+            raise UserError(f"--speeds: {exc}; try another crank speed") from None
+        rows.append(compare_speed(omega, ref).to_dict())
+    return rows
+
+
+def _pct(x: float | None) -> str:
+    return "-" if x is None else f"{100.0 * x:.2f} %"
+
+
+def _speeds_table(rows: list[dict]) -> None:
+    click.echo("\nTiers against the reference, rod midspan deflection, damped periodic steady state")
+    click.echo("(history error max|a - ref| / max|ref|; linear: reference damping 2.59 % at the rod's f1, no")
+    click.echo("geometric stiffness like the reference; prestressed: the harness's default linear tier)")
+    click.echo(f"{'omega rad/s':>11} {'r':>7} {'peak mm':>9} {'quasi-static':>12} {'linear':>9} "
+               f"{'prestressed':>11} {'dynamic':>9}")
+    for row in rows:
+        click.echo(f"{row['omega_rad_s']:>11g} {row['speed_ratio']:>7.4f} {1e3 * row['reference_peak_m']:>9.4f} "
+                   f"{_pct(row['quasi_static_error']):>12} {_pct(row['linear_error']):>9} "
+                   f"{_pct(row['linear_prestressed_error']):>11} {_pct(row['dynamic_error']):>9}")
+    notes = sorted({n for row in rows for n in row["notes"]})
+    for n in notes:
+        click.echo(f"note: {n}")

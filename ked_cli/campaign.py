@@ -16,6 +16,36 @@ SECONDS_PER_SCENE = 2.5
 """Rough cost of one scene with the Exudyn model on one core (the default campaign's median)."""
 
 
+WIDE_HELP = ("Print the summary table with every column and whole scene labels and keys (lines may be "
+             "wider than 100 columns); default: a compact table of at most 100 columns.")
+
+
+def wrap(text: str) -> str:
+    """One message in lines of at most 100 columns (continuation lines indented)."""
+    import textwrap
+
+    return textwrap.fill(text, width=100, subsequent_indent="  ", break_on_hyphens=False, break_long_words=False)
+
+
+def default_out(cfg: Any, config: Path | None) -> Path:
+    """The results file when --out is not given: ``ked_results/<campaign name>.h5``, where a config
+    without ``[campaign] name`` takes its file's name (``my_grid.toml`` -> ``my_grid``)."""
+    name = cfg.name
+    if config is not None and not _names_itself(cfg.text):
+        name = config.stem
+    return DEFAULT_DIR / f"{_safe_name(name)}.h5"
+
+
+def _names_itself(text: str) -> bool:
+    """Whether a config's TOML text sets ``[campaign] name``."""
+    import tomllib
+
+    try:
+        return "name" in tomllib.loads(text).get("campaign", {})
+    except (tomllib.TOMLDecodeError, AttributeError):
+        return True
+
+
 def _figures_dir(out: Path) -> Path:
     return out.with_name(f"{out.stem}_figures")
 
@@ -62,7 +92,8 @@ def _results(file: Path) -> list:
 @click.command("run")
 @click.argument("config", required=False, type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--out", "out", type=click.Path(dir_okay=False, path_type=Path),
-              help="Results file [default: ked_results/<campaign name>.h5].")
+              help="Results file [default: ked_results/<campaign name>.h5; for a config without a "
+                   "[campaign] name: ked_results/<config file name>.h5].")
 @click.option("--workers", type=click.IntRange(min=1), default=None,
               help="Local worker processes [default: available CPUs].")
 @click.option("--scheduler", metavar="ADDRESS", default=None,
@@ -73,8 +104,10 @@ def _results(file: Path) -> list:
 @click.option("--retry-failed", is_flag=True, help="Recompute scenes stored as failed.")
 @click.option("--dry-run", is_flag=True, help="Validate the config, list the scenes and what would run; stop.")
 @click.option("--progress/--no-progress", default=True, help="Show the progress bar.")
+@click.option("--wide", is_flag=True, help=WIDE_HELP)
 def run_cmd(config: Path | None, out: Path | None, workers: int | None, scheduler: str | None,
-            figures: Path | None, no_figures: bool, retry_failed: bool, dry_run: bool, progress: bool) -> None:
+            figures: Path | None, no_figures: bool, retry_failed: bool, dry_run: bool, progress: bool,
+            wide: bool) -> None:
     """Run a comparison campaign (CONFIG: TOML file; none = the embedded default campaign).
 
     Scenes already stored in the results file are skipped, so rerunning resumes an interrupted
@@ -82,7 +115,7 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
     summary table and writes figures at the end.
     """
     cfg = _load(config)
-    out = out or DEFAULT_DIR / f"{_safe_name(cfg.name)}.h5"
+    out = out or default_out(cfg, config)
     _regular(out, "--out")
     n = cfg.grid.size()
     if n > LARGE_GRID:
@@ -108,23 +141,34 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
 
     try:
         summary = run_campaign(cfg, out, workers=workers, scheduler=scheduler, retry_failed=retry_failed,
-                               progress=progress, on_start=lambda p: click.echo(
-                                   f"campaign {cfg.name!r}: {n} scenes ({len(p.jobs)} to compute, {len(p.skipped)} "
-                                   f"stored), solvers {', '.join(cfg.solvers)} -> {out}", err=True))
+                               progress=progress, on_start=lambda p: click.echo(_start_line(cfg, n, p, out), err=True))
     except (store.LockedError, SettingsMismatchError, store.StoreError, store.CommitError, SchedulerError,
             WorkerStartError, WorkerError) as exc:
         raise click.ClickException(str(exc)) from None
-    order = {k: i for i, k in enumerate(summary.keys)}
-    # the resolved path: a relative --out must still name the file if the working directory went away
-    results = sorted((r for r in store.read_scenes(summary.out) if r.key in order), key=lambda r: order[r.key])
-    click.echo(format_table([summary_row(r) for r in results]))
+    from compare.inspect import sort_key
+
+    order = set(summary.keys)
+    # the resolved path: a relative --out must still name the file if the working directory went away;
+    # the order of `ked inspect` (compare.inspect.sort_key)
+    results = sorted((r for r in store.read_scenes(summary.out) if r.key in order), key=sort_key)
+    click.echo(format_table([summary_row(r) for r in results], wide=wide))
     click.echo(format_counts(results))
-    click.echo(f"this run: {summary.ok} ok, {summary.failed} failed, {summary.skipped} skipped (already stored)"
-               + (f", {summary.lost} lost to a crashed worker (rerun to retry)" if summary.lost else "")
-               + f" in {summary.wall_s:.1f} s; results: {out}")
+    click.echo(wrap(f"this run: {summary.ok} ok, {summary.failed} failed, {summary.skipped} skipped (already stored)"
+                    + (f", {summary.lost} lost to a crashed worker (rerun to retry)" if summary.lost else "")
+                    + f" in {summary.wall_s:.1f} s; results: {out}"))
     if not no_figures:
         paths = _write_figures(results, fig_dir, workers=1 if scheduler else (workers or default_workers()))
-        click.echo(f"figures: {len(paths)} PNG files (re)drawn in {fig_dir} (index.json: file -> scene)")
+        click.echo(wrap(f"figures: {len(paths)} PNG files (re)drawn in {fig_dir} (index.json: file -> scene)"))
+
+
+def _start_line(cfg: Any, n: int, p: Any, out: Path) -> str:
+    """The one line that starts a run, in at most 100 columns where it can: without the solvers (the
+    table has a column for each) and then with the results file's name alone (the last line of the run
+    names the whole path) where the whole line would be longer."""
+    head = f"campaign {cfg.name!r}: {n} scenes ({len(p.jobs)} to run, {len(p.skipped)} stored)"
+    solvers = f", solvers {'+'.join(cfg.solvers)}"
+    lines = [f"{head}{solvers} -> {out}", f"{head} -> {out}", f"{head}{solvers} -> {out.name}", f"{head} -> {out.name}"]
+    return next((ln for ln in lines if len(ln) <= 100), lines[-1])
 
 
 def _dry_run(cfg: Any, out: Path, retry_failed: bool) -> None:
@@ -137,9 +181,11 @@ def _dry_run(cfg: Any, out: Path, retry_failed: bool) -> None:
     except store.StoreError as exc:
         raise click.ClickException(str(exc)) from None
     todo = {s.key for s in p.todo}
-    click.echo(f"campaign {cfg.name!r}: {len(scenes)} scenes, {len(p.todo)} to run, "
-               f"{len(p.skipped)} already in {out}; solvers {', '.join(cfg.solvers)}")
-    for s in scenes:
+    click.echo(wrap(f"campaign {cfg.name!r}: {len(scenes)} scenes, {len(p.todo)} to run, "
+                    f"{len(p.skipped)} already in {out}; solvers {', '.join(cfg.solvers)}"))
+    from compare.inspect import spec_sort_key
+
+    for s in sorted(scenes, key=spec_sort_key):  # the order of the summary table
         click.echo(f"  {s.key}  {'run ' if s.key in todo else 'skip'}  {s.label}")
 
 
@@ -148,7 +194,8 @@ def _dry_run(cfg: Any, out: Path, retry_failed: bool) -> None:
 @click.argument("scene", required=False)
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON output.")
 @click.option("--verify", is_flag=True, help="Check the file's integrity and schema; exit 1 on problems.")
-def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool) -> None:
+@click.option("--wide", is_flag=True, help=WIDE_HELP)
+def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool, wide: bool) -> None:
     """Show a results FILE: summary table of its scenes, or one SCENE (key prefix or label) in detail."""
     _regular(file, "FILE")
     if verify:
@@ -174,10 +221,10 @@ def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool) -> N
     if as_json:
         click.echo(json_text({"file": str(file), "attributes": info, "scenes": rows}, indent=2, default=str))
         return
-    click.echo(f"{file}: campaign {info.get('campaign_name')!r}, created {info.get('created_utc')}, "
-               f"harness {info.get('harness_version')} ({info.get('git_commit', '')[:10] or 'no git'}), "
-               f"exudyn {info.get('exudyn_version')}, schema version {info.get('schema_version')}")
-    click.echo(format_table(rows))
+    click.echo(wrap(f"{file}: campaign {info.get('campaign_name')!r}, created {info.get('created_utc')}, "
+                    f"harness {info.get('harness_version')} ({info.get('git_commit', '')[:10] or 'no git'}), "
+                    f"exudyn {info.get('exudyn_version')}, schema version {info.get('schema_version')}"))
+    click.echo(format_table(rows, wide=wide))
     click.echo(format_counts(results))
 
 
@@ -195,12 +242,12 @@ def _verify(file: Path, as_json: bool) -> None:
         click.echo(json.dumps({"file": str(file), "valid": not problems, "scenes": n, "problems": problems,
                                "stale_temp_files": [str(p) for p in stale]}, indent=2))
     else:
-        for p in problems:
+        for p in problems:  # one line per problem, like an error (greppable): not wrapped
             click.echo(f"PROBLEM {p}")
         for p in stale:
             click.echo(f"note: stale temporary file (ignored, removed by the next run): {p}")
-        click.echo(f"{file}: {'INVALID' if problems else 'valid'}, {n} complete scenes"
-                   + (f", {len(problems)} problem(s)" if problems else ""))
+        click.echo(wrap(f"{file}: {'INVALID' if problems else 'valid'}, {n} complete scenes"
+                        + (f", {len(problems)} problem(s)" if problems else "")))
     sys.exit(1 if problems else 0)
 
 
@@ -217,7 +264,7 @@ def merge_cmd(src: Path, dest: Path) -> None:
         added, kept = store.merge(src, dest)
     except (store.StoreError, store.CommitError, store.LockedError) as exc:
         raise click.ClickException(str(exc)) from None
-    click.echo(f"{added} scene(s) added to {dest}; {kept} already there (kept)")
+    click.echo(wrap(f"{added} scene(s) added to {dest}; {kept} already there (kept)"))
 
 
 @click.command("plot")
@@ -234,7 +281,8 @@ def plot_cmd(file: Path, out_dir: Path | None, workers: int | None) -> None:
     results = _results(file)
     target = out_dir or _figures_dir(file)
     paths = _write_figures(results, target, workers=workers or default_workers())
-    click.echo(f"{len(paths)} PNG files (re)drawn in {target} ({len(results)} scenes; index.json: file -> scene)")
+    click.echo(wrap(f"{len(paths)} PNG files (re)drawn in {target} ({len(results)} scenes; index.json: "
+                    "file -> scene)"))
 
 
 def _check_figure_dir(fig_dir: Path) -> None:

@@ -41,17 +41,24 @@ def _rpm_range(text: str | None) -> list[float]:
 
 @click.command("check")
 @linkage_option()
-@click.option("--mechanism", type=click.Choice(["source", "cognate"]), default="source", show_default=True)
-@click.option("--mass-model", type=click.Choice(MASS_MODELS), default="tip", show_default=True)
+@click.option("--mechanism", type=click.Choice(["source", "cognate"]), default="source", show_default=True,
+              help="The source four-bar or its crank-driven Roberts cognate.")
+@click.option("--mass-model", type=click.Choice(MASS_MODELS), default="tip", show_default=True,
+              help="tip (Case I), joints (Case II), extender (Case III), distributed.")
 @click.option("--rpm", "rpms", multiple=True, type=RuleType(rules.RPM),
               help=f"Crank speed(s): {rules.RPM.allowed()}; repeatable [default: 300].")
 @click.option("--rpm-range", default=None, metavar="START:STOP:N", help="N crank speeds from START to STOP rpm.")
-@click.option("--lumps", type=RuleType(rules.LUMPS), default=5, show_default=True)
+@click.option("--lumps", type=RuleType(rules.LUMPS), default=5, show_default=True,
+              help=f"Lumps per distributed link (extender, distributed models): {rules.LUMPS.allowed()}.")
 @click.option("--payload-kg", type=RuleType(rules.PAYLOAD_KG), default=None,
               help="Point mass at P [kg] [default: 2 lb for tip, else 0].")
-@click.option("--stiffness-scale", type=RuleType(rules.STIFFNESS_SCALE), default=1.0, show_default=True)
-@click.option("--direction", type=click.Choice(DIRECTIONS), default="ccw", show_default=True)
-@click.option("--damping-ratio", type=RuleType(rules.DAMPING_RATIO), default=0.02, show_default=True)
+@click.option("--stiffness-scale", type=RuleType(rules.STIFFNESS_SCALE), default=1.0, show_default=True,
+              help=f"Multiply every Young's modulus: {rules.STIFFNESS_SCALE.allowed()}.")
+@click.option("--direction", type=click.Choice(DIRECTIONS), default="ccw", show_default=True,
+              help="Crank direction (the linear and Exudyn answers depend on it).")
+@click.option("--damping-ratio", type=RuleType(rules.DAMPING_RATIO), default=0.02, show_default=True,
+              help=f"Modal damping ratio of the linear and Exudyn models: {rules.DAMPING_RATIO.allowed()} "
+                   "(the atlas limits were measured at 0.02).")
 @click.option("--tolerance", type=RuleType(rules.TOLERANCE), default=0.10, show_default=True,
               help="Relative history error accepted.")
 @click.option("--confirm", is_flag=True, help="Also run the Exudyn model and report the three errors it measures.")
@@ -109,18 +116,24 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
         extra = {"critical_speeds_rpm": [c.rpm for c in crit], "amplification_peaks_rpm": list(amp)}
         click.echo(json_text([{**asdict(r), **extra} for r in rows]))
         return
-    click.echo(f"Design check: {linkage} linkage, {mechanism}, mass model {mass_model}, damping {damping_ratio:g}, "
-               f"tolerance {tolerance:.0%}")
-    head = f"{'rpm':>8} {'r':>7} {'qs peak mm':>11} {'lin peak mm':>12} {'qs vs lin':>9} {'1-mode':>7} {'|mu|':>6}"
-    click.echo(head + "  tier" + ("          Exudyn: qs / lin" if confirm else ""))
+    click.echo(textwrap.fill(f"Design check: {linkage} linkage, {mechanism}, mass model {mass_model}, damping "
+                             f"{damping_ratio:g}, tolerance {tolerance:.0%}", width=WIDTH, subsequent_indent="  ",
+                             break_on_hyphens=False, break_long_words=False))
+    head = f"{'rpm':>7} {'r':>6} {'qs peak':>8} {'lin peak':>9} {'qs vs':>7} {'1-mode':>7} {'|mu|':>6}  {'tier':<12}"
+    units = f"{'':>7} {'':>6} {'mm':>8} {'mm':>9} {'lin':>7} {'est.':>7} {'':>6}  {'':<12}"
+    if confirm:
+        head += f" {'Exudyn:':>8} {'Exudyn:':>8}"
+        units += f" {'qs err':>8} {'lin err':>8}"
+    click.echo(head.rstrip())
+    click.echo(units.rstrip())
     for r in rows:
-        line = (f"{r.rpm:8.1f} {r.speed_ratio:7.3f} {1e3 * r.quasi_static_peak_m:11.4g} {1e3 * r.linear_peak_m:12.4g} "
-                f"{_pct(r.linear_vs_quasi_static):>9} {_pct(r.quasi_static_error_estimate):>7} "
+        line = (f"{r.rpm:7.1f} {r.speed_ratio:6.3f} {1e3 * r.quasi_static_peak_m:8.4g} {1e3 * r.linear_peak_m:9.4g} "
+                f"{_pct(r.linear_vs_quasi_static):>7} {_pct(r.quasi_static_error_estimate):>7} "
                 f"{r.floquet_max_abs:6.3f}  {r.tier:<12}")
         if confirm:
             c = r.confirmed
-            line += ("  Exudyn failed" if "dynamic_failed" in c else
-                     f"  {_pct(c.get('quasi_static_vs_dynamic')):>6} / {_pct(c.get('linear_vs_dynamic'))}")
+            line += (f" {'failed':>8} {'-':>8}" if "dynamic_failed" in c else
+                     f" {_pct(c.get('quasi_static_vs_dynamic')):>8} {_pct(c.get('linear_vs_dynamic')):>8}")
         click.echo(line.rstrip())
         click.echo(textwrap.fill(r.verdict, width=WIDTH, initial_indent=" " * 9, subsequent_indent=" " * 11,
                                  break_on_hyphens=False))
@@ -130,6 +143,11 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
                      "Amplification peaks (linear / quasi-static peak): "
                      + (", ".join(f"{a:.4g} rpm" for a in amp) or "none in this range")):
             click.echo(textwrap.fill(text, width=WIDTH, subsequent_indent="  ", break_on_hyphens=False))
+    click.echo(textwrap.fill(
+        "r = Omega/omega1_min; qs vs lin: the quasi-static answer's history error against the linear KED answer; "
+        "1-mode est.: its one-mode harmonic estimate; |mu|: Floquet max |multiplier| of the linear model"
+        + ("; Exudyn: the errors measured against Exudyn" if confirm else ""),
+        width=WIDTH, subsequent_indent="  ", break_on_hyphens=False))
 
 
 def _pct(x: float | None) -> str:

@@ -6,7 +6,7 @@ from typing import Any
 
 import click
 
-from ked_cli.options import SceneOptions, build_scene, json_text, scene_options
+from ked_cli.options import SceneOptions, build_scene, json_text, scene_options, wrap
 from ked_quasi import rules
 
 
@@ -34,11 +34,22 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
     multiplier on the unit circle, or "unstable"), floquet_error.  Flag "weakly_damped": max |Floquet
     multiplier| >= 0.9, the periodic answer is not valid there.  Exit status 1 when there is no
     asymptotically stable periodic steady state (max |Floquet multiplier| >= 1, or marginal).
+
+    A slider-crank (--linkage simeon, or a TOML [linkage] table with kind = "slider-crank") is solved on its
+    own frozen structure, as by ked quasi (mass model distributed unless given); the JSON adds midspan_m,
+    the coupler's midspan deflection normal to its chord.
     """
     from ked_linear import LinearSettings, describe_flags, result_flags, solve_linear
 
     opts = SceneOptions.pop(kw)
-    scene = build_scene(opts)
+    scene = _slider_scene(opts)
+    if scene is None:
+        scene = build_scene(opts)
+    else:
+        from dataclasses import replace
+
+        opts = replace(opts, mass_model=scene.mass_model.name)  # the mass model solved (distributed by default)
+    linkage = getattr(scene, "fourbar", None) or scene.linkage
     try:
         settings = LinearSettings(damping_ratio=damping_ratio, damping_reference_hz=damping_reference_hz,
                                   prestress=prestress, max_harmonics=max_harmonics)
@@ -49,7 +60,7 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
     d = res.deflection
-    flags = result_flags(res, scene.fourbar)
+    flags = result_flags(res, linkage)
     out = {
         "crank_angle_deg": scene.crank_angles_deg.tolist(),
         "dx_m": d[:, 0].tolist() if res.stable else None, "dy_m": d[:, 1].tolist() if res.stable else None,
@@ -59,8 +70,10 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
         "damping_reference_hz": res.damping_reference_hz, "flags": list(flags), "valid": res.stable and not flags,
         "message": res.message, "status": res.status, "floquet_error": res.floquet_error,
     }
+    if getattr(res, "midspan", None) is not None:  # a slider-crank: the coupler's midspan deflection too
+        out["midspan_m"] = res.midspan.tolist() if res.stable else None
     if flags:
-        click.echo(f"warning: {describe_flags(flags, res, scene.fourbar)}", err=True)
+        click.echo(wrap(f"warning: {describe_flags(flags, res, linkage)}"), err=True)
     if as_json:
         click.echo(json_text(out))
     else:
@@ -70,15 +83,36 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
 
 
 def _table(opts: SceneOptions, scene: Any, res: Any, out: dict[str, Any]) -> None:
-    click.echo(f"Linear KED steady-state deflection of P: {opts.describe()}")
-    click.echo(f"{res.message}; r = Omega/omega1_min = {res.speed_ratio:.3g}; {res.wall_s * 1e3:.1f} ms")
+    click.echo(wrap(f"Linear KED steady-state deflection of P: {opts.describe()}"))
+    click.echo(wrap(f"{res.message}; r = Omega/omega1_min = {res.speed_ratio:.3g}; {res.wall_s * 1e3:.1f} ms"))
     if not res.stable:
         return
     if not out["valid"]:
-        click.echo("NOT VALID: " + ", ".join(out["flags"]) + " (see the warning above)")
+        click.echo(wrap("NOT VALID: " + ", ".join(out["flags"]) + " (see the warning above)"))
     step = rules.steps_per_turn(scene.step_deg)
     d = max(1, len(f"{360 / step:g}".split(".")[-1]) if "." in f"{360 / step:g}" else 1)
-    click.echo(f"{'theta deg':>9} {'dx mm':>10} {'dy mm':>10} {'rot mrad':>10}")
+    mid = out.get("midspan_m")
+    click.echo(f"{'theta deg':>9} {'dx mm':>10} {'dy mm':>10} {'rot mrad':>10}" + (f" {'mid mm':>10}" if mid else ""))
     for i, theta in enumerate(out["crank_angle_deg"]):
         click.echo(f"{theta:9.{d}f} {1e3 * out['dx_m'][i]:10.4g} {1e3 * out['dy_m'][i]:10.4g} "
-                   f"{1e3 * out['rotation_rad'][i]:10.4g}")
+                   f"{1e3 * out['rotation_rad'][i]:10.4g}" + (f" {1e3 * mid[i]:10.4g}" if mid else ""))
+
+
+def _slider_scene(opts: SceneOptions) -> Any:
+    """The slider-crank scene ``--linkage`` names (as ``ked quasi`` builds it), or None for a four-bar."""
+    from ked_cli.quasi import slider_source
+    from ked_quasi.slidercrank import build_slider_scene
+
+    sc = slider_source(opts.linkage)
+    if sc is None:
+        return None
+    if opts.mechanism != "source":
+        raise click.BadParameter("a slider-crank has no Roberts cognate; use --mechanism source",
+                                 param_hint="--mechanism")
+    ctx = click.get_current_context()
+    given = ctx.get_parameter_source("mass_model") not in (click.core.ParameterSource.DEFAULT, None)
+    try:
+        return build_slider_scene(sc, opts.mass_model if given else "distributed", opts.rpm, opts.step_deg,
+                                  opts.lumps, opts.payload_kg, opts.stiffness_scale, opts.direction)
+    except ValueError as exc:
+        raise click.UsageError(str(exc)) from None

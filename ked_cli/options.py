@@ -127,7 +127,8 @@ def load_source(linkage: str) -> Any:
 
 
 def _refuse_slider_crank(linkage: str) -> None:
-    """BadParameter when ``--linkage`` names a slider-crank: only ``ked quasi`` analyses it so far."""
+    """BadParameter when ``--linkage`` names a slider-crank: only ``ked quasi`` and ``ked linear`` analyse it so
+    far."""
     from ked_quasi.presets import slider_linkage
     from ked_quasi.slidercrank import load_slider_crank
 
@@ -136,8 +137,8 @@ def _refuse_slider_crank(linkage: str) -> None:
     except ValueError:
         slider = True
     if slider is not None:
-        raise click.BadParameter(f"{linkage}: a slider-crank is analysed by 'ked quasi' only (this command takes a "
-                                 "four-bar: thesis or a TOML file with a four-bar [linkage] table)",
+        raise click.BadParameter(f"{linkage}: a slider-crank is analysed by 'ked quasi' and 'ked linear' only (this "
+                                 "command takes a four-bar: thesis or a TOML file with a four-bar [linkage] table)",
                                  param_hint="--linkage")
 
 
@@ -164,6 +165,19 @@ def refuse_fast(fourbar: Any, mass_model: Any, rpms: list[float], step_deg: floa
             check_speed(fourbar, mass_model, max(rpms), step_deg, label="value")
         except ValueError as exc:
             raise click.BadParameter(str(exc).removeprefix("value = "), param_hint=hint) from None
+
+
+WIDTH = 100
+"""Columns of every human-readable line a command prints."""
+
+
+def wrap(text: str, indent: str = "  ") -> str:
+    """``text`` in lines of at most :data:`WIDTH` columns, continuation lines indented (long words,
+    e.g. paths, are never split)."""
+    import textwrap
+
+    return textwrap.fill(text, width=WIDTH, subsequent_indent=indent, break_on_hyphens=False,
+                         break_long_words=False)
 
 
 def json_text(value: Any, **dumps: Any) -> str:

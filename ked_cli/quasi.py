@@ -7,7 +7,7 @@ from typing import Any
 
 import click
 
-from ked_cli.options import SceneOptions, build_scene, json_text, scene_options
+from ked_cli.options import SceneOptions, build_scene, json_text, scene_options, wrap
 
 
 @click.command("quasi")
@@ -38,7 +38,7 @@ def quasi(as_json: bool, summary: bool, **kw: Any) -> None:
     scene = build_scene(opts)
     out, caught = solve(scene)
     for w in caught:
-        click.echo(f"warning: {w}", err=True)
+        click.echo(wrap(f"warning: {w}"), err=True)
     if as_json:
         click.echo(json_text(out))
         return
@@ -85,13 +85,13 @@ def _decimals(step_deg: float) -> int:
 
 def _table(opts: SceneOptions, scene: Any, out: dict[str, Any]) -> None:
     mm = scene.mass_model
-    click.echo(f"Quasi-static deflection of the coupler point P: {opts.describe()}"
-               + (f", payload {mm.payload:g} kg" if mm.payload else ""))
-    click.echo("theta: crank angle CCW from the ground line M->Q; dx, dy: elastic displacement of P in the global "
-               "frame; rot: elastic rotation of the section at P (CCW +); f1: first natural frequency of the frozen "
-               "linkage; mu: transmission angle (FLAGGED within 1 deg of a toggle)")
+    click.echo(wrap(f"Quasi-static deflection of the coupler point P: {opts.describe()}"
+                    + (f", payload {mm.payload:g} kg" if mm.payload else "")))
+    click.echo(wrap("theta: crank angle CCW from the ground line M->Q; dx, dy: elastic displacement of P in the "
+                    "global frame; rot: elastic rotation of the section at P (CCW +); f1: first natural frequency "
+                    "of the frozen linkage; mu: transmission angle (FLAGGED within 1 deg of a toggle)"))
     if not out["valid"]:
-        click.echo("NOT VALID: " + ", ".join(out["flags"]) + " (see the warning above)")
+        click.echo(wrap("NOT VALID: " + ", ".join(out["flags"]) + " (see the warning above)"))
     d = _decimals(scene.step_deg)
     w = max(9, d + 5)
     click.echo(f"{'theta deg':>{w}} {'dx mm':>10} {'dy mm':>10} {'rot mrad':>10} {'f1 Hz':>8} {'mu deg':>7}")
@@ -125,7 +125,7 @@ def _summary(opts: SceneOptions, as_json: bool) -> None:
     if as_json:
         click.echo(json_text(rows))
         return
-    click.echo(f"Quasi-static KED summary: {opts.linkage} linkage, {opts.rpm:g} rpm, step {opts.step_deg:g} deg")
+    click.echo(wrap(f"Quasi-static KED summary: {opts.linkage} linkage, {opts.rpm:g} rpm, step {opts.step_deg:g} deg"))
     click.echo(f"{'mechanism':<9} {'mass model':<11} {'peak |d| mm':>11} {'at deg':>7} {'peak rot mrad':>13} "
                f"{'f1 min..max Hz':>15} {'Omega/w1min':>11}")
     for r in rows:
@@ -174,7 +174,7 @@ def _slider(opts: SceneOptions, sc: Any, as_json: bool, summary: bool) -> None:
     except ValueError as exc:
         raise click.BadParameter(str(exc).removeprefix("value = "), param_hint="--rpm") from None
     for m in msgs:
-        click.echo(f"warning: {m}", err=True)
+        click.echo(wrap(f"warning: {m}"), err=True)
     if as_json:
 
         click.echo(json_text(out))
@@ -193,24 +193,17 @@ def solve_slider(scene: Any) -> tuple[dict[str, Any], list[str]]:
     return {**out, "midspan_m": res.midspan.tolist()}, msgs
 
 
-def _wrap(text: str) -> str:
-    """``text`` in lines of at most 100 columns, continuation lines indented."""
-    import textwrap
-
-    return textwrap.fill(text, width=100, subsequent_indent="  ", break_on_hyphens=False)
-
-
 def _slider_table(opts: SceneOptions, scene: Any, out: dict[str, Any]) -> None:
     mm, sc = scene.mass_model, scene.linkage
     rigid = [lk for lk, r in zip(("crank", "coupler"), sc.rigid) if r]
-    click.echo(_wrap(f"Quasi-static deflection of a slider-crank: {opts.linkage} (crank {sc.crank:g} m, coupler "
+    click.echo(wrap(f"Quasi-static deflection of a slider-crank: {opts.linkage} (crank {sc.crank:g} m, coupler "
                f"{sc.coupler:g} m, offset {sc.offset:g} m, coupler point at {sc.coupler_point:g} of the coupler, "
                f"slider "
                f"{sc.slider_mass:g} kg" + (f", rigid {' and '.join(rigid)}" if rigid else "") + f"), mass model "
                f"{mm.name}" + (f" ({mm.lumps} lumps per link)" if mm.name == "distributed" else "")
                + (f", payload {mm.payload:g} kg" if mm.payload else "")
                + f", {scene.rpm:g} rpm ({scene.omega:.4g} rad/s), step {scene.step_deg:g} deg"))
-    click.echo(_wrap("theta: crank angle CCW from +x (0: slider at its far dead centre when the offset is 0); dx, dy: "
+    click.echo(wrap("theta: crank angle CCW from +x (0: slider at its far dead centre when the offset is 0); dx, dy: "
                      "elastic displacement of P in the global frame; rot: elastic rotation of the section at P "
                      "(CCW +); mid: coupler midspan deflection normal to its chord (CCW normal of A->B); f1: first "
                      "natural frequency of the frozen linkage; mu: transmission angle"))

@@ -9,7 +9,7 @@ from typing import Any
 
 import click
 
-from ked_cli.options import SceneOptions, build_scene, scene_options
+from ked_cli.options import SceneOptions, build_scene, scene_options, wrap
 
 ELEMENT_TYPES = ("ancf", "gebeam")
 
@@ -123,11 +123,11 @@ def attempt_dict(a: Any) -> dict[str, Any]:
 
 
 def _table(opts: SceneOptions, res: Any, out: dict[str, Any]) -> None:
-    click.echo(f"Dynamic (Exudyn) steady-state deflection of P: {opts.describe()}")
-    click.echo(f"{res.message}; {res.steps} steps, {res.newton_iterations} Newton iterations, "
-               f"{res.wall_s:.2f} s wall; damping reference {res.damping_reference_hz:.3g} Hz")
+    click.echo(wrap(f"Dynamic (Exudyn) steady-state deflection of P: {opts.describe()}"))
+    click.echo(wrap(f"{res.message}; {res.steps} steps, {res.newton_iterations} Newton iterations, "
+                    f"{res.wall_s:.2f} s wall; damping reference {res.damping_reference_hz:.3g} Hz"))
     if len(res.attempts) > 1:
-        click.echo("refinement ladder: " + "; ".join(a.text() for a in res.attempts))
+        click.echo(wrap("refinement ladder: " + "; ".join(a.text() for a in res.attempts)))
     if not res.converged:
         return
     click.echo(f"{'theta deg':>9} {'dx mm':>10} {'dy mm':>10} {'rot mrad':>10}")

@@ -31,7 +31,14 @@ class LinkageSystem:
 
 
 def linkage_system(scene: Scene, settings: LinearSettings) -> LinkageSystem:
-    """The linear KED equations of ``scene`` as a :class:`~ked_linear.periodic.PeriodicSystem`."""
+    """The linear KED equations of ``scene`` as a :class:`~ked_linear.periodic.PeriodicSystem` (a slider-crank
+    scene: :func:`ked_linear.slider.slider_system`)."""
+    from ked_quasi.slidercrank import SliderScene
+
+    if isinstance(scene, SliderScene):
+        from .slider import slider_system
+
+        return slider_system(scene, settings)  # type: ignore[return-value]
     f_ref = settings.damping_reference_hz
     f_ref = damping_reference_hz(scene) if f_ref is None else float(f_ref)
     beta = rayleigh_beta(settings.damping_ratio, f_ref)

@@ -167,8 +167,19 @@ def elastic_coordinates(scene: Scene) -> int:
     return 2 * int(np.count_nonzero(node_masses(topology(lm), lm) > 0))
 
 
+def _is_slider(scene: object) -> bool:
+    from ked_quasi.slidercrank import SliderScene
+
+    return isinstance(scene, SliderScene)
+
+
 def solve_linear(scene: Scene, settings: LinearSettings | None = None) -> LinearResult:
-    """Periodic steady state of the linear KED model of ``scene`` (see docs/linear_model.md)."""
+    """Periodic steady state of the linear KED model of ``scene`` (see docs/linear_model.md); a slider-crank
+    scene goes to :func:`ked_linear.slider.solve_slider_linear`."""
+    if _is_slider(scene):
+        from .slider import solve_slider_linear
+
+        return solve_slider_linear(scene, settings)
     t0 = time.perf_counter()
     settings = LinearSettings() if settings is None else settings
     if not isinstance(settings, LinearSettings):

@@ -36,6 +36,7 @@ rpm = [60.0]
 FAILING = """
 [campaign]
 name = "with-failure"
+solvers = ["quasi_static", "dynamic"]
 step_deg = 30.0
 n_modes = 2
 [grid]

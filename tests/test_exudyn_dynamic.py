@@ -67,11 +67,12 @@ def test_rigid_path_matches_kinematic_coupler_curve_and_cognate_traces_the_sourc
     cognate = make_scene(mass_model="distributed", mechanism_name="cognate", stiffness_scale=1e6)
     fb = next(f for f in random_fourbars(20, seed=3) if f.direction == "cw" and f.branch == "crossed")
     other = Scene(fb.with_stiffness_scale(1e6), MassModel("distributed"), 300.0, 10.0)
-    for scene in (source, cognate, other):
-        res = simulate_steady_state(scene)
-        assert np.abs(res.deflection[:, :2]).max() < 1e-6
+    results = {}
+    for name, scene in (("source", source), ("cognate", cognate), ("other", other)):
+        results[name] = simulate_steady_state(scene)
+        assert np.abs(results[name].deflection[:, :2]).max() < 1e-6
 
-    res = simulate_steady_state(cognate)
+    res = results["cognate"]
     path = coupler_point(cognate.fourbar, res.crank_angle) + res.deflection[:, :2]
     dense = np.linspace(0.0, 2 * np.pi, 7201)
     curve = coupler_point(source.fourbar, dense)

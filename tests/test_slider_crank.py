@@ -286,6 +286,6 @@ def test_other_commands_refuse_a_slider_crank_in_one_line(tmp_path):
     path = tmp_path / "slider.toml"
     path.write_text(TOML)
     for linkage in ("simeon", str(path)):
-        res = CliRunner().invoke(cli, ["linear", "--linkage", linkage])
-        assert res.exit_code == 2 and "analysed by 'ked quasi' only" in res.output
+        res = CliRunner().invoke(cli, ["simulate", "--linkage", linkage])
+        assert res.exit_code == 2 and "analysed by 'ked quasi'" in res.output
         assert "Traceback" not in res.output

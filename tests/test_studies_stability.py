@@ -160,6 +160,41 @@ def test_stability_configs_cover_the_required_cases() -> None:
     assert {1000.0, 0.01} <= scales
 
 
+def _row(case: str, status: str, verdict: str) -> dict:
+    return {"case": case, "status": status, "check": verdict}
+
+
+def test_findings_count_the_rows() -> None:
+    """Counts by construction: 4 scenes in 2 cases, 3 converged (2 pass), 1 failed."""
+    from compare.studies.stability_analysis import analyse
+
+    cases = [_row("a", "ok", "pass"), _row("a", "ok", "fail: not steady"), _row("b", "ok", "pass"),
+             _row("b", "failed", "-")]
+    attrs = {"created_utc": "t", "defaults": '{"element": "ancf"}', "campaign_wall_s": 10.0, "study_wall_s": 12.0,
+             "workers": 2, "lost": 1}
+    f = analyse(cases, attrs)
+    assert (f.scenes, f.cases, f.converged, f.passed, f.failed, f.lost) == (4, 2, 3, 2, 1, 1)
+    assert f.defaults == {"element": "ancf"} and f.failures == (cases[3],)
+
+
+def test_findings_of_the_committed_study() -> None:
+    """Regression pin on the committed results/studies/stability.h5 (the numbers its README section states):
+    29 scenes in 14 cases, 23 converged, 21 of them pass the check, 6 failed, none lost; every converged
+    scene has a verdict, every failed one none (an independent count over the stored status column)."""
+    from compare.studies import stability, study_io
+    from compare.studies.stability_analysis import analyse
+
+    if not stability.OUT.exists():
+        pytest.skip("study results not generated")
+    tables, attrs = study_io.read_tables(stability.OUT)
+    f = analyse(study_io.rows(tables["cases"]), attrs)
+    assert (f.scenes, f.cases, f.converged, f.passed, f.failed, f.lost) == (29, 14, 23, 21, 6, 0)
+    status = [str(s) for s in tables["cases"]["status"]]
+    assert f.converged == status.count("ok") and len(f.failures) == len(status) - status.count("ok")
+    assert all(r["check"] == "-" for r in f.failures)
+    assert f.defaults["element"] in ("ancf", "ge") and f.workers == 2
+
+
 def test_step_search_of_a_newton_failure_is_the_refinement_ladder() -> None:
     """``ked study stability --ladder``: a Newton failure from a run without the ladder is rerun with it.
     The independent reference is a campaign of the same scene with the ladder on (the default): the steps

@@ -172,7 +172,7 @@ def test_resume_keeps_the_stored_tables_and_adds_the_missing_one(tmp_path: Path,
     """A resume that adds no scene computes only the missing /study table (no Exudyn run, no re-timing)."""
     import shutil
 
-    from compare.studies import study_io, work_precision, wp_report
+    from compare.studies import study_io, work_precision, wp_analysis, wp_report
 
     _stored_references()
     out = tmp_path / "wp.h5"
@@ -180,7 +180,8 @@ def test_resume_keeps_the_stored_tables_and_adds_the_missing_one(tmp_path: Path,
     before, attrs = study_io.read_tables(out)
     old = {k: v for k, v in before.items() if k != "linear"}
     figs = [tmp_path / "a.png", tmp_path / "b.png"]
-    assert "Linear KED" not in wp_report.markdown(old, attrs, figs, tmp_path)  # older files still report
+    assert wp_analysis.analyse(old, attrs).linear is None  # older files still report, without the linear part
+    assert wp_report.markdown(old, attrs, figs, tmp_path)
     kept, kept_attrs = work_precision.stored_study(out, int(attrs["scenes"]))
     study_io.write_tables(out, {k: v for k, v in kept.items() if k != "linear"}, kept_attrs)
     row = {"mass_model": "tip", "lumps": 5, "speed_ratio": 0.05, "rpm": 1.0, "damping_ratio": 0.02, "error": 0.01,
@@ -198,4 +199,39 @@ def test_resume_keeps_the_stored_tables_and_adds_the_missing_one(tmp_path: Path,
             assert (np.array_equal(after[name][col], v) if v.dtype.kind == "O"
                     else np.array_equal(after[name][col], v, equal_nan=True))
     assert new_attrs["campaign_wall_s"] == attrs["campaign_wall_s"] and "updated_utc" in new_attrs
-    assert "Linear KED" in (tmp_path / "README.md").read_text()
+    assert wp_analysis.analyse(after, new_attrs).linear.scenes == 1  # the one linear row added above
+
+
+def test_findings_of_the_committed_study() -> None:
+    """The findings of the committed work_precision.h5: expectations from numerics and physics, then named
+    regression pins (the numbers its README section states)."""
+    from compare.studies import study_io, work_precision
+    from compare.studies.wp_analysis import Discretization, analyse
+
+    if not work_precision.OUT.exists():
+        pytest.skip("study results not generated")
+    f = analyse(*study_io.read_tables(work_precision.OUT))
+    # lumps: masses at segment midpoints are the midpoint rule (second order), at segment ends a one-sided
+    # rule (first order); both converge
+    for (model, placement), order in f.lumps.orders.items():
+        assert order == pytest.approx(2.0 if placement == "midpoint" else 1.0, abs=0.2), (model, placement)
+    # the quasi-static (instantaneous-structure) error grows with the speed ratio for every mass model
+    by_model: dict[str, list[tuple[float, float]]] = {}
+    for q in f.quasi:
+        by_model.setdefault(q["mass_model"], []).append((q["speed_ratio"], q["error"]))
+    for model, pts in by_model.items():
+        errors = [e for _, e in sorted(pts)]
+        assert errors == sorted(errors), model
+    # a Pareto front is cheaper and less accurate from one point to the next
+    for fr in f.fronts.values():
+        assert all(a.wall_s <= b.wall_s and a.error > b.error for a, b in zip(fr, fr[1:]))
+    # regression pins (committed file): default ANCF 4 el, 720 steps, rho 0.9, 3.86 s and 0.343 % over the
+    # 3 scenes, tied within the 1 % budget with rho 0.6 (3.83 s); 18 failed runs; the coarsest failing steps
+    # per spectral radius; the linear model beats the quasi-static solver on 12 of 12 scenes
+    dflt = Discretization("ancf", 4, 720, 0.9)
+    assert f.default.default == dflt and f.default.cost == pytest.approx((3.855, 0.00343), rel=1e-3)
+    assert f.default.choice.disc == Discretization("ancf", 4, 720, 0.6) and dflt in f.default.choice.tied
+    assert len(f.default.on_front) == 3 and len(f.failed) == 18
+    assert f.default.failed_steps == {0.6: 90, 0.9: 180, 1.0: 360}
+    assert (f.linear.scenes, f.linear.pairs, f.linear.better) == (12, 12, 12) and not f.linear.unstable
+    assert f.lumps.needed["distributed", "midpoint"] == {0.01: 5, 0.001: 16}

@@ -28,6 +28,7 @@ from compare.atlas.compute import RATIOS, spec_of, xy
 from compare.atlas.generate import candidate
 from compare.atlas.threshold import TABLE
 from compare.execute import frame, solve_one
+from compare.markdown import median_range, table
 from compare.sections import write_section
 from ked_quasi.kinematics import coupler_point
 from ked_quasi.massmodel import MASS_MODELS
@@ -56,27 +57,18 @@ def features(fam: dict[str, np.ndarray], links: dict[str, np.ndarray]) -> dict[s
     return out
 
 
-def _pct(values: np.ndarray) -> str:
-    v = np.asarray(values, float)
-    v = v[np.isfinite(v)]
-    if not v.size:
-        return "-"
-    p10, p50, p90 = np.percentile(v, [10, 50, 90])
-    return f"**{p50:.3f}** [{p10:.3f}-{p90:.3f}]"
-
-
 def distribution_table(fam: dict[str, np.ndarray]) -> list[str]:
-    L = ["| mass model | families | r* 5 %: median [P10-P90] | r* 10 %: median [P10-P90] | min-max (10 %) | "
-         "10 % status: crossed / above grid / below grid / linear unstable first / failed |", "|---" * 6 + "|"]
+    rows = []
     for mm in (*MASS_MODELS, None):
         sel = np.ones(len(fam["mass_model"]), bool) if mm is None else np.asarray(fam["mass_model"], dtype=object) == mm
         st = Counter(np.asarray(fam["r10_status"], dtype=object)[sel])
         r10 = np.asarray(fam["r10"], float)[sel & crossed(fam, "r10")]
         span = f"{r10.min():.3f}-{r10.max():.3f}" if r10.size else "-"
         r5 = np.asarray(fam["r5"], float)[sel & crossed(fam, "r5")]
-        L.append(f"| {mm or 'all'} | {sel.sum()} | {_pct(r5)} | {_pct(r10)} | {span} | {st['crossed']} / "
-                 f"{st['above_grid']} / {st['below_grid']} / {st['failure']} / {st['no_data']} |")
-    return L
+        rows.append([mm or "all", str(sel.sum()), median_range(r5), median_range(r10), span,
+                     f"{st['crossed']} / {st['above_grid']} / {st['below_grid']} / {st['failure']} / {st['no_data']}"])
+    return table(("mass model", "families", "r* 5 %: median [P10-P90]", "r* 10 %: median [P10-P90]", "min-max (10 %)",
+                  "10 % status: crossed / above grid / below grid / linear unstable first / failed"), rows, dense=True)
 
 
 def flags_text(fam: dict[str, np.ndarray], ratios: np.ndarray) -> str:
@@ -93,14 +85,12 @@ def flags_text(fam: dict[str, np.ndarray], ratios: np.ndarray) -> str:
 
 
 def correlation_table(fam: dict[str, np.ndarray], feats: dict[str, np.ndarray]) -> list[str]:
-    L = ["| feature | " + " | ".join((*MASS_MODELS, "all")) + " |", "|---" * 6 + "|"]
-    for name, x in feats.items():
-        cells = []
-        for mm in (*MASS_MODELS, None):
-            m = crossed(fam, "r10", mm)
-            cells.append(f"{spearman(np.asarray(x, float)[m], np.asarray(fam['r10'], float)[m]):+.2f}")
-        L.append(f"| {name} | " + " | ".join(cells) + " |")
-    return L
+    def rho(x: np.ndarray, mm: str | None) -> str:
+        m = crossed(fam, "r10", mm)
+        return f"{spearman(np.asarray(x, float)[m], np.asarray(fam['r10'], float)[m]):+.2f}"
+
+    return table(("feature", *MASS_MODELS, "all"), [[name, *(rho(x, mm) for mm in (*MASS_MODELS, None))]
+                                                     for name, x in feats.items()], dense=True)
 
 
 def rule_predictions(fam: dict[str, np.ndarray]) -> tuple[np.ndarray, dict[str, float]]:
@@ -139,14 +129,11 @@ def prediction_text(fam: dict[str, np.ndarray], rule: np.ndarray, cs: dict[str, 
 def worst_table(fam: dict[str, np.ndarray], rule: np.ndarray, n: int = 6) -> list[str]:
     m = np.flatnonzero(crossed(fam, "r10"))
     dev = np.abs(np.log(fam["one_mode_r10"][m] / fam["r10"][m]))
-    L = ["| family | r* 10 % | one-mode | rule | k_sig 1 % / 5 % | f1 max/min | min transmission [deg] |",
-         "|---" * 7 + "|"]
-    for i in m[np.argsort(-dev)][:n]:
-        f1 = fam["f1_max_hz"][i] / fam["f1_min_hz"][i]
-        L.append(f"| {_family_name(fam, i)} | {fam['r10'][i]:.3f} | {fam['one_mode_r10'][i]:.3f} | {rule[i]:.3f} | "
-                 f"{int(fam['k_sig_1'][i])} / {int(fam['k_sig_5'][i])} | {f1:.2f} | "
-                 f"{fam['min_transmission_deg'][i]:.0f} |")
-    return L
+    return table(("family", "r* 10 %", "one-mode", "rule", "k_sig 1 % / 5 %", "f1 max/min", "min transmission [deg]"),
+                 [[_family_name(fam, i), f"{fam['r10'][i]:.3f}", f"{fam['one_mode_r10'][i]:.3f}", f"{rule[i]:.3f}",
+                   f"{int(fam['k_sig_1'][i])} / {int(fam['k_sig_5'][i])}",
+                   f"{fam['f1_max_hz'][i] / fam['f1_min_hz'][i]:.2f}", f"{fam['min_transmission_deg'][i]:.0f}"]
+                  for i in m[np.argsort(-dev)][:n]], dense=True)
 
 
 def _median_step(values: Any) -> str:
@@ -157,8 +144,7 @@ def _median_step(values: Any) -> str:
 
 def tier_table(fam: dict[str, np.ndarray], conf: dict[str, np.ndarray]) -> list[str]:
     """Tier limits with, beside each, the median grid step of the first crossings behind it."""
-    L = ["| mass model | quasi-static 5 % | quasi-static 10 % | linear 5 % | linear 10 % | families / confirmed |",
-         "|---" * 6 + "|"]
+    rows = []
     lins = linear_limits(conf)
     for mm in MASS_MODELS:
         t = tier_limits(fam, conf, mm)
@@ -168,15 +154,15 @@ def tier_table(fam: dict[str, np.ndarray], conf: dict[str, np.ndarray]) -> list[
         cells = [f"{v:.3f} - {s:.3f} (step {h})" if math.isfinite(v) else "-" for (v, s), h in zip((
             (t.quasi_static_r5, t.quasi_static_r5_spread), (t.quasi_static_r10, t.quasi_static_r10_spread),
             (t.linear_r5, t.linear_r5_spread), (t.linear_r10, t.linear_r10_spread)), steps)]
-        L.append(f"| {mm} | " + " | ".join(cells) + f" | {t.families} / {t.confirmed_families} |")
-    return L
+        rows.append([mm, *cells, f"{t.families} / {t.confirmed_families}"])
+    return table(("mass model", "quasi-static 5 %", "quasi-static 10 %", "linear 5 %", "linear 10 %",
+                  "families / confirmed"), rows, dense=True)
 
 
 def linear_limit_table(conf: dict[str, np.ndarray]) -> list[str]:
     """The linear model's own limits against Exudyn per mass model (confirmed families)."""
     lims = linear_limits(conf)
-    L = ["| mass model | tolerance | families | crossed: median [P10-P90] (median step) | not reached up to r (median "
-         "lower bound) | below the smallest / Exudyn failed first |", "|---" * 6 + "|"]
+    rows = []
     for mm in MASS_MODELS:
         for tag, tol in (("r5", "5 %"), ("r10", "10 %")):
             x = [v for v in lims if v.family[2] == mm and v.tag == tag]
@@ -185,8 +171,11 @@ def linear_limit_table(conf: dict[str, np.ndarray]) -> list[str]:
             low = f"{above.size} ({np.median(above):.3f})" if above.size else "0"
             other = sum(v.status == "below_grid" for v in x), sum(v.status == "failure" for v in x)
             step = _median_step([v.step for v in x if v.status == "crossed"])
-            L.append(f"| {mm} | {tol} | {len(x)} | {cr.size}: {_pct(cr)} ({step}) | {low} | {other[0]} / {other[1]} |")
-    return L
+            rows.append([mm, tol, str(len(x)), f"{cr.size}: {median_range(cr)} ({step})", low,
+                         f"{other[0]} / {other[1]}"])
+    return table(("mass model", "tolerance", "families", "crossed: median [P10-P90] (median step)",
+                  "not reached up to r (median lower bound)", "below the smallest / Exudyn failed first"), rows,
+                 dense=True)
 
 
 def headline(fam: dict[str, np.ndarray], conf: dict[str, np.ndarray], feats: dict[str, np.ndarray],

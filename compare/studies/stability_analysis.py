@@ -6,6 +6,7 @@ arrays and values so that everything here is testable without running a solver.
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass
 
@@ -83,3 +84,37 @@ def check(ok: bool, finite: bool, converged: bool, speed_ratio: float, amplifica
     if deviation_from_default is not None and deviation_from_default > DEVIATION_LIMIT:
         return f"fail: {100 * deviation_from_default:.3g} % from the default-settings result"
     return "pass"
+
+
+@dataclass(frozen=True)
+class StabilityFindings:
+    """What the stored ``/study/cases`` table says: scenes [count] in cases [count], how many converged and
+    how many of those pass :func:`check`, how many failed with a recorded reason and how many were lost;
+    campaign and whole-study wall times [s] on ``workers`` processes; the Exudyn default settings
+    (``DynamicSettings`` as a dict); the per-scene rows as stored and the rows of the failed scenes."""
+
+    created_utc: str
+    scenes: int
+    cases: int
+    converged: int
+    passed: int
+    failed: int
+    lost: int
+    campaign_wall_s: float
+    study_wall_s: float
+    workers: int
+    defaults: dict
+    rows: tuple[dict, ...]
+    failures: tuple[dict, ...]
+
+
+def analyse(cases: list[dict], attrs: dict) -> StabilityFindings:
+    """The findings of the stored rows ``cases`` (:func:`compare.studies.study_io.rows`) and file attributes."""
+    dd = json.loads(attrs["defaults"]) if isinstance(attrs["defaults"], str) else dict(attrs["defaults"])
+    n_ok = sum(1 for r in cases if r["status"] == "ok")
+    return StabilityFindings(
+        created_utc=str(attrs["created_utc"]), scenes=len(cases), cases=len({r["case"] for r in cases}),
+        converged=n_ok, passed=sum(1 for r in cases if r["check"] == "pass"), failed=len(cases) - n_ok,
+        lost=int(attrs.get("lost", 0)), campaign_wall_s=float(attrs["campaign_wall_s"]),
+        study_wall_s=float(attrs["study_wall_s"]), workers=int(attrs["workers"]), defaults=dd, rows=tuple(cases),
+        failures=tuple(r for r in cases if r["status"] != "ok"))

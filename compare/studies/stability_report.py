@@ -1,27 +1,31 @@
-"""Stability study: the README section, generated only from the stored ``/study/cases`` table."""
+"""Stability study: the README section, formatted from :class:`StabilityFindings` only."""
 
 from __future__ import annotations
 
-import json
 import math
 import re
-from typing import Any
 
-from compare.studies.stability_analysis import AMPLIFICATION_BAND, DEVIATION_LIMIT, SUBCRITICAL
+from compare.markdown import Column, num, table
+from compare.studies.stability_analysis import (
+    AMPLIFICATION_BAND,
+    DEVIATION_LIMIT,
+    SUBCRITICAL,
+    StabilityFindings,
+    analyse,
+)
 from compare.studies.study_io import rows
 
-
-def _f(x: Any, fmt: str = ".3g", scale: float = 1.0) -> str:
-    try:
-        x = float(x)
-    except (TypeError, ValueError):
-        return str(x)
-    return "-" if not math.isfinite(x) else format(scale * x, fmt)
+COLUMNS = (Column("case"), Column("scene"), Column("r", right=True), Column("QS peak", "mm", True),
+           Column("QS cond. max", right=True), Column("flagged", "deg"), Column("toggle dist.", "deg", True),
+           Column("dynamic"), Column("cycles", right=True), Column("Newton it.", right=True),
+           Column("steps", right=True), Column("wall", "s", True), Column("dyn. peak", "mm", True),
+           Column("ampl.", right=True), Column("dev. from default", right=True), Column("check"),
+           Column("steps needed", right=True))
 
 
 def _qs_peak(r: dict) -> str:
     """Quasi-static peak [mm]; with the peak over the non-flagged angles in parentheses if different."""
-    full, kept = _f(r["qs_peak_m"], ".3g", 1e3), _f(r["qs_peak_unflagged_m"], ".3g", 1e3)
+    full, kept = num(r["qs_peak_m"], ".3g", 1e3), num(r["qs_peak_unflagged_m"], ".3g", 1e3)
     return full if full == kept else f"{full} ({kept})"
 
 
@@ -35,21 +39,33 @@ def _dynamic(r: dict) -> str:
     return f"**failed** ({r['stage']}: {r['error_type']})"
 
 
-def markdown(tables: dict, attrs: dict) -> str:
+def _count(x: int) -> str:
+    return str(int(x)) if x >= 0 else "-"
+
+
+def _cells(r: dict) -> list[str]:
+    stable = int(r["stable_steps_per_cycle"])
+    dev = r["deviation_from_default"]
+    return [r["case"], r["variant"], num(r["speed_ratio"]), _qs_peak(r), num(r["qs_condition_max"]),
+            r["qs_flagged_deg"] or "-", num(r["qs_toggle_distance_deg"]), _dynamic(r), _count(r["dyn_cycles"]),
+            _count(r["dyn_newton_iterations"]), _count(r["dyn_steps"]), num(r["dyn_wall_s"], ".2f"),
+            num(r["dyn_peak_m"], ".3g", 1e3), num(r["amplification"]),
+            num(dev, ".2g", 100) + (" %" if math.isfinite(dev) else ""), r["check"],
+            str(stable) if stable > 0 else "none" if r["ladder"] else "-"]
+
+
+def format_findings(f: StabilityFindings) -> str:
     """The ``stability`` section of results/README.md."""
-    cases = rows(tables.get("cases", {}))
-    dd = json.loads(attrs["defaults"]) if isinstance(attrs["defaults"], str) else attrs["defaults"]
-    n_ok = sum(1 for r in cases if r["status"] == "ok")
-    n_pass = sum(1 for r in cases if r["check"] == "pass")
+    dd = f.defaults
     lines = [
         "## Numerical stability on stiff and extreme cases",
         "",
         "Regenerate: `ked study stability` (one campaign config per case in `results/studies/stability/`, all "
         "run into `results/studies/stability.h5`; the table below is its `/study/cases` group). Last run: "
-        f"{attrs['created_utc']}, {len(cases)} scenes in {len({r['case'] for r in cases})} cases, "
-        f"{n_ok} converged ({n_pass} pass the check), {len(cases) - n_ok} failed with a recorded reason, "
-        f"{int(attrs.get('lost', 0))} lost; campaign {attrs['campaign_wall_s']:.0f} s on {int(attrs['workers'])} "
-        f"workers, whole study {attrs['study_wall_s']:.0f} s. Exudyn settings are the defaults unless the scene "
+        f"{f.created_utc}, {f.scenes} scenes in {f.cases} cases, "
+        f"{f.converged} converged ({f.passed} pass the check), {f.failed} failed with a recorded reason, "
+        f"{f.lost} lost; campaign {f.campaign_wall_s:.0f} s on {f.workers} "
+        f"workers, whole study {f.study_wall_s:.0f} s. Exudyn settings are the defaults unless the scene "
         f"says otherwise ({dd['element'].upper()}, {dd['elements_per_link']} elements/link, {dd['steps_per_cycle']} "
         f"steps/cycle, rho {dd['spectral_radius']:g}, damping ratio {dd['damping_ratio']:g}).",
         "",
@@ -69,30 +85,18 @@ def markdown(tables: dict, attrs: dict) -> str:
         "the study has it. **Steps needed**: steps per cycle with which the integration ran through (after a "
         "Newton failure: the first of 2x, 4x, 8x the scene's steps that did).",
         "",
-        "| case | scene | r | QS peak mm | QS cond. max | flagged deg | toggle dist. deg | dynamic | cycles | "
-        "Newton it. | steps | wall s | dyn. peak mm | ampl. | dev. from default | check | steps needed |",
-        "| --- | --- | ---: | ---: | ---: | --- | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- "
-        "| ---: |",
     ]
-    for r in cases:
-        stable = int(r["stable_steps_per_cycle"])
-        lines.append(
-            f"| {r['case']} | {r['variant']} | {_f(r['speed_ratio'])} | {_qs_peak(r)} | "
-            f"{_f(r['qs_condition_max'], '.3g')} | {r['qs_flagged_deg'] or '-'} | "
-            f"{_f(r['qs_toggle_distance_deg'], '.3g')} | {_dynamic(r)} | "
-            f"{int(r['dyn_cycles']) if r['dyn_cycles'] >= 0 else '-'} | "
-            f"{int(r['dyn_newton_iterations']) if r['dyn_newton_iterations'] >= 0 else '-'} | "
-            f"{int(r['dyn_steps']) if r['dyn_steps'] >= 0 else '-'} | {_f(r['dyn_wall_s'], '.2f')} | "
-            f"{_f(r['dyn_peak_m'], '.3g', 1e3)} | {_f(r['amplification'], '.3g')} | "
-            f"{_f(r['deviation_from_default'], '.2g', 100)}{' %' if math.isfinite(r['deviation_from_default']) else ''}"
-            f" | {r['check']} | "
-            f"{stable if stable > 0 else 'none' if r['ladder'] else '-'} |")
-    failed = [r for r in cases if r["status"] != "ok"]
-    if failed:
+    lines += table(COLUMNS, [_cells(r) for r in f.rows])
+    if f.failures:
         lines += ["", "Recorded reasons of the failures:", ""]
-        for r in failed:
+        for r in f.failures:
             extra = f" Step search: {r['ladder']}." if r["ladder"] else ""
             msg = re.sub(r" [(]time=.*[)]$", "", r["message"])
             lines.append(f"* **{r['case']}** ({r['variant']}), stage `{r['stage']}`, `{r['error_type']}`: "
                          f"{msg}.{extra}")
     return "\n".join(lines)
+
+
+def markdown(tables: dict, attrs: dict) -> str:
+    """The ``stability`` section from the stored tables and attributes (load -> analyse -> format)."""
+    return format_findings(analyse(rows(tables.get("cases", {})), attrs))

@@ -25,6 +25,7 @@ from pathlib import Path
 
 from compare import metrics, store
 from compare.limits import Limit, validity_limit
+from compare.markdown import table
 from compare.paths import CONFIG_DIR, StudyPaths
 from compare.sections import write_section
 from compare.studies import validity
@@ -119,14 +120,74 @@ def limits(fam: Sequence[TierPoint], model: str, tolerance: float) -> Limit:
                           [p.dyn_ok and math.isfinite(p.error[model]) for p in fam], tolerance)
 
 
-def _span(values: list[float]) -> str:
+@dataclass(frozen=True)
+class FamilyLimits:
+    """One family's validity limits: (model, tolerance [1]) -> :class:`Limit` (speed ratios r [1])."""
+
+    linkage: str
+    mechanism: str
+    mass_model: str
+    limits: dict[tuple[str, float], Limit]
+
+
+@dataclass(frozen=True)
+class TiersFindings:
+    """What the stored scenes say: each family's limits; per mass model the range (min, max) [1] over the
+    linkages of the limits crossed on the grid, per (model, tolerance) (nan, nan when none crossed); the
+    linkages with a grid step above COARSE_STEP; among the scenes with all three solutions, how many have
+    r <= 0.1 and in how many of those the dynamic part is the larger, how many have a peak deflection above
+    10 % of the shortest link and in how many of those the nonlinear part is the larger (``parts`` counts
+    the scenes with both parts); the scenes where Exudyn found no periodic steady state."""
+
+    families: tuple[FamilyLimits, ...]
+    spans: dict[str, dict[tuple[str, float], tuple[float, float]]]
+    coarse: tuple[str, ...]
+    parts: int
+    low_r: int
+    low_r_dynamic_larger: int
+    large_deflection: int
+    large_deflection_nonlinear_larger: int
+    failures: tuple[TierPoint, ...]
+
+
+def _range(values: list[float]) -> tuple[float, float]:
     v = [x for x in values if math.isfinite(x)]
-    return f"{min(v):.3f}-{max(v):.3f}" if v else "-"
+    return (min(v), max(v)) if v else (math.nan, math.nan)
 
 
-def markdown(points: Sequence[TierPoint], figure: Path | None, readme: Path) -> str:
-    """The README section (from the stored data only)."""
-    fams = families(points)
+def analyse(points: Sequence[TierPoint]) -> TiersFindings:
+    """Limits, their ranges per mass model, where the error comes from, and the failures."""
+    fams = [FamilyLimits(lk, mech, mm, {(m, t): limits(fam, m, t) for m in MODELS for t in TOLERANCES})
+            for (lk, mech, mm), fam in families(points).items()]
+    crossed: dict[str, dict[tuple[str, float], list[float]]] = {}
+    for f in fams:
+        for k, lim in f.limits.items():
+            crossed.setdefault(f.mass_model, {}).setdefault(k, []).append(
+                lim.r_limit if lim.status == "crossed" else math.nan)
+    ok = [p for p in points if math.isfinite(p.dynamic_part) and math.isfinite(p.nonlinear_part)]
+    below = [p for p in ok if p.r <= 0.1]
+    big = [p for p in ok if p.deflection_ratio > 0.1]
+    return TiersFindings(
+        families=tuple(fams), spans={mm: {k: _range(v) for k, v in d.items()} for mm, d in crossed.items()},
+        coarse=tuple(sorted({f.linkage for f in fams for lim in f.limits.values() if lim.step > COARSE_STEP})),
+        parts=len(ok), low_r=len(below), low_r_dynamic_larger=sum(p.dynamic_part > p.nonlinear_part for p in below),
+        large_deflection=len(big), large_deflection_nonlinear_larger=sum(p.nonlinear_part > p.dynamic_part
+                                                                         for p in big),
+        failures=tuple(sorted((p for p in points if not p.dyn_ok),
+                              key=lambda p: (p.linkage, p.mechanism, p.mass_model, p.r))))
+
+
+def _span(lo_hi: tuple[float, float]) -> str:
+    lo, hi = lo_hi
+    return f"{lo:.3f}-{hi:.3f}" if math.isfinite(lo) else "-"
+
+
+_HEAD = ("linkage", "mechanism", "mass model", "quasi-static 5 %", "quasi-static 10 %", "linear 5 %", "linear 10 %",
+         "linear, no prestress 5 %", "linear, no prestress 10 %")
+
+
+def markdown(f: TiersFindings, figure: Path | None, readme: Path) -> str:
+    """The README section, formatted from the findings only."""
     L = ["## Three tiers: quasi-static, linear, nonlinear", "",
          "Regenerate: `ked study tiers` (reads the validity campaigns' HDF5 files, whose configs list the "
          "quasi-static, linear (with and without prestress) and Exudyn solvers; `ked study validity` computes "
@@ -138,36 +199,24 @@ def markdown(points: Sequence[TierPoint], figure: Path | None, readme: Path) -> 
          "to r passed and the next grid ratio, r + step, did not; the crossing lies in between, never interpolated (a "
          "resonance peak between the two can cross the tolerance anywhere there). Where the step is wide, the "
          "limit is only known to that step.", ""]
-    L += ["| linkage | mechanism | mass model | quasi-static 5 % | quasi-static 10 % | linear 5 % | linear 10 % | "
-          "linear, no prestress 5 % | linear, no prestress 10 % |", "|---" * 9 + "|"]
-    per_model: dict[str, dict[str, list[float]]] = {}
-    for (lk, mech, mm), fam in fams.items():
-        cells = []
-        for model in MODELS:
-            for tol in TOLERANCES:
-                lim = limits(fam, model, tol)
-                cells.append(lim.text)
-                per_model.setdefault(mm, {}).setdefault(f"{model} {tol}", []).append(
-                    lim.r_limit if lim.status == "crossed" else math.nan)
-        L.append(f"| {lk} | {mech} | {mm} | " + " | ".join(cells) + " |")
-    coarse = sorted({lk for (lk, _, _), fam in fams.items() for model in MODELS for tol in TOLERANCES
-                     if limits(fam, model, tol).step > COARSE_STEP})
-    if coarse:
-        L += ["", f"Grid steps above {COARSE_STEP:g} (on the {', '.join(coarse)} linkage(s)): there the stored grid is "
-              "too coarse to place the first crossing or to see a resonance between the two ratios; the limit is the "
-              "last passing ratio, a lower bound known to that step. The thesis linkage's linear limits come from a "
-              "grid of step 0.01 between 0.15 and 0.33 (`studies/validity_fine_*.toml`, 112 scenes); "
+    L += table(_HEAD, [[fam.linkage, fam.mechanism, fam.mass_model, *(lim.text for lim in fam.limits.values())]
+                       for fam in f.families], dense=True)
+    if f.coarse:
+        L += ["", f"Grid steps above {COARSE_STEP:g} (on the {', '.join(f.coarse)} linkage(s)): there the stored grid "
+              "is too coarse to place the first crossing or to see a resonance between the two ratios; the limit is "
+              "the last passing ratio, a lower bound known to that step. The thesis linkage's linear limits come from "
+              "a grid of step 0.01 between 0.15 and 0.33 (`studies/validity_fine_*.toml`, 112 scenes); "
               "the same grid for another linkage costs 16 scenes per mass model and mechanism."]
     L += ["", "**The answer, per mass model** (range over the linkages of the limits that were crossed on the "
           "grid: first crossings, see the steps in the table):", ""]
-    for mm, lims in per_model.items():
-        L.append(f"* {mm}: quasi-static holds to r = {_span(lims['quasi_static 0.05'])} (5 %) / "
-                 f"{_span(lims['quasi_static 0.1'])} (10 %); the linear model to r = {_span(lims['linear 0.05'])} "
-                 f"(5 %) / {_span(lims['linear 0.1'])} (10 %) (without prestress: "
-                 f"{_span(lims['linear_classic 0.05'])} / {_span(lims['linear_classic 0.1'])}); beyond that the "
+    for mm, s in f.spans.items():
+        L.append(f"* {mm}: quasi-static holds to r = {_span(s['quasi_static', 0.05])} (5 %) / "
+                 f"{_span(s['quasi_static', 0.1])} (10 %); the linear model to r = {_span(s['linear', 0.05])} "
+                 f"(5 %) / {_span(s['linear', 0.1])} (10 %) (without prestress: "
+                 f"{_span(s['linear_classic', 0.05])} / {_span(s['linear_classic', 0.1])}); beyond that the "
                  "nonlinear model is needed.")
-    L += ["", _parts_text(points)]
-    L += _failures(points)
+    L += ["", _parts_text(f)]
+    L += _failures(f.failures)
     if figure is not None:
         import os
 
@@ -175,33 +224,28 @@ def markdown(points: Sequence[TierPoint], figure: Path | None, readme: Path) -> 
     return "\n".join(L) + "\n"
 
 
-def _parts_text(points: Sequence[TierPoint]) -> str:
-    ok = [p for p in points if math.isfinite(p.dynamic_part) and math.isfinite(p.nonlinear_part)]
-    if not ok:
+def _parts_text(f: TiersFindings) -> str:
+    if not f.parts:
         return "No scene has all three solutions yet."
-    below = [p for p in ok if p.r <= 0.1]
-    dom = sum(p.dynamic_part > p.nonlinear_part for p in below)
-    big = [p for p in ok if p.deflection_ratio > 0.1]
-    return (f"Where the error comes from: in {dom} of the {len(below)} scenes with r <= 0.1 the dynamic part is the "
-            "larger one (the quasi-static answer fails because it ignores the inertia of the elastic motion, which "
-            f"the linear model restores); in {sum(p.nonlinear_part > p.dynamic_part for p in big)} of the {len(big)} "
+    return (f"Where the error comes from: in {f.low_r_dynamic_larger} of the {f.low_r} scenes with r <= 0.1 the "
+            "dynamic part is the larger one (the quasi-static answer fails because it ignores the inertia of the "
+            "elastic motion, which the linear model restores); in "
+            f"{f.large_deflection_nonlinear_larger} of the {f.large_deflection} "
             "scenes whose peak deflection exceeds 10 % of the shortest link the nonlinear part is the larger one.")
 
 
-def _failures(points: Sequence[TierPoint]) -> list[str]:
-    failed = [p for p in points if not p.dyn_ok]
+def _failures(failed: Sequence[TierPoint]) -> list[str]:
     if not failed:
         return []
     L = ["", "Scenes where Exudyn found no periodic steady state, with the linear model's largest |Floquet "
-         "multiplier| (>= 1: the linear model has no stable periodic steady state either):", "",
-         "| linkage | mechanism | mass model | r | linear max abs(mu) | Exudyn failure class | Exudyn |",
-         "|---|---|---|---|---|---|---|"]
-    for p in sorted(failed, key=lambda p: (p.linkage, p.mechanism, p.mass_model, p.r)):
+         "multiplier| (>= 1: the linear model has no stable periodic steady state either):", ""]
+    rows = []
+    for p in failed:
         cls, _, why = p.dyn_reason.partition(": ")
         why = why.split(" (time=")[0].split(". Likely cause")[0].split(" [")[0]
-        L.append(f"| {p.linkage} | {p.mechanism} | {p.mass_model} | {p.r:g} | {p.floquet_max_abs:.3f} | {cls} | "
-                 f"{why[:90]} |")
-    return L
+        rows.append([p.linkage, p.mechanism, p.mass_model, f"{p.r:g}", f"{p.floquet_max_abs:.3f}", cls, why[:90]])
+    return L + table(("linkage", "mechanism", "mass model", "r", "linear max abs(mu)", "Exudyn failure class",
+                      "Exudyn"), rows, dense=True)
 
 
 def figure(points: Sequence[TierPoint], path: Path) -> Path:
@@ -247,5 +291,5 @@ def run(paths: StudyPaths, *, workers: int = 2, fresh: bool = False, report_only
     files = [paths.studies / (c.stem + ".h5") for c in configs]
     points = load(files)
     fig = figure(points, paths.figures / FIGURE) if points else None
-    write_section(paths.readme, SECTION, markdown(points, fig, paths.readme))
+    write_section(paths.readme, SECTION, markdown(analyse(points), fig, paths.readme))
     return {"scenes": len(points), "figure": str(fig) if fig else None, "readme": str(paths.readme)}

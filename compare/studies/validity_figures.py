@@ -132,8 +132,9 @@ def nearest_slots(fs: FamilySummary, targets: Sequence[float]) -> list:
 
 def history_figure(summaries: Sequence[FamilySummary], linkage: str = "thesis", mechanism: str = "source"
                    ) -> Figure:
-    """dx, dy of P [mm] over the crank angle, dynamic (solid) vs quasi-static (dashed), per mass model
-    (rows) at the ratios nearest to :data:`HISTORY_RATIOS` (columns)."""
+    """dx, dy of P [mm] over the crank angle, dynamic (markers: the stored samples, which a line would
+    alias into zigzags where the linkage vibrates) vs quasi-static (dashed), per mass model (rows) at
+    the ratios nearest to :data:`HISTORY_RATIOS` (columns)."""
     fams = reference(summaries).get((linkage, mechanism)) or next(iter(reference(summaries).values()), [])
     fig, axes = plt.subplots(len(fams), len(HISTORY_RATIOS), figsize=(11, 2.4 * len(fams) + 0.6),
                              squeeze=False)
@@ -145,7 +146,7 @@ def history_figure(summaries: Sequence[FamilySummary], linkage: str = "thesis", 
             p = s.point
             th = np.degrees(p.theta)
             for j, (name, c) in enumerate((("dx", "tab:blue"), ("dy", "tab:orange"))):
-                ax.plot(th, 1e3 * p.dyn[:, j], "-", color=c, label=f"{name} dynamic")
+                ax.plot(th, 1e3 * p.dyn[:, j], "o", color=c, ms=2.5, label=f"{name} dynamic (samples)")
                 ax.plot(th, 1e3 * p.qs[:, j], "--", color=c, label=f"{name} quasi-static")
             ax.set_title(f"{fs.mass_model}, r = {p.r:.3g} ({p.rpm:.0f} rpm): error "
                          f"{100 * s.errors.history:.1f} %", fontsize=8)
@@ -157,10 +158,20 @@ def history_figure(summaries: Sequence[FamilySummary], linkage: str = "thesis", 
     axes[0, 0].legend(fontsize=6, loc="best")
     for ax in axes[-1]:
         ax.set_xlabel("crank angle [deg]", fontsize=8)
-    fig.suptitle(f"Deflection of P, {linkage} {mechanism}: dynamic steady state (solid) vs quasi-static "
-                 "(dashed)", fontsize=9)
+    step = _step_deg(fams)
+    fig.suptitle(f"Deflection of P, {linkage} {mechanism}: dynamic steady state (dots: stored every "
+                 f"{step} deg) vs quasi-static (dashed)", fontsize=9)
     _layout(fig)
     return fig
+
+
+def _step_deg(fams: Sequence[FamilySummary]) -> str:
+    """The crank-angle step [deg] of the histories drawn, as text ("?" if none)."""
+    for fs in fams:
+        for s in fs.slots:
+            if s.ok and s.point.theta is not None and len(s.point.theta) > 1:
+                return f"{np.degrees(s.point.theta[1] - s.point.theta[0]):.3g}"
+    return "?"
 
 
 def variants_figure(summaries: Sequence[FamilySummary]) -> Figure | None:

@@ -7,35 +7,20 @@ import math
 import os
 from collections.abc import Callable, Sequence
 from datetime import datetime
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 
-from compare.limits import TOLERANCES, one_mode_curves, peak_of, peak_ratio
+from compare.limits import TOLERANCES, one_mode_curves, peak_ratio
+from compare.markdown import num, pct, table
 from compare.studies.validity_data import RETRY_MAX_RATIO, RETRY_STEP_FACTOR, Point, run_starts
 from compare.studies.validity_figures import reference
-from compare.studies.validity_summary import FamilySummary, Slot
+from compare.studies.validity_summary import Answer, Claims, FamilySummary, answer, claims
 from ked_quasi.units import rad_s_to_rpm
 
-THESIS_RPM = (300.0, 400.0)
-
-
-def f3(x: float) -> str:
-    return f"{x:.3f}" if math.isfinite(x) else "-"
-
-
-def pct(x: float, digits: int = 1) -> str:
-    return f"{100 * x:.{digits}f} %" if math.isfinite(x) else "-"
-
-
-def mm(x: float) -> str:
-    return f"{1e3 * x:.2f}" if math.isfinite(x) else "-"
-
-
-def _table(head: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
-    out = ["| " + " | ".join(head) + " |", "|" + "|".join(" --- " for _ in head) + "|"]
-    out += ["| " + " | ".join(r) + " |" for r in rows]
-    return out
+f3 = partial(num, spec=".3f")
+mm = partial(num, spec=".2f", scale=1e3)
 
 
 def limit_text(fs: FamilySummary, kind: str, tol: float) -> str:
@@ -88,7 +73,7 @@ def answer_rows(ref: Sequence[FamilySummary]) -> list[list[str]]:
     rows = []
     for fs in ref:
         s0 = fs.slots[0] if fs.slots else None
-        floor = f"{pct(s0.errors.history, 2)} ({s0.r:g})" if s0 is not None and s0.ok else "-"
+        floor = f"{pct(s0.errors.history, '.2f')} ({s0.r:g})" if s0 is not None and s0.ok else "-"
         rows.append([_name(fs), fs.mass_model,
                      f"{fs.f1_range_hz[0]:.1f}-{fs.f1_range_hz[1]:.1f}",
                      f"{_rpm_at(fs, 1.0):.0f}", floor,
@@ -101,58 +86,39 @@ def _crossed(ref: Sequence[FamilySummary], kind: str, tol: float) -> list[Family
     return [fs for fs in ref if fs.limits[(kind, tol)].status == "crossed"]
 
 
-def plain_answer(ref: Sequence[FamilySummary]) -> list[str]:
-    """Generated sentences: range of the limits over the families, per mass model."""
+def plain_answer(f: Answer) -> list[str]:
+    """Sentences from the answer's findings: the range of the limits over the families, per mass model."""
+    def low(key: tuple[str, float]) -> str:
+        lim = f.ranges[key].low.limits[key]
+        return f"{f3(lim.r_limit)} (+{f3(lim.step)})"
+
     out = []
-    h5, h10 = _crossed(ref, "history", 0.05), _crossed(ref, "history", 0.10)
-    p5, p10 = _crossed(ref, "peak", 0.05), _crossed(ref, "peak", 0.10)
-    if h5 and h10 and p5 and p10:
-        def low(fams: list[FamilySummary], kind: str, tol: float) -> str:
-            f = min(fams, key=lambda x: x.limits[(kind, tol)].r_limit)
-            return f"{f3(f.limits[(kind, tol)].r_limit)} (+{f3(f.limits[(kind, tol)].step)})"
-        out.append(f"**In one line: on every four-bar and mass model tested (2 % damping), the quasi-static "
-                   f"peak deflection is within 5 % of the dynamic steady state up to r = {low(p5, 'peak', 0.05)} "
-                   f"and within 10 % up to r = {low(p10, 'peak', 0.10)}; the whole deflection history (shape "
-                   f"and phase) within 5 % up to r = {low(h5, 'history', 0.05)} and within 10 % up to "
-                   f"r = {low(h10, 'history', 0.10)}.** Per mass model and linkage below.")
-        out.append("")
-        by_mm: dict[str, list[float]] = {}
-        for fs in h10:
-            by_mm.setdefault(fs.mass_model, []).append(fs.limits[("history", 0.10)].r_limit)
-        means = [float(np.mean(v)) for v in by_mm.values()]
-        within = max(max(v) - min(v) for v in by_mm.values())
+    if f.complete:
+        out += [f"**In one line: on every four-bar and mass model tested (2 % damping), the quasi-static "
+                f"peak deflection is within 5 % of the dynamic steady state up to r = {low(('peak', 0.05))} "
+                f"and within 10 % up to r = {low(('peak', 0.10))}; the whole deflection history (shape "
+                f"and phase) within 5 % up to r = {low(('history', 0.05))} and within 10 % up to "
+                f"r = {low(('history', 0.10))}.** Per mass model and linkage below.", ""]
         verdict = ("in r, what matters is where the mass sits (the harmonic content of its inertia loads), "
-                   "not the size or stiffness of the linkage" if within < max(means) - min(means) else
+                   "not the size or stiffness of the linkage" if f.within_mass_model < f.between_mass_models else
                    "the linkage matters as much as the mass model")
-        out.append(f"The 10 % history limit differs by {max(means) - min(means):.3f} between the mass models "
-                   f"(means over the linkages) and by at most {within:.3f} between the linkages of one mass "
-                   f"model: {verdict}.")
-        out.append("")
-    for kind, what in (("peak", "peak deflection |d| of P"), ("history", "whole deflection history")):
-        for tol in TOLERANCES:
-            fams = _crossed(ref, kind, tol)
-            if not fams:
-                continue
-            lo = min(fams, key=lambda f: f.limits[(kind, tol)].r_limit)
-            hi = max(fams, key=lambda f: f.limits[(kind, tol)].r_limit)
-            unc = max(f.limits[(kind, tol)].step for f in fams)
-            out.append(
-                f"* {what} within {100 * tol:g} %: r up to **{f3(lo.limits[(kind, tol)].r_limit)}** "
-                f"({_name(lo)}, {lo.mass_model}) ... **{f3(hi.limits[(kind, tol)].r_limit)}** "
-                f"({_name(hi)}, {hi.mass_model}) over the {len(fams)} families with a crossing (first crossings: "
-                f"the last passing grid ratio); largest grid step to the first failing ratio {f3(unc)}.")
-    shifts = [fs.discretization_shift(k, t) for fs in ref for k in ("peak", "history") for t in TOLERANCES]
-    shifts = [x for x in shifts if math.isfinite(x)]
-    if shifts:
-        out.append(f"* Discretization: rerunning the {len(shifts)} bracketing pairs with 2x elements and 2x steps "
-                   f"moves a crossing by at most {max(shifts):.4f} (median {float(np.median(shifts)):.4f})"
-                   + ("; the uncertainty is the r-grid spacing." if max(shifts) < 0.001 else "."))
-    per_mm: dict[str, list[float]] = {}
-    for fs in _crossed(ref, "history", 0.10):
-        per_mm.setdefault(fs.mass_model, []).append(fs.limits[("history", 0.10)].r_limit)
-    if per_mm:
+        out += [f"The 10 % history limit differs by {f.between_mass_models:.3f} between the mass models "
+                f"(means over the linkages) and by at most {f.within_mass_model:.3f} between the linkages of one "
+                f"mass model: {verdict}.", ""]
+    what = {"peak": "peak deflection |d| of P", "history": "whole deflection history"}
+    for (kind, tol), rg in f.ranges.items():
+        out.append(
+            f"* {what[kind]} within {100 * tol:g} %: r up to **{f3(rg.low.limits[(kind, tol)].r_limit)}** "
+            f"({_name(rg.low)}, {rg.low.mass_model}) ... **{f3(rg.high.limits[(kind, tol)].r_limit)}** "
+            f"({_name(rg.high)}, {rg.high.mass_model}) over the {rg.families} families with a crossing (first "
+            f"crossings: the last passing grid ratio); largest grid step to the first failing ratio {f3(rg.step)}.")
+    if f.shifts:
+        out.append(f"* Discretization: rerunning the {len(f.shifts)} bracketing pairs with 2x elements and 2x steps "
+                   f"moves a crossing by at most {max(f.shifts):.4f} (median {float(np.median(f.shifts)):.4f})"
+                   + ("; the uncertainty is the r-grid spacing." if max(f.shifts) < 0.001 else "."))
+    if f.history10:
         out.append("* Whole history within 10 %, per mass model (min-max over the linkages): " + "; ".join(
-            f"{m} {f3(min(v))}-{f3(max(v))}" for m, v in per_mm.items()) + ".")
+            f"{m} {f3(lo)}-{f3(hi)}" for m, (lo, hi) in f.history10.items()) + ".")
     return out
 
 
@@ -207,63 +173,28 @@ def rule_text(ref: Sequence[FamilySummary]) -> list[str]:
     return out
 
 
-def _slot_at(slots: Sequence[Slot], rpm: float) -> Slot | None:
-    return next((s for s in slots if s.point.spec.speed.value == rpm), None)
+def _ratio(x: float) -> str:
+    return f"{x:.3f}" if math.isfinite(x) else "-"
 
 
-def _peaks(s: Slot | None) -> tuple[float, float, float]:
-    """(qs peak, dyn peak, r) [m, m, 1] of a slot (dyn nan if it failed)."""
-    if s is None:
-        return math.nan, math.nan, math.nan
-    return peak_of(s.point.qs), (peak_of(s.point.dyn) if s.ok else math.nan), s.r
-
-
-def _fail_note(s: Slot | None) -> str:
-    if s is None or s.ok:
-        return ""
-    return f"dyn. failed ({s.point.error_type})"
-
-
-def claims_rows(summaries: Sequence[FamilySummary]) -> tuple[list[list[str]], list[list[str]]]:
-    """(doubling rows, cognate rows) from the rpm scenes of the thesis families."""
-    fams = [fs for fs in summaries if fs.rpm_points and fs.damping == 0.02 and fs.direction == "ccw"]
-    dbl, cog = [], []
-    for fs in fams:
-        a, b = (_slot_at(fs.rpm_points, x) for x in THESIS_RPM)
-        q3, d3, r3 = _peaks(a)
-        q4, d4, r4 = _peaks(b)
-        e3, e4 = (pct(s.errors.history, 0) if s is not None and s.ok else "-" for s in (a, b))
-        dbl.append([_name(fs), fs.mass_model, f"{r3:.3f} / {r4:.3f}", mm(q3), mm(q4), f"{peak_ratio(q4, q3):.3f}",
-                    mm(d3), mm(d4), f"{peak_ratio(d4, d3):.3f}" if math.isfinite(peak_ratio(d4, d3)) else "-",
-                    f"{e3} / {e4}",
-                    "; ".join(x for x in (_fail_note(a), _fail_note(b)) if x)])
-    src = {(fs.linkage, fs.mass_model): fs for fs in fams if fs.mechanism == "source"}
-    for fs in fams:
-        if fs.mechanism != "cognate" or (fs.linkage, fs.mass_model) not in src:
-            continue
-        s = src[(fs.linkage, fs.mass_model)]
-        for rpm in THESIS_RPM:
-            qs_s, dy_s, _ = _peaks(_slot_at(s.rpm_points, rpm))
-            qs_c, dy_c, _ = _peaks(_slot_at(fs.rpm_points, rpm))
-            cog.append([fs.mass_model, f"{rpm:.0f}", mm(qs_s), mm(qs_c), f"{peak_ratio(qs_c, qs_s):.3f}",
-                        mm(dy_s), mm(dy_c),
-                        f"{peak_ratio(dy_c, dy_s):.3f}" if math.isfinite(peak_ratio(dy_c, dy_s)) else "-"])
+def claims_rows(c: Claims) -> tuple[list[list[str]], list[list[str]]]:
+    """(doubling rows, cognate rows) of the claims' findings."""
+    dbl = [[_name(fs), fs.mass_model, f"{a.r:.3f} / {b.r:.3f}", mm(a.qs_peak), mm(b.qs_peak),
+            f"{peak_ratio(b.qs_peak, a.qs_peak):.3f}", mm(a.dyn_peak), mm(b.dyn_peak),
+            _ratio(peak_ratio(b.dyn_peak, a.dyn_peak)), f"{pct(a.error, '.0f')} / {pct(b.error, '.0f')}",
+            "; ".join(f"dyn. failed ({x.failure})" for x in (a, b) if x.failure is not None)]
+           for fs, a, b in c.doubling]
+    cog = [[fs.mass_model, f"{s.rpm:.0f}", mm(s.qs_peak), mm(k.qs_peak), f"{peak_ratio(k.qs_peak, s.qs_peak):.3f}",
+            mm(s.dyn_peak), mm(k.dyn_peak), _ratio(peak_ratio(k.dyn_peak, s.dyn_peak))] for fs, s, k in c.cognate]
     return dbl, cog
 
 
-def claims_text(summaries: Sequence[FamilySummary]) -> list[str]:
-    """Generated sentences on the two thesis claims."""
-    fams = [fs for fs in summaries if fs.rpm_points and fs.damping == 0.02 and fs.direction == "ccw"]
-    dyn, err, qs = [], [], []
-    for fs in fams:
-        a, b = (_slot_at(fs.rpm_points, x) for x in THESIS_RPM)
-        q3, d3, _ = _peaks(a)
-        q4, d4, _ = _peaks(b)
-        qs.append(peak_ratio(q4, q3))
-        if math.isfinite(peak_ratio(d4, d3)):
-            dyn.append((peak_ratio(d4, d3), fs))
-        if a is not None and a.ok:
-            err.append((a.errors.history, fs))
+def claims_text(c: Claims) -> list[str]:
+    """Sentences on the two thesis claims, from their findings."""
+    qs = [peak_ratio(b.qs_peak, a.qs_peak) for _, a, b in c.doubling]
+    dyn = [(peak_ratio(b.dyn_peak, a.dyn_peak), fs) for fs, a, b in c.doubling]
+    dyn = [(x, fs) for x, fs in dyn if math.isfinite(x)]
+    err = [(a.error, fs) for fs, a, _ in c.doubling if math.isfinite(a.error)]
     out = []
     if dyn:
         lo, hi = min(dyn, key=lambda t: t[0]), max(dyn, key=lambda t: t[0])
@@ -276,21 +207,22 @@ def claims_text(summaries: Sequence[FamilySummary]) -> list[str]:
     if err:
         lo, hi = min(err, key=lambda t: t[0]), max(err, key=lambda t: t[0])
         near = [f"{_name(f)} {f.mass_model}" for e, f in err if e < 0.10]
-        out += ["", f"At the thesis's own 300 rpm the quasi-static history error is {pct(lo[0], 0)} "
-                f"({_name(lo[1])}, {lo[1].mass_model}) ... {pct(hi[0], 0)} ({_name(hi[1])}, "
+        out += ["", f"At the thesis's own 300 rpm the quasi-static history error is {pct(lo[0], '.0f')} "
+                f"({_name(lo[1])}, {lo[1].mass_model}) ... {pct(hi[0], '.0f')} ({_name(hi[1])}, "
                 f"{hi[1].mass_model}); within 10 %: {', '.join(near) if near else 'none'}."]
     return out
 
 
-def cognate_text(rows: Sequence[Sequence[str]]) -> list[str]:
-    """Generated sentence on the cognate claim from the cognate table rows."""
-    qs = [float(r[4]) for r in rows if r[4] != "-"]
-    dyn = [(float(r[7]), r) for r in rows if r[7] != "-"]
+def cognate_text(c: Claims) -> list[str]:
+    """The sentence on the cognate claim, from its findings."""
+    qs = [x for x in (peak_ratio(k.qs_peak, s.qs_peak) for _, s, k in c.cognate) if math.isfinite(x)]
+    dyn = [(peak_ratio(k.dyn_peak, s.dyn_peak), fs, s.rpm) for fs, s, k in c.cognate]
+    dyn = [t for t in dyn if math.isfinite(t[0])]
     if not qs or not dyn:
         return []
-    same = [f"{r[0]} at {r[1]} rpm ({v:.3f})" for v, r in dyn if abs(v - 1.0) < 0.1]
+    same = [f"{fs.mass_model} at {rpm:.0f} rpm ({v:.3f})" for v, fs, rpm in dyn if abs(v - 1.0) < 0.1]
     return ["", f"Cognate / source peak: quasi-static {min(qs):.3f} ... {max(qs):.3f}, dynamic "
-            f"{min(v for v, _ in dyn):.3f} ... {max(v for v, _ in dyn):.3f}. The claim holds in "
+            f"{min(v for v, _, _ in dyn):.3f} ... {max(v for v, _, _ in dyn):.3f}. The claim holds in "
             f"{len(dyn) - len(same)} of {len(dyn)} solved comparisons"
             + (f"; the peaks agree within 10 % dynamically for {', '.join(same)}." if same else ".")]
 
@@ -308,7 +240,7 @@ def variant_rows(summaries: Sequence[FamilySummary]) -> list[list[str]]:
             cells = []
             for r in (0.1, 0.25, 0.5):
                 s = errs.get(r)
-                cells.append(pct(s.errors.history) if s is not None and s.ok else ("failed" if s else "-"))
+                cells.append(pct(s.errors.history, ".1f") if s is not None and s.ok else ("failed" if s else "-"))
             rows.append([_name(fs), fs.mass_model, f"{100 * fs.damping:g} %", fs.direction,
                          limit_text(fs, "history", 0.05), limit_text(fs, "history", 0.10), *cells])
     return rows
@@ -354,7 +286,7 @@ def render_section(points: Sequence[Point], summaries: Sequence[FamilySummary], 
     ref_groups = reference(summaries)
     ref = [fs for fams in ref_groups.values() for fs in fams]
     L = _setup_part(points, files, refine_file, configs, link)
-    L += ["", "### The answer", ""] + plain_answer(ref)
+    L += ["", "### The answer", ""] + plain_answer(answer(ref))
     L += _families_part(ref) + _rule_part(ref) + _claims_part(summaries) + _variants_part(summaries)
     L += _failures_part(summaries) + _run_time_part(points, files, refine_file)
     L += ["", "### Figures", ""] + [f"![{p.stem}]({link(p)})" for p in figures]
@@ -400,7 +332,7 @@ def _setup_part(points: Sequence[Point], files: Sequence[Path], refine_file: Pat
           "twice the steps per cycle (the discretization's share of the uncertainty).", ""]
     L += ["Linkages (all links the same section; lengths in mm, E in GPa, A in mm^2, I in mm^4, rho in "
           "kg/m^3, tip payload in kg):", ""]
-    L += _table(["linkage", "crank", "coupler", "follower", "ground", "extender", "coupler angle [deg]", "E", "A",
+    L += table(["linkage", "crank", "coupler", "follower", "ground", "extender", "coupler angle [deg]", "E", "A",
                  "I", "rho", "tip payload"], linkage_rows([p for p in points if not p.refined]))
     return L
 
@@ -410,7 +342,7 @@ def _families_part(ref: Sequence[FamilySummary]) -> list[str]:
     L += ["", "Per family (f1: first frozen frequency over the cycle, min-max; rpm at r = 1; the error at the "
           "smallest ratio is the floor that is not dynamics: mass discretization of the quasi-static model, "
           "geometric nonlinearity, steady-state tolerance):", ""]
-    L += _table(["linkage", "mass model", "f1 [Hz]", "rpm at r=1", "history error at smallest r",
+    L += table(["linkage", "mass model", "f1 [Hz]", "rpm at r=1", "history error at smallest r",
                  "peak 5 %", "peak 10 %", "history 5 %",
                  "history 10 %"], answer_rows(ref))
     return L
@@ -426,7 +358,7 @@ def _rule_part(ref: Sequence[FamilySummary]) -> list[str]:
           "estimate's limit (each harmonic k of the quasi-static history amplified by "
           "1/(1 - (k r)^2 + 2 i zeta k r) with omega1 = omega1_min) and the dynamic limit (history error), "
           "and the implied fraction c = k_sig * r_lim(10 %):", ""]
-    L += _table(["linkage", "mass model", "load harmonics 1-6", "k_sig 1 %", "k_sig 5 %", "one-mode 5 %",
+    L += table(["linkage", "mass model", "load harmonics 1-6", "k_sig 1 %", "k_sig 5 %", "one-mode 5 %",
                  "dynamic 5 %", "one-mode 10 %", "dynamic 10 %", "c (1 %)", "c (5 %)", "f1 max/min"],
                 rule_rows(ref))
     L += [""] + rule_text(ref)
@@ -447,20 +379,21 @@ def _rule_part(ref: Sequence[FamilySummary]) -> list[str]:
 
 def _claims_part(summaries: Sequence[FamilySummary]) -> list[str]:
     L: list[str] = []
-    dbl, cog = claims_rows(summaries)
+    found = claims(summaries)
+    dbl, cog = claims_rows(found)
     if dbl:
         L += ["", "### The thesis's claims, checked with dynamics", ""]
         L += ["'The deflection doubles for +100 rpm (300 -> 400 rpm)': peak |d| of P [mm]; quasi-static "
               "ratios are (4/3)^2 by construction:", ""]
-        L += _table(["linkage", "mass model", "r at 300 / 400 rpm", "qs 300", "qs 400", "qs ratio", "dyn 300",
+        L += table(["linkage", "mass model", "r at 300 / 400 rpm", "qs 300", "qs 400", "qs ratio", "dyn 300",
                      "dyn 400", "dyn ratio", "history error 300 / 400", "note"], dbl)
-    L += claims_text(summaries)
+    L += claims_text(found)
     if cog:
         L += ["", "'The cognate does not share the source's KED deflection': peak |d| of P [mm] at the same "
               "crank speed:", ""]
-        L += _table(["mass model", "rpm", "source qs", "cognate qs", "qs cognate/source", "source dyn",
+        L += table(["mass model", "rpm", "source qs", "cognate qs", "qs cognate/source", "source dyn",
                      "cognate dyn", "dyn cognate/source"], cog)
-    L += cognate_text(cog)
+    L += cognate_text(found)
     return L
 
 
@@ -469,7 +402,7 @@ def _variants_part(summaries: Sequence[FamilySummary]) -> list[str]:
     var = variant_rows(summaries)
     if var:
         L += ["", "### Damping and crank direction", ""]
-        L += _table(["linkage", "mass model", "damping", "direction", "history 5 %", "history 10 %",
+        L += table(["linkage", "mass model", "damping", "direction", "history 5 %", "history 10 %",
                      "error r=0.1", "error r=0.25", "error r=0.5"], var)
     return L
 
@@ -493,7 +426,7 @@ def _run_time_part(points: Sequence[Point], files: Sequence[Path], refine_file: 
         if pts:
             rows.append([f"`{f.name}`", str(len(pts)), str(sum(p.ok for p in pts)),
                          f"{sum(p.wall_s for p in pts):.0f}", f"{max(p.wall_s for p in pts):.0f}"])
-    L += _table(["file", "scenes", "solved", "sum of scene wall times [s]", "slowest scene [s]"], rows)
+    L += table(["file", "scenes", "solved", "sum of scene wall times [s]", "slowest scene [s]"], rows)
     starts = [t for f in (*files, refine_file) if f.exists() for t in run_starts(f)]
     ends = [p.finished_utc for p in points if p.finished_utc]
     if starts and ends:

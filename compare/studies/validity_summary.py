@@ -25,6 +25,7 @@ from compare.limits import (
     errors,
     harmonic_spectrum,
     one_mode_limit,
+    peak_of,
     validity_limit,
 )
 from compare.studies.validity_data import Point
@@ -183,3 +184,99 @@ def summarize(points: Sequence[Point],
 
     return [summarize_family(f, fams[f], loads_of) for f in sorted(fams, key=order)
             if any(not p.refined for p in fams[f])]
+
+
+@dataclass(frozen=True, eq=False)
+class LimitRange:
+    """One (error kind, tolerance) over the families whose limit was crossed on the grid: the families with
+    the lowest and the highest first crossing, how many crossed, the largest grid step [1] to the first
+    failing ratio."""
+
+    low: FamilySummary
+    high: FamilySummary
+    families: int
+    step: float
+
+
+@dataclass(frozen=True, eq=False)
+class Answer:
+    """The validity answer over the reference families (speed ratios r [1]): per (kind, tolerance) the
+    range of the crossed limits (absent: none crossed); whether all four crossed somewhere (``complete``);
+    of the 10 % history limit the spread [1] between the mass models' means over the linkages and the
+    largest spread [1] between the linkages of one mass model, and its (min, max) per mass model; the
+    discretization shifts [1] of the crossings (refined minus base, finite ones)."""
+
+    ranges: dict[tuple[str, float], LimitRange]
+    complete: bool
+    between_mass_models: float
+    within_mass_model: float
+    history10: dict[str, tuple[float, float]]
+    shifts: tuple[float, ...]
+
+
+def answer(ref: Sequence[FamilySummary]) -> Answer:
+    """The findings behind the study's answer (``ref``: the reference families)."""
+    ranges = {}
+    for key in [(k, t) for k in ("peak", "history") for t in TOLERANCES]:
+        fams = [fs for fs in ref if fs.limits[key].status == "crossed"]
+        if fams:
+            ranges[key] = LimitRange(min(fams, key=lambda f: f.limits[key].r_limit),
+                                     max(fams, key=lambda f: f.limits[key].r_limit), len(fams),
+                                     max(f.limits[key].step for f in fams))
+    by_mm: dict[str, list[float]] = {}
+    for fs in ref:
+        if fs.limits[("history", 0.10)].status == "crossed":
+            by_mm.setdefault(fs.mass_model, []).append(fs.limits[("history", 0.10)].r_limit)
+    means = [float(np.mean(v)) for v in by_mm.values()]
+    shifts = [fs.discretization_shift(k, t) for fs in ref for k in ("peak", "history") for t in TOLERANCES]
+    return Answer(ranges=ranges, complete=len(ranges) == 2 * len(TOLERANCES),
+                  between_mass_models=max(means) - min(means) if means else math.nan,
+                  within_mass_model=max((max(v) - min(v) for v in by_mm.values()), default=math.nan),
+                  history10={m: (min(v), max(v)) for m, v in by_mm.items()},
+                  shifts=tuple(x for x in shifts if math.isfinite(x)))
+
+
+THESIS_RPM = (300.0, 400.0)
+"""The thesis's two crank speeds [rpm] whose deflections it compares."""
+
+
+@dataclass(frozen=True, eq=False)
+class AtRpm:
+    """One family's scene at a crank speed [rpm]: speed ratio r [1], quasi-static and dynamic peaks |d| of P
+    [m] (nan: no scene, or the dynamic model failed), history error [1] (nan: no dynamic solution) and the
+    exception type of a failed dynamic run (None if it solved or there is no scene)."""
+
+    rpm: float
+    r: float
+    qs_peak: float
+    dyn_peak: float
+    error: float
+    failure: str | None
+
+
+@dataclass(frozen=True, eq=False)
+class Claims:
+    """The thesis's claims checked with dynamics: per thesis family (2 % damping, ccw, with rpm scenes)
+    its scenes at 300 and 400 rpm; per cognate family with a source twin, (source, cognate) at each rpm."""
+
+    doubling: tuple[tuple[FamilySummary, AtRpm, AtRpm], ...]
+    cognate: tuple[tuple[FamilySummary, AtRpm, AtRpm], ...]
+
+
+def at_rpm(fs: FamilySummary, rpm: float) -> AtRpm:
+    """The family's scene at ``rpm`` (all nan when it has none)."""
+    s = next((s for s in fs.rpm_points if s.point.spec.speed.value == rpm), None)
+    if s is None:
+        return AtRpm(rpm, math.nan, math.nan, math.nan, math.nan, None)
+    return AtRpm(rpm, s.r, peak_of(s.point.qs), peak_of(s.point.dyn) if s.ok else math.nan,
+                 s.errors.history if s.ok else math.nan, None if s.ok else s.point.error_type)
+
+
+def claims(summaries: Sequence[FamilySummary]) -> Claims:
+    """The findings behind the two thesis claims (doubling for +100 rpm; the cognate's different deflection)."""
+    fams = [fs for fs in summaries if fs.rpm_points and fs.damping == 0.02 and fs.direction == "ccw"]
+    src = {(fs.linkage, fs.mass_model): fs for fs in fams if fs.mechanism == "source"}
+    return Claims(
+        doubling=tuple((fs, *(at_rpm(fs, x) for x in THESIS_RPM)) for fs in fams),
+        cognate=tuple((fs, at_rpm(src[(fs.linkage, fs.mass_model)], rpm), at_rpm(fs, rpm)) for fs in fams
+                      if fs.mechanism == "cognate" and (fs.linkage, fs.mass_model) in src for rpm in THESIS_RPM))

@@ -10,11 +10,17 @@ Wall time [s]: the dynamic solver's whole run (build, ramp, cycles, post-process
 
 from __future__ import annotations
 
+import json
 import math
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+
+from compare.studies.study_io import rows
+from ked_linear import UNRESOLVED_ESTIMATE
 
 #: settings (besides those of [dynamic]) that make a scene the fine reference of its family
 REFERENCE = {"element": "ancf", "elements_per_link": 8, "steps_per_cycle": 2880, "spectral_radius": 0.9,
@@ -158,3 +164,212 @@ def observed_order(lumps: Sequence[int], error: Sequence[float]) -> float:
     if half.sum() < 2:
         half[:] = True
     return float(-np.polyfit(np.log(n[half]), np.log(e[half]), 1)[0])
+
+
+MASS_MODELS = ("tip", "joints", "extender", "distributed")
+
+
+def _json(x: Any) -> Any:
+    return json.loads(x) if isinstance(x, str) else x
+
+
+def wp_points(tables: dict[str, dict[str, np.ndarray]]) -> list[WPPoint]:
+    """The stored ``dynamic`` table as :class:`WPPoint` records."""
+    out = []
+    for r in rows(tables.get("dynamic", {})):
+        disc = Discretization(r["disc_element"], int(r["disc_elements_per_link"]), int(r["disc_steps_per_cycle"]),
+                              float(r["disc_spectral_radius"]))
+        out.append(WPPoint(r["family"], disc, bool(r["reference"]), bool(r["ok"]), float(r["wall_s"]),
+                           int(r["repeats"]), float(r["error"]), int(r["cycles"]), int(r["newton_iterations"]),
+                           str(r["message"]), float(r.get("wall_spread", 0.0))))
+    return out
+
+
+def disc_of(d: Any) -> Discretization:
+    """The discretization of a stored settings dict (or its JSON)."""
+    d = _json(d)
+    return Discretization(d["element"], int(d["elements_per_link"]), int(d["steps_per_cycle"]),
+                          float(d["spectral_radius"]))
+
+
+def families(points: Sequence[WPPoint]) -> list[str]:
+    """The scene families, in mass-model order."""
+    return sorted({p.family for p in points if not p.reference},
+                  key=lambda f: (MASS_MODELS.index(f.split()[0]) if f.split()[0] in MASS_MODELS else 9, f))
+
+
+def front(points: Sequence[WPPoint], family: str) -> list[WPPoint]:
+    """Pareto front of one family's dynamic runs (cheapest first)."""
+    pts = [p for p in points if p.family == family and not p.reference and p.ok and p.error > 0]
+    mask = pareto_mask([p.wall_s for p in pts], [p.error for p in pts])
+    return sorted((p for p, m in zip(pts, mask) if m), key=lambda p: p.wall_s)
+
+
+@dataclass(frozen=True)
+class DefaultFindings:
+    """The default discretization over the ``families`` scenes: (total wall [s], worst error [1]) or None
+    when it did not run on all; the scenes on whose Pareto front it lies; the cheapest choice within the
+    first budget; per spectral radius the most steps per cycle at which a run with the default's element
+    and elements per link still failed (Newton)."""
+
+    default: Discretization
+    cost: tuple[float, float] | None
+    on_front: tuple[str, ...]
+    families: int
+    choice: Choice
+    failed_steps: dict[float, int]
+
+
+@dataclass(frozen=True)
+class LinearFindings:
+    """The linear KED model (errors [1] against the dynamic reference, times [s]): ``scenes`` solved,
+    ``pairs`` with a quasi-static point of the same scene and on how many (``better``) its error is lower,
+    the median ratio of the two errors; the damping ratios [1] and timing repeats used; its median, min and
+    max solve time, the quasi-static median solve time (nan: none) and the dynamic reference's median run
+    time; the median timing spread [1]; (mass model, r) of the scenes without a stable steady state and
+    (mass model, r, estimate [1]) of those whose own error estimate exceeds UNRESOLVED_ESTIMATE; per scene
+    with dynamic runs (family, wall [s] of the cheapest run at least as accurate or nan, linear wall [s]);
+    the speed ratios (2 digits) and per mass model the cells (linear error, quasi-static error or None,
+    linear time, dynamic reference time) per ratio (None: no scene)."""
+
+    scenes: int
+    pairs: int
+    better: int
+    median_ratio: float
+    damping_ratios: tuple[float, ...]
+    repeats: tuple[int, ...]
+    wall_s: tuple[float, float, float]
+    quasi_wall_s: float
+    dynamic_wall_s: float
+    spread: float
+    unstable: tuple[tuple[str, float], ...]
+    unresolved: tuple[tuple[str, float, float], ...]
+    matched: tuple[tuple[str, float, float], ...]
+    ratios: tuple[str, ...]
+    cells: dict[str, list[tuple[float, float | None, float, float] | None]]
+
+
+@dataclass(frozen=True)
+class LumpsFindings:
+    """Quasi-static lumps convergence against ``reference`` lumps per link: the lumps ``ns`` run, per
+    (model, placement) the error [1] per n and the observed order [1], the distributed midpoint solve times
+    [s] at the first n, n = 5 and the last n (None: not run), and the fewest lumps meeting 1 % and 0.1 %
+    (None: more than the last n)."""
+
+    reference: int
+    ns: tuple[int, ...]
+    errors: dict[tuple[str, str], dict[int, float]]
+    orders: dict[tuple[str, str], float]
+    times_s: tuple[float, float, float] | None
+    needed: dict[tuple[str, str], dict[float, int | None]]
+
+
+@dataclass(frozen=True)
+class WPFindings:
+    """Everything the work-precision section states, from the stored tables and attributes: the run's
+    attributes (``attrs``, with ``defaults`` and ``reference`` settings decoded), the tables added later,
+    the scene families, the errors [1] of the non-reference runs at the reference's own discretization,
+    the runs timed three times and their median spread [1], the reference checks, the Pareto fronts, the
+    choices per budget in TARGETS, the default, the failed runs, the quasi-static rows, the linear model
+    and the lumps convergence (None when not stored)."""
+
+    attrs: dict
+    updated: tuple[str, ...]
+    families: tuple[str, ...]
+    transient: tuple[tuple[float, str], ...]
+    timed: int
+    spread: float
+    refcheck: tuple[dict, ...]
+    fronts: dict[str, list[WPPoint]]
+    choices: tuple[Choice, ...]
+    default: DefaultFindings
+    failed: tuple[WPPoint, ...]
+    quasi: tuple[dict, ...]
+    linear: LinearFindings | None
+    lumps: LumpsFindings | None
+
+
+def analyse(tables: dict, attrs: dict) -> WPFindings:
+    """The findings of the stored ``/study`` tables and attributes."""
+    points, dflt = wp_points(tables), disc_of(attrs["defaults"])
+    fams = families(points)
+    ref_disc = disc_of(attrs["reference"])
+    spreads = [p.wall_spread for p in points if p.repeats > 1]
+    fronts = {fam: front(points, fam) for fam in fams}
+    choices = tuple(choose(points, t, len(fams)) for t in TARGETS)
+    same = {k[2]: v for k, v in coarsest_failures(points).items()
+            if k[0] == dflt.element and k[1] == dflt.elements_per_link}
+    default = DefaultFindings(dflt, summary(points, dflt, len(fams)),
+                              tuple(f for f in fams if any(p.disc == dflt for p in fronts[f])), len(fams), choices[0],
+                              dict(sorted(same.items())))
+    quasi = rows(tables.get("quasi_static", {}))
+    linear = rows(tables.get("linear", {}))
+    return WPFindings(
+        attrs=dict(attrs, defaults=_json(attrs["defaults"]), reference=_json(attrs["reference"])),
+        updated=tuple(json.loads(attrs.get("updated_tables", "[]"))), families=tuple(fams),
+        transient=tuple((p.error, p.family) for p in points if p.disc == ref_disc and not p.reference and p.ok),
+        timed=len(spreads), spread=float(np.median(spreads)) if spreads else math.nan,
+        refcheck=tuple(rows(tables.get("refcheck", {}))), fronts=fronts, choices=choices, default=default,
+        failed=tuple(p for p in points if not p.ok), quasi=tuple(quasi),
+        linear=analyse_linear(linear, quasi, points) if linear else None, lumps=analyse_lumps(tables))
+
+
+def _family_ratio(family: str) -> float:
+    """The speed ratio of a family label (``tip r=0.3``), nan if it has none."""
+    m = re.search(r"r=([0-9.eE+-]+)", family)
+    return float(m.group(1)) if m else math.nan
+
+
+def analyse_linear(linear: list[dict], quasi: list[dict], points: Sequence[WPPoint]) -> LinearFindings:
+    """Where the linear KED model sits against the quasi-static solver and the dynamic runs."""
+    qs = {(q["mass_model"], f"{q['speed_ratio']:.3g}"): q for q in quasi}
+    pairs = [(r, qs.get((r["mass_model"], f"{r['speed_ratio']:.3g}"))) for r in linear]
+    paired = [(r, q) for r, q in pairs if q is not None]
+    walls = [r["wall_s"] for r in linear]
+    matched = []
+    for r in linear:
+        fam = [p for p in points if not p.reference and p.ok and p.family.split()[0] == r["mass_model"]
+               and math.isclose(_family_ratio(p.family), r["speed_ratio"], rel_tol=1e-6)]
+        if fam and math.isfinite(r["error"]):
+            good = [p.wall_s for p in fam if p.error <= r["error"]]
+            matched.append((fam[0].family, min(good) if good else math.nan, r["wall_s"]))
+    ratios = tuple(sorted({f"{r['speed_ratio']:.2g}" for r in linear}, key=float))
+    cells = {}
+    for model in [m for m in MASS_MODELS if any(r["mass_model"] == m for r in linear)]:
+        by_r = {f"{r['speed_ratio']:.2g}": (r["error"], q["error"] if q else None, r["wall_s"], r["dynamic_wall_s"])
+                for r, q in pairs if r["mass_model"] == model}
+        cells[model] = [by_r.get(k) for k in ratios]
+    return LinearFindings(
+        scenes=len(linear), pairs=len(paired), better=sum(1 for r, q in paired if r["error"] < q["error"]),
+        median_ratio=float(np.median([r["error"] / q["error"] for r, q in paired if q["error"] > 0]))
+        if paired else math.nan,
+        damping_ratios=tuple(sorted({r["damping_ratio"] for r in linear})),
+        repeats=tuple(sorted({int(r["repeats"]) for r in linear})),
+        wall_s=(float(np.median(walls)), min(walls), max(walls)),
+        quasi_wall_s=float(np.median([q["wall_s"] for q in quasi])) if quasi else math.nan,
+        dynamic_wall_s=float(np.median([r["dynamic_wall_s"] for r in linear])),
+        spread=float(np.median([r.get("wall_spread", math.nan) for r in linear])),
+        unstable=tuple((r["mass_model"], r["speed_ratio"]) for r in linear if not r["stable"]),
+        unresolved=tuple((r["mass_model"], r["speed_ratio"], r["error_estimate"]) for r in linear
+                         if r["stable"] and not r["error_estimate"] <= UNRESOLVED_ESTIMATE),
+        matched=tuple(matched), ratios=ratios, cells=cells)
+
+
+def analyse_lumps(tables: dict) -> LumpsFindings | None:
+    """The quasi-static lumps convergence (None when the table is not stored)."""
+    lp = [dict(r, lumps=int(r["lumps"]), reference_lumps=int(r["reference_lumps"]))
+          for r in rows(tables.get("lumps", {}))]
+    if not lp:
+        return None
+    ns = tuple(sorted({r["lumps"] for r in lp}))
+    errors: dict[tuple[str, str], dict[int, float]] = {}
+    for r in lp:
+        errors.setdefault((r["model"], r["placement"]), {})[r["lumps"]] = r["error"]
+    errors = dict(sorted(errors.items()))
+    wall = {r["lumps"]: r["wall_s"] for r in lp if r["model"] == "distributed" and r["placement"] == "midpoint"}
+    return LumpsFindings(
+        reference=lp[0]["reference_lumps"], ns=ns, errors=errors,
+        orders={k: observed_order([n for n in ns if n in d], [d[n] for n in ns if n in d]) for k, d in errors.items()},
+        times_s=(wall[ns[0]], wall.get(5, math.nan), wall[ns[-1]]) if wall else None,
+        needed={k: {t: next((n for n in ns if n in d and d[n] <= t), None) for t in (0.01, 0.001)}
+                for k, d in errors.items()})

@@ -11,66 +11,36 @@ import os
 import re
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 import matplotlib
 
 matplotlib.use("Agg")
-import json
 
 import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
+from compare.markdown import Column, pct, table  # noqa: E402
 from compare.studies.study_io import rows  # noqa: E402
 from compare.studies.wp_analysis import (  # noqa: E402
-    TARGETS,
+    MASS_MODELS,
     TIE,
+    DefaultFindings,
     Discretization,
+    LinearFindings,
+    LumpsFindings,
+    WPFindings,
     WPPoint,
-    choose,
-    coarsest_failures,
-    observed_order,
-    pareto_mask,
-    summary,
+    analyse,
+    disc_of,
+    families,
+    front,
+    wp_points,
 )
 from ked_linear import UNRESOLVED_ESTIMATE
 
 DPI = 100
 LINEAR_COLOR = "teal"
 EPL_COLORS = {1: "tab:blue", 2: "tab:orange", 4: "tab:green", 8: "tab:red", 16: "tab:purple"}
-MASS_MODELS = ("tip", "joints", "extender", "distributed")
-
-
-def wp_points(tables: dict[str, dict[str, np.ndarray]]) -> list[WPPoint]:
-    """The ``dynamic`` table as :class:`WPPoint` records."""
-    out = []
-    for r in rows(tables.get("dynamic", {})):
-        disc = Discretization(r["disc_element"], int(r["disc_elements_per_link"]), int(r["disc_steps_per_cycle"]),
-                              float(r["disc_spectral_radius"]))
-        out.append(WPPoint(r["family"], disc, bool(r["reference"]), bool(r["ok"]), float(r["wall_s"]),
-                           int(r["repeats"]), float(r["error"]), int(r["cycles"]), int(r["newton_iterations"]),
-                           str(r["message"]), float(r.get("wall_spread", 0.0))))
-    return out
-
-
-def default_disc(attrs: dict[str, Any]) -> Discretization:
-    d = attrs["defaults"]
-    d = json.loads(d) if isinstance(d, str) else d
-    return Discretization(d["element"], int(d["elements_per_link"]), int(d["steps_per_cycle"]),
-                          float(d["spectral_radius"]))
-
-
-def families(points: Sequence[WPPoint]) -> list[str]:
-    return sorted({p.family for p in points if not p.reference},
-                  key=lambda f: (MASS_MODELS.index(f.split()[0]) if f.split()[0] in MASS_MODELS else 9, f))
-
-
-def front(points: Sequence[WPPoint], family: str) -> list[WPPoint]:
-    """Pareto front of one family's dynamic runs (cheapest first)."""
-    pts = [p for p in points if p.family == family and not p.reference and p.ok and p.error > 0]
-    mask = pareto_mask([p.wall_s for p in pts], [p.error for p in pts])
-    return sorted((p for p, m in zip(pts, mask) if m), key=lambda p: p.wall_s)
 
 
 def _marker(d: Discretization) -> str:
@@ -83,7 +53,7 @@ def work_precision_figure(tables: dict, attrs: dict) -> Figure:
     """One panel per mass model: every dynamic run (error vs wall time), its Pareto front, the current
     default, and the quasi-static solver and the linear KED model at each speed ratio against the dynamic
     reference."""
-    points, dflt = wp_points(tables), default_disc(attrs)
+    points, dflt = wp_points(tables), disc_of(attrs["defaults"])
     quasi = rows(tables.get("quasi_static", {}))
     linear = rows(tables.get("linear", {}))
     models = [m for m in MASS_MODELS if any(q["mass_model"] == m for q in quasi + linear)
@@ -204,48 +174,36 @@ def write_figures(tables: dict, attrs: dict, out_dir: Path) -> list[Path]:
     return paths
 
 
-def _pct(x: float) -> str:
-    if not math.isfinite(x):
-        return "-"
-    return f"{100 * x:.3g} %"
-
-
 def _disc(d: Discretization) -> str:
     el = "ANCF" if d.element == "ancf" else "GE beam"
     return f"{el} {d.elements_per_link} el, {d.steps_per_cycle} st, rho {d.spectral_radius:g}"
 
 
 def markdown(tables: dict, attrs: dict, figures: Sequence[Path], base: Path) -> str:
-    """The README section (every number from ``tables``/``attrs``)."""
-    points, dflt = wp_points(tables), default_disc(attrs)
-    fams = families(points)
-    ref = attrs["reference"]
-    ref = json.loads(ref) if isinstance(ref, str) else ref
-    dd = json.loads(attrs["defaults"]) if isinstance(attrs["defaults"], str) else attrs["defaults"]
-    ref_disc = Discretization(ref["element"], int(ref["elements_per_link"]), int(ref["steps_per_cycle"]),
-                              float(ref["spectral_radius"]))
-    transient = ", ".join(f"{_pct(p.error)} ({p.family})" for p in points
-                          if p.disc == ref_disc and not p.reference and p.ok) or "-"
-    rel = [os.path.relpath(p, base) for p in figures]
-    n_fail = sum(1 for p in points if not p.ok)
-    spreads = [p.wall_spread for p in points if p.repeats > 1]
-    updated = json.loads(attrs.get("updated_tables", "[]"))
+    """The README section from the stored tables (load -> analyse -> format)."""
+    return format_findings(analyse(tables, attrs), [os.path.relpath(p, base) for p in figures])
+
+
+def format_findings(f: WPFindings, rel: Sequence[str]) -> str:
+    """The README section, formatted from the findings only (``rel``: the figures' relative paths)."""
+    a, dd, ref = f.attrs, f.attrs["defaults"], f.attrs["reference"]
+    cur = f.default.cost
     lines = [
         "## Error against run time (work-precision)",
         "",
         "Regenerate: `ked study work-precision` (configs `results/studies/work_precision.toml`, "
         "`work_precision_quasi.toml`, `work_precision_refcheck.toml`; results `results/studies/work_precision.h5`, "
-        f"derived tables in its `/study` group). Last run: {attrs['created_utc']}, {int(attrs['scenes'])} scenes, "
-        f"campaign {attrs['campaign_wall_s'] / 60:.1f} min on {int(attrs['workers'])} workers, whole study "
-        f"{attrs['study_wall_s'] / 60:.1f} min."
-        + (f" Table{'s' if len(updated) > 1 else ''} {', '.join(f'`{t}`' for t in updated)} added "
-           f"{attrs['updated_utc']} ({attrs['updated_wall_s'] / 60:.1f} min), the others kept." if updated else ""),
+        f"derived tables in its `/study` group). Last run: {a['created_utc']}, {int(a['scenes'])} scenes, "
+        f"campaign {a['campaign_wall_s'] / 60:.1f} min on {int(a['workers'])} workers, whole study "
+        f"{a['study_wall_s'] / 60:.1f} min."
+        + (f" Table{'s' if len(f.updated) > 1 else ''} {', '.join(f'`{t}`' for t in f.updated)} added "
+           f"{a['updated_utc']} ({a['updated_wall_s'] / 60:.1f} min), the others kept." if f.updated else ""),
         "",
         f"![work-precision]({rel[0]})",
         "",
         "**Set-up.** Thesis source four-bar, 2 % damping, speed ratio Omega/omega1_min = "
-        + ", ".join(sorted({f.split(' ', 1)[1] for f in fams}))
-        + f" for the mass models {', '.join(f.split()[0] for f in fams)}. "
+        + ", ".join(sorted({fam.split(' ', 1)[1] for fam in f.families}))
+        + f" for the mass models {', '.join(fam.split()[0] for fam in f.families)}. "
         "Every combination of element type (ANCF cable, geometrically exact beam), elements per link, steps per "
         "crank cycle and generalized-alpha spectral radius in `work_precision.toml`; the settings not studied are "
         f"pinned to the current defaults (ramp {dd['ramp_cycles']:g} cycle, steady to {dd['steady_tol']:g}"
@@ -253,56 +211,49 @@ def markdown(tables: dict, attrs: dict, figures: Sequence[Path], base: Path) -> 
         "**Error** of the returned steady cycle on the 10 deg grid: max |d - d_ref| of (dx, dy) relative to the "
         "reference peak of |dx|, |dy|, and of the rotation relative to its peak; the larger of the two. It "
         f"includes the transient left by the steady-state criterion: at the reference's own discretization the "
-        f"default tolerance alone gives {transient}. "
+        f"default tolerance alone gives {', '.join(f'{pct(e)} ({fam})' for e, fam in f.transient) or '-'}. "
         f"**Reference**: {ref['element'].upper()} {ref['elements_per_link']} elements/link, {ref['steps_per_cycle']} "
         f"steps/cycle, rho {ref['spectral_radius']:g}, steady to {ref['steady_tol']:g}. "
-        f"**Wall time**: the dynamic solver's whole run; runs under {attrs['retime_below_s']:g} s in the campaign "
-        f"({len(spreads)} runs) are the median of 3 (campaign run + 2 serial repeats), longer ones a single "
-        f"campaign run ({int(attrs['workers'])} workers on 2 cores shared with other jobs). The 3 timings of a "
-        f"run differ by {_pct(float(np.median(spreads)) if spreads else math.nan)} (median of (max - min) / "
+        f"**Wall time**: the dynamic solver's whole run; runs under {a['retime_below_s']:g} s in the campaign "
+        f"({f.timed} runs) are the median of 3 (campaign run + 2 serial repeats), longer ones a single "
+        f"campaign run ({int(a['workers'])} workers on 2 cores shared with other jobs). The 3 timings of a "
+        f"run differ by {pct(f.spread)} (median of (max - min) / "
         "median), which is the noise level of the times.",
     ]
-    for r in rows(tables.get("refcheck", {})):
+    for r in f.refcheck:
         lines.append("")
         lines.append(f"Reference check ({r['family']}): ANCF {int(r['elements_per_link'])} el/link and "
-                     f"{int(r['steps_per_cycle'])} steps/cycle differ from the reference by {_pct(r['error'])} "
+                     f"{int(r['steps_per_cycle'])} steps/cycle differ from the reference by {pct(r['error'])} "
                      f"({r['wall_s']:.0f} s); errors below about that are not resolved.")
-    lines += ["", "Pareto front per scene (cheapest first):", "",
-              "| scene | discretization | wall s | error |", "| --- | --- | ---: | ---: |"]
-    for fam in fams:
-        for p in front(points, fam):
-            lines.append(f"| {fam} | {_disc(p.disc)} | {p.wall_s:.2f} | {_pct(p.error)} |")
+    lines += ["", "Pareto front per scene (cheapest first):", ""]
+    lines += table(("scene", "discretization", Column("wall", "s", True), Column("error", right=True)),
+                   [[fam, _disc(p.disc), f"{p.wall_s:.2f}", pct(p.error)] for fam, fr in f.fronts.items() for p in fr])
     lines += ["", "Cheapest discretization within an error budget on **every** scene (wall time summed over the "
-              f"{len(fams)} scenes):", "", "| budget | discretization | total wall s | worst error |",
-              "| ---: | --- | ---: | ---: |"]
-    choices = [choose(points, t, len(fams)) for t in TARGETS]
-    for c in choices:
-        lines.append(f"| {_pct(c.target)} | {_disc(c.disc) if c.disc else 'none'} | "
-                     f"{c.total_wall_s:.2f} | {_pct(c.worst_error)} |")
-    cur = summary(points, dflt, len(fams))
-    on_front = [fam for fam in fams if any(p.disc == dflt for p in front(points, fam))]
+              f"{len(f.families)} scenes):", ""]
+    budget = [[pct(c.target), _disc(c.disc) if c.disc else "none", f"{c.total_wall_s:.2f}", pct(c.worst_error)]
+              for c in f.choices]
     if cur is not None:
-        lines.append(f"| current default | {_disc(dflt)} | {cur[0]:.2f} | {_pct(cur[1])} |")
-    lines += ["", _verdict(choices, dflt, cur, on_front, fams, points)]
-    if n_fail:
-        lines += ["", f"Failed dynamic runs ({n_fail}, not plotted):", ""]
-        for p in points:
-            if not p.ok:
-                lines.append(f"* {p.family}, {_disc(p.disc)}: {re.sub(r' [(]time=.*[)]$', '', p.message)}")
-    quasi = rows(tables.get("quasi_static", {}))
+        budget.append(["current default", _disc(f.default.default), f"{cur[0]:.2f}", pct(cur[1])])
+    lines += table((Column("budget", right=True), "discretization", Column("total wall", "s", True),
+                    Column("worst error", right=True)), budget)
+    lines += ["", _verdict(f.default)]
+    if f.failed:
+        lines += ["", f"Failed dynamic runs ({len(f.failed)}, not plotted):", ""]
+        for p in f.failed:
+            lines.append(f"* {p.family}, {_disc(p.disc)}: {re.sub(r' [(]time=.*[)]$', '', p.message)}")
     lines += ["", "**Quasi-static solver on the same axes** (red diamonds): solve time (median of 21, 36 crank "
               "angles) and error against the dynamic reference of the same scene. Its error is the "
               "instantaneous-structure (model) error, which no discretization removes; it grows with the speed "
               "ratio. This is the trade: milliseconds and the error below, or the dynamic model's seconds and "
-              f"(at the default discretization) at most {_pct(cur[1]) if cur else '-'} on the scenes above.", "",
-              "| mass model | r | quasi-static error | QS time ms | dynamic reference s | QS peak mm "
-              "| dynamic peak mm |",
-              "| --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
-    for q in quasi:
-        lines.append(f"| {q['mass_model']} | {q['speed_ratio']:.3g} | {_pct(q['error'])} | {1e3 * q['wall_s']:.2f} | "
-                     f"{q['dynamic_wall_s']:.1f} | {1e3 * q['qs_peak_m']:.3g} | {1e3 * q['dyn_peak_m']:.3g} |")
-    lines += _linear_lines(rows(tables.get("linear", {})), quasi, points)
-    lines += _lumps_lines(tables, rel[1] if len(rel) > 1 else "")
+              f"(at the default discretization) at most {pct(cur[1]) if cur else '-'} on the scenes above.", ""]
+    lines += table(("mass model", Column("r", right=True), Column("quasi-static error", right=True),
+                    Column("QS time", "ms", True), Column("dynamic reference", "s", True),
+                    Column("QS peak", "mm", True), Column("dynamic peak", "mm", True)),
+                   [[q["mass_model"], f"{q['speed_ratio']:.3g}", pct(q["error"]), f"{1e3 * q['wall_s']:.2f}",
+                     f"{q['dynamic_wall_s']:.1f}", f"{1e3 * q['qs_peak_m']:.3g}", f"{1e3 * q['dyn_peak_m']:.3g}"]
+                    for q in f.quasi])
+    lines += _linear_lines(f.linear) if f.linear else []
+    lines += _lumps_lines(f.lumps, rel[1] if len(rel) > 1 else "") if f.lumps else []
     return "\n".join(lines)
 
 
@@ -313,142 +264,87 @@ def _ms(x: float) -> str:
     return f"{1e3 * x:.3g}" if x < 1.0 else f"{1e3 * x:.0f}"
 
 
-def _family_ratio(family: str) -> float:
-    """The speed ratio of a family label (``tip r=0.3``), nan if it has none."""
-    m = re.search(r"r=([0-9.eE+-]+)", family)
-    return float(m.group(1)) if m else math.nan
-
-
-def _linear_lines(linear: list[dict], quasi: list[dict], points: Sequence[WPPoint]) -> list[str]:
-    """Where the linear KED model sits: a paragraph over all scenes (against the quasi-static solver, and
-    against the cheapest dynamic run as accurate on the scenes with dynamic runs) and a row per mass model."""
-    if not linear:
-        return []
-    qs = {(q["mass_model"], f"{q['speed_ratio']:.3g}"): q for q in quasi}
-    pairs = [(r, qs.get((r["mass_model"], f"{r['speed_ratio']:.3g}"))) for r in linear]
-    pairs = [(r, q) for r, q in pairs if q is not None]
-    better = sum(1 for r, q in pairs if r["error"] < q["error"])
-    ratio = float(np.median([r["error"] / q["error"] for r, q in pairs if q["error"] > 0])) if pairs else math.nan
-    zetas = sorted({r["damping_ratio"] for r in linear})
-    reps = sorted({int(r["repeats"]) for r in linear})
-    walls = [r["wall_s"] for r in linear]
-    spread = float(np.median([r.get("wall_spread", math.nan) for r in linear]))
-    unstable = [r for r in linear if not r["stable"]]
-    loose = [r for r in linear if r["stable"] and not r["error_estimate"] <= UNRESOLVED_ESTIMATE]
-    ratios = sorted({f"{r['speed_ratio']:.2g}" for r in linear}, key=float)
+def _linear_lines(f: LinearFindings) -> list[str]:
+    """Where the linear KED model sits: a paragraph over all scenes and a row per mass model."""
+    reps, (w_med, w_min, w_max) = f.repeats, f.wall_s
     text = (f"**Linear KED model on the same axes** ({LINEAR_COLOR} crosses): `ked_linear.solve_linear` with the "
-            f"scene's damping ratio ({', '.join(f'{z:g}' for z in zetas)}) and its default resolution; solve time "
-            f"the median of {reps[-1]} solves"
+            f"scene's damping ratio ({', '.join(f'{z:g}' for z in f.damping_ratios)}) and its default resolution; "
+            f"solve time the median of {reps[-1]} solves"
             + (f" ({reps[0]} where one solve takes over a second)" if len(reps) > 1 else "") + ", error against "
-            f"the same dynamic reference with the same measure. Over the {len(linear)} scenes its median solve time "
-            f"is {_ms(float(np.median(walls)))} ms ({_ms(min(walls))} to {_ms(max(walls))} ms) against "
-            f"{_ms(float(np.median([q['wall_s'] for q in quasi]))) if quasi else '-'} ms for the quasi-static "
-            f"solver and {float(np.median([r['dynamic_wall_s'] for r in linear])):.1f} s for the dynamic reference "
-            f"(the timings of a scene differ by {_pct(spread)}"
+            f"the same dynamic reference with the same measure. Over the {f.scenes} scenes its median solve time "
+            f"is {_ms(w_med)} ms ({_ms(w_min)} to {_ms(w_max)} ms) against "
+            f"{_ms(f.quasi_wall_s)} ms for the quasi-static "
+            f"solver and {f.dynamic_wall_s:.1f} s for the dynamic reference "
+            f"(the timings of a scene differ by {pct(f.spread)}"
             ", median of (max - min) / median); "
-            f"its error is below the quasi-static one on {better} of {len(pairs)} scenes (median ratio "
-            f"{ratio:.2g}).")
-    if unstable:
+            f"its error is below the quasi-static one on {f.better} of {f.pairs} scenes (median ratio "
+            f"{f.median_ratio:.2g}).")
+    if f.unstable:
         text += (" No stable periodic steady state (Floquet) on: "
-                 + ", ".join(f"{r['mass_model']} r={r['speed_ratio']:.2g}" for r in unstable) + ".")
-    if loose:
-        text += (f" Its own error estimate exceeds {_pct(UNRESOLVED_ESTIMATE)} (flagged unresolved) on: "
-                 + ", ".join(f"{r['mass_model']} r={r['speed_ratio']:.2g} ({_pct(r['error_estimate'])})"
-                             for r in loose) + ".")
-    matched = []
-    for r in linear:
-        fam = [p for p in points if not p.reference and p.ok and p.family.split()[0] == r["mass_model"]
-               and math.isclose(_family_ratio(p.family), r["speed_ratio"], rel_tol=1e-6)]
-        if fam and math.isfinite(r["error"]):
-            good = [p.wall_s for p in fam if p.error <= r["error"]]
-            matched.append(f"{fam[0].family} {min(good):.2f} s" if good else f"{fam[0].family} none")
-            matched[-1] += f" (linear {r['wall_s']:.2f} s)"
-    if matched:
+                 + ", ".join(f"{m} r={r:.2g}" for m, r in f.unstable) + ".")
+    if f.unresolved:
+        text += (f" Its own error estimate exceeds {pct(UNRESOLVED_ESTIMATE)} (flagged unresolved) on: "
+                 + ", ".join(f"{m} r={r:.2g} ({pct(e)})" for m, r, e in f.unresolved) + ".")
+    if f.matched:
         text += (" The cheapest dynamic run at least as accurate as the linear model on the same scene takes "
-                 + ", ".join(matched) + ".")
-    r_head = " / ".join(ratios)
-    out = ["", text, "", f"| mass model | linear error, r = {r_head} | quasi-static error | linear time ms "
-           "| dynamic reference s |", "| --- | ---: | ---: | ---: | ---: |"]
-    for model in [m for m in MASS_MODELS if any(r["mass_model"] == m for r in linear)]:
-        by_r = {f"{r['speed_ratio']:.2g}": (r, q) for r, q in
-                [(r, qs.get((r["mass_model"], f"{r['speed_ratio']:.3g}"))) for r in linear if r["mass_model"] == model]}
-        cell = [by_r.get(k) for k in ratios]
-        out.append(f"| {model} | " + " / ".join(_pct(c[0]["error"]) if c else "" for c in cell)
-                   + " | " + " / ".join(_pct(c[1]["error"]) if c and c[1] else "" for c in cell)
-                   + " | " + " / ".join(_ms(c[0]["wall_s"]) if c else "" for c in cell)
-                   + " | " + " / ".join(f"{c[0]['dynamic_wall_s']:.1f}" if c else "" for c in cell) + " |")
-    return out
+                 + ", ".join((f"{fam} {w:.2f} s" if math.isfinite(w) else f"{fam} none") + f" (linear {lw:.2f} s)"
+                             for fam, w, lw in f.matched) + ".")
+
+    def join(cells: list, fmt) -> str:
+        return " / ".join(fmt(c) if c else "" for c in cells)
+
+    heads = ("mass model", Column(f"linear error, r = {' / '.join(f.ratios)}", right=True),
+             Column("quasi-static error", right=True), Column("linear time", "ms", True),
+             Column("dynamic reference", "s", True))
+    return ["", text, ""] + table(heads, [
+        [model, join(c, lambda x: pct(x[0])), " / ".join(pct(x[1]) if x and x[1] is not None else "" for x in c),
+         join(c, lambda x: _ms(x[2])), join(c, lambda x: f"{x[3]:.1f}")] for model, c in f.cells.items()])
 
 
-def _verdict(choices, dflt: Discretization, cur, on_front: list[str], fams: list[str], points) -> str:
-    c1 = choices[0]
+def _verdict(f: DefaultFindings) -> str:
+    c1, dflt, cur = f.choice, f.default, f.cost
     if c1.disc is None or cur is None:
         return "**Default.** Not enough data to judge the default (see failures)."
-    text = (f"**Default.** The current default ({_disc(dflt)}) costs {cur[0]:.2f} s over the {len(fams)} scenes "
-            f"with a worst error of {_pct(cur[1])}; it is on the Pareto front of "
-            f"{len(on_front)} of {len(fams)} scenes{(' (' + ', '.join(on_front) + ')') if on_front else ''}. ")
+    text = (f"**Default.** The current default ({_disc(dflt)}) costs {cur[0]:.2f} s over the {f.families} scenes "
+            f"with a worst error of {pct(cur[1])}; it is on the Pareto front of "
+            f"{len(f.on_front)} of {f.families} scenes{(' (' + ', '.join(f.on_front) + ')') if f.on_front else ''}. ")
     tied = ", ".join(_disc(d) for d in c1.tied)
     if c1.disc == dflt:
-        text += f"The data support it: it is the cheapest setting within the {_pct(c1.target)} budget"
+        text += f"The data support it: it is the cheapest setting within the {pct(c1.target)} budget"
         text += f" (within the {100 * TIE:g} % timing noise of it: {tied})." if tied else "."
     elif dflt in c1.tied:
-        text += (f"The data support it: within the {_pct(c1.target)} budget it ties (within the {100 * TIE:g} % "
+        text += (f"The data support it: within the {pct(c1.target)} budget it ties (within the {100 * TIE:g} % "
                  f"timing noise) with the cheapest, {_disc(c1.disc)} ({c1.total_wall_s:.2f} s, worst "
-                 f"{_pct(c1.worst_error)}).")
+                 f"{pct(c1.worst_error)}).")
     else:
-        ratio = cur[0] / c1.total_wall_s
-        text += (f"The cheapest setting within the {_pct(c1.target)} budget is {_disc(c1.disc)} "
-                 f"({c1.total_wall_s:.2f} s, worst {_pct(c1.worst_error)}; the default takes {ratio:.2f}x its "
-                 "time). ")
+        text += (f"The cheapest setting within the {pct(c1.target)} budget is {_disc(c1.disc)} "
+                 f"({c1.total_wall_s:.2f} s, worst {pct(c1.worst_error)}; the default takes "
+                 f"{cur[0] / c1.total_wall_s:.2f}x its time). ")
         text += ("The default also meets the budget." if cur[1] <= c1.target
                  else "The default does not meet that budget on every scene.")
-    fails = coarsest_failures(points)
-    same = {k: v for k, v in fails.items() if k[0] == dflt.element and k[1] == dflt.elements_per_link}
-    if same:
-        worst_steps = same.get((dflt.element, dflt.elements_per_link, dflt.spectral_radius), 1)
+    if f.failed_steps:
         text += (f" Robustness ({dflt.element.upper()} {dflt.elements_per_link} el/link): the most steps per cycle "
                  "at which a run still failed (Newton) on some scene: "
-                 + ", ".join(f"rho {k[2]:g}: {v}" for k, v in sorted(same.items()))
+                 + ", ".join(f"rho {rho:g}: {v}" for rho, v in f.failed_steps.items())
                  + f"; the default's {dflt.steps_per_cycle} steps leave a margin of "
-                 f"{dflt.steps_per_cycle / worst_steps:g}x"
+                 f"{dflt.steps_per_cycle / f.failed_steps.get(dflt.spectral_radius, 1):g}x"
                  " at its spectral radius.")
     return text
 
 
-def _lumps_lines(tables: dict, fig: str) -> list[str]:
-    lp = [dict(r, lumps=int(r["lumps"]), reference_lumps=int(r["reference_lumps"]))
-          for r in rows(tables.get("lumps", {}))]
-    if not lp:
-        return []
-    ref = lp[0]["reference_lumps"]
-    ns = sorted({r["lumps"] for r in lp})
-    series: dict[tuple[str, str], dict[int, dict]] = {}
-    for r in lp:
-        series.setdefault((r["model"], r["placement"]), {})[r["lumps"]] = r
+def _lumps_lines(f: LumpsFindings, fig: str) -> list[str]:
     out = ["", "**Quasi-static discretization**: lumps per link in the extender and distributed models "
-           f"(`MassModel(lumps=n, placement=...)`) against n = {ref}. The relative error does not depend on the "
-           "crank speed (every load scales with omega^2).", "", f"![lumps]({fig})", "",
-           "| model, placement | " + " | ".join(f"n={n}" for n in ns) + " | order |",
-           "| --- | " + " | ".join("---:" for _ in ns) + " | ---: |"]
-    for (model, placement), d in sorted(series.items()):
-        order = observed_order([n for n in ns if n in d], [d[n]["error"] for n in ns if n in d])
-        out.append(f"| {model}, {placement} | " + " | ".join(_pct(d[n]["error"]) if n in d else "" for n in ns)
-                   + f" | {order:.2f} |")
-    walls = [r["wall_s"] for r in lp if r["model"] == "distributed" and r["placement"] == "midpoint"]
-    first = {r["lumps"]: r for r in lp if r["model"] == "distributed" and r["placement"] == "midpoint"}
-    if walls:
-        out += ["", f"Solve time (distributed, midpoint): {1e3 * first[ns[0]]['wall_s']:.2f} ms at n={ns[0]}, "
-                f"{1e3 * first[5]['wall_s'] if 5 in first else float('nan'):.2f} ms at n=5, "
-                f"{1e3 * first[ns[-1]]['wall_s']:.2f} ms at n={ns[-1]}."]
-    out += _lumps_advice(series, ns)
+           f"(`MassModel(lumps=n, placement=...)`) against n = {f.reference}. The relative error does not depend "
+           "on the crank speed (every load scales with omega^2).", "", f"![lumps]({fig})", ""]
+    out += table(("model, placement", *(Column(f"n={n}", right=True) for n in f.ns), Column("order", right=True)),
+                 [[f"{m}, {pl}", *(pct(d[n]) if n in d else "" for n in f.ns), f"{f.orders[m, pl]:.2f}"]
+                  for (m, pl), d in f.errors.items()])
+    if f.times_s is not None:
+        t0, t5, t1 = f.times_s
+        out += ["", f"Solve time (distributed, midpoint): {1e3 * t0:.2f} ms at n={f.ns[0]}, "
+                f"{1e3 * t5:.2f} ms at n=5, {1e3 * t1:.2f} ms at n={f.ns[-1]}."]
+    out += ["", "Lumps needed:", ""]
+    for (m, pl), need in f.needed.items():
+        out += [f"* {m}, {pl}: {'n = ' + str(n) if n else 'more than ' + str(f.ns[-1])} lumps for {pct(t)}"
+                for t, n in need.items()]
     return out
-
-
-def _lumps_advice(series: dict, ns: list[int]) -> list[str]:
-    lines = []
-    for (model, placement), d in sorted(series.items()):
-        for target in (0.01, 0.001):
-            n_ok = next((n for n in ns if d.get(n) and d[n]["error"] <= target), None)
-            lines.append(f"* {model}, {placement}: {'n = ' + str(n_ok) if n_ok else 'more than ' + str(ns[-1])} "
-                         f"lumps for {_pct(target)}")
-    return ["", "Lumps needed:", ""] + lines
