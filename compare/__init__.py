@@ -20,7 +20,8 @@ from typing import Any
 _API = {
     "load_config": "compare.config", "parse_config": "compare.config", "ConfigError": "compare.config",
     "CampaignConfig": "compare.config", "load_linkage": "compare.config",
-    "run_campaign": "compare.runner", "plan": "compare.runner", "CampaignSummary": "compare.runner",
+    "run_campaign": "compare.runner", "run_scenes": "compare.runner", "plan": "compare.runner",
+    "CampaignSummary": "compare.runner",
     "read_scenes": "compare.store", "verify": "compare.store", "StoreError": "compare.store",
     "SceneResult": "compare.results", "SceneSpec": "compare.scenes",
     "write_figures": "compare.plots", "summary_row": "compare.inspect", "format_table": "compare.inspect",

@@ -662,19 +662,6 @@ class _Checker:
             return None, ()
         return v, None
 
-    def numbers(self, tab, path, *, default=(), lo=None, hi=None, lo_open=False):
-        v, dflt = self._array(tab, path, default)
-        if v is None:
-            return tuple(dflt)
-        out = []
-        for i, x in enumerate(v):
-            y = self._check_number(x, f"{path}[{i}]", lo, hi, lo_open)
-            if y is not None:
-                out.append(y)
-        if len(set(out)) != len(out):
-            self.err(path, f"duplicate values in {v!r}")
-        return tuple(out)
-
     def choices(self, tab, path, allowed, *, default=()):
         v, dflt = self._array(tab, path, default)
         if v is None:

@@ -1,10 +1,17 @@
-"""Run a campaign: plan (skip stored scenes), execute in parallel, commit each result atomically.
+"""The executor and the campaign runner.
 
-Backends: a local ``concurrent.futures.ProcessPoolExecutor`` (default) or a Dask distributed cluster
-(``scheduler`` = its address).  Both execute :func:`compare.execute.run_scene`; only this (parent)
-process writes the results file, after every completion (all results finished by then are committed
-together in one atomic file replacement, see :mod:`compare.store`).  A SIGKILL therefore loses only
-the scenes still being computed.
+:func:`run_tasks` is the one executor of the harness: it runs a function over a list of tasks on local
+worker processes (``concurrent.futures.ProcessPoolExecutor``, spawned, one BLAS thread each, dying with
+this process) or on a Dask distributed cluster (``scheduler`` = its address, checked within
+:data:`SCHEDULER_TIMEOUT_S`), and hands every finished result to a callback in this process, which
+commits it.  A task whose worker process dies is isolated and becomes a record made by ``crashed``;
+workers that cannot start, or a task that raises in a local worker, are a failure of the run.
+Campaigns (:func:`run_campaign`, :func:`run_scenes`), the atlas and its confirmations use it.
+
+:func:`run_scenes` runs :func:`compare.execute.run_scene` over scene specs: it plans once, under the
+results file's writer lock (one read of the store: skip stored scenes), and commits after every
+completion (all results finished by then together, in one atomic file replacement, see
+:mod:`compare.store`).  A SIGKILL therefore loses only the scenes still being computed.
 """
 
 from __future__ import annotations
@@ -18,11 +25,11 @@ import sys
 import threading
 import time
 import uuid
-from collections.abc import Callable, Iterable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from compare import solvers, store
 from compare.config import CampaignConfig
@@ -30,6 +37,9 @@ from compare.execute import run_scene
 from compare.results import STATUS_FAILED, STATUS_OK, RunStats, SceneResult
 from compare.scenes import SceneSpec, canonical_json
 from compare.solvers import Solution
+
+T = TypeVar("T")
+R = TypeVar("R")
 
 
 @dataclass(frozen=True)
@@ -130,12 +140,12 @@ def check_stored_settings(specs: Iterable[SceneSpec], stored: dict[str, dict[str
             "Write to a new --out file, or pin these settings in the config (e.g. its [dynamic] table).")
 
 
-def _rescued(exc: store.CommitError, unsaved: list[SceneResult], out: Path, config: CampaignConfig) -> Exception:
+def _rescued(exc: store.CommitError, unsaved: list[SceneResult], out: Path, name: str, text: str) -> Exception:
     """The error to raise after a failed commit, once the scenes computed in this run are saved."""
     if not unsaved:
         return exc
     try:
-        path = store.rescue(unsaved, out, config.text, config.name)
+        path = store.rescue(unsaved, out, text, name)
     except store.CommitError as exc2:
         return store.CommitError(f"{exc}; {exc2}")
     return store.CommitError(
@@ -151,8 +161,8 @@ class WorkerError(RuntimeError):
     """A local worker failed outside the solvers (a failure of the run, not a property of a scene)."""
 
 
-WORKER_START_HINT = ("if a Python script calls run_campaign, call it under `if __name__ == \"__main__\":` "
-                     "(every worker process imports the script)")
+WORKER_START_HINT = ("if a Python script calls run_campaign (or run_scenes, run_tasks, run_atlas), call it under "
+                     "`if __name__ == \"__main__\":` (every worker process imports the script)")
 
 
 _STOP_SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))
@@ -231,6 +241,14 @@ def worker_init() -> None:
 _worker_init = worker_init  # the name older pickles and callers use
 
 
+def exit_if_starting_worker() -> None:
+    """In a spawned worker that is importing a script which starts a run without a main guard: end it
+    quietly now (it cannot start; the parent reports it once, with the fix, :data:`WORKER_START_HINT`).
+    Called first by every entry point that starts workers."""
+    if getattr(multiprocessing.current_process(), "_inheriting", False):
+        os._exit(3)
+
+
 def _ready() -> int:
     """A no-op task: the worker started (its interpreter, the main module and the initializer)."""
     return os.getpid()
@@ -242,57 +260,6 @@ def default_workers() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # pragma: no cover - not Linux
         return max(1, os.cpu_count() or 1)
-
-
-def _worker_crashed(spec: SceneSpec, exc: BaseException | None) -> SceneResult:
-    if exc is None:
-        error_type, message = "WorkerCrashed", "the worker process died while computing this scene"
-    else:
-        error_type, message = type(exc).__name__, f"worker failed while computing the scene: {exc}"
-    return SceneResult(spec=spec, status=STATUS_FAILED, stage="worker", error_type=error_type,
-                       message=message[:2000], failure_class="numerical", stats=RunStats(finished_utc=store.utc_now()))
-
-
-def _drain(backend: Any, futures: dict[Any, Job],
-           store_batch: Callable[[list[SceneResult]], None]) -> list[Job]:
-    """Store results as they complete; returns the jobs lost to a broken local pool."""
-    lost: list[Job] = []
-    for done in backend.batches(futures):
-        batch = []
-        for fut in done:
-            if fut.cancelled():
-                continue  # cancelled after a failed commit: never started, nothing computed
-            try:
-                r = backend.result(fut)
-            except WorkerError:
-                raise
-            except Exception as exc:  # the task itself failed outside run_scene (Dask KilledWorker, ...)
-                r = _worker_crashed(futures[fut].spec, exc)
-            if r is None:
-                lost.append(futures[fut])
-            else:
-                batch.append(r)
-        if batch:
-            store_batch(batch)
-    return lost
-
-
-def _isolate(jobs: list[Job], store_batch: Callable[[list[SceneResult]], None]) -> list[Job]:
-    """After a worker process died (a crash inside a solver breaks the whole pool, so the culprit is
-    unknown): rerun each scene in a fresh single-worker pool; one that kills its worker again is
-    stored as failed (stage "worker", WorkerCrashed).  Returns the scenes still lost (none)."""
-    for job in jobs:
-        iso = _LocalBackend(1)
-        try:
-            (fut,) = iso.submit_all([job])
-            r = iso.result(fut)
-        except BaseException:
-            iso.abort()
-            raise
-        else:
-            iso.close()
-        store_batch([r if r is not None else _worker_crashed(job.spec, None)])
-    return []
 
 
 # One BLAS/OpenMP thread per worker process: the parallelism is across scenes (as on Dask workers,
@@ -311,69 +278,6 @@ def _single_threaded_children() -> Iterator[None]:
     finally:
         for v in added:
             os.environ.pop(v, None)
-
-
-def _args(job: Job) -> tuple[SceneSpec, tuple[solvers.Solver, ...], dict[str, Solution]]:
-    """Arguments of :func:`compare.execute.run_scene` for a job (solvers travel by reference)."""
-    return job.spec, tuple(solvers.get(n) for n in job.spec.solvers), job.reuse
-
-
-class _LocalBackend:
-    """Process pool on this machine (spawned workers, one BLAS thread each)."""
-
-    def __init__(self, workers: int):
-        ctx = multiprocessing.get_context("spawn")
-        self.workers = workers
-        self.pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=worker_init)
-        self.futures: list[Any] = []
-        try:
-            with _single_threaded_children(), _start_children_quietly():  # workers are spawned on submit
-                probe = self.pool.submit(_ready)
-            probe.result()  # a worker that cannot start breaks the pool before any scene is given out
-        except cf.process.BrokenProcessPool:
-            self.abort()
-            raise WorkerStartError(f"the worker processes could not start (each exited before taking any "
-                                   f"work), so nothing was computed; {WORKER_START_HINT}") from None
-        except BaseException:
-            self.abort()
-            raise
-
-    def submit_all(self, jobs: Iterable[Job]) -> dict[Any, Job]:
-        with _single_threaded_children(), _start_children_quietly():
-            out = {self.pool.submit(run_scene, *_args(j)): j for j in jobs}
-        self.futures += list(out)
-        return out
-
-    def cancel(self) -> None:
-        """Cancel the scenes not started yet (running ones finish and are still delivered)."""
-        for f in self.futures:
-            f.cancel()
-
-    def batches(self, futures: Iterable[Any]) -> Iterator[list[Any]]:
-        """Completed futures, grouped: everything finished by the time the previous group is stored."""
-        pending = set(futures)
-        while pending:
-            done, pending = cf.wait(pending, return_when=cf.FIRST_COMPLETED)
-            yield list(done)
-
-    def result(self, fut: Any) -> SceneResult | None:
-        """The scene's result; ``None`` if the pool broke (scene not attributable, not stored)."""
-        try:
-            return fut.result()
-        except cf.process.BrokenProcessPool:
-            return None
-        except cf.CancelledError:
-            raise
-        except Exception as exc:  # run_scene keeps solver failures in its result: this is outside them
-            raise WorkerError(f"a worker process failed outside the solvers ({type(exc).__name__}: "
-                              f"{str(exc).strip()[:300]})") from exc
-
-    def close(self) -> None:
-        self.pool.shutdown(wait=True, cancel_futures=True)
-
-    def abort(self) -> None:
-        """Stop at once (interrupt, failure): kill the workers; what they were computing is lost."""
-        kill_pool(self.pool)
 
 
 SCHEDULER_TIMEOUT_S = 10.0
@@ -429,6 +333,64 @@ async def _identity(address: str, timeout_s: float) -> Any:
         comm.abort()
 
 
+class _LocalBackend:
+    """Process pool on this machine (spawned workers, one BLAS thread each, dying with this process)."""
+
+    def __init__(self, workers: int):
+        ctx = multiprocessing.get_context("spawn")
+        self.pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=worker_init)
+        self.futures: list[Any] = []
+        try:
+            with _single_threaded_children(), _start_children_quietly():  # workers are spawned on submit
+                probe = self.pool.submit(_ready)
+            probe.result()  # a worker that cannot start breaks the pool before any task is given out
+        except cf.process.BrokenProcessPool:
+            self.abort()
+            raise WorkerStartError(f"the worker processes could not start (each exited before taking any "
+                                   f"work), so nothing was computed; {WORKER_START_HINT}") from None
+        except BaseException:
+            self.abort()
+            raise
+
+    def submit_all(self, fn: Callable[..., Any], calls: dict[Any, tuple[Any, ...]]) -> dict[Any, Any]:
+        """Submit ``fn(*args)`` for every task -> args of ``calls``; returns future -> task."""
+        with _single_threaded_children(), _start_children_quietly():
+            out = {self.pool.submit(fn, *a): t for t, a in calls.items()}
+        self.futures += list(out)
+        return out
+
+    def cancel(self) -> None:
+        """Cancel the tasks not started yet (running ones finish and are still delivered)."""
+        for f in self.futures:
+            f.cancel()
+
+    def batches(self, futures: Iterable[Any]) -> Iterator[list[Any]]:
+        """Completed futures, grouped: everything finished by the time the previous group is handled."""
+        pending = set(futures)
+        while pending:
+            done, pending = cf.wait(pending, return_when=cf.FIRST_COMPLETED)
+            yield list(done)
+
+    def result(self, fut: Any) -> Any:
+        """The task's result; :data:`_LOST` if the pool broke (a worker died: the task is not attributable)."""
+        try:
+            return fut.result()
+        except cf.process.BrokenProcessPool:
+            return _LOST
+        except cf.CancelledError:
+            raise
+        except Exception as exc:  # the task functions keep their own failures in their results
+            raise WorkerError(f"a worker process failed outside the solvers ({type(exc).__name__}: "
+                              f"{str(exc).strip()[:300]})") from exc
+
+    def close(self) -> None:
+        self.pool.shutdown(wait=True, cancel_futures=True)
+
+    def abort(self) -> None:
+        """Stop at once (interrupt, failure): kill the workers; what they were computing is lost."""
+        kill_pool(self.pool)
+
+
 class _DaskBackend:
     """Dask distributed cluster at ``address`` (scheduler address, e.g. ``tcp://host:8786``)."""
 
@@ -443,10 +405,11 @@ class _DaskBackend:
                                  f"({type(exc).__name__})") from None
         self.futures: list[Any] = []
 
-    def submit_all(self, jobs: Iterable[Job]) -> dict[Any, Job]:
-        # unique task keys: never reuse a result another campaign left on a long-lived cluster
-        out = {self.client.submit(run_scene, *_args(j), key=f"ked-scene-{j.spec.key}-{uuid.uuid4().hex[:8]}",
-                                  pure=False): j for j in jobs}
+    def submit_all(self, fn: Callable[..., Any], calls: dict[Any, tuple[Any, ...]]) -> dict[Any, Any]:
+        # unique task keys: never reuse a result another run left on a long-lived cluster
+        name = getattr(fn, "__name__", "task")
+        out = {self.client.submit(fn, *a, key=f"ked-{name}-{uuid.uuid4().hex}", pure=False): t
+               for t, a in calls.items()}
         self.futures += list(out)
         return out
 
@@ -458,7 +421,7 @@ class _DaskBackend:
 
         yield from as_completed(list(futures), loop=self.client.loop).batches()
 
-    def result(self, fut: Any) -> SceneResult | None:
+    def result(self, fut: Any) -> Any:
         return fut.result()
 
     def close(self) -> None:
@@ -467,6 +430,252 @@ class _DaskBackend:
     def abort(self) -> None:
         self.cancel()
         self.close()
+
+
+_LOST = object()
+"""A local task's result when its worker process died (the pool broke): rerun it, see :func:`run_tasks`."""
+
+
+def crash_reason(exc: BaseException | None) -> str:
+    """Why a task gave no result: its worker process died (``exc`` None), or the task failed on the
+    cluster outside the task function (a Dask ``KilledWorker``, ...)."""
+    return "the worker process died while computing it" if exc is None else f"{type(exc).__name__}: {exc}"
+
+
+def _drain(backend: Any, futures: dict[Any, Any], deliver: Callable[[list[tuple[Any, Any]]], None],
+           crashed: Callable[[Any, BaseException | None], Any]) -> list[Any]:
+    """Deliver results as they complete; returns the tasks lost to a broken local pool."""
+    lost: list[Any] = []
+    for done in backend.batches(futures):
+        batch = []
+        for fut in done:
+            if fut.cancelled():
+                continue  # cancelled after the caller asked to stop: never started, nothing computed
+            task = futures[fut]
+            try:
+                r = backend.result(fut)
+            except WorkerError:
+                raise
+            except Exception as exc:  # the task failed outside its function on the cluster (KilledWorker, ...)
+                r = crashed(task, exc)
+            if r is _LOST:
+                lost.append(task)
+            else:
+                batch.append((task, r))
+        if batch:
+            deliver(batch)
+    return lost
+
+
+def _isolate(fn: Callable[..., Any], calls: dict[Any, tuple[Any, ...]],
+             deliver: Callable[[list[tuple[Any, Any]]], None],
+             crashed: Callable[[Any, BaseException | None], Any]) -> None:
+    """After a worker process died twice (a crash inside a task breaks the whole pool, so the culprit is
+    unknown): run each task alone in a fresh single-worker pool; one that kills its worker again is
+    delivered as ``crashed(task, None)``."""
+    for task, a in calls.items():
+        iso = _LocalBackend(1)
+        try:
+            (fut,) = iso.submit_all(fn, {task: a})
+            r = iso.result(fut)
+        except BaseException:
+            iso.abort()
+            raise
+        iso.close()
+        deliver([(task, crashed(task, None) if r is _LOST else r)])
+
+
+def _one(task: Any) -> tuple[Any, ...]:
+    return (task,)
+
+
+def run_tasks(tasks: Sequence[T], fn: Callable[..., R], *, workers: int | None = None, scheduler: str | None = None,
+              on_result: Callable[[list[tuple[T, R]]], bool | None],
+              crashed: Callable[[T, BaseException | None], R], args: Callable[[T], tuple[Any, ...]] = _one,
+              on_ready: Callable[[], None] | None = None) -> int:
+    """Compute ``fn(*args(task))`` for every task (default ``fn(task)``) and hand the results to
+    ``on_result`` in this process as they finish: a list of (task, result), everything finished since
+    the previous call (the commit callback).  ``on_result`` returning True stops the run: the tasks not
+    started are cancelled; running ones finish and are still delivered.
+
+    Where: ``scheduler`` (a Dask scheduler address, probed within :data:`SCHEDULER_TIMEOUT_S`, else
+    :class:`SchedulerError`), else ``workers`` local processes (default: the available CPUs; at most one
+    per task).  Local workers are spawned and import the caller's main module: a script must run this
+    under ``if __name__ == "__main__":``, otherwise :class:`WorkerStartError` is raised before any task.
+    ``on_ready`` runs once the workers are there, before any task is given out (write nothing before).
+
+    Crash isolation: a local worker that dies (a segfault inside a task) breaks the pool; its tasks run
+    again in a fresh pool, then one by one, and a task that kills its worker alone is delivered as
+    ``crashed(task, None)``; on a cluster a task lost outside ``fn`` is delivered as ``crashed(task,
+    exception)``.  A task that raises in a local worker is a failure of the run (:class:`WorkerError`):
+    task functions keep their own failures in their results.  On an interrupt or any failure the workers
+    are stopped at once (what was delivered stays delivered).  Returns the number of tasks that gave no
+    result (cancelled after a stop)."""
+    exit_if_starting_worker()
+    if not tasks:
+        return 0
+    calls = {i: args(t) for i, t in enumerate(tasks)}  # by index: tasks need not be hashable
+    stopped: list[bool] = []
+
+    def local(n: int) -> _LocalBackend:
+        return _LocalBackend(min(workers or default_workers(), n))
+
+    def crash(i: int, exc: BaseException | None) -> R:
+        return crashed(tasks[i], exc)
+
+    backend: Any = _DaskBackend(scheduler) if scheduler else local(len(calls))
+
+    def deliver(batch: list[tuple[int, Any]]) -> None:
+        if on_result([(tasks[i], r) for i, r in batch]) and not stopped:
+            stopped.append(True)
+            if backend is not None:
+                backend.cancel()
+
+    try:
+        if on_ready is not None:
+            on_ready()
+        lost = _drain(backend, backend.submit_all(fn, calls), deliver, crash)
+        backend.close()
+        backend = None
+        if lost and not stopped:  # a worker died: rerun its pool's tasks in a fresh pool, then one by one
+            backend = local(len(lost))
+            lost = _drain(backend, backend.submit_all(fn, {i: calls[i] for i in lost}), deliver, crash)
+            backend.close()
+            backend = None
+            if lost and not stopped:
+                _isolate(fn, {i: calls[i] for i in lost}, deliver, crash)
+                lost = []
+    except BaseException:  # interrupt, failure: stop the workers now (what is delivered stays)
+        if backend is not None:
+            backend.abort()
+        raise
+    return len(lost)
+
+
+# ------------------------------------------------------------------------------------------------------
+# campaigns
+
+
+def _worker_crashed(spec: SceneSpec, exc: BaseException | None) -> SceneResult:
+    if exc is None:
+        error_type, message = "WorkerCrashed", "the worker process died while computing this scene"
+    else:
+        error_type, message = type(exc).__name__, f"worker failed while computing the scene: {exc}"
+    return SceneResult(spec=spec, status=STATUS_FAILED, stage="worker", error_type=error_type,
+                       message=message[:2000], failure_class="numerical", stats=RunStats(finished_utc=store.utc_now()))
+
+
+def _args(job: Job) -> tuple[SceneSpec, tuple[solvers.Solver, ...], dict[str, Solution]]:
+    """Arguments of :func:`compare.execute.run_scene` for a job (solvers travel by reference)."""
+    return job.spec, tuple(solvers.get(n) for n in job.spec.solvers), job.reuse
+
+
+def stored_plan(scenes: Sequence[SceneSpec], out: str | Path, retry_failed: bool = False) -> Plan:
+    """:func:`plan` against the results file ``out``, read once (only the scenes of ``scenes``), after
+    refusing to resume onto solutions computed with other settings (:func:`check_stored_settings`)."""
+    stored = {r.key: r for r in store.read_scenes(out, [s.key for s in scenes])} if scenes else {}
+    solutions = {k: r.solutions for k, r in stored.items()}
+    check_stored_settings(scenes, solutions)
+    return plan(scenes, {k: r.status for k, r in stored.items()}, retry_failed, solutions)
+
+
+def run_scenes(
+    specs: Sequence[SceneSpec],
+    out: str | Path,
+    *,
+    name: str,
+    config_text: str = "",
+    workers: int | None = None,
+    scheduler: str | None = None,
+    retry_failed: bool = False,
+    progress: bool = True,
+    on_result: Callable[[SceneResult], None] | None = None,
+    on_start: Callable[[Plan], None] | None = None,
+) -> CampaignSummary:
+    """Run every scene of ``specs`` not yet stored in ``out`` and store the results there (see the
+    module docstring); ``name`` and ``config_text`` go into the file's run record.
+
+    ``workers``: local worker processes (default: available CPUs; ignored with ``scheduler``), see
+    :func:`run_tasks` (a script calls this under ``if __name__ == "__main__":``).  ``retry_failed``:
+    recompute stored failed scenes too.  ``progress``: tqdm bar on stderr.  ``on_result``: called
+    with every stored result; ``on_start``: with the plan, once the workers are there.  Raises
+    :class:`compare.store.LockedError` if another process is writing ``out`` and scenes are to be
+    computed (with nothing to compute, nothing is written: a read-only file system is fine)."""
+    exit_if_starting_worker()
+    t0 = time.perf_counter()
+    specs = tuple(specs)
+    out = store.target(out)
+    store.check_ours(out)
+    with ExitStack() as locked:
+        try:
+            locked.enter_context(store.writer_lock(out))
+            lock_error: Exception | None = None
+        except (store.LockedError, store.CommitError) as exc:  # another writer, or no lock file possible
+            lock_error = exc
+        p = stored_plan(specs, out, retry_failed)  # the one read of the store, under the lock
+        counts = {STATUS_OK: 0, STATUS_FAILED: 0}
+        lost = 0
+        if p.jobs:  # nothing to compute: nothing is written
+            store.check_writable(out)
+            if lock_error is not None:
+                raise lock_error
+            counts, lost = _compute(p, out, name, config_text, len(specs), workers=workers, scheduler=scheduler,
+                                    progress=progress, on_result=on_result, on_start=on_start)
+    return CampaignSummary(out=out, total=len(specs), skipped=len(p.skipped), ok=counts[STATUS_OK],
+                           failed=counts[STATUS_FAILED], lost=lost, wall_s=time.perf_counter() - t0,
+                           keys=tuple(s.key for s in specs))
+
+
+def _compute(p: Plan, out: Path, name: str, text: str, n_scenes: int, *, workers: int | None,
+             scheduler: str | None, progress: bool, on_result: Callable[[SceneResult], None] | None,
+             on_start: Callable[[Plan], None] | None) -> tuple[dict[str, int], int]:
+    """The plan's jobs through :func:`run_tasks`, each finished batch committed; returns the counts of
+    ok / failed scenes and the jobs lost.  A failed commit stops the run: the scenes computed meanwhile
+    go to a rescue file (:func:`compare.store.rescue`) named in the :class:`~compare.store.CommitError`."""
+    from tqdm import tqdm
+
+    counts = {STATUS_OK: 0, STATUS_FAILED: 0}
+    unsaved: list[SceneResult] = []
+    failure: list[store.CommitError] = []
+    run: list[int] = []
+    bars: list[Any] = []
+
+    def ready() -> None:  # the workers are there: now the file is written
+        store.remove_stale_temp_files(out)
+        run.append(store.record_run(out, text, name, n_scenes))
+        if on_start is not None:
+            on_start(p)
+        bars.append(tqdm(total=len(p.jobs), unit="scene", desc=name, disable=not progress, file=sys.stderr,
+                         dynamic_ncols=True, smoothing=0.1))
+        bars[0].set_postfix(ok=0, failed=0, skipped=len(p.skipped))
+
+    def commit(done: list[tuple[Job, SceneResult]]) -> bool:
+        batch = [r for _, r in done]
+        if not failure:
+            try:
+                store.commit(out, batch, run[0])
+            except store.CommitError as exc:  # keep what is computed; stop starting new scenes
+                failure.append(exc)
+        if failure:
+            unsaved.extend(batch)
+        for r in batch:
+            counts[STATUS_OK if r.status == STATUS_OK else STATUS_FAILED] += 1
+            if on_result is not None:
+                on_result(r)
+        bars[0].set_postfix(ok=counts[STATUS_OK], failed=counts[STATUS_FAILED], skipped=len(p.skipped),
+                            refresh=False)
+        bars[0].update(len(batch))
+        return bool(failure)
+
+    try:
+        lost = run_tasks(p.jobs, run_scene, args=_args, workers=workers, scheduler=scheduler, on_result=commit,
+                         crashed=lambda job, exc: _worker_crashed(job.spec, exc), on_ready=ready)
+    finally:
+        for bar in bars:
+            bar.close()
+    if failure:
+        raise _rescued(failure[0], unsaved, out, name, text)
+    return counts, lost
 
 
 def run_campaign(
@@ -480,7 +689,8 @@ def run_campaign(
     on_result: Callable[[SceneResult], None] | None = None,
     on_start: Callable[[Plan], None] | None = None,
 ) -> CampaignSummary:
-    """Run every scene of ``config`` not yet stored in ``out`` and store the results there.
+    """Run every scene of ``config`` not yet stored in ``out`` and store the results there: :func:`run_scenes`
+    on the config's scenes (its name and text recorded in the file).
 
     ``workers``: local worker processes (default: available CPUs; ignored with ``scheduler``).  They are
     spawned and import the caller's main module, so a script must call this under
@@ -488,100 +698,7 @@ def run_campaign(
     ``retry_failed``: recompute stored failed scenes too.  ``progress``: tqdm bar on stderr.
     Raises :class:`compare.store.LockedError` if another campaign is writing ``out``.
     """
-    if getattr(multiprocessing.current_process(), "_inheriting", False):
-        # a spawned worker importing a script that calls this function without a main guard: the
-        # worker cannot start; end it quietly (the parent reports it once, with the fix)
-        os._exit(3)
-    t0 = time.perf_counter()
-    out = store.target(out)
-    store.check_ours(out)
-    scenes = config.scenes()
-    stored = store.stored_solutions(out)
-    p = plan(scenes, store.stored_status(out), retry_failed, stored)
-    check_stored_settings(scenes, stored)
-    if not p.jobs:  # nothing to compute: nothing is written (works on a read-only file system)
-        return CampaignSummary(out=out, total=len(scenes), skipped=len(p.skipped), ok=0, failed=0, lost=0,
-                               wall_s=time.perf_counter() - t0, keys=tuple(s.key for s in scenes))
-    store.check_writable(out)
-    with store.writer_lock(out):
-        return _run_locked(config, out, workers=workers, scheduler=scheduler, retry_failed=retry_failed,
-                           progress=progress, on_result=on_result, on_start=on_start)
-
-
-def _run_locked(config: CampaignConfig, out: Path, *, workers: int | None, scheduler: str | None,
-                retry_failed: bool, progress: bool, on_result: Callable[[SceneResult], None] | None,
-                on_start: Callable[[Plan], None] | None = None) -> CampaignSummary:
-    from tqdm import tqdm
-
-    t0 = time.perf_counter()
-    scenes = config.scenes()
-    stored = store.stored_solutions(out)
-    p = plan(scenes, store.stored_status(out), retry_failed, stored)
-    check_stored_settings(scenes, stored)
-    counts = {STATUS_OK: 0, STATUS_FAILED: 0}
-    lost: list[Job] = []
-    unsaved: list[SceneResult] = []
-    failure: list[store.CommitError] = []
-    if p.jobs:  # nothing to compute: nothing is written
-        # the workers first: an unreachable scheduler, or workers that cannot start, are reported before
-        # anything is written
-        backend: Any = (_DaskBackend(scheduler) if scheduler
-                        else _LocalBackend(min(workers or default_workers(), len(p.jobs))))
-        bar = None
-        try:
-            store.remove_stale_temp_files(out)
-            run = store.record_run(out, config.text, config.name, len(scenes))
-            if on_start is not None:
-                on_start(p)
-            bar = tqdm(total=len(p.jobs), unit="scene", desc=config.name, disable=not progress,
-                       file=sys.stderr, dynamic_ncols=True, smoothing=0.1)
-            bar.set_postfix(ok=0, failed=0, skipped=len(p.skipped))
-
-            def store_batch(batch: list[SceneResult]) -> None:
-                if not failure:
-                    try:
-                        store.commit(out, batch, run)
-                    except store.CommitError as exc:  # keep what is computed; stop starting new scenes
-                        failure.append(exc)
-                        if backend is not None:
-                            backend.cancel()
-                if failure:
-                    unsaved.extend(batch)
-                for r in batch:
-                    counts[STATUS_OK if r.status == STATUS_OK else STATUS_FAILED] += 1
-                    if on_result is not None:
-                        on_result(r)
-                bar.set_postfix(ok=counts[STATUS_OK], failed=counts[STATUS_FAILED], skipped=len(p.skipped),
-                                refresh=False)
-                bar.update(len(batch))
-
-            lost = _drain(backend, backend.submit_all(p.jobs), store_batch)
-            backend.close()
-            backend = None
-            if lost and not scheduler and not failure:  # a worker died: retry in a fresh pool, then one by one
-                backend = _LocalBackend(min(workers or default_workers(), len(lost)))
-                lost = _drain(backend, backend.submit_all(lost), store_batch)
-                backend.close()
-                backend = None
-                if lost:
-                    lost = _isolate(lost, store_batch)
-        except BaseException:  # interrupt, failure: stop the workers now (what is committed stays)
-            if backend is not None:
-                backend.abort()
-            raise
-        finally:
-            if bar is not None:
-                bar.close()
-    if failure:
-        raise _rescued(failure[0], unsaved, out, config)
-    ok, failed = counts[STATUS_OK], counts[STATUS_FAILED]
-    return CampaignSummary(
-        out=out,
-        total=len(scenes),
-        skipped=len(p.skipped),
-        ok=ok,
-        failed=failed,
-        lost=len(lost),
-        wall_s=time.perf_counter() - t0,
-        keys=tuple(s.key for s in scenes),
-    )
+    exit_if_starting_worker()
+    return run_scenes(config.scenes(), out, name=config.name, config_text=config.text, workers=workers,
+                      scheduler=scheduler, retry_failed=retry_failed, progress=progress, on_result=on_result,
+                      on_start=on_start)

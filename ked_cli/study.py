@@ -64,7 +64,9 @@ def study() -> None:
 @click.option("--config", "configs", multiple=True, type=click.Path(dir_okay=False, path_type=Path),
               help="Campaign config(s) [default: the checked-in results/studies/validity_*.toml].")
 @click.option("--retry/--no-retry", default=True, show_default=True,
-              help="Retry Newton failures with 4x the steps per cycle.")
+              help="Retry Newton failures through the Exudyn refinement ladder (more Newton iterations, steps per "
+                   "cycle x2-x8, elements x2; the dynamic solver runs it itself): base scenes below r = 0.8 stored "
+                   "with a Newton failure from a run without the ladder are recomputed with it.")
 @click.option("--refine/--no-refine", default=True, show_default=True,
               help="Rerun the scenes bracketing each crossing at a doubled discretization.")
 @RETRY_FAILED
@@ -92,7 +94,8 @@ def tiers(**common: Any) -> None:
 @study.command("stability")
 @common_options
 @click.option("--ladder/--no-ladder", default=True, show_default=True,
-              help="Search the step a Newton failure needs (x2, x4, x8 steps per cycle).")
+              help="Report the step search of a Newton failure: the attempts of the Exudyn refinement ladder "
+                   "(steps per cycle x2-x8, elements x2; a scene run without the ladder is rerun with it).")
 @RETRY_FAILED
 def stability(ladder: bool, retry_failed: bool, **common: Any) -> None:
     """Numerical stability of the solvers on stiff and extreme scenes."""
@@ -105,7 +108,7 @@ def stability(ladder: bool, retry_failed: bool, **common: Any) -> None:
               help="Linkages in the atlas (the first N accepted of the seeded sample; more resumes and extends).")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Seed of the linkage sample.")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
-              help="Dask scheduler address (e.g. tcp://10.0.0.5:8786) [default: a local cluster of --workers].")
+              help="Dask scheduler address (e.g. tcp://10.0.0.5:8786) [default: --workers local worker processes].")
 @click.option("--confirm", type=click.IntRange(min=0), default=200, show_default=True,
               help="Scenes of the stratified sample confirmed with Exudyn (0: none).")
 @click.option("--threshold", type=click.IntRange(min=0), default=400, show_default=True,

@@ -648,15 +648,6 @@ def _pack(co: Coefficients) -> tuple[np.ndarray, tuple[tuple[int, ...], ...]]:
     return np.concatenate([f.reshape(m, -1) for f in fields], axis=1), tuple(f.shape[1:] for f in fields)
 
 
-def _unpack(flat: np.ndarray, layout: tuple[tuple[int, ...], ...]) -> Coefficients:
-    parts, start = [], 0
-    for shape in layout:
-        size = int(np.prod(shape))
-        parts.append(flat[:, start:start + size].reshape((flat.shape[0],) + shape))
-        start += size
-    return _coefficients(parts)
-
-
 def _field_error(approx: np.ndarray, exact: np.ndarray, layout: tuple[tuple[int, ...], ...]) -> float:
     """max over the fields of max |approx - exact| / max |exact| (NaN if anything is not finite)."""
     err, start = 0.0, 0

@@ -224,9 +224,6 @@ class FourBar:
     def with_direction(self, direction: str) -> FourBar:
         return replace(self, direction=direction)
 
-    def with_sections(self, section: Section) -> FourBar:
-        """Copy with the same section on every link."""
-        return replace(self, sections=(section,) * 4)
 
 
 def direction_sign(direction: str) -> int:

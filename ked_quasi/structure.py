@@ -177,10 +177,6 @@ def geometry(fourbar: FourBar, topo: Topology, crank_angle: np.ndarray, lp: Loop
                     sin_transmission=sin_mu)
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-
-
 def force_transformation(topo: Topology, geo: Geometry) -> np.ndarray:
     """beta: (n_angles, 3 * n_elements, n_dofs), element forces (N, V, M per element) per unit system load.
 

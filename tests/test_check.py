@@ -24,7 +24,7 @@ from compare.check import (
     verdict_margins,
 )
 from compare.config import load_config
-from compare.runner import run_campaign
+from compare.runner import run_scenes
 from ked_cli.main import cli
 from ked_quasi import MassModel, thesis_fourbar
 from ked_quasi.massmodel import default_payload
@@ -43,15 +43,10 @@ def test_a_check_is_the_default_campaigns_scene(mm, rpm):
 
 
 def test_check_reproduces_the_stored_quasi_static_and_linear_numbers(tmp_path):
-    from compare.config import CampaignConfig
-    from compare.studies.validity import ExplicitCampaign
-
     scenes = [_default_scene("tip", 75.0), _default_scene("extender", 150.0)]
     scenes = [replace(s, solvers=("quasi_static", "linear")) for s in scenes]
-    base = load_config(None)
-    cfg = ExplicitCampaign(**{f: getattr(base, f) for f in CampaignConfig.__dataclass_fields__}, explicit=tuple(scenes))
     out = tmp_path / "c.h5"
-    run_campaign(cfg, out, workers=1, progress=False)
+    run_scenes(scenes, out, name="check", workers=1, progress=False)
     stored = {r.key: r for r in store.read_scenes(out)}
     for s in scenes:
         (row,) = check(thesis_fourbar(), "source", s.mass_model, [s.speed.value])
@@ -184,14 +179,9 @@ def test_confirmed_check_reproduces_the_stored_exudyn_numbers(tmp_path):
     """With --confirm a check is the default campaign's scene with all three solvers: the errors it
     reports equal those computed from the histories a campaign stores for that scene (same code path;
     the Exudyn run is deterministic, so the agreement is to rounding)."""
-    from compare.config import CampaignConfig
-    from compare.studies.validity import ExplicitCampaign
-
     scene = _default_scene("extender", 75.0)
-    base = load_config(None)
-    cfg = ExplicitCampaign(**{f: getattr(base, f) for f in CampaignConfig.__dataclass_fields__}, explicit=(scene,))
     out = tmp_path / "c.h5"
-    run_campaign(cfg, out, workers=1, progress=False)
+    run_scenes([scene], out, name="check", workers=1, progress=False)
     (r,) = store.read_scenes(out)
     xy = {n: np.column_stack([r.history(n)["dx"], r.history(n)["dy"]]) for n in ("quasi_static", "linear", "dynamic")}
     (row,) = check(thesis_fourbar(), "source", scene.mass_model, [75.0], confirm=True)

@@ -193,3 +193,27 @@ def test_findings_of_the_committed_study() -> None:
     assert f.converged == status.count("ok") and len(f.failures) == len(status) - status.count("ok")
     assert all(r["check"] == "-" for r in f.failures)
     assert f.defaults["element"] in ("ancf", "ge") and f.workers == 2
+
+
+def test_step_search_of_a_newton_failure_is_the_refinement_ladder() -> None:
+    """``ked study stability --ladder``: a Newton failure from a run without the ladder is rerun with it.
+    The independent reference is a campaign of the same scene with the ladder on (the default): the steps
+    per cycle found and the rungs tried (with their outcomes) must be those it stores."""
+    import re
+
+    from compare.studies.stability import ladder_search
+
+    text = ("[campaign]\nstep_deg = 30.0\nn_modes = 1\n[grid]\nmass_models = ['tip']\n"
+            "speed_ratios = [0.3]\n[dynamic]\nelements_per_link = 1\nsteps_per_cycle = 90\n")
+    failed = run_scene(_scene(text + "refine = false\n"))
+    assert failed.error_type == "SimulationError"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        steps, log = ladder_search(failed)
+    reference = run_scene(_scene(text))
+    assert reference.ok and steps == reference.stat("dynamic", "solved_steps_per_cycle")
+
+    def rungs(attempts: str) -> str:  # wall times differ from run to run
+        return re.sub(r", \d+\.\d s", "", attempts)
+
+    assert rungs(log) == rungs(reference.stat("dynamic", "attempts")) and log.startswith("requested")

@@ -185,5 +185,5 @@ def family(linkage: Linkage, mechanism: str, mm: MassModel, ratios: tuple[float,
 
 
 def compute_linkage(linkage: Linkage, ratios: tuple[float, ...] = RATIOS) -> tuple[FamilyRecord, ...]:
-    """Every family of one linkage (the Dask task)."""
+    """Every family of one linkage (the atlas's task, on a worker: :func:`compare.atlas.run.run_records`)."""
     return tuple(family(linkage, mech, mm, ratios) for mech in linkage.mechanisms for mm in linkage.mass_models)

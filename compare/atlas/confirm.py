@@ -103,7 +103,7 @@ def _family_points(families: dict[str, np.ndarray], i: int, r_max: float) -> lis
 
 
 def confirm_scene(linkage: Linkage, point: ConfirmPoint) -> ConfirmRecord:
-    """Quasi-static, linear and Exudyn on one scene (the Dask task)."""
+    """Quasi-static, linear and Exudyn on one scene (on a worker)."""
     mm = next(m for m in linkage.mass_models if m.name == point.mass_model)
     spec = spec_of(linkage, point.mechanism, mm, point.r)
     base = dict(key=point.key, **{k: v for k, v in asdict(point).items()})
@@ -165,16 +165,15 @@ def run_confirm(path: Path, *, n: int = 200, seed: int = 0, workers: int = 2, sc
 
 def _confirm(path: Path, todo: list[ConfirmPoint], seed: int, *, workers: int, scheduler: str | None,
              progress: bool) -> None:
-    from compare.atlas.run import client, drain
+    from compare.atlas.run import run_records
 
     info = atlas_store.attrs(path)
     meta = {k: info[k] for k in ("seed", "ratios", "ranges", "settings")}
     links = {p.linkage: candidate(seed, p.linkage) for p in todo}
-    with client(workers, scheduler) as c:
-        futures = {c.submit(confirm_scene, links[p.linkage], p, pure=False): p for p in todo}
-        drain(c, futures, lambda recs: atlas_store.write(path, meta, appends={"confirm": confirm_columns(recs)}),
-              lambda p, exc: [failed_confirm(p, f"task failed: {type(exc).__name__}: {exc}")],
-              progress=progress, label="confirm")
+    run_records(todo, confirm_scene,
+                lambda recs: atlas_store.write(path, meta, appends={"confirm": confirm_columns(recs)}),
+                lambda p, reason: [failed_confirm(p, reason)], args=lambda p: (links[p.linkage], p), workers=workers,
+                scheduler=scheduler, progress=progress, label="confirm")
 
 
 def failed_confirm(p: ConfirmPoint, reason: str) -> ConfirmRecord:

@@ -1,17 +1,14 @@
-"""Run (resume) the atlas: one Dask task per linkage, compact records committed atomically in batches.
+"""Run (resume) the atlas: one task per linkage on the harness's executor, compact records committed in batches.
 
-The cluster is a real ``distributed.LocalCluster`` (``workers`` processes, one thread each) unless
-``scheduler`` gives the address of a running one (checked first with
-:func:`compare.runner.probe_scheduler`).  Only this process writes the atlas file; a linkage whose
-families are stored is skipped, so rerunning resumes.
+The tasks run on :func:`compare.runner.run_tasks`: ``workers`` local processes, or the Dask cluster
+at ``scheduler`` (checked first with :func:`compare.runner.probe_scheduler`).  Only this process
+writes the atlas file; a linkage whose families are stored is skipped, so rerunning resumes.
 """
 
 from __future__ import annotations
 
 import time
-import uuid
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -88,9 +85,8 @@ def family_columns(records: Sequence[FamilyRecord]) -> dict[str, list[Any]]:
     return cols
 
 
-def crashed(linkage: Linkage, exc: BaseException, ratios: Sequence[float]) -> tuple[FamilyRecord, ...]:
+def crashed(linkage: Linkage, reason: str, ratios: Sequence[float]) -> tuple[FamilyRecord, ...]:
     """Records of a linkage whose task died (worker killed, ...): every family failed with the reason."""
-    reason = f"task failed: {type(exc).__name__}: {exc}"
     return tuple(failed_record(linkage.index, mech, mm, reason, len(ratios))
                  for mech in linkage.mechanisms for mm in linkage.mass_models)
 
@@ -103,47 +99,34 @@ def stored_linkages(path: Path) -> set[int]:
     return {int(i) for i in fam.get("linkage", [])}
 
 
-@contextmanager
-def client(workers: int, scheduler: str | None) -> Iterator[Any]:
-    """A Dask client: to ``scheduler`` (probed first) or to a fresh LocalCluster of ``workers`` processes."""
-    from distributed import Client, LocalCluster
-
-    if scheduler:
-        from compare.runner import probe_scheduler
-
-        probe_scheduler(scheduler)
-        with Client(scheduler, set_as_default=False, timeout=10) as c:
-            yield c
-        return
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                      silence_logs=40) as cluster, Client(cluster, set_as_default=False) as c:
-        yield c
-
-
-def drain(c: Any, futures: dict[Any, Any], commit: Callable[[list[Any]], None],
-          on_crash: Callable[[Any, BaseException], Sequence[Any]], *, progress: bool = False,
-          label: str = "atlas") -> None:
-    """Collect the tasks' records as they complete and commit them at most every :data:`COMMIT_EVERY_S`
-    (and at the end); a task that died is recorded by ``on_crash(item, exception)``."""
+def run_records(tasks: Sequence[Any], fn: Callable[..., Any], commit: Callable[[list[Any]], None],
+                crashed: Callable[[Any, str], Sequence[Any]], *, workers: int, scheduler: str | None,
+                args: Callable[[Any], tuple[Any, ...]] = lambda task: (task,), progress: bool = False,
+                label: str = "atlas") -> None:
+    """``fn(*args(task))`` for every task on :func:`compare.runner.run_tasks`; the records (a task returns one
+    or a tuple) are committed at most every :data:`COMMIT_EVERY_S` and at the end; a task that died is
+    recorded by ``crashed(task, reason)``."""
     import sys
 
-    from distributed import as_completed
     from tqdm import tqdm
 
+    from compare.runner import crash_reason, run_tasks
+
     pending: list[Any] = []
-    last = time.monotonic()
-    with tqdm(total=len(futures), disable=not progress, file=sys.stderr, desc=label) as bar:
-        for batch in as_completed(list(futures), loop=c.loop).batches():
-            for fut in batch:
-                try:
-                    res = fut.result()
-                    pending.extend(res if isinstance(res, tuple) else [res])
-                except Exception as exc:  # the task died outside the worker function (KilledWorker, ...)
-                    pending.extend(on_crash(futures[fut], exc))
-            bar.update(len(batch))
-            if pending and time.monotonic() - last >= COMMIT_EVERY_S:
-                commit(pending)
-                pending, last = [], time.monotonic()
+    last = [time.monotonic()]
+
+    def on_result(batch: list[tuple[Any, Any]]) -> None:
+        for _, res in batch:
+            pending.extend(res if isinstance(res, (tuple, list)) else [res])
+        bar.update(len(batch))
+        if pending and time.monotonic() - last[0] >= COMMIT_EVERY_S:
+            commit(pending[:])
+            pending.clear()
+            last[0] = time.monotonic()
+
+    with tqdm(total=len(tasks), disable=not progress, file=sys.stderr, desc=label) as bar:
+        run_tasks(tasks, fn, args=args, workers=workers, scheduler=scheduler, on_result=on_result,
+                  crashed=lambda task, exc: tuple(crashed(task, f"task failed: {crash_reason(exc)}")))
     if pending:
         commit(pending)
 
@@ -152,6 +135,9 @@ def run_atlas(path: Path, *, linkages: int = 1000, seed: int = 0, workers: int =
               ratios: Sequence[float] = RATIOS, progress: bool = False,
               echo: Callable[[str], Any] = print) -> RunSummary:
     """Compute every linkage of ``generate(linkages, seed)`` not yet stored in ``path`` (see module docstring)."""
+    from compare.runner import exit_if_starting_worker
+
+    exit_if_starting_worker()  # a worker importing a script without a main guard writes nothing
     t0 = time.perf_counter()
     path = store.target(path)
     info = meta(seed, ratios)
@@ -180,9 +166,8 @@ def _compute(path: Path, todo: list[Linkage], info: dict[str, Any], *, workers: 
     where = f"the scheduler {scheduler}" if scheduler else f"{workers} local workers"
     echo(f"atlas: {len(todo)} linkage(s) to compute on {where}")
     t0 = time.perf_counter()
-    with client(workers, scheduler) as c:
-        futures = {c.submit(compute_linkage, lk, ratios, key=f"ked-atlas-{lk.index}-{uuid.uuid4().hex[:8]}",
-                            pure=False): lk for lk in todo}
-        drain(c, futures, lambda recs: atlas_store.write(path, info, appends={"families": family_columns(recs)}),
-              lambda lk, exc: crashed(lk, exc, ratios), progress=progress)
+    run_records(todo, compute_linkage,
+                lambda recs: atlas_store.write(path, info, appends={"families": family_columns(recs)}),
+                lambda lk, reason: crashed(lk, reason, ratios), args=lambda lk: (lk, ratios), workers=workers,
+                scheduler=scheduler, progress=progress)
     echo(f"atlas: computed {len(todo)} linkage(s) in {time.perf_counter() - t0:.0f} s")

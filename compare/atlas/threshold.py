@@ -26,7 +26,7 @@ from compare import store
 from compare.atlas import store as atlas_store
 from compare.atlas.confirm import ConfirmPoint, confirm_columns, confirm_scene, failed_confirm
 from compare.atlas.generate import candidate
-from compare.atlas.run import client, drain
+from compare.atlas.run import run_records
 from ked_quasi.massmodel import MASS_MODELS
 
 BAND = 0.25
@@ -76,11 +76,10 @@ def run_threshold(path: Path, *, n: int = DEFAULT_THRESHOLD, seed: int = 0, work
         meta = {k: info[k] for k in ("seed", "ratios", "ranges", "settings")}
         links = {p.linkage: candidate(seed, p.linkage) for p in todo}
         with store.writer_lock(path):
-            with client(workers, scheduler) as c:
-                futures = {c.submit(confirm_scene, links[p.linkage], p, pure=False): p for p in todo}
-                drain(c, futures, lambda recs: atlas_store.write(path, meta, appends={TABLE: confirm_columns(recs)}),
-                      lambda p, exc: [failed_confirm(p, f"task failed: {type(exc).__name__}: {exc}")],
-                      progress=progress, label="threshold")
+            run_records(todo, confirm_scene,
+                        lambda recs: atlas_store.write(path, meta, appends={TABLE: confirm_columns(recs)}),
+                        lambda p, reason: [failed_confirm(p, reason)], args=lambda p: (links[p.linkage], p),
+                        workers=workers, scheduler=scheduler, progress=progress, label="threshold")
             atlas_store.compact(path)
         echo(f"atlas: confirmed {len(todo)} threshold scene(s) in {time.perf_counter() - t0:.0f} s")
     return {"sample": len(points), "computed": len(todo), "skipped": len(points) - len(todo)}

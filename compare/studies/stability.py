@@ -6,8 +6,10 @@ it is stored with status "failed", its stage, exception type and message. Then, 
 what the quasi-static solver reports (peak, condition number, flagged near-toggle angles, distance of
 the transmission angle from a toggle) and what the dynamic one did (converged?, cycles, Newton
 iterations, steps, wall time, error), checks every converged result, and for a Newton failure
-(SimulationError) searches the step needed for stability (steps per cycle doubled up to 8x). The
-table goes to ``/study/cases`` and to the ``stability`` section of ``results/README.md``.
+(SimulationError) reports the step search of the Exudyn refinement ladder (``exudyn_models.refine``:
+more Newton iterations, steps per cycle x2-x8, elements x2; the attempts the campaign's run made, or a
+rerun with the ladder on if the scene ran without it). The table goes to ``/study/cases`` and to the
+``stability`` section of ``results/README.md``.
 """
 
 from __future__ import annotations
@@ -39,9 +41,6 @@ CONFIG_DIR = RESULTS / "studies" / "stability"
 OUT = RESULTS / "studies" / "stability.h5"
 README = RESULTS / "README.md"
 SECTION = "stability"
-LADDER = (2, 4, 8)
-LADDER_MAX_CYCLES = 12
-LADDER_MAX_STEPS = 11520
 
 
 @dataclass(frozen=True)
@@ -119,31 +118,21 @@ def is_default(r: SceneResult) -> bool:
     return all(stored.get(k) == v for k, v in d.items() if k != "damping_ratio")
 
 
-def step_ladder(r: SceneResult) -> tuple[int, str]:
-    """For a Newton failure: rerun with steps per cycle x2, x4, x8 (at most LADDER_MAX_STEPS, at most
-    LADDER_MAX_CYCLES cycles); returns (first steps per cycle that ran through, or -1; log text)."""
+def ladder_search(r: SceneResult) -> tuple[int, str]:
+    """For a Newton failure: the refinement ladder's search for settings that run through.  A scene
+    whose run used the ladder failed on every rung: (-1, what was tried, from the stored message); one
+    that ran without it is rerun with the ladder on.  Returns (steps per cycle of the first attempt that
+    ran through, or -1; the attempts, one line)."""
+    from compare.solvers.dynamic import attempts_text
     from exudyn_models import SimulationError, simulate_steady_state
 
-    base = build_settings(r.spec)
-    scene = ked_scene(r)
-    log = []
-    for factor in LADDER:
-        n = base.steps_per_cycle * factor
-        if n > LADDER_MAX_STEPS:
-            break
-        settings = replace(base, steps_per_cycle=n, max_cycles=min(base.max_cycles, LADDER_MAX_CYCLES),
-                           min_cycles=min(base.min_cycles, LADDER_MAX_CYCLES))
-        t0 = time.perf_counter()
-        try:
-            res = simulate_steady_state(scene, settings)
-        except SimulationError as exc:
-            log.append(f"{n}: SimulationError ({time.perf_counter() - t0:.1f} s)")
-            del exc
-            continue
-        log.append(f"{n}: ran through, {'steady' if res.converged else 'not steady'} after {res.cycles} cycles "
-                   f"({time.perf_counter() - t0:.1f} s)")
-        return n, "; ".join(log)
-    return -1, "; ".join(log)
+    if r.dynamic_settings.get("refine") is True:
+        return -1, r.message.split("Tried: ", 1)[1] if "Tried: " in r.message else ""
+    try:
+        res = simulate_steady_state(ked_scene(r), replace(build_settings(r.spec), refine=True))
+    except SimulationError as exc:
+        return -1, attempts_text(exc.attempts)
+    return int((res.solved_settings or res.settings).steps_per_cycle), attempts_text(res.attempts)
 
 
 def refused_row(config: str, message: str) -> CaseRow:
@@ -188,7 +177,7 @@ def case_rows(results: Sequence[SceneResult], cases: dict[str, tuple[str, str]],
         if ladder and r.error_type == "SimulationError":
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                stable, log = step_ladder(r)
+                stable, log = ladder_search(r)
         elif r.stat("dynamic", "cycles", -1) >= 0 and r.error_type != "SimulationError":
             stable = int(r.dynamic_settings.get("steps_per_cycle", -1))
         rows.append(CaseRow(

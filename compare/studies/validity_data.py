@@ -22,9 +22,11 @@ from compare.scenes import SceneSpec, canonical_json
 from ked_quasi.solver import solve_quasi_static
 
 RETRY_STEP_FACTOR = 4
-"""Newton failures are retried once with this many times the steps per cycle ..."""
+"""Earlier versions of the study retried a Newton failure once as a scene with this many times the steps
+per cycle (such *retry* scenes are in the stored files) ..."""
 RETRY_MAX_RATIO = 0.8
-"""... if their speed ratio is below this."""
+"""... if its speed ratio was below this (Newton failures below it are now retried through the refinement
+ladder, see :func:`compare.studies.validity.ladder_retries`)."""
 
 
 @dataclass(frozen=True, eq=False)

@@ -95,13 +95,6 @@ class FamilySummary:
         """|r_cross(refined) - r_cross(base)| [1] (nan if not measured)."""
         return abs(self.refined_cross.get((kind, tol), math.nan) - self.limits[(kind, tol)].r_cross)
 
-    def uncertainty(self, kind: str, tol: float) -> float:
-        """Combined uncertainty of the crossing ratio: half the bracketing grid interval plus the
-        discretization shift (when measured) [1]."""
-        lim = self.limits[(kind, tol)]
-        shift = self.discretization_shift(kind, tol)
-        return lim.half_bracket + (shift if math.isfinite(shift) else 0.0)
-
 
 def _slot(base: Point | None, retry: Point | None) -> Slot:
     if base is not None and base.ok:
