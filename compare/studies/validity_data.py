@@ -139,12 +139,8 @@ def read_points(path: str | Path, linkage: str | None = None, refined: bool = Fa
 
 
 def run_starts(path: str | Path) -> list[str]:
-    """ISO-8601 start times of every ``ked run`` recorded in a campaign file (``/runs/*``)."""
-    import h5py
-
-    with h5py.File(path, "r") as f:
-        runs = f.get("runs")
-        return [] if runs is None else [str(g.attrs["started_utc"]) for g in runs.values()]
+    """ISO-8601 start times of every ``ked run`` recorded in a campaign file (``/runs``)."""
+    return [str(r["started_utc"]) for r in store.run_records(path)]
 
 
 def linkage_json(spec: SceneSpec) -> str:
