@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import datetime as _dt
+import io
 import os
 import platform
 import shutil
@@ -142,16 +143,19 @@ def transaction(path: str | Path, repack: bool = False) -> Iterator[h5py.File]:
     """Open a private copy of ``path`` for writing; on success atomically replace ``path`` by it (its
     permissions kept; a symbolic link's target is replaced, the link stays).
 
-    On any exception (or kill) the results file is untouched and the copy is removed (or left as a
-    stale temp file that nothing reads).  Failures of the file system (full disk, permissions, an
-    immutable file) raise :class:`CommitError`.  ``repack``: the copy is rewritten compactly before it
-    replaces the file (HDF5 does not give back the space of deleted objects; the campaign tables are
-    rewritten by every commit), as is any copy whose free space grew large.
+    The copy is built in memory (HDF5 never writes to the disk here: it can crash on a disk that fills
+    while it flushes) and written to a temporary file beside ``path`` by Python, fsynced and renamed.
+    On any exception (or kill) the results file is untouched and the temporary file removed (or left as
+    a stale temp file that nothing reads).  Failures of the file system (full disk, permissions, an
+    immutable file) raise :class:`CommitError`.  ``repack``: the copy is rewritten compactly (HDF5 does
+    not give back the space of deleted objects; the campaign tables are rewritten by every commit), as
+    is any copy whose free space grew large.
     """
     path = target(path)
     tmp = _tmp_beside(path)
     try:
-        f = _open_copy(path, tmp)
+        buf = _memory_copy(path)
+        f = _open_memory(buf, new=not path.exists())
         try:
             yield f
         except BaseException:
@@ -161,11 +165,12 @@ def transaction(path: str | Path, repack: bool = False) -> Iterator[h5py.File]:
             f.flush()
             fragmented = _fragmented(f)
             f.close()
-            if repack or fragmented:
-                _repack(tmp)
-        except (OSError, RuntimeError) as exc:  # HDF5 reports a full disk as either
+            image = _repacked(buf.getvalue()) if repack or fragmented else buf.getvalue()
+        except Exception as exc:  # a damaged file shows when HDF5 rewrites its metadata, as any error
             _close_quietly(f)
-            raise CommitError(f"{path}: cannot be written ({_short(exc)}; is the disk full?)") from exc
+            raise CommitError(f"{path}: cannot be written ({type(exc).__name__}: {_short(exc)}); is the file "
+                              f"damaged (`ked inspect {path} --verify`)?") from exc
+        _write_image(image, tmp, path)
         _install(tmp, path)
     finally:
         _discard(tmp)
@@ -184,16 +189,52 @@ def _fragmented(f: h5py.File) -> bool:
     return free > max(64 * 1024, REPACK_SHARE * size)
 
 
+def _memory_copy(path: Path) -> io.BytesIO:
+    """The bytes of ``path`` (empty for a new file) in memory."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return io.BytesIO(path.read_bytes() if path.exists() else b"")
+    except OSError as exc:
+        raise CommitError(f"{path}: cannot be written ({exc.strerror or _short(exc)})") from exc
+
+
+def _open_memory(buf: io.BytesIO, new: bool) -> h5py.File:
+    if new:
+        return h5py.File(buf, "w", libver=LIBVER, fs_strategy="fsm", fs_persist=True)
+    return h5py.File(buf, "r+", libver=LIBVER)
+
+
+def _repacked(image: bytes) -> bytes:
+    """An HDF5 file image rewritten without free space: every object copied into a new file."""
+    out = io.BytesIO()
+    with h5py.File(io.BytesIO(image), "r") as old, _open_memory(out, new=True) as new:
+        for k, v in old.attrs.items():
+            new.attrs[k] = v
+        for name in old:
+            old.copy(old[name], new, name)
+    return out.getvalue()
+
+
+def _write_image(image: bytes, tmp: Path, path: Path) -> None:
+    """The finished file image written to ``tmp`` (``path``'s permissions), synced; a full disk or any
+    other failure is a :class:`CommitError` and ``tmp`` is removed."""
+    try:
+        with open(tmp, "wb") as fh:
+            fh.write(image)
+            fh.flush()
+            os.fsync(fh.fileno())
+        if path.exists():
+            shutil.copymode(path, tmp)
+    except OSError as exc:
+        _discard(tmp)
+        raise CommitError(f"{path}: cannot be written ({exc.strerror or _short(exc)}; is the disk full?)") from exc
+
+
 def _repack(path: Path) -> None:
-    """Rewrite ``path`` (a private copy) without free space: every object copied into a new file that
-    replaces it."""
+    """Rewrite the file ``path`` compactly (in memory, then written beside it and renamed onto it)."""
     fresh = path.with_name(path.name + ".repack")
     try:
-        with h5py.File(path, "r") as old, create(fresh) as new:
-            for k, v in old.attrs.items():
-                new.attrs[k] = v
-            for name in old:
-                old.copy(old[name], new, name)
+        _write_image(_repacked(path.read_bytes()), fresh, path)
         os.replace(fresh, path)
     finally:
         _discard(fresh)
@@ -238,19 +279,6 @@ def _hdf5_errors(path: Path) -> Iterator[None]:
     except Exception as exc:
         raise CommitError(f"{path}: cannot be written ({type(exc).__name__}: {_short(exc)}); is the disk full, "
                           f"or the file damaged (`ked inspect {path} --verify`)?") from exc
-
-
-def _open_copy(path: Path, tmp: Path) -> h5py.File:
-    """A writable HDF5 file at ``tmp``: a copy of ``path`` (mode kept) or a new file."""
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        if path.exists():
-            shutil.copyfile(path, tmp)
-            shutil.copymode(path, tmp)
-            return h5py.File(tmp, "a", libver=LIBVER)
-        return create(tmp)
-    except (OSError, RuntimeError) as exc:
-        raise CommitError(f"{path}: cannot be written ({getattr(exc, 'strerror', None) or _short(exc)})") from exc
 
 
 def create(path: Path) -> h5py.File:
@@ -745,9 +773,11 @@ def upgrade(path: str | Path) -> bool:
     tmp = _tmp_beside(path)
     try:
         try:
-            with _open(path) as old, create(tmp) as new:
+            buf = io.BytesIO()  # built in memory: HDF5 never writes to a disk that may fill
+            with _open(path) as old, _open_memory(buf, new=True) as new:
                 _write_upgraded(old, new, scenes)
-            with _open(path) as old, h5py.File(tmp, "r") as new:
+            image = buf.getvalue()
+            with _open(path) as old, h5py.File(io.BytesIO(image), "r") as new:
                 problems = _compare_upgraded(old, new, version)
         except (OSError, RuntimeError) as exc:
             raise CommitError(f"{path}: cannot be upgraded to schema version {SCHEMA_VERSION} "
@@ -760,7 +790,8 @@ def upgrade(path: str | Path) -> bool:
             raise StoreError(f"{path}: upgrade to schema version {SCHEMA_VERSION} would not keep every stored "
                              f"number ({problems[0]}{f' and {len(problems) - 1} more' if len(problems) > 1 else ''}"
                              "); the file is unchanged")
-        _install(tmp, path, copy_mode=True)
+        _write_image(image, tmp, path)
+        _install(tmp, path)
     finally:
         _discard(tmp)
     return True

@@ -299,6 +299,38 @@ def test_failed_commit_on_damaged_file_is_a_commit_error_naming_the_file(current
     assert not list(tmp_path.glob("damaged.h5.tmp-*"))
 
 
+def test_ked_run_on_a_file_with_flipped_bytes_loses_nothing(current, tmp_path):
+    """Damage that `ked inspect` tolerates, then `ked run` with one more scene, through the command line:
+    the run either stores the new scene (the commit's in-memory rewrite carries the file over) or ends with
+    one line naming the file, the file unchanged, and the computed scene in the rescue file the line names;
+    never a traceback.  (Before: an h5py OSError in the commit, no rescue file, a message without the file.)"""
+    data = current.read_bytes()
+    cfg = config(tmp_path, "more", rpm=[60.0, 90.0, 77.0])
+    tried = 0
+    for off in range(64, len(data) - 4, 509):
+        f = tmp_path / f"flipped{off}.h5"
+        f.write_bytes(data[:off] + bytes(b ^ 0xFF for b in data[off:off + 4]) + data[off + 4:])
+        if ked("inspect", str(f)).returncode != 0:  # damage the reader reports is not this case
+            f.unlink()
+            continue
+        before = f.read_bytes()
+        res = run(cfg, f)
+        assert "Traceback" not in res.stdout + res.stderr, res.stderr
+        if res.returncode == 0:
+            assert len(store.read_scenes(f)) == 3 and store.verify(f) == []
+        else:
+            line = res.stderr.strip().splitlines()[-1]
+            assert res.returncode == 1 and line.startswith("ked: ") and str(f) in line, res.stderr
+            assert f.read_bytes() == before
+            if "are kept in " in line:  # computed, then the commit failed: the scene is in the rescue file
+                rescue = Path(line.split("are kept in ")[1].split(";")[0])
+                assert [r.spec.speed.value for r in store.read_scenes(rescue)] == [77.0]
+        tried += 1
+        if tried == 4:
+            break
+    assert tried == 4
+
+
 # -- compact files ------------------------------------------------------------------------------------------
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"
