@@ -1,6 +1,7 @@
-"""One scene group of a results file <-> a :class:`~compare.results.SceneResult` (layout in
-``docs/hdf5_schema.md``).  Schema version 2 writes one group per solver under ``solutions/`` and one
-per solver pair under ``metrics/``; version 1 files (quasi-static and Exudyn only) are read too.
+"""The scenes of a results file <-> :class:`~compare.results.SceneResult` (layout in
+``docs/hdf5_schema.md``).  Schema version 4 (written): per-file tables of scenes, solutions and metrics
+(:mod:`compare.tables`) and one group of arrays per scene (:class:`TableFile` reads it); versions 1-3
+(one group per scene holding everything) are read by :func:`read_scene` for the upgrade.
 
 Metrics are stored for readers without the harness; the harness itself recomputes them from the
 stored histories when it reads a scene (:func:`compare.metrics.all_pairs`), so there is one
@@ -36,39 +37,13 @@ def text(v: Any) -> str:
     return v.decode("utf-8") if isinstance(v, bytes) else str(v)
 
 
-def flag(b: bool) -> np.uint8:
-    return np.uint8(1 if b else 0)
-
-
 def complete(g: h5py.Group) -> bool:
     return isinstance(g, h5py.Group) and int(g.attrs.get("complete", 0)) == 1
 
 
-MAX_COMPACT_ATTRIBUTES = 64
-"""Groups keep up to this many attributes in their object header (HDF5's default of 8 moves more into
-a separately allocated dense store of about 1.5 kB per group)."""
-
-
-def _compact_attributes(kind: Any) -> Any:
-    plist = h5py.h5p.create(kind)
-    plist.set_attr_phase_change(MAX_COMPACT_ATTRIBUTES, MAX_COMPACT_ATTRIBUTES - 2)
-    return plist
-
-
-def new_group(parent: h5py.Group, name: str) -> h5py.Group:
-    """A new group whose attributes stay compact (see :data:`MAX_COMPACT_ATTRIBUTES`)."""
-    return h5py.Group(h5py.h5g.create(parent.id, name.encode("utf-8"),
-                                      gcpl=_compact_attributes(h5py.h5p.GROUP_CREATE)))
-
-
-def _dataset(g: h5py.Group, name: str, data: np.ndarray, units: str, description: str) -> None:
-    ds = g.create_dataset(name, data=np.asarray(data, dtype=np.float64))
-    ds.attrs["units"] = units
-    ds.attrs["description"] = description
-
-
-# The metrics table (schema version 3): one row per (solver pair, component) in one compound dataset
-# ``metrics`` per scene.  name, HDF5 type, units ("row" = the row's ``units`` column), description.
+# The metric columns: one row per (solver pair, component); version 4 in ``/metric_table`` (with the scene's
+# key), version 3 in one compound dataset ``metrics`` per scene.  name, version-3 HDF5 type, units ("row" =
+# the row's ``units`` column), description.
 METRIC_FIELDS: tuple[tuple[str, str, str, str], ...] = (
     ("solver", "S32", "", "solver measured"),
     ("reference", "S32", "", "reference solver (the higher fidelity)"),
@@ -90,7 +65,6 @@ METRIC_FIELDS: tuple[tuple[str, str, str, str], ...] = (
     ("speed_ratio", "f8", "1", "omega / omega1_min"),
     ("tolerance", "f8", "1", "campaign tolerance of the verdict"),
 )
-METRIC_DTYPE = np.dtype([(name, kind) for name, kind, _, _ in METRIC_FIELDS])
 _ROW_KEY = ("solver", "reference", "component")
 MetricRows = dict[tuple[str, str, str], dict[str, Any]]
 """(solver, reference, component) -> field -> value: the stored metric numbers of a scene."""
@@ -458,7 +432,6 @@ RUN_COLUMNS: dict[str, tuple[str, str]] = {
 _CARRIED = "carried over verbatim from an older layout of the file"
 _INT = ("run", "mass_lumps", "n_modes", "fidelity", "n_scenes")
 _FLAG = ("complete", "holds", "pair_holds")
-_TEXT_LIKE_UNITS = ("",)
 
 
 def _kinds(columns: dict[str, tuple[str, str]], stored: dict[str, str]) -> dict[str, str]:
@@ -469,7 +442,7 @@ def _kinds(columns: dict[str, tuple[str, str]], stored: dict[str, str]) -> dict[
             out[name] = "int"
         elif name in _FLAG:
             out[name] = "flag"
-        elif units not in _TEXT_LIKE_UNITS:
+        elif units:
             out[name] = "float"
     return out
 

@@ -281,12 +281,6 @@ def _hdf5_errors(path: Path) -> Iterator[None]:
                           f"or the file damaged (`ked inspect {path} --verify`)?") from exc
 
 
-def create(path: Path) -> h5py.File:
-    """A new, empty HDF5 file in the harness's format (free space tracked across sessions, so space of
-    replaced scenes is reused)."""
-    return h5py.File(path, "w", libver=LIBVER, fs_strategy="fsm", fs_persist=True)
-
-
 def _close_quietly(f: h5py.File) -> None:
     try:
         f.close()
