@@ -1,6 +1,7 @@
-"""One scene group of a results file <-> a :class:`~compare.results.SceneResult` (layout in
-``docs/hdf5_schema.md``).  Schema version 2 writes one group per solver under ``solutions/`` and one
-per solver pair under ``metrics/``; version 1 files (quasi-static and Exudyn only) are read too.
+"""The scenes of a results file <-> :class:`~compare.results.SceneResult` (layout in
+``docs/hdf5_schema.md``).  Schema version 4 (written): per-file tables of scenes, solutions and metrics
+(:mod:`compare.tables`) and one group of arrays per scene (:class:`TableFile` reads it); versions 1-3
+(one group per scene holding everything) are read by :func:`read_scene` for the upgrade.
 
 Metrics are stored for readers without the harness; the harness itself recomputes them from the
 stored histories when it reads a scene (:func:`compare.metrics.all_pairs`), so there is one
@@ -36,98 +37,13 @@ def text(v: Any) -> str:
     return v.decode("utf-8") if isinstance(v, bytes) else str(v)
 
 
-def flag(b: bool) -> np.uint8:
-    return np.uint8(1 if b else 0)
-
-
 def complete(g: h5py.Group) -> bool:
     return isinstance(g, h5py.Group) and int(g.attrs.get("complete", 0)) == 1
 
 
-MAX_COMPACT_ATTRIBUTES = 64
-"""Groups keep up to this many attributes in their object header (HDF5's default of 8 moves more into
-a separately allocated dense store of about 1.5 kB per group)."""
-
-
-def _compact_attributes(kind: Any) -> Any:
-    plist = h5py.h5p.create(kind)
-    plist.set_attr_phase_change(MAX_COMPACT_ATTRIBUTES, MAX_COMPACT_ATTRIBUTES - 2)
-    return plist
-
-
-def new_group(parent: h5py.Group, name: str) -> h5py.Group:
-    """A new group whose attributes stay compact (see :data:`MAX_COMPACT_ATTRIBUTES`)."""
-    return h5py.Group(h5py.h5g.create(parent.id, name.encode("utf-8"),
-                                      gcpl=_compact_attributes(h5py.h5p.GROUP_CREATE)))
-
-
-def _dataset(g: h5py.Group, name: str, data: np.ndarray, units: str, description: str) -> None:
-    ds = g.create_dataset(name, data=np.asarray(data, dtype=np.float64))
-    ds.attrs["units"] = units
-    ds.attrs["description"] = description
-
-
-# -- writing --------------------------------------------------------------------------------------
-
-
-def write_parameters(g: h5py.Group, spec: SceneSpec) -> None:
-    """``parameters/``: the JSON the key is hashed from, plus readable attributes with units."""
-    a = g.attrs
-    a["json"] = canonical_json(spec.to_dict())
-    a["label"] = spec.label
-    a["mechanism"] = spec.mechanism
-    mm = spec.mass_model
-    a["mass_model"], a["mass_lumps"], a["payload_kg"] = mm.name, mm.lumps, mm.payload
-    a["joint_split"], a["lump_placement"] = mm.joint_split, mm.placement
-    a["speed_kind"] = spec.speed.kind
-    a["speed_rpm" if spec.speed.kind == "rpm" else "speed_ratio_requested"] = spec.speed.value
-    for name in ("stiffness_scale", "damping_ratio", "direction", "step_deg", "n_modes", "tolerance"):
-        a[name] = getattr(spec, name)
-    a["outputs"] = ",".join(spec.outputs)
-    a["solvers"] = ",".join(spec.solvers)
-    lk = spec.linkage
-    a["kind"] = spec.kind
-    if spec.kind != "four-bar":  # a slider-crank
-        for name in ("crank", "coupler", "offset"):
-            a[f"{name}_m"] = getattr(lk, name)
-        a["coupler_point"], a["slider_mass_kg"] = lk.coupler_point, lk.slider_mass
-        a["links"] = ",".join(("crank", "coupler"))
-        a["rigid"] = ",".join(str(r).lower() for r in lk.rigid)
-        for field, attr in (("youngs_modulus", "youngs_modulus_Pa"), ("area", "area_m2"),
-                            ("second_moment", "second_moment_m4"), ("density", "density_kg_m3")):
-            a[attr] = np.array([getattr(s, field) for s in lk.sections])
-        return
-    for name in ("crank", "coupler", "follower", "extender"):
-        a[f"{name}_m"] = getattr(lk, name)
-    a["coupler_angle_rad"] = lk.coupler_angle
-    a["crank_pivot_m"] = np.asarray(lk.crank_pivot, dtype=np.float64)
-    a["follower_pivot_m"] = np.asarray(lk.follower_pivot, dtype=np.float64)
-    a["branch"] = lk.branch
-    a["links"] = ",".join(LINKS)
-    for field, attr in (("youngs_modulus", "youngs_modulus_Pa"), ("area", "area_m2"),
-                        ("second_moment", "second_moment_m4"), ("density", "density_kg_m3")):
-        a[attr] = np.array([getattr(s, field) for s in lk.sections])
-
-
-def write_solution(parent: h5py.Group, s: Solution) -> None:
-    """``solutions/<solver>``: one (n, k) dataset of the requested output histories (columns named by
-    its ``components`` attribute, units by ``units``; (0, 0) when the solver produced none) carrying the
-    solver's status, settings and statistics as attributes."""
-    comps = [c for c in COMPONENTS if c in s.deflection]
-    data = (np.column_stack([np.asarray(s.deflection[c], dtype=np.float64) for c in comps]) if comps
-            else np.zeros((0, 0)))
-    ds = parent.create_dataset(s.solver, data=data, dcpl=_compact_attributes(h5py.h5p.DATASET_CREATE))
-    a = ds.attrs
-    a["components"], a["units"] = ",".join(comps), ",".join(COMPONENT_UNITS[c] for c in comps)
-    a["status"], a["message"], a["error_type"] = s.status, s.message, s.error_type
-    a["failure_class"], a["flags"], a["warnings"] = s.failure_class, ",".join(s.flags), s.warnings
-    a["fidelity"] = int(s.fidelity)
-    a["settings_json"] = canonical_json(s.settings)
-    a["stats_json"] = json.dumps(s.stats, sort_keys=True, allow_nan=True)
-
-
-# The metrics table (schema version 3): one row per (solver pair, component) in one compound dataset
-# ``metrics`` per scene.  name, HDF5 type, units ("row" = the row's ``units`` column), description.
+# The metric columns: one row per (solver pair, component); version 4 in ``/metric_table`` (with the scene's
+# key), version 3 in one compound dataset ``metrics`` per scene.  name, version-3 HDF5 type, units ("row" =
+# the row's ``units`` column), description.
 METRIC_FIELDS: tuple[tuple[str, str, str, str], ...] = (
     ("solver", "S32", "", "solver measured"),
     ("reference", "S32", "", "reference solver (the higher fidelity)"),
@@ -149,7 +65,6 @@ METRIC_FIELDS: tuple[tuple[str, str, str, str], ...] = (
     ("speed_ratio", "f8", "1", "omega / omega1_min"),
     ("tolerance", "f8", "1", "campaign tolerance of the verdict"),
 )
-METRIC_DTYPE = np.dtype([(name, kind) for name, kind, _, _ in METRIC_FIELDS])
 _ROW_KEY = ("solver", "reference", "component")
 MetricRows = dict[tuple[str, str, str], dict[str, Any]]
 """(solver, reference, component) -> field -> value: the stored metric numbers of a scene."""
@@ -167,18 +82,6 @@ def metric_rows(metrics: dict[str, PairMetrics]) -> MetricRows:
                    "phase_shift_rad": float(c.phase_shift), "holds": bool(c.holds), **pair}
             rows[(m.solver, m.reference, c.component)] = row
     return rows
-
-
-def write_metrics_table(g: h5py.Group, rows: MetricRows) -> None:
-    """``metrics``: the compound dataset of ``rows`` with per-field ``units`` and ``descriptions``
-    attributes (string arrays in field order)."""
-    data = np.zeros(len(rows), dtype=METRIC_DTYPE)
-    for i, (key, row) in enumerate(rows.items()):
-        for name, value in (*zip(_ROW_KEY, key), *row.items()):
-            data[i][name] = value.encode("utf-8") if isinstance(value, str) else value
-    ds = g.create_dataset(METRICS, data=data)
-    ds.attrs["units"] = np.array([u.encode() for _, _, u, _ in METRIC_FIELDS])
-    ds.attrs["descriptions"] = np.array([d.encode() for _, _, _, d in METRIC_FIELDS])
 
 
 def stored_metric_rows(g: h5py.Group, version: int) -> MetricRows:
@@ -224,42 +127,6 @@ def _metric_rows_v1(mg: h5py.Group) -> MetricRows:
                "holds": bool(ca["holds"]), **pair}
         rows[("quasi_static", "dynamic", comp)] = row
     return rows
-
-
-def write_scene(g: h5py.Group, r: SceneResult, run: int, stored_metrics: MetricRows | None = None,
-                parameters: h5py.Group | None = None) -> None:
-    """A complete scene group (``complete`` written last).  An upgrade carries over verbatim what an
-    older layout stored: ``stored_metrics`` (they replace the computed ones where both exist) and the
-    ``parameters`` group (copied as it is)."""
-    for name, value in (("key", r.key), ("label", r.spec.label), ("status", r.status), ("stage", r.stage),
-                        ("error_type", r.error_type), ("message", r.message), ("warnings", r.warnings),
-                        ("failure_class", r.failure_class)):
-        g.attrs[name] = value
-    g.attrs["rpm"] = float(r.rpm)
-    g.attrs["omega1_min_rad_s"] = float(r.omega1_min)
-    g.attrs["run"] = int(run)
-    if parameters is not None:
-        parameters.parent.copy(parameters, g, "parameters")
-    else:
-        write_parameters(new_group(g, "parameters"), r.spec)
-    if r.crank_angle is not None:
-        _dataset(g, "crank_angle", r.crank_angle, "rad", "crank angle grid, CCW from M->Q")
-    if r.coupler_point is not None:
-        _dataset(g, "coupler_point", r.coupler_point, "m", "rigid coupler point P (x, y), global frame")
-    if r.natural_frequencies is not None:
-        _dataset(g, "natural_frequencies", r.natural_frequencies, "Hz",
-                 "natural frequencies of the frozen structure at each crank angle (n, n_modes)")
-    sols = new_group(g, SOLUTIONS)
-    for s in r.solutions.values():
-        write_solution(sols, s)
-    rows = metric_rows(r.metrics)
-    for key, row in (stored_metrics or {}).items():
-        rows[key] = {**rows.get(key, {}), **row}
-    write_metrics_table(g, rows)
-    st = new_group(g, "run_stats")
-    for name in _RUN_STAT_FIELDS:
-        st.attrs[name] = getattr(r.stats, name)
-    g.attrs["complete"] = np.uint8(1)  # written last
 
 
 # -- reading --------------------------------------------------------------------------------------
@@ -346,17 +213,25 @@ def _damage(spec: SceneSpec, solutions: dict[str, Solution], theta: np.ndarray |
 
 
 def read_scene(g: h5py.Group, version: int) -> SceneResult:
-    """The scene of a complete group (``version``: the file's schema version)."""
+    """The scene of a complete group of a version-1..3 file (``version``: the file's schema version)."""
     spec = SceneSpec.from_dict(json.loads(text(g["parameters"].attrs["json"])))
     if version >= 2:
         solutions = {name: read_solution(name, sg) for name, sg in g[SOLUTIONS].items()}
     else:
         solutions = _solutions_v1(g)
-    rpm, omega1_min = float(g.attrs["rpm"]), float(g.attrs["omega1_min_rad_s"])
-    theta = _array(g, "crank_angle")
-    status, stage = text(g.attrs["status"]), text(g.attrs["stage"])
-    failure_class = text(g.attrs.get("failure_class", ""))
-    error_type, message = text(g.attrs["error_type"]), text(g.attrs["message"])
+    return assemble(spec, g.attrs, solutions, _array(g, "crank_angle"), _array(g, "coupler_point"),
+                    _array(g, "natural_frequencies"), _run_stats(g))
+
+
+def assemble(spec: SceneSpec, a: Any, solutions: dict[str, Solution], theta: np.ndarray | None,
+             coupler: np.ndarray | None, freqs: np.ndarray | None, stats: RunStats) -> SceneResult:
+    """A :class:`SceneResult` from what a file stores: ``a`` maps the scene's attributes (status, stage,
+    error_type, message, warnings, failure_class, rpm, omega1_min_rad_s); an ok scene whose data are
+    incomplete is marked damaged; the metrics are recomputed from the histories."""
+    rpm, omega1_min = float(a["rpm"]), float(a["omega1_min_rad_s"])
+    status, stage = text(a["status"]), text(a["stage"])
+    failure_class = text(a.get("failure_class", ""))
+    error_type, message = text(a["error_type"]), text(a["message"])
     damage = _damage(spec, solutions, theta, rpm) if status == STATUS_OK else []
     if damage:  # never shown as a valid answer: the scene is marked damaged, its verdict withheld
         status, stage, failure_class, error_type = STATUS_FAILED, "file", DAMAGED, "DamagedFile"
@@ -372,10 +247,9 @@ def read_scene(g: h5py.Group, version: int) -> SceneResult:
             metrics = {}
     return SceneResult(
         spec=spec, status=status, stage=stage, error_type=error_type, message=message,
-        warnings=text(g.attrs.get("warnings", "")), failure_class=failure_class,
-        rpm=rpm, omega1_min=omega1_min, crank_angle=theta, coupler_point=_array(g, "coupler_point"),
-        natural_frequencies=_array(g, "natural_frequencies"), solutions=solutions, metrics=metrics,
-        stats=_run_stats(g),
+        warnings=text(a.get("warnings", "")), failure_class=failure_class,
+        rpm=rpm, omega1_min=omega1_min, crank_angle=theta, coupler_point=coupler,
+        natural_frequencies=freqs, solutions=solutions, metrics=metrics, stats=stats,
     )
 
 
@@ -383,7 +257,7 @@ def read_scene(g: h5py.Group, version: int) -> SceneResult:
 
 
 def verify_scene(name: str, g: Any, version: int) -> list[str]:
-    """Problems of one scene group (empty = valid)."""
+    """Problems of one scene group of a version-1..3 file (empty = valid)."""
     if not isinstance(g, h5py.Group):
         return ["not a group"]
     if not complete(g):
@@ -391,33 +265,40 @@ def verify_scene(name: str, g: Any, version: int) -> list[str]:
     p = [f"missing attribute {a!r}" for a in SCENE_ATTRS if a not in g.attrs]
     if p:
         return p
-    if text(g.attrs["key"]) != name:
-        p.append(f"key attribute {text(g.attrs['key'])!r} differs from group name")
+    return _verify_read(name, text(g.attrs["key"]), text(g.attrs["status"]), lambda: read_scene(g, version),
+                        g, lambda: stored_metric_rows(g, version) if METRICS in g else None, version)
+
+
+def _verify_read(name: str, key: str, stored_status: str, read: Any, arrays: Any, stored_rows: Any,
+                 version: int) -> list[str]:
+    """The checks of one complete scene (any version): ``read()`` gives the scene, ``arrays`` maps
+    array names to datasets, ``stored_rows()`` its stored metric rows (None: none stored)."""
+    p = [] if key == name else [f"key attribute {key!r} differs from group name"]
     try:
-        r = read_scene(g, version)
+        r = read()
     except (KeyError, ValueError, TypeError) as exc:
         return p + [f"unreadable: {exc}"]
     if r.key != name:
         p.append(f"content key of parameters ({r.key}) differs from group name")
     if r.status not in (STATUS_OK, STATUS_FAILED):
         p.append(f"unknown status {r.status!r}")
-    if r.failure_class == DAMAGED and text(g.attrs["status"]) == STATUS_OK:
-        return p + [r.message.split(" (check it")[0]] + _verify_ok_scene(g, r, version)
+    if r.failure_class == DAMAGED and stored_status == STATUS_OK:
+        return p + [r.message.split(" (check it")[0]] + _verify_ok_scene(arrays, r, stored_rows, version)
     if r.status != STATUS_OK:
         return p + ([] if r.message else ["failed scene without message"])
-    return p + _verify_ok_scene(g, r, version)
+    return p + _verify_ok_scene(arrays, r, stored_rows, version)
 
 
-def _verify_ok_scene(g: h5py.Group, r: SceneResult, version: int) -> list[str]:
-    p = [f"missing dataset {ds}" for ds in ("crank_angle", "coupler_point", "natural_frequencies") if ds not in g]
+def _verify_ok_scene(arrays: Any, r: SceneResult, stored_rows: Any, version: int) -> list[str]:
+    p = [f"missing dataset {ds}" for ds in ("crank_angle", "coupler_point", "natural_frequencies") if ds not in arrays]
     if p:
         return p
     p += [f"dataset {ds} has no units attribute" for ds in ("crank_angle", "coupler_point", "natural_frequencies")
-          if "units" not in g[ds].attrs]
+          if "units" not in arrays[ds].attrs]
     spec = r.spec
     n = steps_per_turn(spec.step_deg)
     shapes = {"crank_angle": (n,), "coupler_point": (n, 2), "natural_frequencies": (n, spec.n_modes)}
-    p += [f"{ds} shape {g[ds].shape} != {shape}" for ds, shape in shapes.items() if g[ds].shape != shape]
+    p += [f"{ds} shape {arrays[ds].shape} != {shape}" for ds, shape in shapes.items() if arrays[ds].shape != shape]
     for solver in spec.solvers:
         s = r.solutions.get(solver)
         if s is None:
@@ -433,17 +314,18 @@ def _verify_ok_scene(g: h5py.Group, r: SceneResult, version: int) -> list[str]:
                 p.append(f"{solver}/{c} has non-finite values")
     if len(spec.solvers) > 1 and r.verdict is None:
         p.append("no verdict: the quasi-static solution or a reference is missing")
-    return p + _verify_stored_metrics(g, r, version)
+    return p + _verify_stored_metrics(r, stored_rows, version)
 
 
-def _verify_stored_metrics(g: h5py.Group, r: SceneResult, version: int) -> list[str]:
+def _verify_stored_metrics(r: SceneResult, stored_rows: Any, version: int) -> list[str]:
     """The stored metrics (for readers without the harness) must be those of the stored histories."""
-    if METRICS not in g:
-        return [f"missing {METRICS}" + (" table" if version >= 3 else " group")] if r.metrics else []
     try:
-        rows = stored_metric_rows(g, version)
+        rows = stored_rows()
     except (KeyError, ValueError, TypeError) as exc:
         return [f"{METRICS} unreadable: {exc}"]
+    if not rows:
+        where = {4: f" rows in /{METRIC_TABLE}", 3: " table"}.get(version, " group")
+        return [f"missing {METRICS}{where}"] if r.metrics else []
     p = []
     for name, m in r.metrics.items():
         for c in m.components:
@@ -456,4 +338,391 @@ def _verify_stored_metrics(g: h5py.Group, r: SceneResult, version: int) -> list[
                     and np.isclose(float(row.get("history_error", np.nan)), c.history_error, rtol=1e-12))
             if not same:
                 p.append(f"{METRICS} of {name}/{c.component}: stored values differ from the histories")
+    return p
+
+
+# -- schema version 4: per-file tables, one group of arrays per scene --------------------------------
+
+SCENES = "scenes"
+RUNS = "runs"
+SCENE_TABLE = "scene_table"
+SOLUTION_TABLE = "solution_table"
+METRIC_TABLE = "metric_table"
+TABLES = (RUNS, SCENE_TABLE, SOLUTION_TABLE, METRIC_TABLE)
+
+ARRAYS: dict[str, tuple[str, str]] = {
+    "crank_angle": ("rad", "crank angle grid, CCW from M->Q, 0 .. 360 deg - step (n,)"),
+    "coupler_point": ("m", "rigid coupler point P (x, y), global frame (n, 2)"),
+    "natural_frequencies": ("Hz", "first n_modes natural frequencies of the frozen structure at each crank angle "
+                                  "(n, n_modes)"),
+}
+"""Per-scene arrays besides the solutions: name -> (units, description)."""
+
+SCENE_COLUMNS: dict[str, tuple[str, str]] = {
+    "key": ("", "content key: first 16 hex digits of SHA-256 of json without solvers"),
+    "label": ("", "readable label of the scene"),
+    "status": ("", "ok or failed"),
+    "stage": ("", "first failing stage: '', setup, a solver's name, metrics, worker"),
+    "error_type": ("", "exception type of the failure"),
+    "message": ("", "message of the failure"),
+    "warnings": ("", "solver warnings, '; '-joined"),
+    "failure_class": ("", "'', numerical, physical, undecided, input"),
+    "rpm": ("rev/min", "resolved crank speed"),
+    "omega1_min_rad_s": ("rad/s", "lowest first natural circular frequency over the cycle"),
+    "run": ("", "row of /runs of the run that stored the scene"),
+    "json": ("", "canonical JSON of the scene's parameters (the key is hashed from it without solvers)"),
+    "mechanism": ("", "source or cognate"),
+    "mass_model": ("", "mass model name"),
+    "mass_lumps": ("", "lumps per link"),
+    "payload_kg": ("kg", "payload mass"),
+    "joint_split": ("", "share of a link's mass lumped at its first joint"),
+    "lump_placement": ("", "midpoint or end"),
+    "speed_kind": ("", "rpm or ratio: how the speed was given"),
+    "speed_rpm": ("rev/min", "crank speed as given (NaN when given as a ratio)"),
+    "speed_ratio_requested": ("", "Omega / omega1_min as given (NaN when given in rpm)"),
+    "stiffness_scale": ("", "Young's modulus multiplier"),
+    "damping_ratio": ("", "modal damping ratio"),
+    "direction": ("", "ccw or cw"),
+    "step_deg": ("deg", "crank-angle step"),
+    "n_modes": ("", "natural frequencies stored per crank angle"),
+    "outputs": ("", "stored components, comma-separated"),
+    "solvers": ("", "solvers the scene runs, comma-separated"),
+    "tolerance": ("", "verdict tolerance"),
+    "kind": ("", "linkage kind: four-bar or slider-crank"),
+    "offset_m": ("m", "slider-crank: offset of the slider line from the crank pivot"),
+    "coupler_point_fraction": ("", "slider-crank: coupler point P as a fraction of the coupler from A"),
+    "slider_mass_kg": ("kg", "slider-crank: lumped slider mass"),
+    "rigid": ("", "slider-crank: rigid flag per link (links order), comma-separated"),
+    "crank_m": ("m", "crank length"),
+    "coupler_m": ("m", "coupler length"),
+    "follower_m": ("m", "follower length"),
+    "extender_m": ("m", "extender length (B to P)"),
+    "coupler_angle_rad": ("rad", "angle from AB to AP, CCW"),
+    "crank_pivot_m": ("m", "crank pivot M (x, y)"),
+    "follower_pivot_m": ("m", "follower pivot Q (x, y)"),
+    "branch": ("", "assembly branch"),
+    "links": ("", "order of the per-link columns"),
+    "youngs_modulus_Pa": ("Pa", "Young's modulus per link (links order)"),
+    "area_m2": ("m^2", "cross-section area per link"),
+    "second_moment_m4": ("m^4", "second moment of area per link"),
+    "density_kg_m3": ("kg/m^3", "density per link"),
+    "frequencies_wall_s": ("s", "wall time of the natural frequencies"),
+    "total_wall_s": ("s", "wall time of the scene"),
+    "worker": ("", "host:pid that computed the scene"),
+    "finished_utc": ("", "ISO 8601 time the scene finished"),
+    "complete": ("", "1: the scene is complete (its row is written after its arrays and its other rows)"),
+}
+SOLUTION_COLUMNS: dict[str, tuple[str, str]] = {
+    "key": ("", "scene key"),
+    "solver": ("", "solver name; histories in /scenes/<key>/solutions/<solver>"),
+    "status": ("", "ok or failed"),
+    "message": ("", "message of the failure"),
+    "error_type": ("", "exception type of the failure"),
+    "failure_class": ("", "'', numerical, physical, undecided, input"),
+    "flags": ("", "validity flags, comma-separated: the answer is outside the range where the model holds"),
+    "warnings": ("", "solver warnings"),
+    "fidelity": ("", "fidelity rank of the solver (higher = reference)"),
+    "settings_json": ("", "resolved settings (JSON)"),
+    "stats_json": ("", "wall_s [s] and the solver's own statistics (JSON)"),
+}
+METRIC_COLUMNS: dict[str, tuple[str, str]] = {
+    "key": ("", "scene key"), **{name: (units, description) for name, _, units, description in METRIC_FIELDS}}
+RUN_COLUMNS: dict[str, tuple[str, str]] = {
+    "run": ("", "run number (the scenes' run column)"),
+    "started_utc": ("", "ISO 8601 start time"),
+    "campaign_name": ("", "campaign name"),
+    "campaign_config": ("", "TOML text of the campaign"),
+    "n_scenes": ("", "scenes the run planned"),
+}
+_CARRIED = "carried over verbatim from an older layout of the file"
+_INT = ("run", "mass_lumps", "n_modes", "fidelity", "n_scenes")
+_FLAG = ("complete", "holds", "pair_holds")
+
+
+def _kinds(columns: dict[str, tuple[str, str]], stored: dict[str, str]) -> dict[str, str]:
+    """Column kinds: the stored ones, the declared integers and flags, numbers where a unit is declared."""
+    out = dict(stored)
+    for name, (units, _) in columns.items():
+        if name in _INT:
+            out[name] = "int"
+        elif name in _FLAG:
+            out[name] = "flag"
+        elif units:
+            out[name] = "float"
+    return out
+
+
+def _units(columns: dict[str, tuple[str, str]]) -> tuple[dict[str, str], dict[str, str]]:
+    return {k: u for k, (u, _) in columns.items()}, {k: d for k, (_, d) in columns.items()}
+
+
+def parameter_row(spec: SceneSpec) -> dict[str, Any]:
+    """The scene's parameters as table columns: the JSON the key is hashed from, plus readable values."""
+    mm, lk = spec.mass_model, spec.linkage
+    a: dict[str, Any] = {"json": canonical_json(spec.to_dict()), "label": spec.label, "mechanism": spec.mechanism,
+                         "mass_model": mm.name, "mass_lumps": int(mm.lumps), "payload_kg": float(mm.payload),
+                         "joint_split": float(mm.joint_split), "lump_placement": mm.placement,
+                         "speed_kind": spec.speed.kind}
+    a["speed_rpm" if spec.speed.kind == "rpm" else "speed_ratio_requested"] = float(spec.speed.value)
+    for name in ("stiffness_scale", "damping_ratio", "direction", "step_deg", "n_modes", "tolerance"):
+        a[name] = getattr(spec, name)
+    a["outputs"], a["solvers"] = ",".join(spec.outputs), ",".join(spec.solvers)
+    a["kind"] = spec.kind
+    if spec.kind != "four-bar":
+        return {**a, **_slider_columns(lk)}
+    for name in ("crank", "coupler", "follower", "extender"):
+        a[f"{name}_m"] = float(getattr(lk, name))
+    a["coupler_angle_rad"] = float(lk.coupler_angle)
+    a["crank_pivot_m"] = np.asarray(lk.crank_pivot, dtype=np.float64)
+    a["follower_pivot_m"] = np.asarray(lk.follower_pivot, dtype=np.float64)
+    a["branch"], a["links"] = lk.branch, ",".join(LINKS)
+    for field, attr in (("youngs_modulus", "youngs_modulus_Pa"), ("area", "area_m2"),
+                        ("second_moment", "second_moment_m4"), ("density", "density_kg_m3")):
+        a[attr] = np.array([getattr(s, field) for s in lk.sections], dtype=np.float64)
+    return a
+
+
+def _slider_columns(lk: Any) -> dict[str, Any]:
+    """A slider-crank's linkage columns; its per-link columns (crank, coupler) padded with NaN to the
+    four-bar's four links so that one table holds both kinds."""
+    a: dict[str, Any] = {f"{name}_m": float(getattr(lk, name)) for name in ("crank", "coupler", "offset")}
+    a["coupler_point_fraction"], a["slider_mass_kg"] = float(lk.coupler_point), float(lk.slider_mass)
+    a["links"] = "crank,coupler"
+    a["rigid"] = ",".join(str(r).lower() for r in lk.rigid)
+    pad = [np.nan] * (len(LINKS) - len(lk.sections))
+    for field, attr in (("youngs_modulus", "youngs_modulus_Pa"), ("area", "area_m2"),
+                        ("second_moment", "second_moment_m4"), ("density", "density_kg_m3")):
+        a[attr] = np.array([getattr(s, field) for s in lk.sections] + pad, dtype=np.float64)
+    return a
+
+
+def scene_row(r: SceneResult, run: int, parameters: dict[str, Any] | None = None,
+              attrs: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The scene's row of ``/scene_table`` (``parameters`` / ``attrs``: what an older layout stored, carried
+    over verbatim)."""
+    row: dict[str, Any] = {"key": r.key, "label": r.spec.label, "status": r.status, "stage": r.stage,
+                           "error_type": r.error_type, "message": r.message, "warnings": r.warnings,
+                           "failure_class": r.failure_class, "rpm": float(r.rpm),
+                           "omega1_min_rad_s": float(r.omega1_min), "run": int(run)}
+    row.update(attrs or {})
+    row.update(parameter_row(r.spec) if parameters is None else parameters)
+    row.update({name: getattr(r.stats, name) for name in _RUN_STAT_FIELDS})
+    row["complete"] = True
+    return row
+
+
+def solution_row(key: str, s: Solution, attrs: dict[str, Any] | None = None) -> dict[str, Any]:
+    """A solution's row of ``/solution_table`` (``attrs``: an older layout's, carried over verbatim)."""
+    row = {"key": key, "solver": s.solver, "status": s.status, "message": s.message, "error_type": s.error_type,
+           "failure_class": s.failure_class, "flags": ",".join(s.flags), "warnings": s.warnings,
+           "fidelity": int(s.fidelity), "settings_json": canonical_json(s.settings),
+           "stats_json": json.dumps(s.stats, sort_keys=True, allow_nan=True)}
+    row.update(attrs or {})
+    return row
+
+
+def write_arrays(scenes: h5py.Group, r: SceneResult) -> None:
+    """``/scenes/<key>``: the scene's arrays (``units`` attribute each) and ``solutions/<solver>``, one
+    (n, c) dataset of a solver's histories (``components`` and ``units`` attributes); nothing (no
+    empty group) for a scene without arrays."""
+    arrays = {name: getattr(r, attr) for name, attr in (("crank_angle", "crank_angle"),
+                                                        ("coupler_point", "coupler_point"),
+                                                        ("natural_frequencies", "natural_frequencies"))}
+    arrays = {k: v for k, v in arrays.items() if v is not None}
+    sols = {n: s for n, s in r.solutions.items() if any(c in s.deflection for c in COMPONENTS)}
+    if not arrays and not sols:
+        return
+    g = scenes.create_group(r.key)
+    for name, data in arrays.items():
+        g.create_dataset(name, data=np.asarray(data, dtype=np.float64)).attrs["units"] = ARRAYS[name][0]
+    if sols:
+        sg = g.create_group(SOLUTIONS)
+        for name, s in sols.items():
+            comps = [c for c in COMPONENTS if c in s.deflection]
+            ds = sg.create_dataset(name, data=np.column_stack([np.asarray(s.deflection[c], dtype=np.float64)
+                                                               for c in comps]))
+            ds.attrs["components"], ds.attrs["units"] = ",".join(comps), ",".join(COMPONENT_UNITS[c] for c in comps)
+
+
+def metric_table_rows(key: str, rows: MetricRows) -> list[dict[str, Any]]:
+    return [{"key": key, **dict(zip(_ROW_KEY, k)), **row} for k, row in rows.items()]
+
+
+_COLUMNS = {SCENE_TABLE: SCENE_COLUMNS, SOLUTION_TABLE: SOLUTION_COLUMNS, METRIC_TABLE: METRIC_COLUMNS,
+            RUNS: RUN_COLUMNS}
+
+
+def encode_rows(f: h5py.File, name: str, rows: list[dict[str, Any]]) -> dict[str, np.ndarray]:
+    """Rows of table ``name`` as encoded columns (declared kinds, else those stored, else inferred)."""
+    from compare import tables
+
+    kinds = _kinds(_COLUMNS[name], tables.kinds_of(f[name]) if name in f else {})
+    return {c: tables.encode(v, True, kinds.get(c)) for c, v in tables.columns(rows).items()}
+
+
+def _write(f: h5py.File, name: str, data: dict[str, np.ndarray]) -> None:
+    from compare import tables
+
+    units, descriptions = _units(_COLUMNS[name])
+    tables.write_table(f, name, data, units=units, descriptions={c: _CARRIED for c in data} | descriptions)
+
+
+def write_tables(f: h5py.File, scenes: list[dict[str, Any]], solutions: list[dict[str, Any]],
+                 metrics: list[dict[str, Any]]) -> None:
+    """The three scene tables from rows, ``/scene_table`` (with ``complete``) last."""
+    for name, rows in ((SOLUTION_TABLE, solutions), (METRIC_TABLE, metrics), (SCENE_TABLE, scenes)):
+        _write(f, name, encode_rows(f, name, rows))
+
+
+def replace_scenes(f: h5py.File, rows: dict[str, list[dict[str, Any]]]) -> None:
+    """Replace in the three scene tables every row of the scenes in ``rows[SCENE_TABLE]`` by ``rows``
+    (table -> new rows), column-wise (the kept rows are not decoded); ``/scene_table`` last."""
+    from compare import tables
+
+    keys = np.array([r["key"].encode("utf-8") for r in rows[SCENE_TABLE]], dtype=bytes)
+    for name in (SOLUTION_TABLE, METRIC_TABLE, SCENE_TABLE):
+        old = tables.read_raw(f[name]) if name in f else {}
+        if old:
+            keep = ~np.isin(old["key"], keys)
+            old = {c: v[keep] for c, v in old.items()}
+        _write(f, name, tables.concat(old, encode_rows(f, name, rows[name])))
+
+
+def write_runs(f: h5py.File, runs: list[dict[str, Any]]) -> None:
+    _write(f, RUNS, encode_rows(f, RUNS, runs))
+
+
+def table_rows(f: h5py.File, name: str) -> list[dict[str, Any]]:
+    """Rows of a version-4 table (empty if absent)."""
+    from compare import tables
+
+    return tables.rows(tables.read_table(f[name])) if name in f else []
+
+
+def _value(v: Any) -> Any:
+    """A stored cell as a Python value: text decoded, numpy scalars as Python numbers, rows of a 2-D column
+    as arrays."""
+    if isinstance(v, (bytes, np.bytes_)):
+        return v.decode("utf-8")
+    return v.item() if isinstance(v, np.generic) else v
+
+
+class TableFile:
+    """The scenes of a version-4 file (its tables read once)."""
+
+    def __init__(self, f: h5py.File) -> None:
+        from compare import tables
+
+        self.f = f
+        self._cols = {name: (tables.read_raw(f[name]) if name in f else {}) for name in
+                      (SCENE_TABLE, SOLUTION_TABLE, METRIC_TABLE)}
+        for name, cols in self._cols.items():
+            n = tables.n_rows(f[name]) if name in f else 0
+            bad = [c for c, v in cols.items() if len(v) != n]
+            if bad:
+                raise ValueError(f"/{name}: column {bad[0]} has {len(cols[bad[0]])} rows, the table {n}")
+        keys = tables.decode(self._cols[SCENE_TABLE].get("key", np.array([], dtype=bytes)))
+        self.index: dict[str, int] = {}
+        for i, k in enumerate(keys):
+            if k in self.index:
+                raise ValueError(f"/{SCENE_TABLE}: scene {k} appears twice")
+            self.index[k] = i
+        self._by_key: dict[str, dict[str, list[int]]] = {}
+        for name in (SOLUTION_TABLE, METRIC_TABLE):
+            d: dict[str, list[int]] = {}
+            for i, k in enumerate(tables.decode(self._cols[name].get("key", np.array([], dtype=bytes)))):
+                d.setdefault(k, []).append(i)
+            self._by_key[name] = d
+        scenes = f.get(SCENES)
+        self.groups = list(scenes) if isinstance(scenes, h5py.Group) else []
+
+    def _row(self, name: str, i: int) -> dict[str, Any]:
+        return {c: _value(v[i]) for c, v in self._cols[name].items()}
+
+    def row(self, key: str) -> dict[str, Any]:
+        return self._row(SCENE_TABLE, self.index[key])
+
+    def complete(self, key: str) -> bool:
+        c = self._cols[SCENE_TABLE].get("complete")
+        return c is not None and int(c[self.index[key]]) == 1
+
+    def keys(self) -> list[str]:
+        """Keys of the complete scenes, in table order."""
+        return [k for k in self.index if self.complete(k)]
+
+    def orphans(self) -> list[str]:
+        """Scene groups without a row in the scene table (never written by the harness)."""
+        return [g for g in self.groups if g not in self.index]
+
+    def status(self, key: str) -> str:
+        return text(self._cols[SCENE_TABLE]["status"][self.index[key]])
+
+    def solution_rows(self, key: str) -> list[dict[str, Any]]:
+        return [self._row(SOLUTION_TABLE, i) for i in self._by_key[SOLUTION_TABLE].get(key, [])]
+
+    def metric_rows(self, key: str) -> MetricRows:
+        out: MetricRows = {}
+        for i in self._by_key[METRIC_TABLE].get(key, []):
+            row = self._row(METRIC_TABLE, i)
+            row.pop("key")
+            vals = {n: (text(row[n]) if kind.startswith("S") else bool(row[n]) if kind == "u1" else float(row[n]))
+                    for n, kind, _, _ in METRIC_FIELDS if n in row}
+            out[tuple(vals.pop(k) for k in _ROW_KEY)] = vals
+        return out
+
+    def arrays(self, key: str) -> h5py.Group | dict[str, Any]:
+        g = self.f[SCENES].get(key) if self.groups else None
+        return g if g is not None else {}
+
+    def read_scene(self, key: str) -> SceneResult:
+        row = self.row(key)
+        spec = SceneSpec.from_dict(json.loads(text(row["json"])))
+        g = self.arrays(key)
+        sg = g.get(SOLUTIONS) if g else None
+        solutions = {}
+        for srow in self.solution_rows(key):
+            name = text(srow["solver"])
+            ds = sg.get(name) if sg is not None else None
+            flags = text(srow.get("flags", ""))
+            solutions[name] = Solution(
+                solver=name, status=text(srow["status"]), deflection=_histories(ds) if ds is not None else {},
+                settings=json.loads(text(srow["settings_json"])), stats=json.loads(text(srow["stats_json"])),
+                message=text(srow.get("message", "")), error_type=text(srow.get("error_type", "")),
+                failure_class=text(srow.get("failure_class", "")), flags=tuple(flags.split(",")) if flags else (),
+                warnings=text(srow.get("warnings", "")), fidelity=int(srow.get("fidelity", 0)))
+        stats = RunStats(frequencies_wall_s=float(row["frequencies_wall_s"]), total_wall_s=float(row["total_wall_s"]),
+                         worker=text(row["worker"]), finished_utc=text(row["finished_utc"]))
+        return assemble(spec, row, solutions, _array(g, "crank_angle") if g else None,
+                        _array(g, "coupler_point") if g else None, _array(g, "natural_frequencies") if g else None,
+                        stats)
+
+    def verify_scene(self, key: str) -> list[str]:
+        """Problems of one scene of the scene table (empty = valid)."""
+        if not self.complete(key):
+            return [f"incomplete (no complete=1 in /{SCENE_TABLE})"]
+        row = self.row(key)
+        missing = [a for a in (*SCENE_ATTRS, "json") if a not in row]
+        if missing:
+            return [f"missing column(s) {', '.join(missing)} of /{SCENE_TABLE}"]
+        return _verify_read(key, text(row["key"]), text(row["status"]), lambda: self.read_scene(key),
+                            self.arrays(key), lambda: self.metric_rows(key), 4)
+
+
+def verify_tables(f: h5py.File) -> list[str]:
+    """Table-level problems of a version-4 file: every column of every table as long as its ``rows``
+    and with a ``units`` attribute."""
+    p = []
+    for name in TABLES:
+        g = f.get(name)
+        if g is None:
+            continue
+        if not isinstance(g, h5py.Group) or "rows" not in g.attrs:
+            p.append(f"/{name}: not a table (a group with a rows attribute)")
+            continue
+        n = int(g.attrs["rows"])
+        for col, ds in g.items():
+            if not isinstance(ds, h5py.Dataset) or len(ds) != n:
+                p.append(f"/{name}/{col}: {getattr(ds, 'shape', 'not a column')} rows, the table has {n}")
+            elif "units" not in ds.attrs:
+                p.append(f"/{name}/{col}: no units attribute")
     return p

@@ -14,6 +14,7 @@ Everything is plain HDF5 (groups, numeric datasets, string/number attributes, no
 from __future__ import annotations
 
 import dataclasses
+import io
 import os
 import platform
 import shutil
@@ -37,15 +38,15 @@ from ked_quasi.linkage import direction_sign
 from ked_quasi.units import rpm_to_rad_s
 
 SCHEMA = "ked-harness/campaign"
-SCHEMA_VERSION = 3
-READABLE_VERSIONS = (1, 2, 3)
+SCHEMA_VERSION = 4
+READABLE_VERSIONS = (1, 2, 3, 4)
 """Schema versions this harness reads; it writes :data:`SCHEMA_VERSION` and upgrades an older file it
 writes into (:func:`upgrade`: same scenes, same numbers, new layout, verified before it replaces the
 old file)."""
 LIBVER = ("v110", "latest")
 """HDF5 format bounds of the files the harness creates (compact groups; readable by HDF5 >= 1.10)."""
-SCENES = "scenes"
-RUNS = "runs"
+SCENES = h5layout.SCENES
+RUNS = h5layout.RUNS
 TMP_MARK = ".tmp-"
 
 class StoreError(ValueError):
@@ -132,18 +133,23 @@ def check_writable(path: str | Path) -> None:
 
 
 @contextmanager
-def transaction(path: str | Path) -> Iterator[h5py.File]:
+def transaction(path: str | Path, repack: bool = False) -> Iterator[h5py.File]:
     """Open a private copy of ``path`` for writing; on success atomically replace ``path`` by it (its
     permissions kept; a symbolic link's target is replaced, the link stays).
 
-    On any exception (or kill) the results file is untouched and the copy is removed (or left as a
-    stale temp file that nothing reads).  Failures of the file system (full disk, permissions, an
-    immutable file) raise :class:`CommitError`.
+    The copy is built in memory (HDF5 never writes to the disk here: it can crash on a disk that fills
+    while it flushes) and written to a temporary file beside ``path`` by Python, fsynced and renamed.
+    On any exception (or kill) the results file is untouched and the temporary file removed (or left as
+    a stale temp file that nothing reads).  Failures of the file system (full disk, permissions, an
+    immutable file) raise :class:`CommitError`.  ``repack``: the copy is rewritten compactly (HDF5 does
+    not give back the space of deleted objects; the campaign tables are rewritten by every commit), as
+    is any copy whose free space grew large.
     """
     path = target(path)
     tmp = _tmp_beside(path)
     try:
-        f = _open_copy(path, tmp)
+        buf = _memory_copy(path)
+        f = _open_memory(buf, new=not path.exists())
         try:
             yield f
         except BaseException:
@@ -151,13 +157,81 @@ def transaction(path: str | Path) -> Iterator[h5py.File]:
             raise
         try:
             f.flush()
+            fragmented = _fragmented(f)
             f.close()
-        except (OSError, RuntimeError) as exc:  # HDF5 reports a full disk as either
+            image = _repacked(buf.getvalue()) if repack or fragmented else buf.getvalue()
+        except Exception as exc:  # a damaged file shows when HDF5 rewrites its metadata, as any error
             _close_quietly(f)
-            raise CommitError(f"{path}: cannot be written ({_short(exc)}; is the disk full?)") from exc
+            raise CommitError(f"{path}: cannot be written ({type(exc).__name__}: {_short(exc)}); is the file "
+                              f"damaged (`ked inspect {path} --verify`)?") from exc
+        _write_image(image, tmp, path)
         _install(tmp, path)
     finally:
         _discard(tmp)
+
+
+REPACK_SHARE = 0.25
+"""A commit rewrites the file compactly when more than this share of it (and more than 64 kB) is free
+space left by replaced tables and scenes."""
+
+
+def _fragmented(f: h5py.File) -> bool:
+    try:
+        free, size = f.id.get_freespace(), f.id.get_filesize()
+    except (OSError, RuntimeError, AttributeError):
+        return False
+    return free > max(64 * 1024, REPACK_SHARE * size)
+
+
+def _memory_copy(path: Path) -> io.BytesIO:
+    """The bytes of ``path`` (empty for a new file) in memory."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return io.BytesIO(path.read_bytes() if path.exists() else b"")
+    except OSError as exc:
+        raise CommitError(f"{path}: cannot be written ({exc.strerror or _short(exc)})") from exc
+
+
+def _open_memory(buf: io.BytesIO, new: bool) -> h5py.File:
+    if new:
+        return h5py.File(buf, "w", libver=LIBVER, fs_strategy="fsm", fs_persist=True)
+    return h5py.File(buf, "r+", libver=LIBVER)
+
+
+def _repacked(image: bytes) -> bytes:
+    """An HDF5 file image rewritten without free space: every object copied into a new file."""
+    out = io.BytesIO()
+    with h5py.File(io.BytesIO(image), "r") as old, _open_memory(out, new=True) as new:
+        for k, v in old.attrs.items():
+            new.attrs[k] = v
+        for name in old:
+            old.copy(old[name], new, name)
+    return out.getvalue()
+
+
+def _write_image(image: bytes, tmp: Path, path: Path) -> None:
+    """The finished file image written to ``tmp`` (``path``'s permissions), synced; a full disk or any
+    other failure is a :class:`CommitError` and ``tmp`` is removed."""
+    try:
+        with open(tmp, "wb") as fh:
+            fh.write(image)
+            fh.flush()
+            os.fsync(fh.fileno())
+        if path.exists():
+            shutil.copymode(path, tmp)
+    except OSError as exc:
+        _discard(tmp)
+        raise CommitError(f"{path}: cannot be written ({exc.strerror or _short(exc)}; is the disk full?)") from exc
+
+
+def _repack(path: Path) -> None:
+    """Rewrite the file ``path`` compactly (in memory, then written beside it and renamed onto it)."""
+    fresh = path.with_name(path.name + ".repack")
+    try:
+        _write_image(_repacked(path.read_bytes()), fresh, path)
+        os.replace(fresh, path)
+    finally:
+        _discard(fresh)
 
 
 def _tmp_beside(path: Path) -> Path:
@@ -199,25 +273,6 @@ def _hdf5_errors(path: Path) -> Iterator[None]:
     except Exception as exc:
         raise CommitError(f"{path}: cannot be written ({type(exc).__name__}: {_short(exc)}); is the disk full, "
                           f"or the file damaged (`ked inspect {path} --verify`)?") from exc
-
-
-def _open_copy(path: Path, tmp: Path) -> h5py.File:
-    """A writable HDF5 file at ``tmp``: a copy of ``path`` (mode kept) or a new file."""
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        if path.exists():
-            shutil.copyfile(path, tmp)
-            shutil.copymode(path, tmp)
-            return h5py.File(tmp, "a", libver=LIBVER)
-        return create(tmp)
-    except (OSError, RuntimeError) as exc:
-        raise CommitError(f"{path}: cannot be written ({getattr(exc, 'strerror', None) or _short(exc)})") from exc
-
-
-def create(path: Path) -> h5py.File:
-    """A new, empty HDF5 file in the harness's format (free space tracked across sessions, so space of
-    replaced scenes is reused)."""
-    return h5py.File(path, "w", libver=LIBVER, fs_strategy="fsm", fs_persist=True)
 
 
 def _close_quietly(f: h5py.File) -> None:
@@ -370,7 +425,7 @@ def record_run(path: str | Path, config_text: str, campaign_name: str, n_scenes:
     upgrade an older layout, and add a ``/runs/<n>`` record.  Returns the run number."""
     check_ours(path)
     upgrade(path)
-    with transaction(path) as f, _hdf5_errors(target(path)):
+    with transaction(path, repack=True) as f, _hdf5_errors(target(path)):
         return _record_run(f, config_text, campaign_name, n_scenes)
 
 
@@ -387,16 +442,11 @@ def _record_run(f: h5py.File, config_text: str, campaign_name: str, n_scenes: in
     f.attrs["modified_utc"] = now
     f.attrs["campaign_name"] = campaign_name
     f.attrs["campaign_config"] = config_text
-    f.require_group(SCENES)
-    runs = f.require_group(RUNS)
+    runs = h5layout.table_rows(f, RUNS)
     number = len(runs)
-    g = h5layout.new_group(runs, f"{number:04d}")
-    g.attrs["started_utc"] = now
-    g.attrs["campaign_name"] = campaign_name
-    g.attrs["campaign_config"] = config_text
-    g.attrs["n_scenes"] = int(n_scenes)
-    for k, v in prov.items():
-        g.attrs[k] = v
+    runs.append({"run": number, "started_utc": now, "campaign_name": campaign_name, "campaign_config": config_text,
+                 "n_scenes": int(n_scenes), **prov})
+    h5layout.write_runs(f, runs)
     return number
 
 
@@ -410,21 +460,31 @@ def commit(path: str | Path, results: Iterable[SceneResult], run: int = -1) -> N
         upgrade(path)
     except StoreError as exc:  # a commit that cannot happen: the caller saves the scenes elsewhere
         raise CommitError(str(exc)) from exc
-    with transaction(path) as f, _hdf5_errors(target(path)):
+    with transaction(path, repack=True) as f, _hdf5_errors(target(path)):
         _commit(f, results, run)
 
 
 def _commit(f: h5py.File, results: list[SceneResult], run: int) -> None:
     _require_current(f)
+    view = h5layout.TableFile(f)
     scenes = f.require_group(SCENES)
-    version = SCHEMA_VERSION
-    for r in results:
-        if r.key in scenes:
-            old = scenes[r.key]
-            if h5layout.complete(old):
-                r = with_kept_solutions(r, h5layout.read_scene(old, version))
-            del scenes[r.key]
-        h5layout.write_scene(h5layout.new_group(scenes, r.key), r, run)
+    new: dict[str, SceneResult] = {}
+    for r in results:  # the last result of a key wins
+        if r.key in view.index and view.complete(r.key):
+            r = with_kept_solutions(r, view.read_scene(r.key))
+        new[r.key] = r
+    rows: dict[str, list[dict[str, Any]]] = {h5layout.SCENE_TABLE: [], h5layout.SOLUTION_TABLE: [],
+                                             h5layout.METRIC_TABLE: []}
+    for key, r in new.items():
+        if key in scenes:
+            del scenes[key]
+        h5layout.write_arrays(scenes, r)
+        rows[h5layout.SCENE_TABLE].append(h5layout.scene_row(r, run))
+        rows[h5layout.SOLUTION_TABLE] += [h5layout.solution_row(key, s) for s in r.solutions.values()]
+        rows[h5layout.METRIC_TABLE] += h5layout.metric_table_rows(key, h5layout.metric_rows(r.metrics))
+    if not len(scenes):
+        del f[SCENES]  # no empty groups
+    h5layout.replace_scenes(f, rows)
     f.attrs["modified_utc"] = utc_now()
 
 
@@ -474,28 +534,57 @@ def _open(path: Path) -> h5py.File:
         raise StoreError(f"{path}: cannot be read as HDF5 ({_short(exc)})") from exc
 
 
-def _map_complete(path: str | Path, read: Callable[[h5py.Group, int], Any],
+class _GroupFile:
+    """The scenes of a version-1..3 file: one group per scene holding everything."""
+
+    def __init__(self, scenes: h5py.Group | None, version: int) -> None:
+        self.scenes, self.version = scenes, version
+        self.names = list(scenes) if scenes is not None else []
+
+    def keys(self) -> list[str]:
+        return [k for k in self.names if h5layout.complete(self.scenes[k])]
+
+    def orphans(self) -> list[str]:
+        return []
+
+    def status(self, key: str) -> str:
+        return h5layout.text(self.scenes[key].attrs["status"])
+
+    def read_scene(self, key: str) -> SceneResult:
+        return h5layout.read_scene(self.scenes[key], self.version)
+
+    def metric_rows(self, key: str) -> h5layout.MetricRows:
+        return h5layout.stored_metric_rows(self.scenes[key], self.version)
+
+
+def _view(f: h5py.File, scenes: h5py.Group | None, version: int) -> Any:
+    return h5layout.TableFile(f) if version >= 4 else _GroupFile(scenes, version)
+
+
+def _map_complete(path: str | Path, read: Callable[[Any, str], Any],
                   keep: Callable[[str], bool] = lambda key: True) -> dict[str, Any]:
-    """key -> read(group, version) for every complete scene group whose key ``keep`` accepts (empty if
-    the file does not exist)."""
+    """key -> read(view, key) for every complete scene whose key ``keep`` accepts (empty if the file
+    does not exist); ``view`` is the file's scenes (:class:`compare.h5layout.TableFile` or the
+    group-per-scene reader of older versions)."""
     path = Path(path)
     if not path.exists():
         return {}
     with _open(path) as f:
         scenes, version = _scenes(f, path)
-        if scenes is None:
-            return {}
         try:
-            names = [k for k in scenes if keep(k)]
+            view = _view(f, scenes, version)
+            names = [k for k in view.keys() if keep(k)]
+            orphans = view.orphans()
         except Exception as exc:  # HDF5 reports damage as OSError, KeyError, ValueError, RuntimeError
-            raise StoreError(f"{path}: /{SCENES} is unreadable ({type(exc).__name__}: {_short(exc)}); "
+            raise StoreError(f"{path}: the scenes are unreadable ({type(exc).__name__}: {_short(exc)}); "
                              "check the file with `ked inspect FILE --verify`") from exc
+        if orphans:
+            raise StoreError(f"{path}: /{SCENES}/{orphans[0]} has no row in /{h5layout.SCENE_TABLE} (the harness "
+                             "did not write it); check the file with `ked inspect FILE --verify`")
         out = {}
         for k in names:
             try:
-                g = scenes[k]
-                if h5layout.complete(g):
-                    out[k] = read(g, version)
+                out[k] = read(view, k)
             except Exception as exc:
                 raise StoreError(f"{path}: /{SCENES}/{k} is unreadable ({type(exc).__name__}: {_short(exc)}); "
                                  "check the file with `ked inspect FILE --verify`") from exc
@@ -504,12 +593,12 @@ def _map_complete(path: str | Path, read: Callable[[h5py.Group, int], Any],
 
 def stored_status(path: str | Path) -> dict[str, str]:
     """key -> status of every complete scene group (empty if the file does not exist)."""
-    return _map_complete(path, lambda g, v: h5layout.text(g.attrs["status"]))
+    return _map_complete(path, lambda view, key: view.status(key))
 
 
 def stored_solutions(path: str | Path) -> dict[str, dict[str, Solution]]:
     """key -> solver name -> stored :class:`~compare.solvers.Solution` of every complete scene."""
-    return _map_complete(path, lambda g, v: h5layout.read_scene(g, v).solutions)
+    return _map_complete(path, lambda view, key: view.read_scene(key).solutions)
 
 
 def file_info(path: str | Path) -> dict[str, Any]:
@@ -520,16 +609,40 @@ def file_info(path: str | Path) -> dict[str, Any]:
         try:
             info = {k: (h5layout.text(v) if isinstance(v, (str, bytes)) else v.item() if hasattr(v, "item") else v)
                     for k, v in f.attrs.items()}
-            info["n_runs"] = len(f[RUNS]) if RUNS in f else 0
+            info["n_runs"] = len(_runs(f))
         except Exception as exc:  # damage
             raise StoreError(f"{path}: file attributes unreadable ({type(exc).__name__}: {_short(exc)})") from exc
     return info
 
 
+def _runs(f: h5py.File) -> list[dict[str, Any]]:
+    """The run records (version 4: rows of the ``/runs`` table; older: one group per run)."""
+    runs = f.get(RUNS)
+    if runs is None:
+        return []
+    if schema_version(f) and schema_version(f) >= 4:
+        return h5layout.table_rows(f, RUNS)
+    return [{k: (h5layout.text(v) if isinstance(v, (str, bytes)) else v) for k, v in g.attrs.items()}
+            for _, g in sorted(runs.items())]
+
+
+def run_records(path: str | Path) -> list[dict[str, Any]]:
+    """One dict per ``ked run`` / ``ked merge`` into the file, oldest first (started_utc, campaign_name,
+    campaign_config, n_scenes, provenance)."""
+    path = Path(path)
+    with _open(path) as f:
+        _scenes(f, path)
+        try:
+            return _runs(f)
+        except Exception as exc:  # damage
+            raise StoreError(f"{path}: /{RUNS} unreadable ({type(exc).__name__}: {_short(exc)})") from exc
+
+
 def read_scenes(path: str | Path, keys: Iterable[str] | None = None) -> list[SceneResult]:
     """Complete scenes of the file (all, or those whose key starts with one of ``keys``), in key order."""
     wanted = None if keys is None else tuple(keys)
-    found = _map_complete(path, h5layout.read_scene, lambda k: wanted is None or k.startswith(wanted))
+    found = _map_complete(path, lambda view, key: view.read_scene(key),
+                          lambda k: wanted is None or k.startswith(wanted))
     return [found[k] for k in sorted(found)]
 
 
@@ -558,6 +671,8 @@ def verify(path: str | Path) -> list[str]:
             return problems + [f"/: schema attribute is not {SCHEMA!r}: not a ked-harness results file"]
         if version not in READABLE_VERSIONS:
             return problems + [f"/: schema version {version} is not one of {READABLE_VERSIONS}"]
+        if version >= 4:
+            return problems + _verify_v4(f, path)
         try:
             if SCENES not in f:
                 return problems + [f"/: missing group /{SCENES}"]
@@ -572,6 +687,22 @@ def verify(path: str | Path) -> list[str]:
     return problems
 
 
+def _verify_v4(f: h5py.File, path: Path) -> list[str]:
+    try:
+        problems = h5layout.verify_tables(f)
+        view = h5layout.TableFile(f)
+        names = list(view.index)
+        problems += [f"/{SCENES}/{g}: no row in /{h5layout.SCENE_TABLE}" for g in view.orphans()]
+    except Exception as exc:  # HDF5 reports damage as OSError, KeyError, ValueError, RuntimeError
+        return [f"{path}: the scene tables are unreadable ({type(exc).__name__}: {_short(exc)})"]
+    for name in names:
+        try:
+            problems += [f"/{SCENES}/{name}: {p}" for p in view.verify_scene(name)]
+        except Exception as exc:
+            problems.append(f"{path}: /{SCENES}/{name} is unreadable ({type(exc).__name__}: {_short(exc)})")
+    return problems
+
+
 # --------------------------------------------------------------------------------------------------
 # upgrade of older layouts: read everything, write a new file, verify every number, then replace
 
@@ -581,6 +712,9 @@ _LAYOUT: dict[int, dict[str, type]] = {
         "dynamic_settings": h5py.Group, "metrics": h5py.Group, "run_stats": h5py.Group},
     2: {"parameters": h5py.Group, "crank_angle": h5py.Dataset, "coupler_point": h5py.Dataset,
         "natural_frequencies": h5py.Dataset, "solutions": h5py.Group, "metrics": h5py.Group,
+        "run_stats": h5py.Group},
+    3: {"parameters": h5py.Group, "crank_angle": h5py.Dataset, "coupler_point": h5py.Dataset,
+        "natural_frequencies": h5py.Dataset, "solutions": h5py.Group, "metrics": h5py.Dataset,
         "run_stats": h5py.Group},
 }
 """The members a scene group of an older schema version may have (anything else cannot be carried over)."""
@@ -627,9 +761,11 @@ def upgrade(path: str | Path) -> bool:
     tmp = _tmp_beside(path)
     try:
         try:
-            with _open(path) as old, create(tmp) as new:
+            buf = io.BytesIO()  # built in memory: HDF5 never writes to a disk that may fill
+            with _open(path) as old, _open_memory(buf, new=True) as new:
                 _write_upgraded(old, new, scenes)
-            with _open(path) as old, h5py.File(tmp, "r") as new:
+            image = buf.getvalue()
+            with _open(path) as old, h5py.File(io.BytesIO(image), "r") as new:
                 problems = _compare_upgraded(old, new, version)
         except (OSError, RuntimeError) as exc:
             raise CommitError(f"{path}: cannot be upgraded to schema version {SCHEMA_VERSION} "
@@ -642,7 +778,8 @@ def upgrade(path: str | Path) -> bool:
             raise StoreError(f"{path}: upgrade to schema version {SCHEMA_VERSION} would not keep every stored "
                              f"number ({problems[0]}{f' and {len(problems) - 1} more' if len(problems) > 1 else ''}"
                              "); the file is unchanged")
-        _install(tmp, path, copy_mode=True)
+        _write_image(image, tmp, path)
+        _install(tmp, path)
     finally:
         _discard(tmp)
     return True
@@ -673,20 +810,53 @@ def _read_for_upgrade(old: h5py.File, version: int, path: Path) -> dict[str, tup
     return out
 
 
+_V1_MOVED = {"quasi_static_wall_s": ("quasi_static", "wall_s"), "dynamic_wall_s": ("dynamic", "wall_s"),
+             "steps": ("dynamic", "steps"), "newton_iterations": ("dynamic", "newton_iterations"),
+             "cycles": ("dynamic", "cycles"), "converged": ("dynamic", "converged"),
+             "dynamic_message": ("dynamic", "dynamic_message")}
+"""Version 1 kept these solver statistics in ``run_stats/``; now in a solution's ``stats_json``."""
+_ARRAY_ATTRS_DROPPED = ("description",)
+"""Attributes of older layouts' arrays that were generated text (the schema states them) and are not
+carried over."""
+
+
+def _attrs(obj: Any, drop: tuple[str, ...] = ()) -> dict[str, Any]:
+    return {k: v for k, v in obj.attrs.items() if k not in drop}
+
+
 def _write_upgraded(old: h5py.File, new: h5py.File, scenes: dict[str, tuple[SceneResult, int, Any]]) -> None:
-    """The new file: root attributes and every group but the scenes copied, scenes in the current layout
-    (their ``parameters`` copied as they are: the content key is hashed from that JSON)."""
+    """The new file: root attributes and every group but the scenes and runs copied as they are, the runs
+    and scenes in the current layout (every attribute an older layout stored carried into the tables
+    verbatim: the content key is hashed from the parameters' JSON)."""
     for k, v in old.attrs.items():
         new.attrs[k] = v
     new.attrs["schema_version"] = SCHEMA_VERSION
     for name in old:
-        if name != SCENES:
+        if name not in (SCENES, RUNS):
             old.copy(old[name], new, name)
-    sg = new.create_group(SCENES)
+    if RUNS in old:
+        h5layout.write_runs(new, [{"run": int(n), **_attrs(g)} for n, g in sorted(old[RUNS].items())])
+    rows: dict[str, list[dict[str, Any]]] = {"scene": [], "solution": [], "metric": []}
+    if scenes:
+        sg = new.create_group(SCENES)
     for key in sorted(scenes):
-        r, run, rows = scenes[key]
-        h5layout.write_scene(h5layout.new_group(sg, key), r, run, stored_metrics=rows,
-                             parameters=old[SCENES][key]["parameters"])
+        r, run, metric_rows = scenes[key]
+        g = old[SCENES][key]
+        version = schema_version(old)
+        h5layout.write_arrays(sg, r)
+        stats = _attrs(g["run_stats"], tuple(_V1_MOVED) if version == 1 else ())
+        rows["scene"].append({**h5layout.scene_row(r, run, parameters=_attrs(g["parameters"]),
+                                                   attrs=_attrs(g, ("complete",))), **stats, "complete": True})
+        for name, s in r.solutions.items():
+            carried = _attrs(g["solutions"][name], ("components", "units")) if version >= 2 else {}
+            rows["solution"].append(h5layout.solution_row(key, s, carried))
+        computed = h5layout.metric_rows(r.metrics)
+        for k, row in metric_rows.items():
+            computed[k] = {**computed.get(k, {}), **row}
+        rows["metric"] += h5layout.metric_table_rows(key, computed)
+    if not len(new.get(SCENES, ())) and SCENES in new:
+        del new[SCENES]
+    h5layout.write_tables(new, rows["scene"], rows["solution"], rows["metric"])
 
 
 def _same(a: Any, b: Any) -> bool:
@@ -712,103 +882,130 @@ def _compare_tree(a: Any, b: Any, where: str) -> list[str]:
     return p
 
 
+def _compare_attrs(old: dict[str, Any], new: dict[str, Any], where: str) -> list[str]:
+    return [f"{where} {k}" for k, v in old.items() if k not in new or not _same(v, new[k])]
+
+
 def _compare_upgraded(old: h5py.File, new: h5py.File, version: int) -> list[str]:
     """Where the new file does not hold a number (or string) the old one stored."""
     p = [f"/ attribute {k}" for k, v in old.attrs.items() if k != "schema_version" and not _same(v, new.attrs.get(k))]
     for name in old:
-        if name != SCENES:
+        if name not in (SCENES, RUNS):
             p += _compare_tree(old[name], new.get(name), f"/{name}")
-    for key, g in old[SCENES].items():
-        ng = new[SCENES].get(key)
-        if ng is None:
+    runs = {int(r["run"]): r for r in h5layout.table_rows(new, RUNS)}
+    for n, g in (old[RUNS].items() if RUNS in old else ()):
+        p += _compare_attrs(_attrs(g), runs.get(int(n), {}), f"/{RUNS}/{n} attribute")
+    view = h5layout.TableFile(new)
+    for key, g in (old[SCENES].items() if SCENES in old else ()):
+        if key not in view.index or not view.complete(key):
             p.append(f"/{SCENES}/{key} missing")
             continue
-        p += [f"/{SCENES}/{key}: {x}" for x in _compare_scene(g, ng, version)]
+        p += [f"/{SCENES}/{key}: {x}" for x in _compare_scene(g, view, key, version)]
     return p
 
 
-def _compare_scene(g: h5py.Group, ng: h5py.Group, version: int) -> list[str]:
-    p = [f"attribute {k}" for k, v in g.attrs.items() if not _same(v, ng.attrs.get(k))]
-    for name in ("parameters", "crank_angle", "coupler_point", "natural_frequencies"):
+def _compare_scene(g: h5py.Group, view: Any, key: str, version: int) -> list[str]:
+    row, arrays = view.row(key), view.arrays(key)
+    p = _compare_attrs(_attrs(g, ("complete",)), row, "attribute")
+    p += _compare_attrs(_attrs(g["parameters"]), row, "parameters attribute")
+    for name in ("crank_angle", "coupler_point", "natural_frequencies"):
         if name in g:
-            p += _compare_tree(g[name], ng.get(name), name)
-    if version >= 2:
-        for solver, sg in g["solutions"].items():
-            p += _compare_solution(sg, ng.get(f"solutions/{solver}"), f"solutions/{solver}")
-        p += _compare_tree(g["run_stats"], ng.get("run_stats"), "run_stats")
+            if name not in arrays or not _same(g[name][()], arrays[name][()]):
+                p.append(f"{name} values")
+            else:
+                p += _compare_attrs(_attrs(g[name], _ARRAY_ATTRS_DROPPED), _attrs(arrays[name]), f"{name} attribute")
+    sols = {h5layout.text(r["solver"]): r for r in view.solution_rows(key)}
+    new_sols = arrays.get(h5layout.SOLUTIONS) if arrays else None
+    old_sols = (g["solutions"].items() if version >= 2 else
+                [(n, g[n]) for n in ("quasi_static", "dynamic") if n in g])
+    for solver, sg in old_sols:
+        ds = new_sols.get(solver) if new_sols is not None else None
+        if version >= 2:
+            p += _compare_attrs(_attrs(sg, ("components", "units")), sols.get(solver, {}),
+                                f"solutions/{solver} attribute")
+        p += _compare_histories(sg, ds, f"solutions/{solver}")
+    if version == 1:
+        p += _compare_v1(g, sols, row)
     else:
-        p += _compare_v1_solutions(g, ng)
-    old_rows, new_rows = h5layout.stored_metric_rows(g, version), h5layout.stored_metric_rows(ng, SCHEMA_VERSION)
-    for key, row in old_rows.items():
-        new = new_rows.get(key, {})
-        p += [f"metrics {'/'.join(key)} {k}" for k, v in row.items() if not _same(v, new.get(k))]
+        p += _compare_attrs(_attrs(g["run_stats"]), row, "run_stats attribute")
+    old_rows, new_rows = h5layout.stored_metric_rows(g, version), view.metric_rows(key)
+    for k, r in old_rows.items():
+        new = new_rows.get(k, {})
+        p += [f"metrics {'/'.join(k)} {n}" for n, v in r.items() if not _same(v, new.get(n))]
     return p
 
 
-def _compare_solution(old: h5py.Group, new: Any, where: str) -> list[str]:
-    """A version-1/2 solution group (attributes, one dataset per component) against its version-3
-    dataset (same attributes, one column per component; the per-dataset ``description`` was generated
-    text and is not kept)."""
+def _compare_histories(old: Any, new: Any, where: str) -> list[str]:
+    """A solution's histories: a version-3 (n, c) dataset or a version-1/2 group of one dataset per
+    component, against the new (n, c) dataset (same columns and units)."""
+    if isinstance(old, h5py.Dataset):
+        comps = [c for c in h5layout.text(old.attrs.get("components", "")).split(",") if c]
+        units = h5layout.text(old.attrs.get("units", "")).split(",")
+        cols = {c: (old[()][:, i], units[i] if i < len(units) else "") for i, c in enumerate(comps)}
+    else:
+        cols = {c: (ds[()], h5layout.text(ds.attrs.get("units", ""))) for c, ds in old.items()}
+    if not cols:
+        return []
     if not isinstance(new, h5py.Dataset):
         return [f"{where} missing"]
-    p = [f"{where} attribute {k}" for k, v in old.attrs.items() if k not in new.attrs or not _same(v, new.attrs[k])]
     comps = h5layout.text(new.attrs.get("components", "")).split(",")
     units = h5layout.text(new.attrs.get("units", "")).split(",")
     data = new[()]
-    for c, ds in old.items():
+    p = []
+    for c, (values, unit) in cols.items():
         if c not in comps:
             p.append(f"{where}/{c} missing")
             continue
         i = comps.index(c)
-        if not _same(ds[()], data[:, i]):
+        if not _same(values, data[:, i]):
             p.append(f"{where}/{c} values")
-        if "units" in ds.attrs and not _same(ds.attrs["units"], units[i]):
+        if unit and not _same(unit, units[i]):
             p.append(f"{where}/{c} units")
     return p
 
 
-def _compare_v1_solutions(g: h5py.Group, ng: h5py.Group) -> list[str]:
-    """Version 1: histories at the scene level, Exudyn settings in dynamic_settings/, statistics in
-    run_stats/ (now in each solution's settings_json / stats_json)."""
+def _compare_v1(g: h5py.Group, sols: dict[str, dict[str, Any]], row: dict[str, Any]) -> list[str]:
+    """Version 1: statistics in run_stats/ (some now in a solution's stats_json), Exudyn settings in
+    dynamic_settings/ (now the solution's settings_json)."""
     import json
 
-    p = []
-    for solver in ("quasi_static", "dynamic"):
-        if solver in g:
-            p += _compare_solution(g[solver], ng.get(f"solutions/{solver}"), solver)
-    sols = ng.get("solutions", {})
-
     def stats(solver: str) -> dict[str, Any]:
-        return json.loads(h5layout.text(sols[solver].attrs["stats_json"])) if solver in sols else {}
+        return json.loads(h5layout.text(sols[solver]["stats_json"])) if solver in sols else {}
 
-    qs, dyn = stats("quasi_static"), stats("dynamic")
-    moved = {"quasi_static_wall_s": (qs, "wall_s"), "dynamic_wall_s": (dyn, "wall_s"), "steps": (dyn, "steps"),
-             "newton_iterations": (dyn, "newton_iterations"), "cycles": (dyn, "cycles"),
-             "converged": (dyn, "converged"), "dynamic_message": (dyn, "dynamic_message")}
-    nrs = ng.get("run_stats")
+    p = []
     for k, v in g["run_stats"].attrs.items():
-        if k in moved:
-            d, name = moved[k]
+        if k in _V1_MOVED:
+            solver, name = _V1_MOVED[k]
+            d = stats(solver)
             ok = not d or (name in d and _same(v, d[name]))
         else:
-            ok = nrs is not None and k in nrs.attrs and _same(v, nrs.attrs[k])
+            ok = k in row and _same(v, row[k])
         if not ok:
             p.append(f"run_stats attribute {k}")
     if "dynamic_settings" in g and "dynamic" in sols:
         if json.loads(h5layout.text(g["dynamic_settings"].attrs["json"])) != json.loads(
-                h5layout.text(sols["dynamic"].attrs["settings_json"])):
+                h5layout.text(sols["dynamic"]["settings_json"])):
             p.append("dynamic_settings")
     return p
 
 
 def array_bytes(path: str | Path) -> int:
-    """Bytes of every array (dataset) the file holds, as stored."""
+    """Bytes of every array (dataset) the file holds, uncompressed: numbers as ``nbytes``, text as the
+    length of its UTF-8 strings (not the padding of a fixed width)."""
     total = 0
 
     def visit(_name: str, obj: Any) -> None:
         nonlocal total
         if isinstance(obj, h5py.Dataset):
-            total += obj.id.get_storage_size()
+            if obj.dtype.kind in "OS":
+                total += sum(len(x) if isinstance(x, bytes) else len(str(x).encode("utf-8"))
+                             for x in np.ravel(obj[()]))
+            elif obj.dtype.fields:
+                data = obj[()]
+                total += sum(sum(len(x) for x in np.ravel(data[n])) if data.dtype[n].kind in "OS" else data[n].nbytes
+                             for n in data.dtype.names)
+            else:
+                total += obj.nbytes
 
     with _open(Path(path)) as f:
         f.visititems(visit)
@@ -816,7 +1013,8 @@ def array_bytes(path: str | Path) -> int:
 
 
 def size_ratio(path: str | Path) -> float:
-    """File size over :func:`array_bytes` [1]: what the layout costs beyond the numbers it holds."""
+    """File size over :func:`array_bytes` [1]: what the layout costs beyond the numbers and text it holds
+    (compression can make it less than 1)."""
     return os.path.getsize(path) / max(1, array_bytes(path))
 
 
@@ -871,7 +1069,7 @@ def merge(src: str | Path, dest: str | Path, wait_s: float = MERGE_WAIT_S) -> tu
         new = [r for r in offered if have.get(r.key) is None or (have.get(r.key) == "failed" and r.ok)]
         if new or not target(dest).exists():
             upgrade(dest)
-            with transaction(dest) as f, _hdf5_errors(target(dest)):
+            with transaction(dest, repack=True) as f, _hdf5_errors(target(dest)):
                 run = _record_run(f, config, f"merge of {target(src).name}", len(new))
                 _commit(f, new, run)
     return len(new), len(offered) - len(new)

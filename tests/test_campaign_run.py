@@ -98,11 +98,15 @@ def test_resume_refuses_scenes_computed_with_other_default_settings(quick_run, t
     old = tmp_path / "old-defaults.h5"
     shutil.copy(out, old)
     key = cfg.scenes()[0].key
-    with h5py.File(old, "r+") as f:
-        attrs = f["scenes"][key]["solutions/dynamic"].attrs
-        settings = json.loads(attrs["settings_json"])
+    from compare import tables
+
+    with h5py.File(old, "r+") as f:  # the stored settings of the scene's Exudyn solution, edited
+        cols, kinds = tables.read_table(f["solution_table"]), tables.kinds_of(f["solution_table"])
+        (i,) = np.flatnonzero((cols["key"] == key) & (cols["solver"] == "dynamic"))
+        settings = json.loads(cols["settings_json"][i])
         settings["steady_tol"] = 0.01
-        attrs["settings_json"] = json.dumps(settings, sort_keys=True, separators=(",", ":"))
+        cols["settings_json"][i] = json.dumps(settings, sort_keys=True, separators=(",", ":"))
+        tables.write_table(f, "solution_table", cols, kinds=kinds)
     before = old.read_bytes()
     with pytest.raises(SettingsMismatchError, match="steady_tol: stored 0.01"):
         run_campaign(cfg, old, workers=1, progress=False)

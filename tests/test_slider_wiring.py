@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from compare import h5layout
 from compare.check import spec_for
 from compare.config import ConfigError, load_config, parse_config
 from compare.execute import run_scene
@@ -174,5 +175,5 @@ def test_campaign_files_of_both_kinds_merge(tmp_path):
     verify = runner.invoke(cli, ["inspect", str(fourbar.with_suffix(".h5")), "--verify"])
     assert verify.exit_code == 0 and "2 complete scenes" in verify.output
     with h5py.File(fourbar.with_suffix(".h5"), "r") as f:
-        kinds = sorted(f["scenes"][k]["parameters"].attrs.get("kind", "four-bar") for k in f["scenes"])
+        kinds = sorted(row["kind"] or "four-bar" for row in h5layout.table_rows(f, h5layout.SCENE_TABLE))
     assert kinds == ["four-bar", "slider-crank"]

@@ -81,8 +81,9 @@ def test_a_registered_solver_runs_through_campaign_inspect_and_plot(tmp_path, re
         assert m.component("vector").amplification == pytest.approx(0.25, rel=1e-12)
     with h5py.File(out) as f:
         g = next(iter(f["scenes"].values()))
-        assert "half_speed" in g["solutions"] and b"half_speed" in set(g["metrics"]["reference"])
-        assert json.loads(g["solutions/half_speed"].attrs["settings_json"]) == {"factor": 0.5}
+        assert "half_speed" in g["solutions"] and b"half_speed" in set(f["metric_table/reference"][()])
+        solvers = list(f["solution_table/solver"][()])
+        assert json.loads(f["solution_table/settings_json"][solvers.index(b"half_speed")]) == {"factor": 0.5}
     runner = CliRunner()
     res = runner.invoke(cli, ["inspect", str(out)])
     assert res.exit_code == 0 and "2 scenes: 2 ok" in res.output, res.output

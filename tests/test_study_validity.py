@@ -52,9 +52,10 @@ sparse = false
 def _history_error_from_file(path: Path, ratio: float) -> float:
     """Independent reading (plain h5py) of one scene's history error."""
     with h5py.File(path, "r") as f:
-        for g in f["scenes"].values():
-            p = g["parameters"].attrs
-            if p["speed_kind"] == "ratio" and math.isclose(p["speed_ratio_requested"], ratio):
+        t = f["scene_table"]  # one row per scene
+        for key, kind, r in zip(t["key"][()], t["speed_kind"][()], t["speed_ratio_requested"][()]):
+            g = f["scenes"][key.decode()]
+            if kind == b"ratio" and math.isclose(r, ratio):
                 qs, dyn = (g[f"solutions/{s}"][()][:, :2] for s in ("quasi_static", "dynamic"))  # columns dx, dy
                 return float(np.hypot(*(qs - dyn).T).max() / np.hypot(*dyn.T).max())
     raise KeyError(ratio)

@@ -1,8 +1,9 @@
 """The atlas file (``results/atlas/atlas.h5``, schema ``ked-harness/atlas`` version 1).
 
-Plain HDF5, columnar tables (one dataset per column, text as UTF-8, per-ratio columns as (rows, ratios)
-arrays), written only through :func:`compare.store.transaction` (a private copy renamed atomically onto
-the file), appended in batches, so a killed run loses only the linkages still being computed.
+Plain HDF5, the harness's tables (:mod:`compare.tables`: one dataset per column with ``units`` and
+``description`` attributes, text as UTF-8, per-ratio columns as (rows, ratios) arrays), written only
+through :func:`compare.store.transaction` (a private copy renamed atomically onto the file), appended
+in batches, so a killed run loses only the linkages still being computed.
 
 ```
 /                 attrs schema, schema_version, created_utc, modified_utc, seed, ratios (json),
@@ -33,11 +34,10 @@ from typing import Any
 import h5py
 import numpy as np
 
-from compare import store
+from compare import store, tables
 
 SCHEMA = "ked-harness/atlas"
 SCHEMA_VERSION = 1
-_STR = h5py.string_dtype("utf-8")
 
 
 class AtlasFileError(ValueError):
@@ -63,37 +63,14 @@ def check_atlas(path: Path, meta: dict[str, Any] | None = None) -> None:
                                  "or another results directory")
 
 
-def _column(values: Sequence[Any]) -> np.ndarray:
-    if all(isinstance(v, str) for v in values):
-        return np.array(values, dtype=object)
-    if all(isinstance(v, (bool, np.bool_)) for v in values):
-        return np.array(values, dtype=np.uint8)
-    return np.array([np.nan if v is None else v for v in values], dtype=float)
-
-
 def append(f: h5py.File, table: str, columns: dict[str, Sequence[Any]]) -> None:
     """Append rows (column -> values, equal lengths; 2D values for per-ratio columns) to ``table``."""
-    g = f.require_group(table)
-    n_old = int(g.attrs.get("rows", 0))
-    n_new = len(next(iter(columns.values()))) if columns else 0
-    for name, values in columns.items():
-        data = _column(values) if not (len(values) and isinstance(values[0], (tuple, list))) else np.array(values)
-        if name not in g:
-            dtype = _STR if data.dtype == object else data.dtype
-            g.create_dataset(name, data=data, dtype=dtype, maxshape=(None, *data.shape[1:]), chunks=True,
-                             compression="gzip", compression_opts=4, shuffle=data.dtype != object)
-            continue
-        ds = g[name]
-        ds.resize(n_old + n_new, axis=0)
-        ds[n_old:] = data
-    g.attrs["rows"] = n_old + n_new
+    tables.append_rows(f, table, columns)
 
 
 def replace(f: h5py.File, table: str, columns: dict[str, Sequence[Any]]) -> None:
     """Replace ``table`` by the given columns."""
-    if table in f:
-        del f[table]
-    append(f, table, columns)
+    tables.write_table(f, table, columns, extendable=True)
 
 
 def write(path: Path, meta: dict[str, Any], *, appends: dict[str, dict[str, Sequence[Any]]] | None = None,
@@ -132,15 +109,7 @@ def compact(path: Path) -> None:
 def read(path: Path, table: str) -> dict[str, np.ndarray]:
     """One table, column -> array (text as str objects); empty if absent."""
     with h5py.File(path, "r") as f:
-        if table not in f:
-            return {}
-        out = {}
-        for name, ds in f[table].items():
-            data = ds[()]
-            if ds.dtype.kind == "O":
-                data = np.array([x.decode() if isinstance(x, bytes) else str(x) for x in data], dtype=object)
-            out[name] = data
-        return out
+        return tables.read_table(f[table]) if table in f else {}
 
 
 def attrs(path: Path) -> dict[str, Any]:

@@ -1,9 +1,10 @@
 """I/O edge shared by the work-precision and stability studies.
 
 * running several campaign configs into one results file (:func:`run_configs`);
-* derived study tables stored next to the scenes in ``/study/<table>`` of the same HDF5 file, one
-  dataset per column (numbers as float64/int64, text as UTF-8 strings), written atomically with
-  :func:`compare.store.transaction`; ``ked inspect --verify`` ignores the group.
+* derived study tables stored next to the scenes in ``/study/<table>`` of the same HDF5 file, tables
+  of :mod:`compare.tables` (one dataset per column, numbers as float64, flags as uint8, text as UTF-8;
+  units from the column names), written atomically with :func:`compare.store.transaction`;
+  ``ked inspect --verify`` checks the scenes only.
 """
 
 from __future__ import annotations
@@ -18,11 +19,11 @@ import h5py
 import numpy as np
 
 from compare import store
+from compare import tables as table_io
 from compare.config import ConfigError, load_config
 from compare.runner import CampaignSummary, run_campaign
 
 STUDY = "study"
-_STR = h5py.string_dtype("utf-8")
 
 
 def refused_configs(configs: Sequence[Path]) -> dict[str, str]:
@@ -68,18 +69,9 @@ def write_tables(path: Path, tables: dict[str, Sequence[Any]], attrs: dict[str, 
         g = f.create_group(STUDY)
         for k, v in attrs.items():
             g.attrs[k] = v if isinstance(v, (int, float, str)) else json.dumps(v)
-        for name, rows in tables.items():
-            tg = g.create_group(name)
-            flat = [_flatten(r) for r in rows]
-            tg.attrs["rows"] = len(flat)
-            for col in (flat[0].keys() if flat else ()):
-                vals = [r[col] for r in flat]
-                if all(isinstance(x, str) for x in vals):
-                    tg.create_dataset(col, data=np.array(vals, dtype=object), dtype=_STR)
-                elif all(isinstance(x, (bool, np.bool_)) for x in vals):
-                    tg.create_dataset(col, data=np.array(vals, dtype=np.uint8))
-                else:
-                    tg.create_dataset(col, data=np.array([np.nan if x is None else x for x in vals], dtype=float))
+        for name, table_rows in tables.items():
+            flat = [_flatten(r) for r in table_rows]
+            table_io.write_table(g, name, table_io.columns(flat))
 
 
 def read_tables(path: Path) -> tuple[dict[str, dict[str, np.ndarray]], dict[str, Any]]:
@@ -87,21 +79,8 @@ def read_tables(path: Path) -> tuple[dict[str, dict[str, np.ndarray]], dict[str,
     with h5py.File(path, "r") as f:
         g = f[STUDY]
         attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in g.attrs.items()}
-        tables = {}
-        for name, tg in g.items():
-            cols = {}
-            for col, ds in tg.items():
-                data = ds[()]
-                if ds.dtype.kind == "O":
-                    data = np.array([x.decode() if isinstance(x, bytes) else str(x) for x in data], dtype=object)
-                cols[col] = data
-            tables[name] = cols
+        tables = {name: table_io.read_table(tg) for name, tg in g.items()}
     return tables, attrs
 
 
-def rows(table: dict[str, np.ndarray]) -> list[dict[str, Any]]:
-    """Column table -> list of row dicts (numpy scalars turned into Python ones)."""
-    if not table:
-        return []
-    n = len(next(iter(table.values())))
-    return [{k: (v[i].item() if hasattr(v[i], "item") else v[i]) for k, v in table.items()} for i in range(n)]
+rows = table_io.rows

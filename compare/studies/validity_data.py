@@ -12,7 +12,6 @@ import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
-import h5py
 import numpy as np
 
 from compare import metrics, store
@@ -143,10 +142,8 @@ def read_points(path: str | Path, linkage: str | None = None, refined: bool = Fa
 
 
 def run_starts(path: str | Path) -> list[str]:
-    """ISO-8601 start times of every ``ked run`` recorded in a campaign file (``/runs/*``)."""
-    with h5py.File(path, "r") as f:
-        runs = f.get("runs")
-        return [] if runs is None else [str(g.attrs["started_utc"]) for g in runs.values()]
+    """ISO-8601 start times of every ``ked run`` recorded in a campaign file (``/runs``)."""
+    return [str(r["started_utc"]) for r in store.run_records(path)]
 
 
 def linkage_json(spec: SceneSpec) -> str:
