@@ -58,8 +58,14 @@ class CampaignConfig:
         return self.grid.expand()
 
     @property
-    def linkage(self) -> FourBar:
+    def linkage(self) -> FourBar | SliderCrank:
+        """The first source linkage (the only one of a campaign with a single ``[linkage]`` table)."""
         return self.grid.linkage
+
+    @property
+    def linkages(self) -> tuple[FourBar | SliderCrank, ...]:
+        """Every source linkage of the grid (several with a ``[[linkage]]`` array)."""
+        return self.grid.linkages
 
     @property
     def solvers(self) -> tuple[str, ...]:
@@ -142,13 +148,13 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
     solvers = c.choices(camp, "campaign.solvers", solver_registry.names(), default=CONFIG_SOLVERS)
     if solvers and "quasi_static" not in solvers:
         c.err("campaign.solvers", "must include 'quasi_static' (every verdict measures it)")
-    linkage = linkage_from_table(c, c.table(doc, "linkage"))
+    linkages = _linkages(c, doc.get("linkage", {}))
     grid = c.table(doc, "grid")
     c.keys(grid, "grid", ("mechanisms", "mass_models", "rpm", "speed_ratios", "stiffness_scales", "damping_ratios",
                           "directions", "dynamic_variants"))
     dynamic_raw = c.table(doc, "dynamic")
     fields = dict(
-        linkage=linkage, mechanisms=c.choices(grid, "grid.mechanisms", MECHANISMS, default=("source",)),
+        linkages=linkages, mechanisms=c.choices(grid, "grid.mechanisms", MECHANISMS, default=("source",)),
         mass_models=_mass_models(c, grid), speeds=_speeds(c, grid),
         stiffness_scales=c.rules(grid, "grid.stiffness_scales", rules.STIFFNESS_SCALE, default=(1.0,)),
         damping_ratios=c.rules(grid, "grid.damping_ratios", rules.DAMPING_RATIO, default=(0.02,)),
@@ -160,11 +166,12 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
     _distinct_labels(c, "grid.stiffness_scales", fields["stiffness_scales"])
     _distinct_labels(c, "grid.damping_ratios", fields["damping_ratios"])
     if not c.problems:
-        _check_mechanisms(c, fields["linkage"], fields["mechanisms"])
+        for i, lk in enumerate(linkages):
+            _check_kind_axes(c, lk, _linkage_path(i, len(linkages)), fields["mechanisms"], fields["mass_models"])
     grid_obj = None if c.problems else Grid(**fields)
     if grid_obj is not None and grid_obj.size() > rules.MAX_SCENES:
         axes = " x ".join(f"{len(fields[k])} {k.replace('_', ' ')}" for k in (
-            "mechanisms", "mass_models", "speeds", "stiffness_scales", "damping_ratios", "directions",
+            "linkages", "mechanisms", "mass_models", "speeds", "stiffness_scales", "damping_ratios", "directions",
             "dynamic_variants"))
         c.err("grid", f"{grid_obj.size()} scenes ({axes}) is more than one campaign may hold "
                       f"({rules.MAX_SCENES}); split the grid into several campaigns (join results with ked merge)")
@@ -203,18 +210,68 @@ def _speeds(c: _Checker, grid: dict[str, Any]) -> tuple[SpeedSpec, ...]:
     return tuple(SpeedSpec("rpm", v) for v in rpms) + tuple(SpeedSpec("ratio", v) for v in ratios)
 
 
-def _check_mechanisms(c: _Checker, source: FourBar | SliderCrank, mechanisms: tuple[str, ...]) -> None:
-    """Every requested mechanism must be crank-drivable (refused at load, not stored as failed); a slider-crank
-    has only its source mechanism."""
+def _linkage_path(i: int, n: int) -> str:
+    """How messages name a campaign's i-th linkage: ``linkage`` (a single table) or ``linkage[i]``."""
+    return "linkage" if n == 1 else f"linkage[{i}]"
+
+
+def _linkages(c: _Checker, raw: Any) -> tuple[FourBar | SliderCrank, ...]:
+    """The campaign's source linkages: one ``[linkage]`` table, or an array of them (``[[linkage]]`` tables,
+    or ``linkage = ["thesis", "simeon", {...}]`` where a string is a preset name), each read by
+    :func:`linkage_from_table`; problems are named ``linkage[i].<key>``.  Two equal linkages are refused."""
+    if isinstance(raw, dict):
+        lk = linkage_from_table(c, raw)
+        return () if lk is None else (lk,)
+    if not isinstance(raw, list) or not raw:
+        c.err("linkage", f"must be a table ([linkage]) or a non-empty array of tables ([[linkage]]) or preset "
+                         f"names, got {_tname(raw)}")
+        return ()
+    out: list[FourBar | SliderCrank] = []
+    for i, item in enumerate(raw):
+        path = _linkage_path(i, len(raw))
+        if isinstance(item, str):
+            item = {"preset": item}
+        if not isinstance(item, dict):
+            c.err(path, f"must be a linkage table or a preset name ('thesis', 'simeon'), got {_tname(item)}")
+            continue
+        sub = _Checker()
+        lk = linkage_from_table(sub, item)
+        if sub.problems or lk is None:  # the same messages, named by the array element
+            c.problems += [path + p[len("linkage"):] if p.startswith("linkage") else f"{path}: {p}"
+                           for p in sub.problems or ["cannot be read"]]
+            c.bad.add(path)
+            continue
+        if lk in out:
+            c.err(path, f"the same linkage as {_linkage_path(out.index(lk), len(raw))} (each linkage once)")
+            continue
+        out.append(lk)
+    return tuple(out)
+
+
+def _check_kind_axes(c: _Checker, source: FourBar | SliderCrank, path: str, mechanisms: tuple[str, ...],
+                     mass_models: tuple[MassModel, ...]) -> None:
+    """Every grid point must apply to every linkage of the grid: refused at load (one line naming the grid
+    parameter and the linkage), never skipped nor stored as failed.  A four-bar's mechanisms must be
+    crank-drivable; a slider-crank has only its source mechanism and the mass models of
+    :data:`ked_quasi.slidercrank.SLIDER_MASS_MODELS`."""
+    from ked_quasi.slidercrank import SLIDER_MASS_MODELS
+
+    split = " (split the grid into one campaign per kind and join the files with ked merge)" \
+        if path != "linkage" else ""
     if isinstance(source, SliderCrank):
         if tuple(mechanisms) != ("source",):
-            c.err("grid.mechanisms", "a slider-crank has no Roberts cognate: use [\"source\"]")
+            c.err("grid.mechanisms", f"{path} is a slider-crank, which has no Roberts cognate: use [\"source\"]"
+                                     + split)
+        bad = [mm.name for mm in mass_models if mm.name not in SLIDER_MASS_MODELS]
+        if bad:
+            c.err("grid.mass_models", f"{', '.join(bad)}: not a mass model of a slider-crank ({path}; allowed: "
+                                      f"{', '.join(SLIDER_MASS_MODELS)}){split}")
         return
     for mech in mechanisms:
         try:
             variant(source, mech)
         except ValueError as exc:
-            c.err("grid.mechanisms", f"{mech!r}: {exc}")
+            c.err("grid.mechanisms", f"{mech!r}: {exc}" + (f" ({path})" if path != "linkage" else ""))
 
 
 def _check_speed_ratios(c: _Checker, grid: Grid) -> None:
@@ -225,40 +282,39 @@ def _check_speed_ratios(c: _Checker, grid: Grid) -> None:
     if not rpms:
         return
     k = min(grid.stiffness_scales)
-    if isinstance(grid.linkage, SliderCrank):
-        _check_slider_grid(c, grid, max(rpms), k)
-        return
-    for mech, mm in itertools.product(grid.mechanisms, grid.mass_models):
-        try:
-            check_speed(variant(grid.linkage, mech, k), mm, max(rpms), grid.step_deg,
-                        label=f"grid.rpm ({mech}, {mm.name}, stiffness x{k:g})")
-        except ValueError as exc:
-            c.problems.append(str(exc))
-            c.bad.add("grid.rpm")
+    for i, linkage in enumerate(grid.linkages):
+        where = "" if len(grid.linkages) == 1 else f"{_linkage_path(i, len(grid.linkages))}, "
+        if isinstance(linkage, SliderCrank):
+            _check_slider_grid(c, grid, linkage, max(rpms), k, where)
+        for mech, mm in itertools.product(() if isinstance(linkage, SliderCrank) else grid.mechanisms,
+                                          grid.mass_models):
+            try:
+                check_speed(variant(linkage, mech, k), mm, max(rpms), grid.step_deg,
+                            label=f"grid.rpm ({where}{mech}, {mm.name}, stiffness x{k:g})")
+            except ValueError as exc:
+                c.problems.append(str(exc))
+                c.bad.add("grid.rpm")
+                return
+        if "grid.rpm" in c.bad:
             return
 
 
-def _check_slider_grid(c: _Checker, grid: Grid, rpm: float, k: float) -> None:
-    """A slider-crank grid: mass models that apply to it, and r = Omega/omega1_min within the bound at the
-    fastest rpm and the smallest stiffness scale (as for a four-bar)."""
+def _check_slider_grid(c: _Checker, grid: Grid, linkage: SliderCrank, rpm: float, k: float, where: str = "") -> None:
+    """A slider-crank of the grid (its mass models checked by :func:`_check_kind_axes`): r = Omega/omega1_min
+    within the bound at the fastest rpm and the smallest stiffness scale (as for a four-bar)."""
     import numpy as np
 
     from ked_quasi.slider_static import slider_natural_frequencies
-    from ked_quasi.slidercrank import SLIDER_MASS_MODELS, SliderScene
+    from ked_quasi.slidercrank import SliderScene
     from ked_quasi.units import rpm_to_rad_s
 
-    bad = [mm.name for mm in grid.mass_models if mm.name not in SLIDER_MASS_MODELS]
-    if bad:
-        c.err("grid.mass_models", f"{', '.join(bad)}: not a mass model of a slider-crank (allowed: "
-                                  f"{', '.join(SLIDER_MASS_MODELS)})")
-        return
-    sc = grid.linkage.with_stiffness_scale(k) if k != 1.0 else grid.linkage
+    sc = linkage.with_stiffness_scale(k) if k != 1.0 else linkage
     for mm in grid.mass_models:
         scene = SliderScene(sc, mm, rpm, grid.step_deg)
         f1 = float(np.nanmin(slider_natural_frequencies(scene, n_modes=1)[:, 0]))
         try:
             rules.check_speed_ratio(rpm_to_rad_s(rpm) / (2.0 * math.pi * f1), rpm, f1,
-                                    f"grid.rpm ({mm.name}, stiffness x{k:g})")
+                                    f"grid.rpm ({where}{mm.name}, stiffness x{k:g})")
         except ValueError as exc:
             c.problems.append(str(exc))
             c.bad.add("grid.rpm")
@@ -306,6 +362,9 @@ def load_linkage(path: str | Path) -> FourBar:
     four-bar; :class:`ConfigError` naming the file and every problem otherwise."""
     p = Path(path)
     doc = _read_toml(p)
+    if isinstance(doc.get("linkage"), list):
+        raise ConfigError(["holds several linkages ([[linkage]] or an array); a linkage file holds one [linkage] "
+                           "table (several linkages belong in a campaign config)"], source=str(p))
     if not isinstance(doc.get("linkage"), dict):
         tables = [f"[{k}]" for k, v in doc.items() if isinstance(v, dict)]
         loose = [k for k, v in doc.items() if not isinstance(v, dict)]

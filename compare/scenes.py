@@ -208,9 +208,12 @@ def canonical_json(obj: Any) -> str:
 
 @dataclass(frozen=True)
 class Grid:
-    """The axes of a campaign grid and the settings every scene shares (see :class:`SceneSpec`)."""
+    """The axes of a campaign grid and the settings every scene shares (see :class:`SceneSpec`).
 
-    linkage: FourBar | SliderCrank
+    ``linkages``: the source linkages, one or more, of either kind (a campaign's ``[linkage]`` table, or each
+    table of its ``[[linkage]]`` array); every other axis applies to each of them."""
+
+    linkages: tuple[FourBar | SliderCrank, ...]
     mechanisms: tuple[str, ...]
     mass_models: tuple[MassModel, ...]
     speeds: tuple[SpeedSpec, ...]
@@ -226,28 +229,33 @@ class Grid:
     extra_settings: tuple[tuple[str, Items], ...] = ()
     solvers: tuple[str, ...] = DEFAULT_SOLVERS
 
+    @property
+    def linkage(self) -> FourBar | SliderCrank:
+        """The first source linkage (the only one of a campaign with a single ``[linkage]`` table)."""
+        return self.linkages[0]
+
     def size(self) -> int:
         """Number of grid points (before removing duplicate keys)."""
         n = 1
-        for axis in (self.mechanisms, self.mass_models, self.speeds, self.stiffness_scales, self.damping_ratios,
-                     self.directions, self.dynamic_variants):
+        for axis in (self.linkages, self.mechanisms, self.mass_models, self.speeds, self.stiffness_scales,
+                     self.damping_ratios, self.directions, self.dynamic_variants):
             n *= len(axis)
         return n
 
     def expand(self) -> tuple[SceneSpec, ...]:
         """Cartesian product of the axes, in a fixed order, without duplicate keys.
 
-        Order: mechanism, mass model, speed, stiffness scale, damping ratio, direction, dynamic variant
+        Order: linkage, mechanism, mass model, speed, stiffness scale, damping ratio, direction, dynamic variant
         (last varies fastest).  Each dynamic variant's overrides are merged on top of ``dynamic``.
         """
         scenes: list[SceneSpec] = []
         seen: set[str] = set()
-        for mech, mm, speed, k, zeta, direction, var in itertools.product(
-            self.mechanisms, self.mass_models, self.speeds, self.stiffness_scales, self.damping_ratios,
+        for linkage, mech, mm, speed, k, zeta, direction, var in itertools.product(
+            self.linkages, self.mechanisms, self.mass_models, self.speeds, self.stiffness_scales, self.damping_ratios,
             self.directions, self.dynamic_variants,
         ):
             dyn = tuple(sorted(dict(self.dynamic, **dict(var), damping_ratio=zeta).items()))
-            spec = SceneSpec(linkage=self.linkage, mechanism=mech, mass_model=mm, speed=speed, stiffness_scale=k,
+            spec = SceneSpec(linkage=linkage, mechanism=mech, mass_model=mm, speed=speed, stiffness_scale=k,
                              damping_ratio=zeta, direction=direction, step_deg=self.step_deg, n_modes=self.n_modes,
                              outputs=self.outputs, tolerance=self.tolerance, dynamic=dyn,
                              extra_settings=self.extra_settings, solvers=self.solvers)

@@ -17,7 +17,7 @@ from click.testing import CliRunner
 
 from compare import h5layout
 from compare.check import spec_for
-from compare.config import ConfigError, load_config, parse_config
+from compare.config import ConfigError, load_config, load_linkage, parse_config
 from compare.execute import run_scene
 from compare.scenes import SceneSpec
 from compare.solvers import get
@@ -61,11 +61,12 @@ def test_stored_reference_keys_unchanged():
     """The committed reference results file (written by an earlier harness) holds exactly the keys its
     config gives today, and every stored scene's parameters read back to its own key."""
     cfg = load_config("results/reference/reference.toml")
-    with h5py.File("results/reference/reference.h5", "r") as f:
-        stored = set(f["scenes"])
-        for key in stored:
-            spec = SceneSpec.from_dict(json.loads(f["scenes"][key]["parameters"].attrs["json"]))
-            assert spec.key == key and spec.kind == "four-bar"
+    with h5py.File("results/reference/reference.h5", "r") as f:  # schema v4: parameters in the scene table
+        rows = h5layout.table_rows(f, h5layout.SCENE_TABLE)
+        stored = {str(row["key"]) for row in rows}
+        for row in rows:
+            spec = SceneSpec.from_dict(json.loads(row["json"]))
+            assert spec.key == row["key"] and spec.kind == "four-bar"
     assert {s.key for s in cfg.scenes()} == stored
 
 
@@ -177,3 +178,98 @@ def test_campaign_files_of_both_kinds_merge(tmp_path):
     with h5py.File(fourbar.with_suffix(".h5"), "r") as f:
         kinds = sorted(row["kind"] or "four-bar" for row in h5layout.table_rows(f, h5layout.SCENE_TABLE))
     assert kinds == ["four-bar", "slider-crank"]
+
+
+MIXED_CAMPAIGN = """
+[campaign]
+name = "mixed"
+step_deg = 30.0
+solvers = ["quasi_static", "linear", "dynamic"]
+
+[[linkage]]
+preset = "thesis"
+
+[[linkage]]
+preset = "simeon"
+
+[grid]
+mass_models = ["distributed"]
+speed_ratios = [0.05]
+
+"""
+
+
+def test_mixed_campaign_is_the_union_of_its_single_kind_campaigns():
+    """A [[linkage]] grid holds both kinds; its scenes (and content keys) are exactly those of the two
+    single-[linkage] campaigns (so a mixed file resumes and merges with files of either kind)."""
+    mixed = parse_config(MIXED_CAMPAIGN)
+    singles = [parse_config(MIXED_CAMPAIGN.replace("[[linkage]]\npreset = \"simeon\"\n", "").replace(
+        "[[linkage]]", "[linkage]")), parse_config(MIXED_CAMPAIGN.replace("[[linkage]]\npreset = \"thesis\"\n", "")
+                                                   .replace("[[linkage]]", "[linkage]"))]
+    assert [s.kind for s in mixed.scenes()] == ["four-bar", "slider-crank"]
+    assert [s.key for s in mixed.scenes()] == [s.key for c in singles for s in c.scenes()]
+    tables = '[[linkage]]\npreset = "thesis"\n\n[[linkage]]\npreset = "simeon"\n'
+    inline = parse_config(MIXED_CAMPAIGN.replace(tables, "").replace(
+        "[campaign]", 'linkage = ["thesis", "simeon"]\n[campaign]'))
+    assert [s.key for s in inline.scenes()] == [s.key for s in mixed.scenes()]
+    assert mixed.grid.size() == 2 and mixed.linkages == (singles[0].linkage, singles[1].linkage)
+
+
+@pytest.mark.parametrize("grid_line, path, words", [
+    ('mechanisms = ["source", "cognate"]', "grid.mechanisms", "linkage[1] is a slider-crank, which has no Roberts"),
+    ('mass_models = ["distributed", "extender"]', "grid.mass_models", "extender: not a mass model of a slider-crank"),
+])
+def test_mixed_campaign_refuses_axes_a_kind_lacks(grid_line, path, words):
+    """A grid point that does not apply to one of the linkages is refused at load (one line naming the grid
+    parameter and the linkage), never skipped: every requested point is computed or the config is refused."""
+    text = MIXED_CAMPAIGN.replace('mass_models = ["distributed"]', grid_line if "mass" in grid_line else
+                                  'mass_models = ["distributed"]\n' + grid_line)
+    with pytest.raises(ConfigError) as exc:
+        parse_config(text)
+    assert len(exc.value.problems) == 1 and exc.value.problems[0].startswith(f"{path}: ")
+    assert words in exc.value.problems[0] and "ked merge" in exc.value.problems[0]
+
+
+def test_mixed_campaign_names_the_linkage_of_a_problem(tmp_path):
+    with pytest.raises(ConfigError) as exc:
+        parse_config('linkage = ["thesis", 3, "foo", "thesis"]\n')
+    assert exc.value.problems == [
+        "linkage[1]: must be a linkage table or a preset name ('thesis', 'simeon'), got integer",
+        "linkage[2].preset: must be one of 'thesis', 'simeon', got 'foo'",
+        "linkage[3]: the same linkage as linkage[0] (each linkage once)"]
+    p = tmp_path / "two.toml"
+    p.write_text('linkage = ["thesis", "simeon"]\n')
+    with pytest.raises(ConfigError, match="a linkage file holds one"):
+        load_linkage(p)
+
+
+def test_mixed_campaign_runs_stores_both_kinds_and_each_scene_is_the_direct_call(tmp_path):
+    """`ked run` on a grid of both kinds (low speed, the cheap pinned Exudyn settings of conftest): both kinds
+    stored, the file verifies, and every stored history is the direct solver call's on the same scene."""
+    from compare.store import stored_solutions
+    from tests.conftest import QUICK_DYNAMIC
+
+    cfg_path = tmp_path / "mixed.toml"
+    cfg_path.write_text(MIXED_CAMPAIGN + QUICK_DYNAMIC)
+    out_h5 = tmp_path / "mixed.h5"
+    runner = CliRunner()
+    res = runner.invoke(cli, ["run", str(cfg_path), "--out", str(out_h5), "--workers", "1", "--no-figures",
+                              "--no-progress"])
+    assert res.exit_code == 0, res.output
+    verify = runner.invoke(cli, ["inspect", str(out_h5), "--verify"])
+    assert verify.exit_code == 0 and "2 complete scenes" in verify.output, verify.output
+    with h5py.File(out_h5, "r") as f:
+        kinds = sorted(row["kind"] or "four-bar" for row in h5layout.table_rows(f, h5layout.SCENE_TABLE))
+    assert kinds == ["four-bar", "slider-crank"]
+    stored = stored_solutions(out_h5)
+    for spec in load_config(cfg_path).scenes():
+        direct = run_scene(spec)  # resolves the speed ratio to rpm as the campaign does
+        assert direct.ok, direct.message
+        for name in ("quasi_static", "linear", "dynamic"):
+            solver = get(name)
+            settings = solver.make_settings({**spec.shared_settings(), **spec.settings_for(name)},
+                                            spec.damping_ratio)
+            sol = solver.run(spec.scene(direct.rpm), settings, spec.outputs)
+            for comp in spec.outputs:
+                assert np.allclose(stored[spec.key][name].deflection[comp], sol.deflection[comp],
+                                   rtol=0, atol=1e-12), (spec.kind, name, comp)
