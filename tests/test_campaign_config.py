@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import math
+import re
+from pathlib import Path
 
+import h5py
 import pytest
 
+from compare import h5layout
 from compare.config import ConfigError, default_config_text, load_config, parse_config
 from compare.scenes import SceneSpec, SpeedSpec
 from ked_quasi import MassModel
@@ -195,3 +199,29 @@ def test_output_order_does_not_change_keys():
     a = parse_config("[campaign]\noutputs = ['dy', 'dx']\n").scenes()[0]
     b = parse_config("[campaign]\noutputs = ['dx', 'dy']\n").scenes()[0]
     assert a.outputs == ("dx", "dy") and a.key == b.key
+
+
+COMMITTED_CONFIGS = sorted(str(p) for p in Path("results").rglob("*.toml"))
+
+
+@pytest.mark.parametrize("path", [None, *COMMITTED_CONFIGS])
+def test_committed_configs_keep_their_scenes_with_linkage_arrays(path):
+    """Every committed config (and the embedded default) gives the same scenes and content keys whether its
+    [linkage] is a table or a one-element [[linkage]] array (the array form only adds linkages); where its
+    results file is committed, its scenes' keys are stored there (written before linkage arrays existed)."""
+    text = default_config_text() if path is None else Path(path).read_text(encoding="utf-8")
+    as_array = re.sub(r"^\[linkage\]", "[[linkage]]", text, flags=re.M)
+    assert as_array != text or "[linkage]" not in text
+    try:
+        keys = [s.key for s in parse_config(text).scenes()]
+    except ConfigError as exc:  # the stability study's deliberately bad configs: refused alike in both forms
+        with pytest.raises(ConfigError) as again:
+            parse_config(as_array)
+        assert again.value.problems == exc.problems
+        return
+    assert [s.key for s in parse_config(as_array).scenes()] == keys
+    h5 = None if path is None else Path(path).with_suffix(".h5")
+    if h5 is not None and h5.is_file():
+        with h5py.File(h5, "r") as f:
+            stored = {str(row["key"]) for row in h5layout.table_rows(f, h5layout.SCENE_TABLE)}
+        assert set(keys) <= stored
