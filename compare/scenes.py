@@ -178,9 +178,10 @@ class SceneSpec:
 
     @property
     def label(self) -> str:
-        """Short human-readable label, e.g. ``source/tip/300rpm/k1/z0.02/ccw``."""
+        """Short human-readable label, e.g. ``source/tip/300rpm/k1/z0.02/ccw``; a slider-crank's first segment is
+        ``slider-crank`` (its only mechanism is its source), so the two kinds of a mixed grid never share one."""
         return (
-            f"{self.mechanism}/{self.mass_model.name}/{self.speed.label()}"
+            f"{SLIDER_KIND if self.kind == SLIDER_KIND else self.mechanism}/{self.mass_model.name}/{self.speed.label()}"
             f"/k{self.stiffness_scale:g}/z{self.damping_ratio:g}/{self.direction}"
         )
 

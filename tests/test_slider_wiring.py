@@ -207,6 +207,8 @@ def test_mixed_campaign_is_the_union_of_its_single_kind_campaigns():
         "[[linkage]]", "[linkage]")), parse_config(MIXED_CAMPAIGN.replace("[[linkage]]\npreset = \"thesis\"\n", "")
                                                    .replace("[[linkage]]", "[linkage]"))]
     assert [s.kind for s in mixed.scenes()] == ["four-bar", "slider-crank"]
+    assert [s.label for s in mixed.scenes()] == ["source/distributed/0.05w1/k1/z0.02/ccw",
+                                                 "slider-crank/distributed/0.05w1/k1/z0.02/ccw"]
     assert [s.key for s in mixed.scenes()] == [s.key for c in singles for s in c.scenes()]
     tables = '[[linkage]]\npreset = "thesis"\n\n[[linkage]]\npreset = "simeon"\n'
     inline = parse_config(MIXED_CAMPAIGN.replace(tables, "").replace(
