@@ -62,10 +62,11 @@ def test_stored_reference_keys_unchanged():
     config gives today, and every stored scene's parameters read back to its own key."""
     cfg = load_config("results/reference/reference.toml")
     with h5py.File("results/reference/reference.h5", "r") as f:
-        stored = set(f["scenes"])
-        for key in stored:
-            spec = SceneSpec.from_dict(json.loads(f["scenes"][key]["parameters"].attrs["json"]))
-            assert spec.key == key and spec.kind == "four-bar"
+        rows = h5layout.table_rows(f, h5layout.SCENE_TABLE)
+    stored = {h5layout.text(r["key"]) for r in rows}
+    for r in rows:
+        spec = SceneSpec.from_dict(json.loads(h5layout.text(r["json"])))
+        assert spec.key == h5layout.text(r["key"]) and spec.kind == "four-bar"
     assert {s.key for s in cfg.scenes()} == stored
 
 
