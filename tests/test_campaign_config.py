@@ -223,5 +223,5 @@ def test_committed_configs_keep_their_scenes_with_linkage_arrays(path):
     h5 = None if path is None else Path(path).with_suffix(".h5")
     if h5 is not None and h5.is_file():
         with h5py.File(h5, "r") as f:
-            stored = {str(row["key"]) for row in h5layout.table_rows(f, h5layout.SCENE_TABLE)}
+            stored = {h5layout.text(row["key"]) for row in h5layout.table_rows(f, h5layout.SCENE_TABLE)}
         assert set(keys) <= stored

@@ -81,13 +81,13 @@ def test_a_run_reads_the_stored_scenes_once(tmp_path, monkeypatch):
     run_campaign(parse_config(QS), out, workers=1, progress=False)  # 4 scenes stored
     more = parse_config(QS.replace("rpm = [60.0, 90.0]", "rpm = [60.0, 90.0, 120.0]"))  # 2 new scenes
     reads: list[str] = []
-    real = h5layout.read_scene
+    real = h5layout.TableFile.read_scene  # version 4: scenes are read through the file's tables
 
-    def counting(g, version):
-        reads.append(g.name)
-        return real(g, version)
+    def counting(self, key):
+        reads.append(key)
+        return real(self, key)
 
-    monkeypatch.setattr(h5layout, "read_scene", counting)
+    monkeypatch.setattr(h5layout.TableFile, "read_scene", counting)
     summary = run_campaign(more, out, workers=1, progress=False)
     assert (summary.skipped, summary.ok) == (4, 2)
     assert sorted(reads) == sorted(set(reads)) and len(reads) == 4  # each stored scene once

@@ -61,12 +61,12 @@ def test_stored_reference_keys_unchanged():
     """The committed reference results file (written by an earlier harness) holds exactly the keys its
     config gives today, and every stored scene's parameters read back to its own key."""
     cfg = load_config("results/reference/reference.toml")
-    with h5py.File("results/reference/reference.h5", "r") as f:  # schema v4: parameters in the scene table
+    with h5py.File("results/reference/reference.h5", "r") as f:
         rows = h5layout.table_rows(f, h5layout.SCENE_TABLE)
-        stored = {str(row["key"]) for row in rows}
-        for row in rows:
-            spec = SceneSpec.from_dict(json.loads(row["json"]))
-            assert spec.key == row["key"] and spec.kind == "four-bar"
+    stored = {h5layout.text(r["key"]) for r in rows}
+    for r in rows:
+        spec = SceneSpec.from_dict(json.loads(h5layout.text(r["json"])))
+        assert spec.key == h5layout.text(r["key"]) and spec.kind == "four-bar"
     assert {s.key for s in cfg.scenes()} == stored
 
 
