@@ -12,12 +12,13 @@ import pytest
 from compare import metrics
 from compare.atlas import analysis, calibration, verdict_margins
 from compare.atlas import store as atlas_store
-from compare.atlas.compute import OK, limit_of
+from compare.atlas.compute import OK
 from compare.atlas.confirm import run_confirm
 from compare.atlas.generate import RANGES, candidate, generate
 from compare.atlas.report import FIGURES, write_report
 from compare.atlas.run import run_atlas
 from compare.atlas.threshold import run_threshold, select_threshold
+from compare.limits import validity_limit
 from compare.sections import section_of
 from ked_linear import LinearSettings, solve_linear
 from ked_quasi import Scene, natural_frequencies, solve_quasi_static
@@ -72,17 +73,18 @@ def test_limit_interpolation_hand_computed():
     # errors 0.02, 0.06, 0.30 at r = 0.05, 0.1, 0.2 (by hand):
     # 5 %: 0.05 + (0.05 - 0.02) / (0.06 - 0.02) * 0.05 = 0.0875, half-bracket 0.025
     # 10 %: 0.1 + (0.10 - 0.06) / (0.30 - 0.06) * 0.1 = 0.11667, half-bracket 0.05
+    # (r_record: the value the atlas file stores as r5 / r10)
     ok = [True] * 3
-    five = limit_of(RATIOS, [0.02, 0.06, 0.30], ok, 0.05)
-    ten = limit_of(RATIOS, [0.02, 0.06, 0.30], ok, 0.10)
+    five = validity_limit(RATIOS, [0.02, 0.06, 0.30], ok, 0.05)
+    ten = validity_limit(RATIOS, [0.02, 0.06, 0.30], ok, 0.10)
     assert five.status == ten.status == "crossed"
-    assert five.r == pytest.approx(0.0875) and five.half_bracket == pytest.approx(0.025)
-    assert ten.r == pytest.approx(0.1 + 0.04 / 0.24 * 0.1) and ten.half_bracket == pytest.approx(0.05)
-    assert limit_of(RATIOS, [0.01, 0.02, 0.04], ok, 0.05).status == "above_grid"
-    assert limit_of(RATIOS, [0.01, 0.02, 0.04], ok, 0.05).r == 0.2
-    below = limit_of(RATIOS, [0.2, 0.3, 0.4], ok, 0.05)
-    assert below.status == "below_grid" and below.r == 0.05
-    assert limit_of(RATIOS, [0.01, math.nan, 0.4], [True, False, True], 0.05).status == "failure"
+    assert five.r_record == pytest.approx(0.0875) and five.half_bracket == pytest.approx(0.025)
+    assert ten.r_record == pytest.approx(0.1 + 0.04 / 0.24 * 0.1) and ten.half_bracket == pytest.approx(0.05)
+    assert validity_limit(RATIOS, [0.01, 0.02, 0.04], ok, 0.05).status == "above_grid"
+    assert validity_limit(RATIOS, [0.01, 0.02, 0.04], ok, 0.05).r_record == 0.2
+    below = validity_limit(RATIOS, [0.2, 0.3, 0.4], ok, 0.05)
+    assert below.status == "below_grid" and below.r_record == 0.05
+    assert validity_limit(RATIOS, [0.01, math.nan, 0.4], [True, False, True], 0.05).status == "failure"
 
 
 def test_median_spread_hand_computed():
@@ -333,8 +335,6 @@ def _resonant(r: np.ndarray) -> np.ndarray:
 
 def test_first_crossing_is_not_interpolated_across_a_resonance():
     from scipy.optimize import brentq
-
-    from compare.limits import validity_limit
 
     # the true first crossing of 10 %, found on the function itself
     true = brentq(lambda x: float(_resonant(np.array([x]))[0]) - 0.10, 0.2501, 0.277)

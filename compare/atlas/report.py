@@ -14,11 +14,13 @@ import numpy as np
 from compare import solvers
 from compare.atlas import calibration as cal
 from compare.atlas import figures
+from compare.atlas import findings as fd
 from compare.atlas import store as atlas_store
 from compare.atlas.analysis import (
     crossed,
     first_crossings,
     linear_limits,
+    linear_of,
     rule_constant,
     spearman,
     tier_limits,
@@ -28,6 +30,7 @@ from compare.atlas.compute import RATIOS, spec_of, xy
 from compare.atlas.generate import candidate
 from compare.atlas.threshold import TABLE
 from compare.execute import frame, solve_one
+from compare.limits import TOLERANCES
 from compare.markdown import median_range, table
 from compare.sections import write_section
 from ked_quasi.kinematics import coupler_point
@@ -150,7 +153,7 @@ def tier_table(fam: dict[str, np.ndarray], conf: dict[str, np.ndarray]) -> list[
         t = tier_limits(fam, conf, mm)
         sel = np.asarray(fam["mass_model"], dtype=object) == mm
         steps = [_median_step(np.asarray(fam[f"{tag}_step"], float)[sel]) for tag in ("r5", "r10")]
-        steps += [_median_step([x.step for x in lins if x.family[2] == mm and x.tag == tag]) for tag in ("r5", "r10")]
+        steps += [_median_step([x.step for x in linear_of(lins, mm, tol)]) for tol in TOLERANCES]
         cells = [f"{v:.3f} - {s:.3f} (step {h})" if math.isfinite(v) else "-" for (v, s), h in zip((
             (t.quasi_static_r5, t.quasi_static_r5_spread), (t.quasi_static_r10, t.quasi_static_r10_spread),
             (t.linear_r5, t.linear_r5_spread), (t.linear_r10, t.linear_r10_spread)), steps)]
@@ -165,9 +168,9 @@ def linear_limit_table(conf: dict[str, np.ndarray]) -> list[str]:
     rows = []
     for mm in MASS_MODELS:
         for tag, tol in (("r5", "5 %"), ("r10", "10 %")):
-            x = [v for v in lims if v.family[2] == mm and v.tag == tag]
-            cr = np.array([v.r for v in x if v.status == "crossed"])
-            above = np.array([v.r for v in x if v.status == "above_grid"])
+            x = linear_of(lims, mm, {"r5": 0.05, "r10": 0.10}[tag])
+            cr = np.array([v.r_pass for v in x if v.status == "crossed"])
+            above = np.array([v.r_pass for v in x if v.status == "above_grid"])
             low = f"{above.size} ({np.median(above):.3f})" if above.size else "0"
             other = sum(v.status == "below_grid" for v in x), sum(v.status == "failure" for v in x)
             step = _median_step([v.step for v in x if v.status == "crossed"])
@@ -178,26 +181,17 @@ def linear_limit_table(conf: dict[str, np.ndarray]) -> list[str]:
                  dense=True)
 
 
-def headline(fam: dict[str, np.ndarray], conf: dict[str, np.ndarray], feats: dict[str, np.ndarray],
-             margins: cal.Margins | None = None) -> str:
+def headline(h: fd.Headline, margins: cal.Margins | None = None) -> str:
     """The section's answer in a few sentences."""
-    m = crossed(fam, "r10")
-    r10 = fam["r10"][m]
-    rho = {k: spearman(np.asarray(v, float)[m], r10) for k, v in feats.items()}
-    top = sorted(rho, key=lambda k: -abs(np.nan_to_num(rho[k])))[:3]
-    one = within(fam["one_mode_r10"][m], r10).mean()
-    per_mm = [fam["r10"][crossed(fam, "r10", mm)] for mm in MASS_MODELS]
-    meds = [float(np.median(v)) for v in per_mm if v.size]
-    widths = [float(np.ptp(np.percentile(v, [10, 90]))) for v in per_mm if v.size]
-    text = (f"**In short:** over {m.sum()} families the quasi-static coupler-point history stays within 10 % of the "
-            f"linear KED model up to r* = {np.median(r10):.3f} (median; 10-90 % of the families: "
-            f"{np.percentile(r10, 10):.3f}-{np.percentile(r10, 90):.3f}; first crossings on the atlas grid, median "
-            f"step {_q(fam['r10_step'], 50):.3f}) and within 5 % up to "
-            f"{np.median(fam['r5'][crossed(fam, 'r5')]):.3f}. The medians of the four mass models differ by "
-            f"{np.ptp(meds):.3f}, the linkages of one mass model by up to {max(widths):.3f} (10-90 %): strongest rank "
-            "correlations with r* "
-            + ", ".join(f"{k} ({rho[k]:+.2f})" for k in top)
-            + f". The one-mode estimate predicts r* within +-25 % for {one:.0%} of the families.")
+    text = (f"**In short:** over {h.families} families the quasi-static coupler-point history stays within 10 % of "
+            f"the linear KED model up to r* = {h.r10_median:.3f} (median; 10-90 % of the families: "
+            f"{h.r10_p10:.3f}-{h.r10_p90:.3f}; first crossings on the atlas grid, median "
+            f"step {h.r10_step_median:.3f}) and within 5 % up to "
+            f"{h.r5_median:.3f}. The medians of the four mass models differ by "
+            f"{h.mass_model_spread:.3f}, the linkages of one mass model by up to {h.widest:.3f} (10-90 %): strongest "
+            "rank correlations with r* "
+            + ", ".join(f"{k} ({rho:+.2f})" for k, rho in h.correlations)
+            + f". The one-mode estimate predicts r* within +-25 % for {h.one_mode_within:.0%} of the families.")
     if margins is not None:
         s = margins.stats
         text += (f" At the threshold ({s.n} Exudyn-confirmed scenes within +-25 % of their family's 10 % limit) "
@@ -208,13 +202,6 @@ def headline(fam: dict[str, np.ndarray], conf: dict[str, np.ndarray], feats: dic
     return text
 
 
-def _q(values: Any, q: float) -> float:
-    """The q-th percentile of the finite values (nan if none)."""
-    v = np.asarray(values, float)
-    v = v[np.isfinite(v)]
-    return float(np.percentile(v, q)) if v.size else math.nan
-
-
 def _ci(x: cal.Rate) -> str:
     """'k/n = rate [low-high]' of a binomial rate."""
     if x.n == 0:
@@ -222,63 +209,37 @@ def _ci(x: cal.Rate) -> str:
     return f"{x.k}/{x.n} = {x.rate:.1%} [{x.low95:.1%}-{x.high95:.1%}]"
 
 
-def early_text(d: cal.ThresholdData, fam: dict[str, np.ndarray], tol: float) -> list[str]:
-    """Threshold scenes already at or above the tolerance below their family's interpolated r*: between the
-    first-crossing limit and the interpolated value (the interpolation overstated the limit), or below the
-    first-crossing limit (a crossing the atlas grid did not see)."""
-    row = {(int(k), str(m), str(mm)): i for i, (k, m, mm) in enumerate(zip(fam["linkage"], fam["mechanism"],
-                                                                          fam["mass_model"]))}
-    r_first = np.array([fam["r10"][row[(int(k), str(m), str(mm))]] if (int(k), str(m), str(mm)) in row else np.nan
-                        for k, m, mm in zip(d.linkage, d.mechanism, d.mass_model)], float)
-    below = (d.sample == "threshold") & np.isfinite(d.e) & (d.factor < 1.0)
-    early = below & (d.e >= tol)
-    unseen = early & (d.r <= r_first)
-    return [f"First crossings, checked: {int(early.sum())} of the {int(below.sum())} threshold scenes below their "
-            "family's interpolated r* already have a predicted error >= 10 %: "
-            f"{int((early & ~unseen).sum())} between the last passing grid ratio and the interpolated value (the "
-            "interpolation overstated the limit: why every atlas limit is the last passing grid ratio), "
-            f"{int(unseen.sum())} at or below the last passing grid ratio (a crossing the atlas grid did not see)."]
-
-
-def threshold_text(d: cal.ThresholdData | None, mg: cal.Margins | None,
-                   fam: dict[str, np.ndarray] | None = None) -> list[str]:
+def threshold_text(t: fd.ThresholdFindings | None) -> list[str]:
     """The threshold calibration: counts, rates with intervals, the chosen margins, per stratum."""
-    if d is None or mg is None or not d.e.size:
+    if t is None:
         return ["No threshold sample yet (`ked study atlas --threshold N`)."]
-    tol = mg.tolerance
-    ok = np.isfinite(d.measured)
-    e, m = d.e[ok], d.measured[ok]
-    strata = Counter(zip(d.mass_model[d.sample == "threshold"], d.mechanism[d.sample == "threshold"]))
-    lo, hi = np.min(d.factor), np.max(d.factor)
+    mg = t.margins
 
-    def row(name: str, s: cal.CallStats) -> str:
-        return (f"| {name} | {s.quasi_static} | {s.borderline} ({s.borderline_measured_fail}) | {s.not_quasi_static} "
-                f"| {_ci(s.unsafe)} | {_ci(s.overcautious)} | {_ci(s.agreement)} |")
+    def row(name: str, s: cal.CallStats) -> list[str]:
+        return [name, str(s.quasi_static), f"{s.borderline} ({s.borderline_measured_fail})", str(s.not_quasi_static),
+                _ci(s.unsafe), _ci(s.overcautious), _ci(s.agreement)]
 
-    gated = int(np.sum(ok & np.isfinite(d.e) & (d.e < mg.holds_below * tol) & ~(d.r < d.r_linear)))
-    near = (e >= 0.8 * tol) & (e <= 1.2 * tol)
-    thr = d.sample == "threshold"
-    L = [f"Stratified (`compare.atlas.threshold`): per mass model and mechanism ({min(strata.values())}-"
-         f"{max(strata.values())} scenes each), families drawn from equal strata of their r* (10 %), one scene "
-         f"each at r = f x r* with f uniform in [0.75, 1.25] (drawn: {lo:.3f}-{hi:.3f}; r* the interpolated value the "
-         "file stores, which lies in its first-crossing bracket); quasi-static, linear and Exudyn (default settings, "
-         f"those of the default campaign): {int(thr.sum())} scenes, joined by the {int((~thr).sum())} scenes of the "
-         "confirmed sample below that lie in the same band (at r = r*).", "",
-         f"* {d.e.size} scenes, {int(ok.sum())} with an Exudyn steady state, {int((~ok).sum())} failed (stored with "
-         "their reasons, left out of the rates).",
+    L = [f"Stratified (`compare.atlas.threshold`): per mass model and mechanism ({t.strata_min}-"
+         f"{t.strata_max} scenes each), families drawn from equal strata of their r* (10 %), one scene "
+         f"each at r = f x r* with f uniform in [0.75, 1.25] (drawn: {t.factor_min:.3f}-{t.factor_max:.3f}; r* the "
+         "interpolated value the file stores, which lies in its first-crossing bracket); quasi-static, linear and "
+         f"Exudyn (default settings, those of the default campaign): {t.threshold_scenes} scenes, joined by the "
+         f"{t.joined} scenes of the confirmed sample below that lie in the same band (at r = r*).", "",
+         f"* {t.scenes} scenes, {t.exudyn_ok} with an Exudyn steady state, {t.scenes - t.exudyn_ok} failed (stored "
+         "with their reasons, left out of the rates).",
          f"* Measured error (quasi-static vs Exudyn) over predicted (quasi-static vs linear): median "
-         f"{_q(m / e, 50):.3f}, 5-95 %: {_q(m / e, 5):.3f}-{_q(m / e, 95):.3f}; "
-         f"where the prediction is within +-20 % of the tolerance ({int(near.sum())} scenes) |measured - predicted| "
-         f"median {_q(np.abs(m - e)[near], 50):.4f}, max {_q(np.abs(m - e)[near], 100):.4f}.",
-         f"* Measured above the tolerance: {int(np.sum(m >= tol))} of {int(ok.sum())}.", "",
+         f"{t.ratio_median:.3f}, 5-95 %: {t.ratio_q05:.3f}-{t.ratio_q95:.3f}; "
+         f"where the prediction is within +-20 % of the tolerance ({t.near} scenes) |measured - predicted| "
+         f"median {t.near_diff_median:.4f}, max {t.near_diff_max:.4f}.",
+         f"* Measured above the tolerance: {t.measured_fail} of {t.exudyn_ok}.", "",
          "The check's call at 10 % (unsafe: quasi-static called adequate, measured >= 10 %; over-cautious: not "
          "quasi-static, measured < 10 %; both over every scene with an Exudyn answer; agreement over the decisive "
          "calls; borderline calls, with how many measured >= 10 % in brackets, say: run `--confirm`):", "",
-         "| rule | quasi-static | borderline (measured fail) | not quasi-static | unsafe [95 %] | over-cautious "
-         "[95 %] | agreement [95 %] |", "|---" * 7 + "|",
-         row("plain: e < 10 %, no margin, no linear-range gate (context)", mg.plain),
-         row(f"chosen: e < {mg.holds_below:g} x 10 % and r below the linear lower band; borderline to "
-             f"{mg.fails_above:g} x", mg.stats), "",
+         *table(("rule", "quasi-static", "borderline (measured fail)", "not quasi-static", "unsafe [95 %]",
+                 "over-cautious [95 %]", "agreement [95 %]"), [
+             row("plain: e < 10 %, no margin, no linear-range gate (context)", mg.plain),
+             row(f"chosen: e < {mg.holds_below:g} x 10 % and r below the linear lower band; borderline to "
+                 f"{mg.fails_above:g} x", mg.stats)], dense=True), "",
          f"**Chosen margins** (`compare.atlas.verdict_margins()`, stored in the atlas file): quasi-static holds below "
          f"**{mg.holds_below:g} x** the tolerance, borderline up to **{mg.fails_above:g} x**, each the more cautious "
          f"of two criteria. Rate: the largest multiplier whose unsafe-call rate has a 95 % upper bound <= "
@@ -290,54 +251,41 @@ def threshold_text(d: cal.ThresholdData | None, mg: cal.Margins | None,
          f"1 / {mg.ratio_q95:.3f} = {mg.holds_below_scatter:g} x (at 1 / {mg.ratio_q05:.3f} = "
          f"{mg.fails_above_scatter:g} x) is right with about 95 % probability. With these margins the unsafe calls' "
          f"upper bound is {mg.stats.unsafe.high95:.1%}. The linear-range gate (r below the mass model's lower-band "
-         f"linear limit) withheld the quasi-static tier from {gated} scenes the margin alone would have granted. "
-         "The rule is `compare.atlas.calibration.calls`, which `ked check` mirrors.", "",
-         "| mass model | mechanism | scenes (Exudyn ok) | measured >= 10 % | unsafe | borderline | over-cautious |",
-         "|---" * 7 + "|"]
-    c = cal.calls(d.e, d.r, d.r_linear, d.linear_ok, tol, mg.holds_below, mg.fails_above)
-    oc = ok & (c == cal.NOT_QUASI_STATIC) & (d.measured < tol)
-    flagged, gate = oc & ~d.linear_ok, oc & d.linear_ok & ~(d.r < d.r_linear)
-    at = next(i for i, line in enumerate(L) if line.startswith("**Chosen margins**"))
-    L[at] += (f" The {int(oc.sum())} over-cautious calls: {int(flagged.sum())} where the linear solution carries a "
-              f"large-deflection or large-rotation flag (of {int((~d.linear_ok).sum())} such scenes), "
-              f"{int(gate.sum())} by the linear-range gate, {int((oc & ~flagged & ~gate).sum())} by the prediction.")
-    for mm in MASS_MODELS:
-        for mech in ("source", "cognate"):
-            sel = (d.mass_model == mm) & (d.mechanism == mech)
-            so = sel & ok
-            fail = so & (d.measured >= tol)
-            L.append(f"| {mm} | {mech} | {int(sel.sum())} ({int(so.sum())}) | {int(fail.sum())} | "
-                     f"{int(np.sum(fail & (c == cal.QUASI_STATIC)))} | {int(np.sum(so & (c == cal.BORDERLINE)))} | "
-                     f"{int(np.sum(so & ~fail & (c == cal.NOT_QUASI_STATIC)))} |")
-    if fam is not None:
-        L += ["", *early_text(d, fam, tol)]
+         f"linear limit) withheld the quasi-static tier from {t.gated} scenes the margin alone would have granted. "
+         "The rule is `compare.atlas.calibration.calls`, which `ked check` mirrors."
+         f" The {t.overcautious} over-cautious calls: {t.overcautious_flagged} where the linear solution carries a "
+         f"large-deflection or large-rotation flag (of {t.flagged} such scenes), "
+         f"{t.overcautious_gate} by the linear-range gate, {t.overcautious_prediction} by the prediction.", "",
+         *table(("mass model", "mechanism", "scenes (Exudyn ok)", "measured >= 10 %", "unsafe", "borderline",
+                 "over-cautious"), [[x.mass_model, x.mechanism, f"{x.scenes} ({x.exudyn_ok})", str(x.measured_fail),
+                                     str(x.unsafe), str(x.borderline), str(x.overcautious)] for x in t.strata],
+                dense=True)]
+    if t.early is not None:
+        below, early, between, unseen = t.early
+        L += ["", f"First crossings, checked: {early} of the {below} threshold scenes below their "
+              "family's interpolated r* already have a predicted error >= 10 %: "
+              f"{between} between the last passing grid ratio and the interpolated value (the "
+              "interpolation overstated the limit: why every atlas limit is the last passing grid ratio), "
+              f"{unseen} at or below the last passing grid ratio (a crossing the atlas grid did not see)."]
     return L
 
 
-def confirm_text(conf: dict[str, np.ndarray]) -> list[str]:
-    n = len(conf.get("key", []))
-    if not n:
+def confirm_text(c: fd.ConfirmFindings | None) -> list[str]:
+    if c is None:
         return ["No scene confirmed with Exudyn yet (`ked study atlas --confirm N`)."]
-    ok = np.asarray(conf["status"], dtype=object) == "ok"
-    qd, ql, ld = conf["qs_vs_dyn"][ok], conf["qs_vs_linear"][ok], conf["linear_vs_dyn"][ok]
-    same = (ql < 0.10) == (qd < 0.10)
-    at = np.isclose(np.asarray(conf["factor"], float)[ok], 1.0)
-    lin_ok = {tol: (ld < tol).mean() for tol in (0.05, 0.10)}
-    lims = linear_limits(conf)
-    st = Counter(x.status for x in lims if x.tag == "r10")
-    reasons = Counter(str(r).split(":")[0] + ": " + str(r).split(":")[1][:60] if ":" in str(r) else str(r)
-                      for r in np.asarray(conf["reason"], dtype=object)[~ok])
-    L = [f"* {n} scenes ({len({k.rsplit('/', 1)[0] for k in conf['key']})} families), {ok.sum()} with an Exudyn "
-         f"steady state, {n - ok.sum()} failed; Exudyn wall time median {np.nanmedian(conf['dyn_wall_s']):.1f} s.",
+    st = c.linear_status
+    L = [f"* {c.scenes} scenes ({c.families} families), {c.exudyn_ok} with an Exudyn "
+         f"steady state, {c.scenes - c.exudyn_ok} failed; Exudyn wall time median {c.wall_median_s:.1f} s.",
          f"* Context only (most of these scenes are far from r*): the plain 10 % call (quasi-static vs linear) and "
-         f"the reference (quasi-static vs Exudyn) agree on {int(same.sum())}/{same.size} scenes, on "
-         f"{int(same[at].sum())}/{int(at.sum())} of those at r = r*; |difference of the two errors| median "
-         f"{np.nanmedian(np.abs(ql - qd)):.3f}, 90th percentile {np.nanpercentile(np.abs(ql - qd), 90):.3f}.",
-         f"* The linear model is within 5 % of Exudyn on {lin_ok[0.05]:.0%} and within 10 % on {lin_ok[0.10]:.0%} of "
-         f"the scenes (which reach {np.max(conf['factor']):g} x the quasi-static limit); its 10 % limit per "
+         f"the reference (quasi-static vs Exudyn) agree on {c.agree}/{c.exudyn_ok} scenes, on "
+         f"{c.agree_at}/{c.at} of those at r = r*; |difference of the two errors| median "
+         f"{c.diff_median:.3f}, 90th percentile {c.diff_p90:.3f}.",
+         f"* The linear model is within 5 % of Exudyn on {c.linear_within[0.05]:.0%} and within 10 % on "
+         f"{c.linear_within[0.10]:.0%} of "
+         f"the scenes (which reach {c.factor_max:g} x the quasi-static limit); its 10 % limit per "
          f"family: {st['crossed']} crossed, {st['above_grid']} not reached (lower bound: the largest confirmed r), "
          f"{st['below_grid']} already at the smallest, {st['failure']} ended by an Exudyn failure."]
-    L += [f"* Exudyn failures: {k} ({v})" for k, v in reasons.most_common(5)]
+    L += [f"* Exudyn failures: {k} ({v})" for k, v in c.failures]
     return L
 
 
@@ -406,7 +354,7 @@ def markdown(atlas: Path, readme: Path, figs: dict[str, Path], cs_rule: tuple[np
     feats = features(fam, links)
     st = info.get("settings", {})
     steps = {tag: np.asarray(fam[f"{tag}_step"], float) for tag in ("r5", "r10")}
-    L = ["## Atlas: the quasi-static limit over the design space", "", headline(fam, conf, feats, margins), "",
+    L = ["## Atlas: the quasi-static limit over the design space", "", headline(fd.headline(fam, feats), margins), "",
          "Regenerate (resumable; computes what is missing, then redraws): `ked study atlas --linkages N --confirm M "
          "--threshold T` "
          f"(stored: `{os.path.relpath(atlas.resolve(), readme.resolve().parent)}`, "
@@ -422,8 +370,9 @@ def markdown(atlas: Path, readme: Path, figs: dict[str, Path], cs_rule: tuple[np
          "first crossing of the tolerance walking up the grid, stated as the last grid ratio below it (never "
          "interpolated: a resonance peak between two grid ratios can cross the tolerance unseen, see the threshold "
          "calibration below); the crossing lies between r* and r* + step, the grid step there (median "
-         f"{_q(steps['r5'], 50):.3f} for 5 %, {_q(steps['r10'], 50):.3f} for 10 %; largest "
-         f"{_q(steps['r10'], 100):.3f}). The grid is not fine enough to see the narrow resonances of high crank "
+         f"{fd.quantile(steps['r5'], 50):.3f} for 5 %, {fd.quantile(steps['r10'], 50):.3f} for 10 %; largest "
+         f"{fd.quantile(steps['r10'], 100):.3f}). The grid is not fine enough to see the narrow resonances of high "
+         "crank "
          "harmonics (half-power width about 2 x damping x r, 0.006 at r = 0.15, below the grid step there); the "
          "threshold sample measures what this misses.", "",
          "### Distribution of the quasi-static limit", "", *distribution_table(fam), "",
@@ -446,15 +395,16 @@ def markdown(atlas: Path, readme: Path, figs: dict[str, Path], cs_rule: tuple[np
          "that step; `ked check` counts the lower band (limit minus spread) against the linear model.", "",
          *tier_table(fam, conf), "",
          "### Calibration at the threshold (`ked check`'s quasi-static call)", "",
-         *threshold_text(thr, margins, fam), "", f"![threshold]({rel['threshold']})", "",
+         *threshold_text(fd.threshold(thr, margins, fam)), "", f"![threshold]({rel['threshold']})", "",
          "### Exudyn-confirmed sample (context: mostly far from the threshold)", "",
          "Stratified (`compare.atlas.confirm`): per mass model, families drawn from equal strata of their r* (10 %), "
          "each at r = 0.6, 1, 1.4, 2, 3 x r* (interpolated r*, capped at 0.5); quasi-static, linear and Exudyn "
          "(default settings). Four in five of these scenes sit at 0.6 r* or >= 1.4 r*, where the verdict is easy: "
          "the calibration above is the one at the threshold. The linear model's limits of the tier table come from "
          "these ratio walks (first crossings on the grid 0.6, 1, 1.4, 2, 3 x r*: coarse, steps stated).", "",
-         *confirm_text(conf), "", "The linear model's own limit (linear vs Exudyn history error) per confirmed "
-         "family:", "", *(linear_limit_table(conf) if conf else []), "", f"![confirm]({rel['confirm']})", "",
+         *confirm_text(fd.confirm(conf)), "",
+         "The linear model's own limit (linear vs Exudyn history error) per confirmed family:", "",
+         *(linear_limit_table(conf) if conf else []), "", f"![confirm]({rel['confirm']})", "",
          f"![coupler curves]({rel['coupler_curves']})"]
     return "\n".join(L) + "\n"
 
