@@ -12,7 +12,18 @@ from typing import Any
 import numpy as np
 
 from compare.atlas import calibration as cal
-from compare.atlas.analysis import crossed, linear_limits, spearman, within
+from compare.atlas.analysis import (
+    TOLERANCE_TAGS,
+    TierLimits,
+    crossed,
+    linear_limits,
+    linear_of,
+    rule_constant,
+    spearman,
+    tier_limits,
+    within,
+)
+from compare.limits import TOLERANCES
 from ked_quasi.massmodel import MASS_MODELS
 
 
@@ -199,3 +210,222 @@ def confirm(conf: dict[str, np.ndarray]) -> ConfirmFindings | None:
         float(np.nanpercentile(np.abs(ql - qd), 90)), {tol: float((ld < tol).mean()) for tol in (0.05, 0.10)},
         float(np.max(conf["factor"])), Counter(x.status for (_, tol), x in linear_limits(conf).items() if tol == 0.10),
         tuple(reasons.most_common(5)))
+
+
+def median(values: Any) -> float:
+    """The median of the finite values (nan if none)."""
+    v = np.asarray(values, float)
+    v = v[np.isfinite(v)]
+    return float(np.median(v)) if v.size else math.nan
+
+
+@dataclass(frozen=True)
+class Distribution:
+    """The limits r* [1] of one mass model ("all": every family): the crossed 5 % and 10 % limits, their
+    10 % range, and the count of each 10 % status."""
+
+    mass_model: str
+    families: int
+    r5: np.ndarray
+    r10: np.ndarray
+    r10_range: tuple[float, float] | None
+    status: dict[str, int]
+
+
+def distribution(fam: dict[str, np.ndarray]) -> tuple[Distribution, ...]:
+    out = []
+    for mm in (*MASS_MODELS, None):
+        sel = np.ones(len(fam["mass_model"]), bool) if mm is None else np.asarray(fam["mass_model"], dtype=object) == mm
+        r10 = np.asarray(fam["r10"], float)[sel & crossed(fam, "r10")]
+        out.append(Distribution(mm or "all", int(sel.sum()), np.asarray(fam["r5"], float)[sel & crossed(fam, "r5")],
+                                r10, (float(r10.min()), float(r10.max())) if r10.size else None,
+                                Counter(np.asarray(fam["r10_status"], dtype=object)[sel])))
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class Flags:
+    """Families whose linear answer carries a large-deflection / large-rotation flag anywhere on the sweep
+    and at or below their r* (10 %); the largest Floquet |mu| [1] at or below r* (10 %): median and max."""
+
+    anywhere: int
+    early: int
+    mu_median: float
+    mu_max: float
+
+
+def flags(fam: dict[str, np.ndarray], ratios: np.ndarray) -> Flags:
+    below = np.asarray(ratios, float)[None, :] <= np.nan_to_num(np.asarray(fam["r10"], float), nan=np.inf)[:, None]
+    f = np.asarray(fam["flags"], int) > 0
+    mu = np.nanmax(np.where(below, fam["floquet_max_abs"], np.nan), axis=1)
+    return Flags(int(f.any(axis=1).sum()), int((f & below).any(axis=1).sum()), float(np.nanmedian(mu)),
+                 float(np.nanmax(mu)))
+
+
+def correlations(fam: dict[str, np.ndarray], feats: dict[str, np.ndarray]) -> dict[str, tuple[float, ...]]:
+    """Feature -> Spearman rank correlation with r* (10 %) per mass model and over all (last)."""
+    def rho(x: np.ndarray, mm: str | None) -> float:
+        m = crossed(fam, "r10", mm)
+        return spearman(np.asarray(x, float)[m], np.asarray(fam["r10"], float)[m])
+
+    return {name: tuple(rho(x, mm) for mm in (*MASS_MODELS, None)) for name, x in feats.items()}
+
+
+@dataclass(frozen=True)
+class Predictions:
+    """How well r* is predicted.  ``one_mode``: tolerance [1] -> (fraction of the crossed families whose
+    one-mode estimate lies within +-25 %, their number, median predicted / atlas); the rule k_sig r <= c:
+    ``c`` [1] per mass model and "all", the fraction within +-25 % with one c and with c per mass model;
+    ``rule``: r* (10 %) [1] the rule with c per mass model predicts, per family."""
+
+    one_mode: dict[float, tuple[float, int, float]]
+    c: dict[str, float]
+    within_one_c: float
+    within_per_mass_model: float
+    rule: np.ndarray
+
+
+def predictions(fam: dict[str, np.ndarray]) -> Predictions:
+    rule = np.full(len(fam["r10"]), math.nan)
+    cs = {}
+    for mm in MASS_MODELS:
+        m = crossed(fam, "r10", mm)
+        cs[mm] = rule_constant(fam["k_sig_1"][m], fam["r10"][m])
+        sel = np.asarray(fam["mass_model"], dtype=object) == mm
+        rule[sel] = cs[mm] / fam["k_sig_1"][sel]
+    m = crossed(fam, "r10")
+    cs["all"] = rule_constant(fam["k_sig_1"][m], fam["r10"][m])
+    one = {}
+    for tag, tol in zip(TOLERANCE_TAGS, TOLERANCES):
+        k = crossed(fam, tag)
+        one[tol] = (float(within(fam[f"one_mode_{tag}"][k], fam[tag][k]).mean()), int(k.sum()),
+                    float(np.nanmedian(fam[f"one_mode_{tag}"][k] / fam[tag][k])))
+    return Predictions(one, cs, float(within(cs["all"] / fam["k_sig_1"][m], fam["r10"][m]).mean()),
+                       float(within(rule[m], fam["r10"][m]).mean()), rule)
+
+
+@dataclass(frozen=True)
+class Worst:
+    """A family the one-mode estimate predicts worst: its r* (10 %), the one-mode and the rule's
+    predictions [1], k_sig at 1 % / 5 %, f1 max / f1 min [1], minimum transmission angle [deg]."""
+
+    family: str
+    r10: float
+    one_mode: float
+    rule: float
+    k_sig: tuple[int, int]
+    f1_ratio: float
+    min_transmission_deg: float
+
+
+def worst(fam: dict[str, np.ndarray], rule: np.ndarray, n: int = 6) -> tuple[Worst, ...]:
+    m = np.flatnonzero(crossed(fam, "r10"))
+    dev = np.abs(np.log(fam["one_mode_r10"][m] / fam["r10"][m]))
+    return tuple(Worst(family_name(fam, i), fam["r10"][i], fam["one_mode_r10"][i], rule[i],
+                       (int(fam["k_sig_1"][i]), int(fam["k_sig_5"][i])),
+                       fam["f1_max_hz"][i] / fam["f1_min_hz"][i], fam["min_transmission_deg"][i])
+                 for i in m[np.argsort(-dev)][:n])
+
+
+def tiers(fam: dict[str, np.ndarray], conf: dict[str, np.ndarray]) -> tuple[tuple[TierLimits, tuple[float, ...]], ...]:
+    """Per mass model its tier limits with the median grid steps [1] of the first crossings behind them
+    (quasi-static 5 %, 10 %, linear 5 %, 10 %)."""
+    lins = linear_limits(conf)
+    out = []
+    for mm in MASS_MODELS:
+        sel = np.asarray(fam["mass_model"], dtype=object) == mm
+        steps = [median(np.asarray(fam[f"{tag}_step"], float)[sel]) for tag in TOLERANCE_TAGS]
+        out.append((tier_limits(fam, conf, mm), (*steps, *(median([x.step for x in linear_of(lins, mm, tol)])
+                                                          for tol in TOLERANCES))))
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class LinearLimits:
+    """The linear model's own limits against Exudyn of one mass model at one tolerance [1]: the confirmed
+    families, the crossed limits [1] with their median grid step, how many never reached the tolerance
+    with the median of their lower bounds [1], how many were already above it at the smallest ratio or
+    ended by an Exudyn failure."""
+
+    mass_model: str
+    tolerance: float
+    families: int
+    crossed: np.ndarray
+    step: float
+    not_reached: int
+    not_reached_median: float
+    below: int
+    failed: int
+
+
+def linear_table(conf: dict[str, np.ndarray]) -> tuple[LinearLimits, ...]:
+    lims = linear_limits(conf)
+    out = []
+    for mm in MASS_MODELS:
+        for tol in TOLERANCES:
+            x = linear_of(lims, mm, tol)
+            above = [v.r_pass for v in x if v.status == "above_grid"]
+            out.append(LinearLimits(mm, tol, len(x), np.array([v.r_pass for v in x if v.status == "crossed"]),
+                                    median([v.step for v in x if v.status == "crossed"]), len(above), median(above),
+                                    sum(v.status == "below_grid" for v in x), sum(v.status == "failure" for v in x)))
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class SampleFindings:
+    """The drawn linkages: the seed, accepted of the candidates, accepted with a crank-drivable cognate,
+    the rejects' reasons with their counts (most common first), the drawing ranges (stored attributes)."""
+
+    seed: object
+    accepted: int
+    candidates: int
+    cognates: int
+    rejected: tuple[tuple[str, int], ...]
+    ranges: dict[str, Any]
+
+
+def sample(links: dict[str, np.ndarray], info: dict[str, Any]) -> SampleFindings:
+    acc = np.asarray(links["accepted"]).astype(bool)
+    reasons = Counter(str(r).split(":")[0].split(" (")[0] for r in np.asarray(links["reason"], dtype=object)[~acc])
+    cog = sum(1 for m in np.asarray(links["mechanisms"], dtype=object)[acc] if "cognate" in str(m))
+    return SampleFindings(info.get("seed"), int(acc.sum()), acc.size, cog, tuple(reasons.most_common()),
+                          info.get("ranges", {}))
+
+
+def family_name(fam: dict[str, np.ndarray], i: int) -> str:
+    return f"linkage {int(fam['linkage'][i])} {fam['mechanism'][i]} {fam['mass_model'][i]}"
+
+
+@dataclass(frozen=True)
+class AtlasFindings:
+    """Everything the atlas's README section states: the stored attributes, the number of families, the
+    grid steps [1] behind the first crossings (median at 5 %, at 10 %, largest at 10 %) and the findings
+    of each part (None: no threshold or confirmed sample yet)."""
+
+    info: dict[str, Any]
+    families: int
+    steps: tuple[float, float, float]
+    headline: Headline
+    margins: cal.Margins | None
+    sample: SampleFindings
+    distribution: tuple[Distribution, ...]
+    flags: Flags
+    correlations: dict[str, tuple[float, ...]]
+    predictions: Predictions
+    worst: tuple[Worst, ...]
+    tiers: tuple[tuple[TierLimits, tuple[float, ...]], ...]
+    threshold: ThresholdFindings | None
+    confirm: ConfirmFindings | None
+    linear: tuple[LinearLimits, ...]
+
+
+def analyse(info: dict[str, Any], fam: dict[str, np.ndarray], links: dict[str, np.ndarray],
+            conf: dict[str, np.ndarray], thr: cal.ThresholdData | None, margins: cal.Margins | None,
+            feats: dict[str, np.ndarray], ratios: np.ndarray) -> AtlasFindings:
+    """The findings of the stored atlas tables (``fam`` with first-crossing limits, ``feats`` per family)."""
+    pred = predictions(fam)
+    steps = (quantile(fam["r5_step"], 50), quantile(fam["r10_step"], 50), quantile(fam["r10_step"], 100))
+    return AtlasFindings(info, len(fam["linkage"]), steps, headline(fam, feats), margins, sample(links, info),
+                         distribution(fam), flags(fam, ratios), correlations(fam, feats), pred,
+                         worst(fam, pred.rule), tiers(fam, conf), threshold(thr, margins, fam), confirm(conf),
+                         linear_table(conf) if conf else ())

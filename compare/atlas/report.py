@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 import os
-from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -19,19 +18,13 @@ from compare.atlas import store as atlas_store
 from compare.atlas.analysis import (
     crossed,
     first_crossings,
-    linear_limits,
-    linear_of,
-    rule_constant,
     spearman,
-    tier_limits,
-    within,
 )
 from compare.atlas.compute import RATIOS, spec_of, xy
 from compare.atlas.generate import candidate
 from compare.atlas.threshold import TABLE
 from compare.execute import frame, solve_one
-from compare.limits import TOLERANCES
-from compare.markdown import median_range, table
+from compare.markdown import median_range, num, table
 from compare.sections import write_section
 from ked_quasi.kinematics import coupler_point
 from ked_quasi.massmodel import MASS_MODELS
@@ -60,125 +53,64 @@ def features(fam: dict[str, np.ndarray], links: dict[str, np.ndarray]) -> dict[s
     return out
 
 
-def distribution_table(fam: dict[str, np.ndarray]) -> list[str]:
-    rows = []
-    for mm in (*MASS_MODELS, None):
-        sel = np.ones(len(fam["mass_model"]), bool) if mm is None else np.asarray(fam["mass_model"], dtype=object) == mm
-        st = Counter(np.asarray(fam["r10_status"], dtype=object)[sel])
-        r10 = np.asarray(fam["r10"], float)[sel & crossed(fam, "r10")]
-        span = f"{r10.min():.3f}-{r10.max():.3f}" if r10.size else "-"
-        r5 = np.asarray(fam["r5"], float)[sel & crossed(fam, "r5")]
-        rows.append([mm or "all", str(sel.sum()), median_range(r5), median_range(r10), span,
-                     f"{st['crossed']} / {st['above_grid']} / {st['below_grid']} / {st['failure']} / {st['no_data']}"])
+def distribution_table(rows: tuple[fd.Distribution, ...]) -> list[str]:
     return table(("mass model", "families", "r* 5 %: median [P10-P90]", "r* 10 %: median [P10-P90]", "min-max (10 %)",
-                  "10 % status: crossed / above grid / below grid / linear unstable first / failed"), rows, dense=True)
+                  "10 % status: crossed / above grid / below grid / linear unstable first / failed"),
+                 [[d.mass_model, str(d.families), median_range(d.r5), median_range(d.r10),
+                   f"{d.r10_range[0]:.3f}-{d.r10_range[1]:.3f}" if d.r10_range else "-",
+                   " / ".join(str(d.status[k]) for k in ("crossed", "above_grid", "below_grid", "failure", "no_data"))]
+                  for d in rows], dense=True)
 
 
-def flags_text(fam: dict[str, np.ndarray], ratios: np.ndarray) -> str:
+def flags_text(f: fd.Flags) -> str:
     """How often the linear model's answer leaves its small-deflection range at or below the 10 % limit."""
-    below = np.asarray(ratios, float)[None, :] <= np.nan_to_num(np.asarray(fam["r10"], float), nan=np.inf)[:, None]
-    flags = np.asarray(fam["flags"], int)
-    any_flag = (flags > 0).any(axis=1)
-    early = ((flags > 0) & below).any(axis=1)
-    mu = np.nanmax(np.where(below, fam["floquet_max_abs"], np.nan), axis=1)
-    return (f"Linear model's large-deflection / large-rotation flags (`ked_quasi.limits`): on {int(any_flag.sum())} "
-            f"families somewhere on the computed sweep, on {int(early.sum())} at or below their r* (10 %). Largest "
-            f"Floquet |mu| at or below r* (10 %): median {np.nanmedian(mu):.3f}, max {np.nanmax(mu):.3f} "
-            f"({'all stable' if np.nanmax(mu) < 1 else 'some unstable'}).")
+    return (f"Linear model's large-deflection / large-rotation flags (`ked_quasi.limits`): on {f.anywhere} "
+            f"families somewhere on the computed sweep, on {f.early} at or below their r* (10 %). Largest "
+            f"Floquet |mu| at or below r* (10 %): median {f.mu_median:.3f}, max {f.mu_max:.3f} "
+            f"({'all stable' if f.mu_max < 1 else 'some unstable'}).")
 
 
-def correlation_table(fam: dict[str, np.ndarray], feats: dict[str, np.ndarray]) -> list[str]:
-    def rho(x: np.ndarray, mm: str | None) -> str:
-        m = crossed(fam, "r10", mm)
-        return f"{spearman(np.asarray(x, float)[m], np.asarray(fam['r10'], float)[m]):+.2f}"
-
-    return table(("feature", *MASS_MODELS, "all"), [[name, *(rho(x, mm) for mm in (*MASS_MODELS, None))]
-                                                     for name, x in feats.items()], dense=True)
+def correlation_table(rho: dict[str, tuple[float, ...]]) -> list[str]:
+    return table(("feature", *MASS_MODELS, "all"), [[name, *(f"{x:+.2f}" for x in r)] for name, r in rho.items()],
+                 dense=True)
 
 
-def rule_predictions(fam: dict[str, np.ndarray]) -> tuple[np.ndarray, dict[str, float]]:
-    """r10 predicted by k_sig(1 %) r <= c, c fitted per mass model (median of k_sig r10); and the c's."""
-    pred = np.full(len(fam["r10"]), math.nan)
-    cs = {}
-    for mm in MASS_MODELS:
-        m = crossed(fam, "r10", mm)
-        cs[mm] = rule_constant(fam["k_sig_1"][m], fam["r10"][m])
-        sel = np.asarray(fam["mass_model"], dtype=object) == mm
-        pred[sel] = cs[mm] / fam["k_sig_1"][sel]
-    m = crossed(fam, "r10")
-    cs["all"] = rule_constant(fam["k_sig_1"][m], fam["r10"][m])
-    return pred, cs
-
-
-def _family_name(fam: dict[str, np.ndarray], i: int) -> str:
-    return f"linkage {int(fam['linkage'][i])} {fam['mechanism'][i]} {fam['mass_model'][i]}"
-
-
-def prediction_text(fam: dict[str, np.ndarray], rule: np.ndarray, cs: dict[str, float]) -> list[str]:
-    L = []
-    for tag, tol in (("r5", "5 %"), ("r10", "10 %")):
-        m = crossed(fam, tag)
-        ok = within(fam[f"one_mode_{tag}"][m], fam[tag][m])
-        L.append(f"* one-mode estimate of the {tol} limit: {ok.mean():.0%} of {m.sum()} families within +-25 % "
-                 f"(median ratio predicted/atlas {np.nanmedian(fam[f'one_mode_{tag}'][m] / fam[tag][m]):.3f}).")
-    m = crossed(fam, "r10")
-    glob = within(cs["all"] / fam["k_sig_1"][m], fam["r10"][m])
-    L.append(f"* rule k_sig r <= c (k_sig at 1 %), one c = {cs['all']:.3f} for all: {glob.mean():.0%} within +-25 %; "
-             f"c per mass model ({', '.join(f'{k} {v:.3f}' for k, v in cs.items() if k != 'all')}): "
-             f"{within(rule[m], fam['r10'][m]).mean():.0%} within +-25 %.")
+def prediction_text(p: fd.Predictions) -> list[str]:
+    L = [f"* one-mode estimate of the {100 * tol:g} % limit: {ok:.0%} of {n} families within +-25 % "
+         f"(median ratio predicted/atlas {ratio:.3f})." for tol, (ok, n, ratio) in p.one_mode.items()]
+    L.append(f"* rule k_sig r <= c (k_sig at 1 %), one c = {p.c['all']:.3f} for all: {p.within_one_c:.0%} within "
+             f"+-25 %; c per mass model ({', '.join(f'{k} {v:.3f}' for k, v in p.c.items() if k != 'all')}): "
+             f"{p.within_per_mass_model:.0%} within +-25 %.")
     return L
 
 
-def worst_table(fam: dict[str, np.ndarray], rule: np.ndarray, n: int = 6) -> list[str]:
-    m = np.flatnonzero(crossed(fam, "r10"))
-    dev = np.abs(np.log(fam["one_mode_r10"][m] / fam["r10"][m]))
+def worst_table(rows: tuple[fd.Worst, ...]) -> list[str]:
     return table(("family", "r* 10 %", "one-mode", "rule", "k_sig 1 % / 5 %", "f1 max/min", "min transmission [deg]"),
-                 [[_family_name(fam, i), f"{fam['r10'][i]:.3f}", f"{fam['one_mode_r10'][i]:.3f}", f"{rule[i]:.3f}",
-                   f"{int(fam['k_sig_1'][i])} / {int(fam['k_sig_5'][i])}",
-                   f"{fam['f1_max_hz'][i] / fam['f1_min_hz'][i]:.2f}", f"{fam['min_transmission_deg'][i]:.0f}"]
-                  for i in m[np.argsort(-dev)][:n]], dense=True)
+                 [[w.family, f"{w.r10:.3f}", f"{w.one_mode:.3f}", f"{w.rule:.3f}", f"{w.k_sig[0]} / {w.k_sig[1]}",
+                   f"{w.f1_ratio:.2f}", f"{w.min_transmission_deg:.0f}"] for w in rows], dense=True)
 
 
-def _median_step(values: Any) -> str:
-    v = np.asarray(values, float)
-    v = v[np.isfinite(v)]
-    return f"{np.median(v):.3f}" if v.size else "-"
-
-
-def tier_table(fam: dict[str, np.ndarray], conf: dict[str, np.ndarray]) -> list[str]:
+def tier_table(rows: tuple[tuple[fd.TierLimits, tuple[float, ...]], ...]) -> list[str]:
     """Tier limits with, beside each, the median grid step of the first crossings behind it."""
-    rows = []
-    lins = linear_limits(conf)
-    for mm in MASS_MODELS:
-        t = tier_limits(fam, conf, mm)
-        sel = np.asarray(fam["mass_model"], dtype=object) == mm
-        steps = [_median_step(np.asarray(fam[f"{tag}_step"], float)[sel]) for tag in ("r5", "r10")]
-        steps += [_median_step([x.step for x in linear_of(lins, mm, tol)]) for tol in TOLERANCES]
-        cells = [f"{v:.3f} - {s:.3f} (step {h})" if math.isfinite(v) else "-" for (v, s), h in zip((
+    def cells(t: fd.TierLimits, steps: tuple[float, ...]) -> list[str]:
+        return [f"{v:.3f} - {s:.3f} (step {num(h, '.3f')})" if math.isfinite(v) else "-" for (v, s), h in zip((
             (t.quasi_static_r5, t.quasi_static_r5_spread), (t.quasi_static_r10, t.quasi_static_r10_spread),
             (t.linear_r5, t.linear_r5_spread), (t.linear_r10, t.linear_r10_spread)), steps)]
-        rows.append([mm, *cells, f"{t.families} / {t.confirmed_families}"])
+
     return table(("mass model", "quasi-static 5 %", "quasi-static 10 %", "linear 5 %", "linear 10 %",
-                  "families / confirmed"), rows, dense=True)
+                  "families / confirmed"), [[t.mass_model, *cells(t, steps), f"{t.families} / {t.confirmed_families}"]
+                                            for t, steps in rows], dense=True)
 
 
-def linear_limit_table(conf: dict[str, np.ndarray]) -> list[str]:
+def linear_limit_table(rows: tuple[fd.LinearLimits, ...]) -> list[str]:
     """The linear model's own limits against Exudyn per mass model (confirmed families)."""
-    lims = linear_limits(conf)
-    rows = []
-    for mm in MASS_MODELS:
-        for tag, tol in (("r5", "5 %"), ("r10", "10 %")):
-            x = linear_of(lims, mm, {"r5": 0.05, "r10": 0.10}[tag])
-            cr = np.array([v.r_pass for v in x if v.status == "crossed"])
-            above = np.array([v.r_pass for v in x if v.status == "above_grid"])
-            low = f"{above.size} ({np.median(above):.3f})" if above.size else "0"
-            other = sum(v.status == "below_grid" for v in x), sum(v.status == "failure" for v in x)
-            step = _median_step([v.step for v in x if v.status == "crossed"])
-            rows.append([mm, tol, str(len(x)), f"{cr.size}: {median_range(cr)} ({step})", low,
-                         f"{other[0]} / {other[1]}"])
     return table(("mass model", "tolerance", "families", "crossed: median [P10-P90] (median step)",
-                  "not reached up to r (median lower bound)", "below the smallest / Exudyn failed first"), rows,
-                 dense=True)
+                  "not reached up to r (median lower bound)", "below the smallest / Exudyn failed first"),
+                 [[x.mass_model, f"{100 * x.tolerance:g} %", str(x.families),
+                   f"{x.crossed.size}: {median_range(x.crossed)} ({num(x.step, '.3f')})",
+                   f"{x.not_reached} ({x.not_reached_median:.3f})" if x.not_reached else "0",
+                   f"{x.below} / {x.failed}"]
+                  for x in rows], dense=True)
 
 
 def headline(h: fd.Headline, margins: cal.Margins | None = None) -> str:
@@ -302,24 +234,21 @@ def coupler_curve_data(atlas: Path, fam: dict[str, np.ndarray], seed: int) -> li
         rigid = np.asarray(coupler_point(fr.scene.fourbar, fr.scene.crank_angles))
         size = float(np.ptp(rigid, axis=0).max())
         mag = 0.15 * size / max(float(np.hypot(*xy(lin).T).max()), 1e-30)
-        out.append({"title": f"{label}: {_family_name(fam, i)}, r* (10 %) = {fam['r10'][i]:.3f}; at r = 0.1",
+        out.append({"title": f"{label}: {fd.family_name(fam, i)}, r* (10 %) = {fam['r10'][i]:.3f}; at r = 0.1",
                     "rigid": rigid, "quasi_static": xy(qs), "linear": xy(lin), "magnification": mag})
     return out
 
 
-def sample_text(links: dict[str, np.ndarray], info: dict[str, Any]) -> list[str]:
-    acc = np.asarray(links["accepted"]).astype(bool)
-    reasons = Counter(str(r).split(":")[0].split(" (")[0] for r in np.asarray(links["reason"], dtype=object)[~acc])
-    cog = sum(1 for m in np.asarray(links["mechanisms"], dtype=object)[acc] if "cognate" in str(m))
-    rg = info.get("ranges", {})
+def sample_text(x: fd.SampleFindings) -> list[str]:
+    rg = x.ranges
 
     def span(key: str) -> str:
         lo, hi = rg.get(key, (math.nan, math.nan))
         return f"{lo:g}-{hi:g}"
 
-    return [f"**Sample** (`compare.atlas.generate`, seed {info.get('seed')}): {int(acc.sum())} linkages accepted of "
-            f"{acc.size} candidates drawn; {cog} of them with a crank-drivable crossed Roberts cognate. Rejected, with "
-            "their reasons stored in `/linkages`: " + "; ".join(f"{v} {k}" for k, v in reasons.most_common()) + ".",
+    return [f"**Sample** (`compare.atlas.generate`, seed {x.seed}): {x.accepted} linkages accepted of "
+            f"{x.candidates} candidates drawn; {x.cognates} of them with a crank-drivable crossed Roberts cognate. "
+            "Rejected, with their reasons stored in `/linkages`: " + "; ".join(f"{v} {k}" for k, v in x.rejected) + ".",
             "",
             f"Ranges: ground {span('ground_m')} m (log-uniform); crank/ground {span('crank_ratio')}, coupler/ground "
             f"{span('coupler_ratio')}, follower/ground {span('follower_ratio')} (uniform; Grashof crank-rockers with "
@@ -345,22 +274,18 @@ def threshold_of(atlas: Path) -> tuple[cal.ThresholdData | None, cal.Margins | N
     return cal.threshold_data(atlas), cal.threshold_margins(atlas)
 
 
-def markdown(atlas: Path, readme: Path, figs: dict[str, Path], cs_rule: tuple[np.ndarray, dict[str, float]]) -> str:
-    """The README section (stored data only; figure paths relative to the README)."""
-    info, fam, links, conf = load(atlas)
-    thr, margins = threshold_of(atlas)
+def markdown(f: fd.AtlasFindings, atlas: Path, readme: Path, figs: dict[str, Path]) -> str:
+    """The README section from the findings (figure and atlas paths relative to the README)."""
     rel = {k: os.path.relpath(v.resolve(), readme.resolve().parent) for k, v in figs.items()}
-    rule, cs = cs_rule
-    feats = features(fam, links)
+    info = f.info
     st = info.get("settings", {})
-    steps = {tag: np.asarray(fam[f"{tag}_step"], float) for tag in ("r5", "r10")}
-    L = ["## Atlas: the quasi-static limit over the design space", "", headline(fd.headline(fam, feats), margins), "",
+    L = ["## Atlas: the quasi-static limit over the design space", "", headline(f.headline, f.margins), "",
          "Regenerate (resumable; computes what is missing, then redraws): `ked study atlas --linkages N --confirm M "
          "--threshold T` "
          f"(stored: `{os.path.relpath(atlas.resolve(), readme.resolve().parent)}`, "
          f"{atlas.stat().st_size / 1e6:.1f} MB; figures `figures/atlas_*.png`).", "",
-         *sample_text(links, info), "",
-         f"**Setup.** Every family (linkage x mechanism x mass model: {len(fam['linkage'])} families) is swept over "
+         *sample_text(f.sample), "",
+         f"**Setup.** Every family (linkage x mechanism x mass model: {f.families} families) is swept over "
          f"r = Omega/omega1_min in {', '.join(f'{r:g}' for r in info.get('ratios', RATIOS))} (omega1_min: lowest "
          "first frozen natural frequency over the cycle), each scene a campaign scene solved by the registered "
          f"quasi-static and linear solvers (default settings, {st.get('damping_ratio', 0.02):g} damping, ccw, "
@@ -370,21 +295,20 @@ def markdown(atlas: Path, readme: Path, figs: dict[str, Path], cs_rule: tuple[np
          "first crossing of the tolerance walking up the grid, stated as the last grid ratio below it (never "
          "interpolated: a resonance peak between two grid ratios can cross the tolerance unseen, see the threshold "
          "calibration below); the crossing lies between r* and r* + step, the grid step there (median "
-         f"{fd.quantile(steps['r5'], 50):.3f} for 5 %, {fd.quantile(steps['r10'], 50):.3f} for 10 %; largest "
-         f"{fd.quantile(steps['r10'], 100):.3f}). The grid is not fine enough to see the narrow resonances of high "
-         "crank "
+         f"{f.steps[0]:.3f} for 5 %, {f.steps[1]:.3f} for 10 %; largest {f.steps[2]:.3f}). The grid is not fine "
+         "enough to see the narrow resonances of high crank "
          "harmonics (half-power width about 2 x damping x r, 0.006 at r = 0.15, below the grid step there); the "
          "threshold sample measures what this misses.", "",
-         "### Distribution of the quasi-static limit", "", *distribution_table(fam), "",
-         flags_text(fam, np.asarray(info.get("ratios", RATIOS))), "", f"![limits]({rel['limits']})", "",
+         "### Distribution of the quasi-static limit", "", *distribution_table(f.distribution), "",
+         flags_text(f.flags), "", f"![limits]({rel['limits']})", "",
          "### What moves it", "",
          "Spearman rank correlation of r* (10 %) with each feature, per mass model (k_sig: highest crank harmonic of "
          "the inertia loads above 1 % / 5 % of the largest; f1 max/min: variation of the first frozen frequency over "
-         "the cycle):", "", *correlation_table(fam, feats), "",
+         "the cycle):", "", *correlation_table(f.correlations), "",
          f"![features]({rel['features']})", "",
          f"![map]({rel['map']})", "",
          "### How well the one-mode estimate and the harmonic rule predict it", "",
-         *prediction_text(fam, rule, cs), "", "Worst one-mode predictions (10 %):", "", *worst_table(fam, rule), "",
+         *prediction_text(f.predictions), "", "Worst one-mode predictions (10 %):", "", *worst_table(f.worst), "",
          f"![prediction]({rel['prediction']})", "",
          "### Tier limits (`compare.atlas.limits(mass_model)`, used by `ked check`)", "",
          "Median over the families - spread (median minus the 10th percentile); every family's limit a first "
@@ -393,18 +317,18 @@ def markdown(atlas: Path, readme: Path, figs: dict[str, Path], cs_rule: tuple[np
          "never reached the tolerance counts with its largest confirmed r, a lower bound). The linear limits rest on "
          "the confirmed sample's coarse ratios (0.6 ... 3 x r*: steps near 0.1), so each is a lower bound known to "
          "that step; `ked check` counts the lower band (limit minus spread) against the linear model.", "",
-         *tier_table(fam, conf), "",
+         *tier_table(f.tiers), "",
          "### Calibration at the threshold (`ked check`'s quasi-static call)", "",
-         *threshold_text(fd.threshold(thr, margins, fam)), "", f"![threshold]({rel['threshold']})", "",
+         *threshold_text(f.threshold), "", f"![threshold]({rel['threshold']})", "",
          "### Exudyn-confirmed sample (context: mostly far from the threshold)", "",
          "Stratified (`compare.atlas.confirm`): per mass model, families drawn from equal strata of their r* (10 %), "
          "each at r = 0.6, 1, 1.4, 2, 3 x r* (interpolated r*, capped at 0.5); quasi-static, linear and Exudyn "
          "(default settings). Four in five of these scenes sit at 0.6 r* or >= 1.4 r*, where the verdict is easy: "
          "the calibration above is the one at the threshold. The linear model's limits of the tier table come from "
          "these ratio walks (first crossings on the grid 0.6, 1, 1.4, 2, 3 x r*: coarse, steps stated).", "",
-         *confirm_text(fd.confirm(conf)), "",
+         *confirm_text(f.confirm), "",
          "The linear model's own limit (linear vs Exudyn history error) per confirmed family:", "",
-         *(linear_limit_table(conf) if conf else []), "", f"![confirm]({rel['confirm']})", "",
+         *(linear_limit_table(f.linear) if f.linear else []), "", f"![confirm]({rel['confirm']})", "",
          f"![coupler curves]({rel['coupler_curves']})"]
     return "\n".join(L) + "\n"
 
@@ -414,12 +338,12 @@ def write_report(atlas: Path, figures_dir: Path, readme: Path) -> dict[str, Any]
     info, fam, links, conf = load(atlas)
     thr, margins = threshold_of(atlas)
     feats = features(fam, links)
-    rule_cs = rule_predictions(fam)
+    found = fd.analyse(info, fam, links, conf, thr, margins, feats, np.asarray(info.get("ratios", RATIOS)))
     pick = {k: feats[k] for k in ("k_sig (1 %)", "f1 max / f1 min", "min transmission angle [deg]",
                                   "extender / coupler", "crank / ground", DESIGN_FEATURES["slenderness"])}
     figs = {"limits": figures.limits_histogram(fam, figures_dir / FIGURES[0]),
             "features": figures.features(fam, pick, figures_dir / FIGURES[1]),
-            "prediction": figures.predictions(fam, rule_cs[0], figures_dir / FIGURES[2]),
+            "prediction": figures.predictions(fam, found.predictions.rule, figures_dir / FIGURES[2]),
             "map": figures.design_map(fam, *_map_axes(fam, feats), figures_dir / FIGURES[3]),
             "confirm": figures.confirm(conf, figures_dir / FIGURES[4]) if conf else figures_dir / FIGURES[4],
             "coupler_curves": figures.coupler_curves(coupler_curve_data(atlas, fam, int(info["seed"])),
@@ -427,7 +351,7 @@ def write_report(atlas: Path, figures_dir: Path, readme: Path) -> dict[str, Any]
             "threshold": figures.threshold(thr.e, thr.measured, thr.mass_model, thr.factor, margins.tolerance,
                                            margins.holds_below, margins.fails_above, figures_dir / FIGURES[6])
             if thr is not None and margins is not None else figures_dir / FIGURES[6]}
-    write_section(readme, SECTION, markdown(atlas, readme, figs, rule_cs))
+    write_section(readme, SECTION, markdown(found, atlas, readme, figs))
     return {"figures": [str(p) for p in figs.values()], "readme": str(readme), "families": len(fam["linkage"]),
             "confirmed": len(conf.get("key", []))}
 
