@@ -15,11 +15,7 @@ from compare.atlas import calibration as cal
 from compare.atlas import figures
 from compare.atlas import findings as fd
 from compare.atlas import store as atlas_store
-from compare.atlas.analysis import (
-    crossed,
-    first_crossings,
-    spearman,
-)
+from compare.atlas.analysis import crossed, first_crossings
 from compare.atlas.compute import RATIOS, spec_of, xy
 from compare.atlas.generate import candidate
 from compare.atlas.threshold import TABLE
@@ -344,7 +340,7 @@ def write_report(atlas: Path, figures_dir: Path, readme: Path) -> dict[str, Any]
     figs = {"limits": figures.limits_histogram(fam, figures_dir / FIGURES[0]),
             "features": figures.features(fam, pick, figures_dir / FIGURES[1]),
             "prediction": figures.predictions(fam, found.predictions.rule, figures_dir / FIGURES[2]),
-            "map": figures.design_map(fam, *_map_axes(fam, feats), figures_dir / FIGURES[3]),
+            "map": figures.design_map(fam, *_map_axes(found, feats), figures_dir / FIGURES[3]),
             "confirm": figures.confirm(conf, figures_dir / FIGURES[4]) if conf else figures_dir / FIGURES[4],
             "coupler_curves": figures.coupler_curves(coupler_curve_data(atlas, fam, int(info["seed"])),
                                                      figures_dir / FIGURES[5]),
@@ -356,9 +352,8 @@ def write_report(atlas: Path, figures_dir: Path, readme: Path) -> dict[str, Any]
             "confirmed": len(conf.get("key", []))}
 
 
-def _map_axes(fam: dict[str, np.ndarray], feats: dict[str, np.ndarray]) -> tuple[tuple[str, np.ndarray], ...]:
+def _map_axes(found: fd.AtlasFindings, feats: dict[str, np.ndarray]) -> tuple[tuple[str, np.ndarray], ...]:
     """The two design parameters with the strongest rank correlation with r* (10 %) over the atlas."""
-    m = crossed(fam, "r10")
     names = [*DESIGN_FEATURES.values(), "abs(coupler angle) [deg]"]
-    best = sorted(names, key=lambda n: -abs(np.nan_to_num(spearman(feats[n][m], fam["r10"][m]))))[:2]
+    best = sorted(names, key=lambda n: -abs(np.nan_to_num(found.correlations[n][-1])))[:2]
     return tuple((n, feats[n]) for n in best)
