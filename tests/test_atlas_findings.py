@@ -82,3 +82,23 @@ def test_threshold_findings_by_construction():
     # r = 0.1 above its family's first-crossing limit 0.05: between the two, not unseen
     assert t.early == (3, 1, 1, 0)
     assert fd.threshold(None, None) is None
+
+
+def test_the_committed_atlas_section_is_the_markdown_of_its_findings():
+    # regression pin: results/README.md's atlas section, regenerated from the committed atlas file's findings
+    # (figures not redrawn: only their paths enter the text)
+    from compare.atlas import report
+    from compare.paths import ATLAS_FILE, RESULTS
+    from compare.sections import markers
+
+    info, fam, links, conf = report.load(ATLAS_FILE)
+    thr, margins = report.threshold_of(ATLAS_FILE)
+    feats = report.features(fam, links)
+    found = fd.analyse(info, fam, links, conf, thr, margins, feats, np.asarray(info["ratios"]))
+    readme = RESULTS / "README.md"
+    figs = dict(zip(("limits", "features", "prediction", "map", "confirm", "coupler_curves", "threshold"),
+                    (RESULTS / "figures" / name for name in report.FIGURES)))
+    text = readme.read_text(encoding="utf-8")
+    begin, end = markers(report.SECTION)
+    assert report.markdown(found, ATLAS_FILE, readme, figs).strip() == \
+        text[text.index(begin) + len(begin):text.index(end)].strip()
