@@ -197,7 +197,7 @@ def test_report_section_and_figures(atlas):
     _, fam, _, conf = report_load(atlas["path"])
     c = findings.confirm(conf)
     assert (c.scenes, c.families) == (1, 1) and c.exudyn_ok == int(conf["status"][0] == "ok")  # one scene confirmed
-    assert findings.headline(fam, {"k": fam["k_sig_1"]}).families == int(analysis.crossed(fam, "r10").sum())
+    assert findings.distribution(fam)[-1].r10.size == int(analysis.crossed(fam, "r10").sum())
     for name in FIGURES:
         assert (root / "figures" / name).stat().st_size > 1000
 

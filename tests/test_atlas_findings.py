@@ -40,9 +40,11 @@ def test_headline_findings_hand_computed():
     r10 = np.array([0.1, 0.2, 0.15, 0.25, 0.3, 0.32, 0.05, 0.08, 0.5])
     status = np.array(["crossed"] * 8 + ["above_grid"])  # the last family never crossed: left out
     fam = {"mass_model": np.array(mms), "r10": r10, "r5": r10 / 2, "r10_status": status, "r5_status": status,
-           "r10_step": np.array([0.01] * 8 + [np.nan]), "one_mode_r10": r10 * np.array([1.2, 1.3] * 4 + [1.0])}
+           "r10_step": np.array([0.01] * 8 + [np.nan]), "one_mode_r10": r10 * np.array([1.2, 1.3] * 4 + [1.0]),
+           "one_mode_r5": r10 / 2, "k_sig_1": np.full(9, 2.0)}
     feats = {"weak": np.array([3, 1, 4, 1.5, 9, 2.6, 5, 3.5, 8]), "falling": -r10, "rising": r10}
-    h = fd.headline(fam, feats)
+    h = fd.headline(fd.distribution(fam), fd.correlations(fam, feats), fd.predictions(fam),
+                    fd.quantile(fam["r10_step"], 50))
     assert h.families == 8
     # sorted crossed r10: 0.05 0.08 0.1 0.15 0.2 0.25 0.3 0.32 -> median (0.15 + 0.2) / 2
     assert h.r10_median == pytest.approx(0.175) and h.r5_median == pytest.approx(0.0875)

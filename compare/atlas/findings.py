@@ -18,6 +18,7 @@ from compare.atlas.analysis import (
     crossed,
     linear_limits,
     linear_of,
+    median_spread,
     rule_constant,
     spearman,
     tier_limits,
@@ -55,17 +56,15 @@ class Headline:
     """Fraction of the families whose one-mode estimate of r* (10 %) lies within +-25 %."""
 
 
-def headline(fam: dict[str, np.ndarray], feats: dict[str, np.ndarray]) -> Headline:
-    m = crossed(fam, "r10")
-    r10 = fam["r10"][m]
-    rho = {k: spearman(np.asarray(v, float)[m], r10) for k, v in feats.items()}
-    per_mm = [v for v in (fam["r10"][crossed(fam, "r10", mm)] for mm in MASS_MODELS) if v.size]
-    return Headline(int(m.sum()), float(np.median(r10)), float(np.percentile(r10, 10)), float(np.percentile(r10, 90)),
-                    quantile(fam["r10_step"], 50), float(np.median(fam["r5"][crossed(fam, "r5")])),
-                    float(np.ptp([float(np.median(v)) for v in per_mm])),
+def headline(dist: tuple[Distribution, ...], rho: dict[str, tuple[float, ...]], pred: Predictions,
+             step_median: float) -> Headline:
+    """The answer, from the other findings (``dist[-1]``: every family; ``rho``'s last column: over all)."""
+    r10, per_mm = dist[-1].r10, [d.r10 for d in dist[:-1] if d.r10.size]
+    top = sorted(rho, key=lambda k: -abs(np.nan_to_num(rho[k][-1])))[:3]
+    return Headline(r10.size, float(np.median(r10)), float(np.percentile(r10, 10)), float(np.percentile(r10, 90)),
+                    step_median, float(np.median(dist[-1].r5)), float(np.ptp([float(np.median(v)) for v in per_mm])),
                     max(float(np.ptp(np.percentile(v, [10, 90]))) for v in per_mm),
-                    tuple((k, rho[k]) for k in sorted(rho, key=lambda k: -abs(np.nan_to_num(rho[k])))[:3]),
-                    float(within(fam["one_mode_r10"][m], r10).mean()))
+                    tuple((k, rho[k][-1]) for k in top), pred.one_mode[0.10][0])
 
 
 @dataclass(frozen=True)
@@ -212,13 +211,6 @@ def confirm(conf: dict[str, np.ndarray]) -> ConfirmFindings | None:
         tuple(reasons.most_common(5)))
 
 
-def median(values: Any) -> float:
-    """The median of the finite values (nan if none)."""
-    v = np.asarray(values, float)
-    v = v[np.isfinite(v)]
-    return float(np.median(v)) if v.size else math.nan
-
-
 @dataclass(frozen=True)
 class Distribution:
     """The limits r* [1] of one mass model ("all": every family): the crossed 5 % and 10 % limits, their
@@ -334,8 +326,8 @@ def tiers(fam: dict[str, np.ndarray], conf: dict[str, np.ndarray]) -> tuple[tupl
     out = []
     for mm in MASS_MODELS:
         sel = np.asarray(fam["mass_model"], dtype=object) == mm
-        steps = [median(np.asarray(fam[f"{tag}_step"], float)[sel]) for tag in TOLERANCE_TAGS]
-        out.append((tier_limits(fam, conf, mm), (*steps, *(median([x.step for x in linear_of(lins, mm, tol)])
+        steps = [median_spread(np.asarray(fam[f"{tag}_step"], float)[sel])[0] for tag in TOLERANCE_TAGS]
+        out.append((tier_limits(fam, conf, mm), (*steps, *(median_spread([x.step for x in linear_of(lins, mm, tol)])[0]
                                                           for tol in TOLERANCES))))
     return tuple(out)
 
@@ -366,7 +358,8 @@ def linear_table(conf: dict[str, np.ndarray]) -> tuple[LinearLimits, ...]:
             x = linear_of(lims, mm, tol)
             above = [v.r_pass for v in x if v.status == "above_grid"]
             out.append(LinearLimits(mm, tol, len(x), np.array([v.r_pass for v in x if v.status == "crossed"]),
-                                    median([v.step for v in x if v.status == "crossed"]), len(above), median(above),
+                                    median_spread([v.step for v in x if v.status == "crossed"])[0], len(above),
+                                    median_spread(above)[0],
                                     sum(v.status == "below_grid" for v in x), sum(v.status == "failure" for v in x)))
     return tuple(out)
 
@@ -423,9 +416,9 @@ def analyse(info: dict[str, Any], fam: dict[str, np.ndarray], links: dict[str, n
             conf: dict[str, np.ndarray], thr: cal.ThresholdData | None, margins: cal.Margins | None,
             feats: dict[str, np.ndarray], ratios: np.ndarray) -> AtlasFindings:
     """The findings of the stored atlas tables (``fam`` with first-crossing limits, ``feats`` per family)."""
-    pred = predictions(fam)
+    pred, dist, rho = predictions(fam), distribution(fam), correlations(fam, feats)
     steps = (quantile(fam["r5_step"], 50), quantile(fam["r10_step"], 50), quantile(fam["r10_step"], 100))
-    return AtlasFindings(info, len(fam["linkage"]), steps, headline(fam, feats), margins, sample(links, info),
-                         distribution(fam), flags(fam, ratios), correlations(fam, feats), pred,
+    return AtlasFindings(info, len(fam["linkage"]), steps, headline(dist, rho, pred, steps[1]), margins,
+                         sample(links, info), dist, flags(fam, ratios), rho, pred,
                          worst(fam, pred.rule), tiers(fam, conf), threshold(thr, margins, fam), confirm(conf),
                          linear_table(conf) if conf else ())
