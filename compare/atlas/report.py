@@ -1,5 +1,6 @@
-"""The atlas's README section and figures, generated from the stored atlas file only (the two coupler
-curves are recomputed: two scenes, the atlas stores no histories)."""
+"""The atlas's README section and figures from the stored atlas file only: load -> analyse
+(:func:`compare.atlas.findings.analyse`) -> figures -> markdown, which formats the findings only (the two
+coupler curves are recomputed: two scenes, the atlas stores no histories)."""
 
 from __future__ import annotations
 
