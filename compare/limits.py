@@ -91,6 +91,12 @@ class Limit:
         return 0.5 * (self.r_fail - self.r_pass) if self.status == "crossed" else math.nan
 
     @property
+    def r_record(self) -> float:
+        """The value the atlas file stores as its r5 / r10 column [1]: ``r_cross`` (crossed: a record only,
+        never reported), ``r_fail`` (below_grid), else ``r_pass``."""
+        return {"crossed": self.r_cross, "below_grid": self.r_fail}.get(self.status, self.r_pass)
+
+    @property
     def text(self) -> str:
         """The limit as a table states it: '0.060 (+0.020)' (crossed: the limit and the step to the first
         failing ratio), '>= 0.5' (never reached: a lower bound), '< 0.02' (already at the smallest ratio),

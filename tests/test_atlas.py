@@ -10,14 +10,16 @@ import numpy as np
 import pytest
 
 from compare import metrics
-from compare.atlas import analysis, calibration, verdict_margins
+from compare.atlas import analysis, calibration, findings, verdict_margins
 from compare.atlas import store as atlas_store
-from compare.atlas.compute import OK, limit_of
+from compare.atlas.compute import OK
 from compare.atlas.confirm import run_confirm
 from compare.atlas.generate import RANGES, candidate, generate
 from compare.atlas.report import FIGURES, write_report
+from compare.atlas.report import load as report_load
 from compare.atlas.run import run_atlas
 from compare.atlas.threshold import run_threshold, select_threshold
+from compare.limits import validity_limit
 from compare.sections import section_of
 from ked_linear import LinearSettings, solve_linear
 from ked_quasi import Scene, natural_frequencies, solve_quasi_static
@@ -72,17 +74,18 @@ def test_limit_interpolation_hand_computed():
     # errors 0.02, 0.06, 0.30 at r = 0.05, 0.1, 0.2 (by hand):
     # 5 %: 0.05 + (0.05 - 0.02) / (0.06 - 0.02) * 0.05 = 0.0875, half-bracket 0.025
     # 10 %: 0.1 + (0.10 - 0.06) / (0.30 - 0.06) * 0.1 = 0.11667, half-bracket 0.05
+    # (r_record: the value the atlas file stores as r5 / r10)
     ok = [True] * 3
-    five = limit_of(RATIOS, [0.02, 0.06, 0.30], ok, 0.05)
-    ten = limit_of(RATIOS, [0.02, 0.06, 0.30], ok, 0.10)
+    five = validity_limit(RATIOS, [0.02, 0.06, 0.30], ok, 0.05)
+    ten = validity_limit(RATIOS, [0.02, 0.06, 0.30], ok, 0.10)
     assert five.status == ten.status == "crossed"
-    assert five.r == pytest.approx(0.0875) and five.half_bracket == pytest.approx(0.025)
-    assert ten.r == pytest.approx(0.1 + 0.04 / 0.24 * 0.1) and ten.half_bracket == pytest.approx(0.05)
-    assert limit_of(RATIOS, [0.01, 0.02, 0.04], ok, 0.05).status == "above_grid"
-    assert limit_of(RATIOS, [0.01, 0.02, 0.04], ok, 0.05).r == 0.2
-    below = limit_of(RATIOS, [0.2, 0.3, 0.4], ok, 0.05)
-    assert below.status == "below_grid" and below.r == 0.05
-    assert limit_of(RATIOS, [0.01, math.nan, 0.4], [True, False, True], 0.05).status == "failure"
+    assert five.r_record == pytest.approx(0.0875) and five.half_bracket == pytest.approx(0.025)
+    assert ten.r_record == pytest.approx(0.1 + 0.04 / 0.24 * 0.1) and ten.half_bracket == pytest.approx(0.05)
+    assert validity_limit(RATIOS, [0.01, 0.02, 0.04], ok, 0.05).status == "above_grid"
+    assert validity_limit(RATIOS, [0.01, 0.02, 0.04], ok, 0.05).r_record == 0.2
+    below = validity_limit(RATIOS, [0.2, 0.3, 0.4], ok, 0.05)
+    assert below.status == "below_grid" and below.r_record == 0.05
+    assert validity_limit(RATIOS, [0.01, math.nan, 0.4], [True, False, True], 0.05).status == "failure"
 
 
 def test_median_spread_hand_computed():
@@ -190,9 +193,11 @@ def test_threshold_scene_and_stored_margins(atlas):
 
 def test_report_section_and_figures(atlas):
     root = atlas["root"]
-    text = section_of((root / "README.md").read_text(), "atlas")
-    assert "## Atlas" in text and "Tier limits" in text and "Exudyn-confirmed sample" in text
-    assert "Calibration at the threshold" in text
+    assert section_of((root / "README.md").read_text(), "atlas")  # the section's content: test_atlas_findings.py
+    _, fam, _, conf = report_load(atlas["path"])
+    c = findings.confirm(conf)
+    assert (c.scenes, c.families) == (1, 1) and c.exudyn_ok == int(conf["status"][0] == "ok")  # one scene confirmed
+    assert findings.distribution(fam)[-1].r10.size == int(analysis.crossed(fam, "r10").sum())
     for name in FIGURES:
         assert (root / "figures" / name).stat().st_size > 1000
 
@@ -333,8 +338,6 @@ def _resonant(r: np.ndarray) -> np.ndarray:
 
 def test_first_crossing_is_not_interpolated_across_a_resonance():
     from scipy.optimize import brentq
-
-    from compare.limits import validity_limit
 
     # the true first crossing of 10 %, found on the function itself
     true = brentq(lambda x: float(_resonant(np.array([x]))[0]) - 0.10, 0.2501, 0.277)

@@ -29,7 +29,7 @@ import numpy as np
 
 from compare.atlas import store
 from compare.atlas.compute import OK
-from compare.limits import validity_limit
+from compare.limits import TOLERANCES, Limit, validity_limit
 from compare.paths import ATLAS_FILE
 
 TOLERANCE_TAGS = ("r5", "r10")
@@ -79,58 +79,57 @@ def first_crossings(fam: dict[str, np.ndarray], ratios: Sequence[float]) -> dict
     out = dict(fam)
     err = np.asarray(fam.get("history_error", np.empty((0, len(ratios)))), float)
     ok = np.asarray(fam.get("code", np.empty((0, len(ratios)))), int) == OK
-    for tag, tol in zip(TOLERANCE_TAGS, (0.05, 0.10)):
+    for tag, tol in zip(TOLERANCE_TAGS, TOLERANCES):
         if tag not in fam:
             continue
         lims = [validity_limit(ratios, err[i], ok[i], tol) for i in range(err.shape[0])]
         out[f"{tag}_interpolated"] = fam[tag]
-        out[tag] = np.array([x.r_pass if x.status in ("crossed", "above_grid") else math.nan for x in lims])
-        out[f"{tag}_step"] = np.array([x.r_fail - x.r_pass if x.status == "crossed" else math.nan for x in lims])
+        out[tag] = np.array([bound(x) for x in lims])
+        out[f"{tag}_step"] = np.array([x.step for x in lims])
     return out
 
 
-@dataclass(frozen=True)
-class LinearLimit:
-    """The linear model's limit of one confirmed family: status as in the validity walk, r (crossed: the
-    last confirmed ratio below the first crossing, ``step`` to the first failing one; above_grid: the
-    largest confirmed ratio, a lower bound)."""
-
-    family: tuple[int, str, str]
-    tag: str
-    status: str
-    r: float
-    step: float = math.nan
+Family = tuple[int, str, str]
+"""A family of the atlas: (linkage index, mechanism, mass model)."""
 
 
-def linear_limits(confirm: dict[str, np.ndarray]) -> list[LinearLimit]:
-    """Per confirmed family and tolerance, the linear model's limit against Exudyn."""
-    out = []
-    fams: dict[tuple[int, str, str], list[int]] = {}
+def bound(lim: Limit) -> float:
+    """A first-crossing limit as the atlas counts it [1]: the last passing ratio (crossed) or the largest
+    ratio passed (above_grid, a lower bound); nan otherwise."""
+    return lim.r_pass if lim.status in ("crossed", "above_grid") else math.nan
+
+
+def linear_limits(confirm: dict[str, np.ndarray]) -> dict[tuple[Family, float], Limit]:
+    """Per confirmed family and tolerance [1], the linear model's limit against Exudyn: the walk up its
+    confirmed ratios of the linear-vs-Exudyn history error (:func:`compare.limits.validity_limit`)."""
+    fams: dict[Family, list[int]] = {}
     for i in range(len(confirm.get("key", []))):
         fams.setdefault((int(confirm["linkage"][i]), str(confirm["mechanism"][i]), str(confirm["mass_model"][i])),
                         []).append(i)
+    out = {}
     for fam, rows in fams.items():
         r = [float(confirm["r"][i]) for i in rows]
         e = [float(confirm["linear_vs_dyn"][i]) for i in rows]
         ok = [confirm["status"][i] == "ok" and math.isfinite(e[j]) for j, i in enumerate(rows)]
-        for tag, tol in zip(TOLERANCE_TAGS, (0.05, 0.10)):
-            lim = validity_limit(r, e, ok, tol)
-            val = lim.r_pass if lim.status in ("crossed", "above_grid") else math.nan
-            step = lim.r_fail - lim.r_pass if lim.status == "crossed" else math.nan
-            out.append(LinearLimit(fam, tag, lim.status, float(val), float(step)))
+        out.update({(fam, tol): validity_limit(r, e, ok, tol) for tol in TOLERANCES})
     return out
+
+
+def linear_of(lins: dict[tuple[Family, float], Limit], mass_model: str, tolerance: float) -> list[Limit]:
+    """The linear limits of one mass model at one tolerance [1]."""
+    return [lim for (f, tol), lim in lins.items() if f[2] == mass_model and tol == tolerance]
 
 
 def tier_limits(fam: dict[str, np.ndarray], confirm: dict[str, np.ndarray], mass_model: str) -> TierLimits:
     """The :class:`TierLimits` of one mass model (``fam`` with first-crossing limits:
     :func:`first_crossings`)."""
     qs = {t: median_spread(np.asarray(fam[t], float)[crossed(fam, t, mass_model)]) for t in TOLERANCE_TAGS}
-    lin_all = [x for x in linear_limits(confirm) if x.family[2] == mass_model]
-    lin = {t: median_spread([x.r for x in lin_all if x.tag == t and x.status in ("crossed", "above_grid")])
-           for t in TOLERANCE_TAGS}
+    lins = linear_limits(confirm)
+    lin = {t: median_spread([bound(x) for x in linear_of(lins, mass_model, tol)])
+           for t, tol in zip(TOLERANCE_TAGS, TOLERANCES)}
     n = int(np.sum(np.asarray(fam.get("mass_model", []), dtype=object) == mass_model))
     return TierLimits(mass_model, *qs["r5"], *qs["r10"], *lin["r5"], *lin["r10"], families=n,
-                      confirmed_families=len({x.family for x in lin_all}))
+                      confirmed_families=len({f for f, _ in lins if f[2] == mass_model}))
 
 
 def default_path() -> Path:

@@ -22,7 +22,7 @@ from compare import metrics
 from compare import solvers as registry
 from compare.atlas.generate import Linkage
 from compare.execute import frame, resolve_rpm, solve_one
-from compare.limits import one_mode_curves, one_mode_limit, validity_limit
+from compare.limits import Limit, one_mode_curves, one_mode_limit, validity_limit
 from compare.scenes import SceneSpec, SpeedSpec
 from ked_quasi.harmonics import significant_harmonic
 from ked_quasi.massmodel import MassModel
@@ -38,19 +38,6 @@ HARMONIC_FRACTIONS = (0.01, 0.05)
 # per-ratio status codes
 OK, UNSTABLE, FAILED, NOT_COMPUTED = 0, 1, 2, 3
 FLAG_BITS = {"large_deflection": 1, "large_rotation": 2, "non_finite": 4}
-
-
-@dataclass(frozen=True)
-class Limit:
-    """A limit r* of one tolerance as stored per family: ``status`` crossed / above_grid / below_grid /
-    failure / no_data; ``r`` interpolated (crossed), else the bound (r_pass above, r_fail below);
-    ``half_bracket``: the grid half-interval around a crossing.  The stored interpolated value is a record
-    only: the atlas's analysis reports first crossings recomputed from the per-ratio errors
-    (:func:`compare.atlas.analysis.first_crossings`)."""
-
-    status: str
-    r: float
-    half_bracket: float
 
 
 @dataclass(frozen=True)
@@ -88,7 +75,7 @@ def failed_record(index: int, mechanism: str, mm: MassModel, reason: str, n: int
     empty = (nan,) * n
     return FamilyRecord(index, mechanism, mm.name, mm.payload, "failed", reason[:500], nan, nan, nan, nan, 0, 0,
                         empty, empty, empty, empty, empty, (0,) * n, (FAILED,) * n,
-                        tuple(Limit("no_data", nan, nan) for _ in TOLERANCES), (nan,) * len(TOLERANCES), wall_s)
+                        tuple(Limit(tol, "no_data") for tol in TOLERANCES), (nan,) * len(TOLERANCES), wall_s)
 
 
 def spec_of(linkage: Linkage, mechanism: str, mass_model: MassModel, r: float) -> SceneSpec:
@@ -106,13 +93,6 @@ def xy(sol: registry.Solution) -> np.ndarray:
 
 def flag_bits(flags: tuple[str, ...]) -> int:
     return sum(FLAG_BITS.get(f, 0) for f in flags)
-
-
-def limit_of(ratios: tuple[float, ...], err: list[float], ok: list[bool], tol: float) -> Limit:
-    """The validity study's walk up the grid (:func:`compare.limits.validity_limit`)."""
-    lim = validity_limit(ratios, err, ok, tol)
-    r = {"crossed": lim.r_cross, "above_grid": lim.r_pass, "below_grid": lim.r_fail}.get(lim.status, lim.r_pass)
-    return Limit(lim.status, float(r), float(lim.half_bracket))
 
 
 def _loads_and_shape(scene: object) -> tuple[np.ndarray, np.ndarray, float]:
@@ -169,7 +149,7 @@ def family(linkage: Linkage, mechanism: str, mm: MassModel, ratios: tuple[float,
         return failed_record(linkage.index, mechanism, mm, f"{type(exc).__name__}: {exc}", len(ratios),
                              time.perf_counter() - t0)
     ok = [c == OK for c in s.code]
-    lims = tuple(limit_of(ratios, s.hist, ok, tol) for tol in TOLERANCES)
+    lims = tuple(validity_limit(ratios, s.hist, ok, tol) for tol in TOLERANCES)
     f1 = fr.natural_frequencies[:, 0]
     return FamilyRecord(
         linkage=linkage.index, mechanism=mechanism, mass_model=mm.name, payload_kg=mm.payload, status="ok",

@@ -1,11 +1,11 @@
-"""The atlas's README section and figures, generated from the stored atlas file only (the two coupler
-curves are recomputed: two scenes, the atlas stores no histories)."""
+"""The atlas's README section and figures from the stored atlas file only: load -> analyse
+(:func:`compare.atlas.findings.analyse`) -> figures -> markdown, which formats the findings only (the two
+coupler curves are recomputed: two scenes, the atlas stores no histories)."""
 
 from __future__ import annotations
 
 import math
 import os
-from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -14,21 +14,14 @@ import numpy as np
 from compare import solvers
 from compare.atlas import calibration as cal
 from compare.atlas import figures
+from compare.atlas import findings as fd
 from compare.atlas import store as atlas_store
-from compare.atlas.analysis import (
-    crossed,
-    first_crossings,
-    linear_limits,
-    rule_constant,
-    spearman,
-    tier_limits,
-    within,
-)
+from compare.atlas.analysis import crossed, first_crossings
 from compare.atlas.compute import RATIOS, spec_of, xy
 from compare.atlas.generate import candidate
 from compare.atlas.threshold import TABLE
 from compare.execute import frame, solve_one
-from compare.markdown import median_range, table
+from compare.markdown import median_range, num, table
 from compare.sections import write_section
 from ked_quasi.kinematics import coupler_point
 from ked_quasi.massmodel import MASS_MODELS
@@ -57,147 +50,77 @@ def features(fam: dict[str, np.ndarray], links: dict[str, np.ndarray]) -> dict[s
     return out
 
 
-def distribution_table(fam: dict[str, np.ndarray]) -> list[str]:
-    rows = []
-    for mm in (*MASS_MODELS, None):
-        sel = np.ones(len(fam["mass_model"]), bool) if mm is None else np.asarray(fam["mass_model"], dtype=object) == mm
-        st = Counter(np.asarray(fam["r10_status"], dtype=object)[sel])
-        r10 = np.asarray(fam["r10"], float)[sel & crossed(fam, "r10")]
-        span = f"{r10.min():.3f}-{r10.max():.3f}" if r10.size else "-"
-        r5 = np.asarray(fam["r5"], float)[sel & crossed(fam, "r5")]
-        rows.append([mm or "all", str(sel.sum()), median_range(r5), median_range(r10), span,
-                     f"{st['crossed']} / {st['above_grid']} / {st['below_grid']} / {st['failure']} / {st['no_data']}"])
+def distribution_table(rows: tuple[fd.Distribution, ...]) -> list[str]:
     return table(("mass model", "families", "r* 5 %: median [P10-P90]", "r* 10 %: median [P10-P90]", "min-max (10 %)",
-                  "10 % status: crossed / above grid / below grid / linear unstable first / failed"), rows, dense=True)
+                  "10 % status: crossed / above grid / below grid / linear unstable first / failed"),
+                 [[d.mass_model, str(d.families), median_range(d.r5), median_range(d.r10),
+                   f"{d.r10_range[0]:.3f}-{d.r10_range[1]:.3f}" if d.r10_range else "-",
+                   " / ".join(str(d.status[k]) for k in ("crossed", "above_grid", "below_grid", "failure", "no_data"))]
+                  for d in rows], dense=True)
 
 
-def flags_text(fam: dict[str, np.ndarray], ratios: np.ndarray) -> str:
+def flags_text(f: fd.Flags) -> str:
     """How often the linear model's answer leaves its small-deflection range at or below the 10 % limit."""
-    below = np.asarray(ratios, float)[None, :] <= np.nan_to_num(np.asarray(fam["r10"], float), nan=np.inf)[:, None]
-    flags = np.asarray(fam["flags"], int)
-    any_flag = (flags > 0).any(axis=1)
-    early = ((flags > 0) & below).any(axis=1)
-    mu = np.nanmax(np.where(below, fam["floquet_max_abs"], np.nan), axis=1)
-    return (f"Linear model's large-deflection / large-rotation flags (`ked_quasi.limits`): on {int(any_flag.sum())} "
-            f"families somewhere on the computed sweep, on {int(early.sum())} at or below their r* (10 %). Largest "
-            f"Floquet |mu| at or below r* (10 %): median {np.nanmedian(mu):.3f}, max {np.nanmax(mu):.3f} "
-            f"({'all stable' if np.nanmax(mu) < 1 else 'some unstable'}).")
+    return (f"Linear model's large-deflection / large-rotation flags (`ked_quasi.limits`): on {f.anywhere} "
+            f"families somewhere on the computed sweep, on {f.early} at or below their r* (10 %). Largest "
+            f"Floquet |mu| at or below r* (10 %): median {f.mu_median:.3f}, max {f.mu_max:.3f} "
+            f"({'all stable' if f.mu_max < 1 else 'some unstable'}).")
 
 
-def correlation_table(fam: dict[str, np.ndarray], feats: dict[str, np.ndarray]) -> list[str]:
-    def rho(x: np.ndarray, mm: str | None) -> str:
-        m = crossed(fam, "r10", mm)
-        return f"{spearman(np.asarray(x, float)[m], np.asarray(fam['r10'], float)[m]):+.2f}"
-
-    return table(("feature", *MASS_MODELS, "all"), [[name, *(rho(x, mm) for mm in (*MASS_MODELS, None))]
-                                                     for name, x in feats.items()], dense=True)
-
-
-def rule_predictions(fam: dict[str, np.ndarray]) -> tuple[np.ndarray, dict[str, float]]:
-    """r10 predicted by k_sig(1 %) r <= c, c fitted per mass model (median of k_sig r10); and the c's."""
-    pred = np.full(len(fam["r10"]), math.nan)
-    cs = {}
-    for mm in MASS_MODELS:
-        m = crossed(fam, "r10", mm)
-        cs[mm] = rule_constant(fam["k_sig_1"][m], fam["r10"][m])
-        sel = np.asarray(fam["mass_model"], dtype=object) == mm
-        pred[sel] = cs[mm] / fam["k_sig_1"][sel]
-    m = crossed(fam, "r10")
-    cs["all"] = rule_constant(fam["k_sig_1"][m], fam["r10"][m])
-    return pred, cs
-
-
-def _family_name(fam: dict[str, np.ndarray], i: int) -> str:
-    return f"linkage {int(fam['linkage'][i])} {fam['mechanism'][i]} {fam['mass_model'][i]}"
-
-
-def prediction_text(fam: dict[str, np.ndarray], rule: np.ndarray, cs: dict[str, float]) -> list[str]:
-    L = []
-    for tag, tol in (("r5", "5 %"), ("r10", "10 %")):
-        m = crossed(fam, tag)
-        ok = within(fam[f"one_mode_{tag}"][m], fam[tag][m])
-        L.append(f"* one-mode estimate of the {tol} limit: {ok.mean():.0%} of {m.sum()} families within +-25 % "
-                 f"(median ratio predicted/atlas {np.nanmedian(fam[f'one_mode_{tag}'][m] / fam[tag][m]):.3f}).")
-    m = crossed(fam, "r10")
-    glob = within(cs["all"] / fam["k_sig_1"][m], fam["r10"][m])
-    L.append(f"* rule k_sig r <= c (k_sig at 1 %), one c = {cs['all']:.3f} for all: {glob.mean():.0%} within +-25 %; "
-             f"c per mass model ({', '.join(f'{k} {v:.3f}' for k, v in cs.items() if k != 'all')}): "
-             f"{within(rule[m], fam['r10'][m]).mean():.0%} within +-25 %.")
-    return L
-
-
-def worst_table(fam: dict[str, np.ndarray], rule: np.ndarray, n: int = 6) -> list[str]:
-    m = np.flatnonzero(crossed(fam, "r10"))
-    dev = np.abs(np.log(fam["one_mode_r10"][m] / fam["r10"][m]))
-    return table(("family", "r* 10 %", "one-mode", "rule", "k_sig 1 % / 5 %", "f1 max/min", "min transmission [deg]"),
-                 [[_family_name(fam, i), f"{fam['r10'][i]:.3f}", f"{fam['one_mode_r10'][i]:.3f}", f"{rule[i]:.3f}",
-                   f"{int(fam['k_sig_1'][i])} / {int(fam['k_sig_5'][i])}",
-                   f"{fam['f1_max_hz'][i] / fam['f1_min_hz'][i]:.2f}", f"{fam['min_transmission_deg'][i]:.0f}"]
-                  for i in m[np.argsort(-dev)][:n]], dense=True)
-
-
-def _median_step(values: Any) -> str:
-    v = np.asarray(values, float)
-    v = v[np.isfinite(v)]
-    return f"{np.median(v):.3f}" if v.size else "-"
-
-
-def tier_table(fam: dict[str, np.ndarray], conf: dict[str, np.ndarray]) -> list[str]:
-    """Tier limits with, beside each, the median grid step of the first crossings behind it."""
-    rows = []
-    lins = linear_limits(conf)
-    for mm in MASS_MODELS:
-        t = tier_limits(fam, conf, mm)
-        sel = np.asarray(fam["mass_model"], dtype=object) == mm
-        steps = [_median_step(np.asarray(fam[f"{tag}_step"], float)[sel]) for tag in ("r5", "r10")]
-        steps += [_median_step([x.step for x in lins if x.family[2] == mm and x.tag == tag]) for tag in ("r5", "r10")]
-        cells = [f"{v:.3f} - {s:.3f} (step {h})" if math.isfinite(v) else "-" for (v, s), h in zip((
-            (t.quasi_static_r5, t.quasi_static_r5_spread), (t.quasi_static_r10, t.quasi_static_r10_spread),
-            (t.linear_r5, t.linear_r5_spread), (t.linear_r10, t.linear_r10_spread)), steps)]
-        rows.append([mm, *cells, f"{t.families} / {t.confirmed_families}"])
-    return table(("mass model", "quasi-static 5 %", "quasi-static 10 %", "linear 5 %", "linear 10 %",
-                  "families / confirmed"), rows, dense=True)
-
-
-def linear_limit_table(conf: dict[str, np.ndarray]) -> list[str]:
-    """The linear model's own limits against Exudyn per mass model (confirmed families)."""
-    lims = linear_limits(conf)
-    rows = []
-    for mm in MASS_MODELS:
-        for tag, tol in (("r5", "5 %"), ("r10", "10 %")):
-            x = [v for v in lims if v.family[2] == mm and v.tag == tag]
-            cr = np.array([v.r for v in x if v.status == "crossed"])
-            above = np.array([v.r for v in x if v.status == "above_grid"])
-            low = f"{above.size} ({np.median(above):.3f})" if above.size else "0"
-            other = sum(v.status == "below_grid" for v in x), sum(v.status == "failure" for v in x)
-            step = _median_step([v.step for v in x if v.status == "crossed"])
-            rows.append([mm, tol, str(len(x)), f"{cr.size}: {median_range(cr)} ({step})", low,
-                         f"{other[0]} / {other[1]}"])
-    return table(("mass model", "tolerance", "families", "crossed: median [P10-P90] (median step)",
-                  "not reached up to r (median lower bound)", "below the smallest / Exudyn failed first"), rows,
+def correlation_table(rho: dict[str, tuple[float, ...]]) -> list[str]:
+    return table(("feature", *MASS_MODELS, "all"), [[name, *(f"{x:+.2f}" for x in r)] for name, r in rho.items()],
                  dense=True)
 
 
-def headline(fam: dict[str, np.ndarray], conf: dict[str, np.ndarray], feats: dict[str, np.ndarray],
-             margins: cal.Margins | None = None) -> str:
+def prediction_text(p: fd.Predictions) -> list[str]:
+    L = [f"* one-mode estimate of the {100 * tol:g} % limit: {ok:.0%} of {n} families within +-25 % "
+         f"(median ratio predicted/atlas {ratio:.3f})." for tol, (ok, n, ratio) in p.one_mode.items()]
+    L.append(f"* rule k_sig r <= c (k_sig at 1 %), one c = {p.c['all']:.3f} for all: {p.within_one_c:.0%} within "
+             f"+-25 %; c per mass model ({', '.join(f'{k} {v:.3f}' for k, v in p.c.items() if k != 'all')}): "
+             f"{p.within_per_mass_model:.0%} within +-25 %.")
+    return L
+
+
+def worst_table(rows: tuple[fd.Worst, ...]) -> list[str]:
+    return table(("family", "r* 10 %", "one-mode", "rule", "k_sig 1 % / 5 %", "f1 max/min", "min transmission [deg]"),
+                 [[w.family, f"{w.r10:.3f}", f"{w.one_mode:.3f}", f"{w.rule:.3f}", f"{w.k_sig[0]} / {w.k_sig[1]}",
+                   f"{w.f1_ratio:.2f}", f"{w.min_transmission_deg:.0f}"] for w in rows], dense=True)
+
+
+def tier_table(rows: tuple[tuple[fd.TierLimits, tuple[float, ...]], ...]) -> list[str]:
+    """Tier limits with, beside each, the median grid step of the first crossings behind it."""
+    def cells(t: fd.TierLimits, steps: tuple[float, ...]) -> list[str]:
+        return [f"{v:.3f} - {s:.3f} (step {num(h, '.3f')})" if math.isfinite(v) else "-" for (v, s), h in zip((
+            (t.quasi_static_r5, t.quasi_static_r5_spread), (t.quasi_static_r10, t.quasi_static_r10_spread),
+            (t.linear_r5, t.linear_r5_spread), (t.linear_r10, t.linear_r10_spread)), steps)]
+
+    return table(("mass model", "quasi-static 5 %", "quasi-static 10 %", "linear 5 %", "linear 10 %",
+                  "families / confirmed"), [[t.mass_model, *cells(t, steps), f"{t.families} / {t.confirmed_families}"]
+                                            for t, steps in rows], dense=True)
+
+
+def linear_limit_table(rows: tuple[fd.LinearLimits, ...]) -> list[str]:
+    """The linear model's own limits against Exudyn per mass model (confirmed families)."""
+    return table(("mass model", "tolerance", "families", "crossed: median [P10-P90] (median step)",
+                  "not reached up to r (median lower bound)", "below the smallest / Exudyn failed first"),
+                 [[x.mass_model, f"{100 * x.tolerance:g} %", str(x.families),
+                   f"{x.crossed.size}: {median_range(x.crossed)} ({num(x.step, '.3f')})",
+                   f"{x.not_reached} ({x.not_reached_median:.3f})" if x.not_reached else "0",
+                   f"{x.below} / {x.failed}"]
+                  for x in rows], dense=True)
+
+
+def headline(h: fd.Headline, margins: cal.Margins | None = None) -> str:
     """The section's answer in a few sentences."""
-    m = crossed(fam, "r10")
-    r10 = fam["r10"][m]
-    rho = {k: spearman(np.asarray(v, float)[m], r10) for k, v in feats.items()}
-    top = sorted(rho, key=lambda k: -abs(np.nan_to_num(rho[k])))[:3]
-    one = within(fam["one_mode_r10"][m], r10).mean()
-    per_mm = [fam["r10"][crossed(fam, "r10", mm)] for mm in MASS_MODELS]
-    meds = [float(np.median(v)) for v in per_mm if v.size]
-    widths = [float(np.ptp(np.percentile(v, [10, 90]))) for v in per_mm if v.size]
-    text = (f"**In short:** over {m.sum()} families the quasi-static coupler-point history stays within 10 % of the "
-            f"linear KED model up to r* = {np.median(r10):.3f} (median; 10-90 % of the families: "
-            f"{np.percentile(r10, 10):.3f}-{np.percentile(r10, 90):.3f}; first crossings on the atlas grid, median "
-            f"step {_q(fam['r10_step'], 50):.3f}) and within 5 % up to "
-            f"{np.median(fam['r5'][crossed(fam, 'r5')]):.3f}. The medians of the four mass models differ by "
-            f"{np.ptp(meds):.3f}, the linkages of one mass model by up to {max(widths):.3f} (10-90 %): strongest rank "
-            "correlations with r* "
-            + ", ".join(f"{k} ({rho[k]:+.2f})" for k in top)
-            + f". The one-mode estimate predicts r* within +-25 % for {one:.0%} of the families.")
+    text = (f"**In short:** over {h.families} families the quasi-static coupler-point history stays within 10 % of "
+            f"the linear KED model up to r* = {h.r10_median:.3f} (median; 10-90 % of the families: "
+            f"{h.r10_p10:.3f}-{h.r10_p90:.3f}; first crossings on the atlas grid, median "
+            f"step {h.r10_step_median:.3f}) and within 5 % up to "
+            f"{h.r5_median:.3f}. The medians of the four mass models differ by "
+            f"{h.mass_model_spread:.3f}, the linkages of one mass model by up to {h.widest:.3f} (10-90 %): strongest "
+            "rank correlations with r* "
+            + ", ".join(f"{k} ({rho:+.2f})" for k, rho in h.correlations)
+            + f". The one-mode estimate predicts r* within +-25 % for {h.one_mode_within:.0%} of the families.")
     if margins is not None:
         s = margins.stats
         text += (f" At the threshold ({s.n} Exudyn-confirmed scenes within +-25 % of their family's 10 % limit) "
@@ -208,13 +131,6 @@ def headline(fam: dict[str, np.ndarray], conf: dict[str, np.ndarray], feats: dic
     return text
 
 
-def _q(values: Any, q: float) -> float:
-    """The q-th percentile of the finite values (nan if none)."""
-    v = np.asarray(values, float)
-    v = v[np.isfinite(v)]
-    return float(np.percentile(v, q)) if v.size else math.nan
-
-
 def _ci(x: cal.Rate) -> str:
     """'k/n = rate [low-high]' of a binomial rate."""
     if x.n == 0:
@@ -222,63 +138,37 @@ def _ci(x: cal.Rate) -> str:
     return f"{x.k}/{x.n} = {x.rate:.1%} [{x.low95:.1%}-{x.high95:.1%}]"
 
 
-def early_text(d: cal.ThresholdData, fam: dict[str, np.ndarray], tol: float) -> list[str]:
-    """Threshold scenes already at or above the tolerance below their family's interpolated r*: between the
-    first-crossing limit and the interpolated value (the interpolation overstated the limit), or below the
-    first-crossing limit (a crossing the atlas grid did not see)."""
-    row = {(int(k), str(m), str(mm)): i for i, (k, m, mm) in enumerate(zip(fam["linkage"], fam["mechanism"],
-                                                                          fam["mass_model"]))}
-    r_first = np.array([fam["r10"][row[(int(k), str(m), str(mm))]] if (int(k), str(m), str(mm)) in row else np.nan
-                        for k, m, mm in zip(d.linkage, d.mechanism, d.mass_model)], float)
-    below = (d.sample == "threshold") & np.isfinite(d.e) & (d.factor < 1.0)
-    early = below & (d.e >= tol)
-    unseen = early & (d.r <= r_first)
-    return [f"First crossings, checked: {int(early.sum())} of the {int(below.sum())} threshold scenes below their "
-            "family's interpolated r* already have a predicted error >= 10 %: "
-            f"{int((early & ~unseen).sum())} between the last passing grid ratio and the interpolated value (the "
-            "interpolation overstated the limit: why every atlas limit is the last passing grid ratio), "
-            f"{int(unseen.sum())} at or below the last passing grid ratio (a crossing the atlas grid did not see)."]
-
-
-def threshold_text(d: cal.ThresholdData | None, mg: cal.Margins | None,
-                   fam: dict[str, np.ndarray] | None = None) -> list[str]:
+def threshold_text(t: fd.ThresholdFindings | None) -> list[str]:
     """The threshold calibration: counts, rates with intervals, the chosen margins, per stratum."""
-    if d is None or mg is None or not d.e.size:
+    if t is None:
         return ["No threshold sample yet (`ked study atlas --threshold N`)."]
-    tol = mg.tolerance
-    ok = np.isfinite(d.measured)
-    e, m = d.e[ok], d.measured[ok]
-    strata = Counter(zip(d.mass_model[d.sample == "threshold"], d.mechanism[d.sample == "threshold"]))
-    lo, hi = np.min(d.factor), np.max(d.factor)
+    mg = t.margins
 
-    def row(name: str, s: cal.CallStats) -> str:
-        return (f"| {name} | {s.quasi_static} | {s.borderline} ({s.borderline_measured_fail}) | {s.not_quasi_static} "
-                f"| {_ci(s.unsafe)} | {_ci(s.overcautious)} | {_ci(s.agreement)} |")
+    def row(name: str, s: cal.CallStats) -> list[str]:
+        return [name, str(s.quasi_static), f"{s.borderline} ({s.borderline_measured_fail})", str(s.not_quasi_static),
+                _ci(s.unsafe), _ci(s.overcautious), _ci(s.agreement)]
 
-    gated = int(np.sum(ok & np.isfinite(d.e) & (d.e < mg.holds_below * tol) & ~(d.r < d.r_linear)))
-    near = (e >= 0.8 * tol) & (e <= 1.2 * tol)
-    thr = d.sample == "threshold"
-    L = [f"Stratified (`compare.atlas.threshold`): per mass model and mechanism ({min(strata.values())}-"
-         f"{max(strata.values())} scenes each), families drawn from equal strata of their r* (10 %), one scene "
-         f"each at r = f x r* with f uniform in [0.75, 1.25] (drawn: {lo:.3f}-{hi:.3f}; r* the interpolated value the "
-         "file stores, which lies in its first-crossing bracket); quasi-static, linear and Exudyn (default settings, "
-         f"those of the default campaign): {int(thr.sum())} scenes, joined by the {int((~thr).sum())} scenes of the "
-         "confirmed sample below that lie in the same band (at r = r*).", "",
-         f"* {d.e.size} scenes, {int(ok.sum())} with an Exudyn steady state, {int((~ok).sum())} failed (stored with "
-         "their reasons, left out of the rates).",
+    L = [f"Stratified (`compare.atlas.threshold`): per mass model and mechanism ({t.strata_min}-"
+         f"{t.strata_max} scenes each), families drawn from equal strata of their r* (10 %), one scene "
+         f"each at r = f x r* with f uniform in [0.75, 1.25] (drawn: {t.factor_min:.3f}-{t.factor_max:.3f}; r* the "
+         "interpolated value the file stores, which lies in its first-crossing bracket); quasi-static, linear and "
+         f"Exudyn (default settings, those of the default campaign): {t.threshold_scenes} scenes, joined by the "
+         f"{t.joined} scenes of the confirmed sample below that lie in the same band (at r = r*).", "",
+         f"* {t.scenes} scenes, {t.exudyn_ok} with an Exudyn steady state, {t.scenes - t.exudyn_ok} failed (stored "
+         "with their reasons, left out of the rates).",
          f"* Measured error (quasi-static vs Exudyn) over predicted (quasi-static vs linear): median "
-         f"{_q(m / e, 50):.3f}, 5-95 %: {_q(m / e, 5):.3f}-{_q(m / e, 95):.3f}; "
-         f"where the prediction is within +-20 % of the tolerance ({int(near.sum())} scenes) |measured - predicted| "
-         f"median {_q(np.abs(m - e)[near], 50):.4f}, max {_q(np.abs(m - e)[near], 100):.4f}.",
-         f"* Measured above the tolerance: {int(np.sum(m >= tol))} of {int(ok.sum())}.", "",
+         f"{t.ratio_median:.3f}, 5-95 %: {t.ratio_q05:.3f}-{t.ratio_q95:.3f}; "
+         f"where the prediction is within +-20 % of the tolerance ({t.near} scenes) |measured - predicted| "
+         f"median {t.near_diff_median:.4f}, max {t.near_diff_max:.4f}.",
+         f"* Measured above the tolerance: {t.measured_fail} of {t.exudyn_ok}.", "",
          "The check's call at 10 % (unsafe: quasi-static called adequate, measured >= 10 %; over-cautious: not "
          "quasi-static, measured < 10 %; both over every scene with an Exudyn answer; agreement over the decisive "
          "calls; borderline calls, with how many measured >= 10 % in brackets, say: run `--confirm`):", "",
-         "| rule | quasi-static | borderline (measured fail) | not quasi-static | unsafe [95 %] | over-cautious "
-         "[95 %] | agreement [95 %] |", "|---" * 7 + "|",
-         row("plain: e < 10 %, no margin, no linear-range gate (context)", mg.plain),
-         row(f"chosen: e < {mg.holds_below:g} x 10 % and r below the linear lower band; borderline to "
-             f"{mg.fails_above:g} x", mg.stats), "",
+         *table(("rule", "quasi-static", "borderline (measured fail)", "not quasi-static", "unsafe [95 %]",
+                 "over-cautious [95 %]", "agreement [95 %]"), [
+             row("plain: e < 10 %, no margin, no linear-range gate (context)", mg.plain),
+             row(f"chosen: e < {mg.holds_below:g} x 10 % and r below the linear lower band; borderline to "
+                 f"{mg.fails_above:g} x", mg.stats)], dense=True), "",
          f"**Chosen margins** (`compare.atlas.verdict_margins()`, stored in the atlas file): quasi-static holds below "
          f"**{mg.holds_below:g} x** the tolerance, borderline up to **{mg.fails_above:g} x**, each the more cautious "
          f"of two criteria. Rate: the largest multiplier whose unsafe-call rate has a 95 % upper bound <= "
@@ -290,54 +180,41 @@ def threshold_text(d: cal.ThresholdData | None, mg: cal.Margins | None,
          f"1 / {mg.ratio_q95:.3f} = {mg.holds_below_scatter:g} x (at 1 / {mg.ratio_q05:.3f} = "
          f"{mg.fails_above_scatter:g} x) is right with about 95 % probability. With these margins the unsafe calls' "
          f"upper bound is {mg.stats.unsafe.high95:.1%}. The linear-range gate (r below the mass model's lower-band "
-         f"linear limit) withheld the quasi-static tier from {gated} scenes the margin alone would have granted. "
-         "The rule is `compare.atlas.calibration.calls`, which `ked check` mirrors.", "",
-         "| mass model | mechanism | scenes (Exudyn ok) | measured >= 10 % | unsafe | borderline | over-cautious |",
-         "|---" * 7 + "|"]
-    c = cal.calls(d.e, d.r, d.r_linear, d.linear_ok, tol, mg.holds_below, mg.fails_above)
-    oc = ok & (c == cal.NOT_QUASI_STATIC) & (d.measured < tol)
-    flagged, gate = oc & ~d.linear_ok, oc & d.linear_ok & ~(d.r < d.r_linear)
-    at = next(i for i, line in enumerate(L) if line.startswith("**Chosen margins**"))
-    L[at] += (f" The {int(oc.sum())} over-cautious calls: {int(flagged.sum())} where the linear solution carries a "
-              f"large-deflection or large-rotation flag (of {int((~d.linear_ok).sum())} such scenes), "
-              f"{int(gate.sum())} by the linear-range gate, {int((oc & ~flagged & ~gate).sum())} by the prediction.")
-    for mm in MASS_MODELS:
-        for mech in ("source", "cognate"):
-            sel = (d.mass_model == mm) & (d.mechanism == mech)
-            so = sel & ok
-            fail = so & (d.measured >= tol)
-            L.append(f"| {mm} | {mech} | {int(sel.sum())} ({int(so.sum())}) | {int(fail.sum())} | "
-                     f"{int(np.sum(fail & (c == cal.QUASI_STATIC)))} | {int(np.sum(so & (c == cal.BORDERLINE)))} | "
-                     f"{int(np.sum(so & ~fail & (c == cal.NOT_QUASI_STATIC)))} |")
-    if fam is not None:
-        L += ["", *early_text(d, fam, tol)]
+         f"linear limit) withheld the quasi-static tier from {t.gated} scenes the margin alone would have granted. "
+         "The rule is `compare.atlas.calibration.calls`, which `ked check` mirrors."
+         f" The {t.overcautious} over-cautious calls: {t.overcautious_flagged} where the linear solution carries a "
+         f"large-deflection or large-rotation flag (of {t.flagged} such scenes), "
+         f"{t.overcautious_gate} by the linear-range gate, {t.overcautious_prediction} by the prediction.", "",
+         *table(("mass model", "mechanism", "scenes (Exudyn ok)", "measured >= 10 %", "unsafe", "borderline",
+                 "over-cautious"), [[x.mass_model, x.mechanism, f"{x.scenes} ({x.exudyn_ok})", str(x.measured_fail),
+                                     str(x.unsafe), str(x.borderline), str(x.overcautious)] for x in t.strata],
+                dense=True)]
+    if t.early is not None:
+        below, early, between, unseen = t.early
+        L += ["", f"First crossings, checked: {early} of the {below} threshold scenes below their "
+              "family's interpolated r* already have a predicted error >= 10 %: "
+              f"{between} between the last passing grid ratio and the interpolated value (the "
+              "interpolation overstated the limit: why every atlas limit is the last passing grid ratio), "
+              f"{unseen} at or below the last passing grid ratio (a crossing the atlas grid did not see)."]
     return L
 
 
-def confirm_text(conf: dict[str, np.ndarray]) -> list[str]:
-    n = len(conf.get("key", []))
-    if not n:
+def confirm_text(c: fd.ConfirmFindings | None) -> list[str]:
+    if c is None:
         return ["No scene confirmed with Exudyn yet (`ked study atlas --confirm N`)."]
-    ok = np.asarray(conf["status"], dtype=object) == "ok"
-    qd, ql, ld = conf["qs_vs_dyn"][ok], conf["qs_vs_linear"][ok], conf["linear_vs_dyn"][ok]
-    same = (ql < 0.10) == (qd < 0.10)
-    at = np.isclose(np.asarray(conf["factor"], float)[ok], 1.0)
-    lin_ok = {tol: (ld < tol).mean() for tol in (0.05, 0.10)}
-    lims = linear_limits(conf)
-    st = Counter(x.status for x in lims if x.tag == "r10")
-    reasons = Counter(str(r).split(":")[0] + ": " + str(r).split(":")[1][:60] if ":" in str(r) else str(r)
-                      for r in np.asarray(conf["reason"], dtype=object)[~ok])
-    L = [f"* {n} scenes ({len({k.rsplit('/', 1)[0] for k in conf['key']})} families), {ok.sum()} with an Exudyn "
-         f"steady state, {n - ok.sum()} failed; Exudyn wall time median {np.nanmedian(conf['dyn_wall_s']):.1f} s.",
+    st = c.linear_status
+    L = [f"* {c.scenes} scenes ({c.families} families), {c.exudyn_ok} with an Exudyn "
+         f"steady state, {c.scenes - c.exudyn_ok} failed; Exudyn wall time median {c.wall_median_s:.1f} s.",
          f"* Context only (most of these scenes are far from r*): the plain 10 % call (quasi-static vs linear) and "
-         f"the reference (quasi-static vs Exudyn) agree on {int(same.sum())}/{same.size} scenes, on "
-         f"{int(same[at].sum())}/{int(at.sum())} of those at r = r*; |difference of the two errors| median "
-         f"{np.nanmedian(np.abs(ql - qd)):.3f}, 90th percentile {np.nanpercentile(np.abs(ql - qd), 90):.3f}.",
-         f"* The linear model is within 5 % of Exudyn on {lin_ok[0.05]:.0%} and within 10 % on {lin_ok[0.10]:.0%} of "
-         f"the scenes (which reach {np.max(conf['factor']):g} x the quasi-static limit); its 10 % limit per "
+         f"the reference (quasi-static vs Exudyn) agree on {c.agree}/{c.exudyn_ok} scenes, on "
+         f"{c.agree_at}/{c.at} of those at r = r*; |difference of the two errors| median "
+         f"{c.diff_median:.3f}, 90th percentile {c.diff_p90:.3f}.",
+         f"* The linear model is within 5 % of Exudyn on {c.linear_within[0.05]:.0%} and within 10 % on "
+         f"{c.linear_within[0.10]:.0%} of "
+         f"the scenes (which reach {c.factor_max:g} x the quasi-static limit); its 10 % limit per "
          f"family: {st['crossed']} crossed, {st['above_grid']} not reached (lower bound: the largest confirmed r), "
          f"{st['below_grid']} already at the smallest, {st['failure']} ended by an Exudyn failure."]
-    L += [f"* Exudyn failures: {k} ({v})" for k, v in reasons.most_common(5)]
+    L += [f"* Exudyn failures: {k} ({v})" for k, v in c.failures]
     return L
 
 
@@ -354,24 +231,21 @@ def coupler_curve_data(atlas: Path, fam: dict[str, np.ndarray], seed: int) -> li
         rigid = np.asarray(coupler_point(fr.scene.fourbar, fr.scene.crank_angles))
         size = float(np.ptp(rigid, axis=0).max())
         mag = 0.15 * size / max(float(np.hypot(*xy(lin).T).max()), 1e-30)
-        out.append({"title": f"{label}: {_family_name(fam, i)}, r* (10 %) = {fam['r10'][i]:.3f}; at r = 0.1",
+        out.append({"title": f"{label}: {fd.family_name(fam, i)}, r* (10 %) = {fam['r10'][i]:.3f}; at r = 0.1",
                     "rigid": rigid, "quasi_static": xy(qs), "linear": xy(lin), "magnification": mag})
     return out
 
 
-def sample_text(links: dict[str, np.ndarray], info: dict[str, Any]) -> list[str]:
-    acc = np.asarray(links["accepted"]).astype(bool)
-    reasons = Counter(str(r).split(":")[0].split(" (")[0] for r in np.asarray(links["reason"], dtype=object)[~acc])
-    cog = sum(1 for m in np.asarray(links["mechanisms"], dtype=object)[acc] if "cognate" in str(m))
-    rg = info.get("ranges", {})
+def sample_text(x: fd.SampleFindings) -> list[str]:
+    rg = x.ranges
 
     def span(key: str) -> str:
         lo, hi = rg.get(key, (math.nan, math.nan))
         return f"{lo:g}-{hi:g}"
 
-    return [f"**Sample** (`compare.atlas.generate`, seed {info.get('seed')}): {int(acc.sum())} linkages accepted of "
-            f"{acc.size} candidates drawn; {cog} of them with a crank-drivable crossed Roberts cognate. Rejected, with "
-            "their reasons stored in `/linkages`: " + "; ".join(f"{v} {k}" for k, v in reasons.most_common()) + ".",
+    return [f"**Sample** (`compare.atlas.generate`, seed {x.seed}): {x.accepted} linkages accepted of "
+            f"{x.candidates} candidates drawn; {x.cognates} of them with a crank-drivable crossed Roberts cognate. "
+            "Rejected, with their reasons stored in `/linkages`: " + "; ".join(f"{v} {k}" for k, v in x.rejected) + ".",
             "",
             f"Ranges: ground {span('ground_m')} m (log-uniform); crank/ground {span('crank_ratio')}, coupler/ground "
             f"{span('coupler_ratio')}, follower/ground {span('follower_ratio')} (uniform; Grashof crank-rockers with "
@@ -397,22 +271,18 @@ def threshold_of(atlas: Path) -> tuple[cal.ThresholdData | None, cal.Margins | N
     return cal.threshold_data(atlas), cal.threshold_margins(atlas)
 
 
-def markdown(atlas: Path, readme: Path, figs: dict[str, Path], cs_rule: tuple[np.ndarray, dict[str, float]]) -> str:
-    """The README section (stored data only; figure paths relative to the README)."""
-    info, fam, links, conf = load(atlas)
-    thr, margins = threshold_of(atlas)
+def markdown(f: fd.AtlasFindings, atlas: Path, readme: Path, figs: dict[str, Path]) -> str:
+    """The README section from the findings (figure and atlas paths relative to the README)."""
     rel = {k: os.path.relpath(v.resolve(), readme.resolve().parent) for k, v in figs.items()}
-    rule, cs = cs_rule
-    feats = features(fam, links)
+    info = f.info
     st = info.get("settings", {})
-    steps = {tag: np.asarray(fam[f"{tag}_step"], float) for tag in ("r5", "r10")}
-    L = ["## Atlas: the quasi-static limit over the design space", "", headline(fam, conf, feats, margins), "",
+    L = ["## Atlas: the quasi-static limit over the design space", "", headline(f.headline, f.margins), "",
          "Regenerate (resumable; computes what is missing, then redraws): `ked study atlas --linkages N --confirm M "
          "--threshold T` "
          f"(stored: `{os.path.relpath(atlas.resolve(), readme.resolve().parent)}`, "
          f"{atlas.stat().st_size / 1e6:.1f} MB; figures `figures/atlas_*.png`).", "",
-         *sample_text(links, info), "",
-         f"**Setup.** Every family (linkage x mechanism x mass model: {len(fam['linkage'])} families) is swept over "
+         *sample_text(f.sample), "",
+         f"**Setup.** Every family (linkage x mechanism x mass model: {f.families} families) is swept over "
          f"r = Omega/omega1_min in {', '.join(f'{r:g}' for r in info.get('ratios', RATIOS))} (omega1_min: lowest "
          "first frozen natural frequency over the cycle), each scene a campaign scene solved by the registered "
          f"quasi-static and linear solvers (default settings, {st.get('damping_ratio', 0.02):g} damping, ccw, "
@@ -422,20 +292,20 @@ def markdown(atlas: Path, readme: Path, figs: dict[str, Path], cs_rule: tuple[np
          "first crossing of the tolerance walking up the grid, stated as the last grid ratio below it (never "
          "interpolated: a resonance peak between two grid ratios can cross the tolerance unseen, see the threshold "
          "calibration below); the crossing lies between r* and r* + step, the grid step there (median "
-         f"{_q(steps['r5'], 50):.3f} for 5 %, {_q(steps['r10'], 50):.3f} for 10 %; largest "
-         f"{_q(steps['r10'], 100):.3f}). The grid is not fine enough to see the narrow resonances of high crank "
+         f"{f.steps[0]:.3f} for 5 %, {f.steps[1]:.3f} for 10 %; largest {f.steps[2]:.3f}). The grid is not fine "
+         "enough to see the narrow resonances of high crank "
          "harmonics (half-power width about 2 x damping x r, 0.006 at r = 0.15, below the grid step there); the "
          "threshold sample measures what this misses.", "",
-         "### Distribution of the quasi-static limit", "", *distribution_table(fam), "",
-         flags_text(fam, np.asarray(info.get("ratios", RATIOS))), "", f"![limits]({rel['limits']})", "",
+         "### Distribution of the quasi-static limit", "", *distribution_table(f.distribution), "",
+         flags_text(f.flags), "", f"![limits]({rel['limits']})", "",
          "### What moves it", "",
          "Spearman rank correlation of r* (10 %) with each feature, per mass model (k_sig: highest crank harmonic of "
          "the inertia loads above 1 % / 5 % of the largest; f1 max/min: variation of the first frozen frequency over "
-         "the cycle):", "", *correlation_table(fam, feats), "",
+         "the cycle):", "", *correlation_table(f.correlations), "",
          f"![features]({rel['features']})", "",
          f"![map]({rel['map']})", "",
          "### How well the one-mode estimate and the harmonic rule predict it", "",
-         *prediction_text(fam, rule, cs), "", "Worst one-mode predictions (10 %):", "", *worst_table(fam, rule), "",
+         *prediction_text(f.predictions), "", "Worst one-mode predictions (10 %):", "", *worst_table(f.worst), "",
          f"![prediction]({rel['prediction']})", "",
          "### Tier limits (`compare.atlas.limits(mass_model)`, used by `ked check`)", "",
          "Median over the families - spread (median minus the 10th percentile); every family's limit a first "
@@ -444,17 +314,18 @@ def markdown(atlas: Path, readme: Path, figs: dict[str, Path], cs_rule: tuple[np
          "never reached the tolerance counts with its largest confirmed r, a lower bound). The linear limits rest on "
          "the confirmed sample's coarse ratios (0.6 ... 3 x r*: steps near 0.1), so each is a lower bound known to "
          "that step; `ked check` counts the lower band (limit minus spread) against the linear model.", "",
-         *tier_table(fam, conf), "",
+         *tier_table(f.tiers), "",
          "### Calibration at the threshold (`ked check`'s quasi-static call)", "",
-         *threshold_text(thr, margins, fam), "", f"![threshold]({rel['threshold']})", "",
+         *threshold_text(f.threshold), "", f"![threshold]({rel['threshold']})", "",
          "### Exudyn-confirmed sample (context: mostly far from the threshold)", "",
          "Stratified (`compare.atlas.confirm`): per mass model, families drawn from equal strata of their r* (10 %), "
          "each at r = 0.6, 1, 1.4, 2, 3 x r* (interpolated r*, capped at 0.5); quasi-static, linear and Exudyn "
          "(default settings). Four in five of these scenes sit at 0.6 r* or >= 1.4 r*, where the verdict is easy: "
          "the calibration above is the one at the threshold. The linear model's limits of the tier table come from "
          "these ratio walks (first crossings on the grid 0.6, 1, 1.4, 2, 3 x r*: coarse, steps stated).", "",
-         *confirm_text(conf), "", "The linear model's own limit (linear vs Exudyn history error) per confirmed "
-         "family:", "", *(linear_limit_table(conf) if conf else []), "", f"![confirm]({rel['confirm']})", "",
+         *confirm_text(f.confirm), "",
+         "The linear model's own limit (linear vs Exudyn history error) per confirmed family:", "",
+         *(linear_limit_table(f.linear) if f.linear else []), "", f"![confirm]({rel['confirm']})", "",
          f"![coupler curves]({rel['coupler_curves']})"]
     return "\n".join(L) + "\n"
 
@@ -464,27 +335,26 @@ def write_report(atlas: Path, figures_dir: Path, readme: Path) -> dict[str, Any]
     info, fam, links, conf = load(atlas)
     thr, margins = threshold_of(atlas)
     feats = features(fam, links)
-    rule_cs = rule_predictions(fam)
+    found = fd.analyse(info, fam, links, conf, thr, margins, feats, np.asarray(info.get("ratios", RATIOS)))
     pick = {k: feats[k] for k in ("k_sig (1 %)", "f1 max / f1 min", "min transmission angle [deg]",
                                   "extender / coupler", "crank / ground", DESIGN_FEATURES["slenderness"])}
     figs = {"limits": figures.limits_histogram(fam, figures_dir / FIGURES[0]),
             "features": figures.features(fam, pick, figures_dir / FIGURES[1]),
-            "prediction": figures.predictions(fam, rule_cs[0], figures_dir / FIGURES[2]),
-            "map": figures.design_map(fam, *_map_axes(fam, feats), figures_dir / FIGURES[3]),
+            "prediction": figures.predictions(fam, found.predictions.rule, figures_dir / FIGURES[2]),
+            "map": figures.design_map(fam, *_map_axes(found, feats), figures_dir / FIGURES[3]),
             "confirm": figures.confirm(conf, figures_dir / FIGURES[4]) if conf else figures_dir / FIGURES[4],
             "coupler_curves": figures.coupler_curves(coupler_curve_data(atlas, fam, int(info["seed"])),
                                                      figures_dir / FIGURES[5]),
             "threshold": figures.threshold(thr.e, thr.measured, thr.mass_model, thr.factor, margins.tolerance,
                                            margins.holds_below, margins.fails_above, figures_dir / FIGURES[6])
             if thr is not None and margins is not None else figures_dir / FIGURES[6]}
-    write_section(readme, SECTION, markdown(atlas, readme, figs, rule_cs))
+    write_section(readme, SECTION, markdown(found, atlas, readme, figs))
     return {"figures": [str(p) for p in figs.values()], "readme": str(readme), "families": len(fam["linkage"]),
             "confirmed": len(conf.get("key", []))}
 
 
-def _map_axes(fam: dict[str, np.ndarray], feats: dict[str, np.ndarray]) -> tuple[tuple[str, np.ndarray], ...]:
+def _map_axes(found: fd.AtlasFindings, feats: dict[str, np.ndarray]) -> tuple[tuple[str, np.ndarray], ...]:
     """The two design parameters with the strongest rank correlation with r* (10 %) over the atlas."""
-    m = crossed(fam, "r10")
     names = [*DESIGN_FEATURES.values(), "abs(coupler angle) [deg]"]
-    best = sorted(names, key=lambda n: -abs(np.nan_to_num(spearman(feats[n][m], fam["r10"][m]))))[:2]
+    best = sorted(names, key=lambda n: -abs(np.nan_to_num(found.correlations[n][-1])))[:2]
     return tuple((n, feats[n]) for n in best)

@@ -78,7 +78,7 @@ def family_columns(records: Sequence[FamilyRecord]) -> dict[str, list[Any]]:
         row = {k: v for k, v in asdict(rec).items() if k not in ("limits", "one_mode_limits")}
         for tol, lim, om in zip(TOLERANCES, rec.limits, rec.one_mode_limits):
             tag = f"r{round(100 * tol)}"
-            row.update({f"{tag}_status": lim.status, tag: lim.r, f"{tag}_half_bracket": lim.half_bracket,
+            row.update({f"{tag}_status": lim.status, tag: lim.r_record, f"{tag}_half_bracket": lim.half_bracket,
                         f"one_mode_{tag}": om})
         for k, v in row.items():
             cols.setdefault(k, []).append(v)
