@@ -104,3 +104,15 @@ def test_the_committed_atlas_section_is_the_markdown_of_its_findings():
     begin, end = markers(report.SECTION)
     assert report.markdown(found, ATLAS_FILE, readme, figs).strip() == \
         text[text.index(begin) + len(begin):text.index(end)].strip()
+
+
+def test_spearman_ranks_ties_at_their_average():
+    """Spearman's rho is Pearson's r of the ranks, tied values sharing their average rank (the definition):
+    x = (1, 2, 2, 3) has ranks (1, 2.5, 2.5, 4); against y ranks (1, 2, 3, 4) that is r = 4.5 / sqrt(4.5 * 5)
+    = 0.9487. A constant variable has no rank correlation (nan), not an arbitrary one."""
+    import math
+
+    from compare.atlas.analysis import spearman
+
+    assert spearman([1, 2, 2, 3], [10, 20, 30, 40]) == pytest.approx(4.5 / math.sqrt(4.5 * 5.0), rel=1e-12)
+    assert math.isnan(spearman([5, 5, 5, 5], [1, 2, 3, 4]))

@@ -177,12 +177,12 @@ def rule_constant(k_sig: np.ndarray, r_lim: np.ndarray) -> float:
 
 
 def spearman(x: np.ndarray, y: np.ndarray) -> float:
-    """Spearman rank correlation of the finite pairs (nan with fewer than 3)."""
+    """Spearman rank correlation of the finite pairs, ties at their average rank (scipy); nan with fewer
+    than 3 pairs or a constant variable."""
+    from scipy.stats import spearmanr
+
     x, y = np.asarray(x, float), np.asarray(y, float)
     m = np.isfinite(x) & np.isfinite(y)
-    if m.sum() < 3:
+    if m.sum() < 3 or np.ptp(x[m]) == 0 or np.ptp(y[m]) == 0:
         return math.nan
-    rx, ry = (np.argsort(np.argsort(v[m])).astype(float) for v in (x, y))
-    if rx.std() == 0 or ry.std() == 0:
-        return math.nan
-    return float(np.corrcoef(rx, ry)[0, 1])
+    return float(spearmanr(x[m], y[m]).statistic)
