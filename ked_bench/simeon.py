@@ -63,6 +63,19 @@ DAMPING_MATRIX = ((5.0, 0.0, 0.0, 0.0), (0.0, 25.0, 0.0, 0.0),
 """The published damping matrix DQ [N s/m] of the elastic coordinates (its option "damping on")."""
 
 
+STIFFNESS_MODELS = ("linear", "published_nonlinear", "geometric")
+"""The rod's elastic forces.  ``linear``: K q (the published default, no geometric stiffness).
+``published_nonlinear``: the published option "nonlinear stiffness term" (Ex_crank.f, IPAR(1) = 1) as
+written: the gradient of K q's energy plus the cubic term (E A / 2) int u' w'^2 dx of the axial strain
+u' + w'^2 / 2 (w lateral, u axial), without its quartic term (E A / 8) int w'^4 dx.  That truncation is
+inconsistent: the bending shortens the chord, q4 follows (q4 ~ -pi^2 q1^2 / (4 L2)), and the rod's
+geometric stiffness (E A q4 / L2 in place of the axial force) then softens it by a spurious compression,
+E A pi^2 q1^2 / (4 L2^2) (about 1 kN at a 1.7 mm midspan deflection, 13 % of the Euler load).
+``geometric``: the consistent energy (E A / 2) int (u' + w'^2 / 2)^2 dx of the same shape functions (the
+published term plus the quartic one): the rod's geometric stiffening by its axial force, as in the
+harness's geometrically nonlinear beams."""
+
+
 @dataclass(frozen=True)
 class SimeonParameters:
     """The published parameters (SI).  Crank: length l1 [m], mass m1 [kg], inertia j1 [kg m^2] about its
@@ -70,7 +83,8 @@ class SimeonParameters:
     Young's modulus e [Pa], density rho [kg/m^3]; slider mass m3 [kg]; crank speed omega [rad/s];
     ``damped``: the published damping matrix on or off; ``consistent_axial_mass``: replace the published
     axial mass block rho b h L2 [[8, 1], [1, 2]] by the consistent quadratic element's, 1/15 of it (a
-    variant, to measure what the published block changes; False: the published model)."""
+    variant, to measure what the published block changes; False: the published model); ``stiffness``: the
+    rod's elastic forces, one of :data:`STIFFNESS_MODELS` ("linear": K q, the published default)."""
 
     l1: float = 0.15
     l2: float = 0.30
@@ -86,8 +100,12 @@ class SimeonParameters:
     omega: float = 150.0
     damped: bool = False
     consistent_axial_mass: bool = False
+    stiffness: str = "linear"
 
     def __post_init__(self) -> None:
+        if self.stiffness not in STIFFNESS_MODELS:
+            raise ValueError(f"SimeonParameters.stiffness: must be one of {', '.join(STIFFNESS_MODELS)}; "
+                             f"got {self.stiffness!r}")
         for name in ("l1", "l2", "m1", "m2", "m3", "j1", "j2", "b", "h", "e", "rho"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
@@ -173,6 +191,8 @@ class SimeonModel:
         f[2] = 0.0
         f[3:] = (v2**2 * mqq + rho * (v2**2 * rod.c12 + par.l1 * v1**2 * (c12 * rod.c1 + s12 * rod.c2)
                                        + 2.0 * v2 * bqqd) - rod.kq @ q - rod.dq @ qd)
+        if par.stiffness != "linear":
+            f[3:] -= nonlinear_stiffness_force(par, q)
         return m, f
 
     def constraints(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -219,6 +239,28 @@ class SimeonModel:
         y = np.zeros(14)
         y[2], y[7], y[8] = par.l1 + par.l2, par.omega, -par.l1 * par.omega / par.l2
         return y
+
+
+def nonlinear_stiffness_force(par: SimeonParameters, q: np.ndarray) -> np.ndarray:
+    """The rod's elastic force beyond K q [N] (4,) for ``par.stiffness`` (:data:`STIFFNESS_MODELS`; zero for
+    "linear").  With w = q1 sin(pi xi) + q2 sin(2 pi xi), u = q3 4 xi (1 - xi) + q4 xi (2 xi - 1) (xi = x / L2):
+    the gradient of the cubic energy (E A / 2) int u' w'^2 dx is the published term (Ex_crank.f, its
+    constants FACK = E A pi^2 / (2 L2^2), FACB = 80 / (9 pi^2)); the quartic energy (E A / 8) int w'^4 dx
+    = FACK pi^2 / (4 L2) (3/8 q1^4 + 6 q1^2 q2^2 + 6 q2^4) adds its gradient for "geometric"."""
+    if par.stiffness == "linear":
+        return np.zeros(4)
+    q1, q2, q3, q4 = (float(v) for v in q)
+    fack = 0.5 * par.e * par.b * par.h / par.l2**2 * MODEL_PI**2
+    facb = 80.0 / (MODEL_PI**2 * 9.0)
+    force = fack * np.array([q1 * q4 - facb * q2 * (-4.0 * q3 + 2.0 * q4),
+                             4.0 * q2 * q4 - facb * q1 * (-4.0 * q3 + 2.0 * q4),
+                             4.0 * facb * q1 * q2,
+                             0.5 * q1**2 + 2.0 * q2**2 - 2.0 * facb * q1 * q2])
+    if par.stiffness == "geometric":
+        quartic = fack * MODEL_PI**2 / (4.0 * par.l2)
+        force[0] += quartic * (1.5 * q1**3 + 12.0 * q1 * q2**2)
+        force[1] += quartic * (24.0 * q2**3 + 12.0 * q1**2 * q2)
+    return force
 
 
 def _saddle(m: np.ndarray, g: np.ndarray) -> np.ndarray:
@@ -291,11 +333,12 @@ class SteadyState:
 
 
 def steady_state(omega: float, *, samples: int = 72, tolerance: float = 1e-8, max_cycles: int = 40,
-                 rtol: float = 1e-10, consistent_axial_mass: bool = False) -> SteadyState:
+                 rtol: float = 1e-10, consistent_axial_mass: bool = False, stiffness: str = "linear") -> SteadyState:
     """March the damped model (published damping matrix) from the rigid start at crank speed ``omega``
     [rad/s] cycle by cycle until the midspan history repeats within ``tolerance`` of its peak
-    (``consistent_axial_mass``: the variant of :class:`SimeonParameters`)."""
-    model = SimeonModel(SimeonParameters(omega=omega, damped=True, consistent_axial_mass=consistent_axial_mass))
+    (``consistent_axial_mass``, ``stiffness``: the variants of :class:`SimeonParameters`)."""
+    model = SimeonModel(SimeonParameters(omega=omega, damped=True, consistent_axial_mass=consistent_axial_mass,
+                                         stiffness=stiffness))
     period = 2.0 * math.pi / abs(omega)
     y, last, change = model.rigid_start(), None, math.inf
     for cycle in range(1, max_cycles + 1):

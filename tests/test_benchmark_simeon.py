@@ -14,7 +14,6 @@ from ked_bench.simeon import steady_state
 from ked_bench.tiers import (
     SPEEDS,
     compare_speed,
-    exudyn_midspan,
     reference_damping_ratio,
     reference_first_bending_hz,
 )
@@ -36,11 +35,6 @@ def test_reference_damping_is_the_published_first_mode_ratio():
     assert 2 * math.pi * reference_first_bending_hz() == pytest.approx(1276.7, abs=0.05)
 
 
-def test_exudyn_hook_states_why_it_gives_no_answer():
-    with pytest.raises(NotImplementedError, match="Exudyn"):
-        exudyn_midspan(150.0)
-
-
 @pytest.mark.parametrize("omega", [25.0, 50.0])
 def test_linear_tier_matches_the_reference_at_low_speed(omega):
     # Issue's expectation: linear within 2 % of the reference's peak up to r = 0.15.  Like for like (the
@@ -50,7 +44,7 @@ def test_linear_tier_matches_the_reference_at_low_speed(omega):
     # part, ~ (k r)^2 + 2 zeta k r: the linear tier must be closer.  The reference is marched at loose
     # tolerances here (~8 s per speed); the slow sweep uses its defaults.
     ref = steady_state(omega, samples=36, tolerance=1e-4, rtol=1e-8)
-    row = compare_speed(omega, ref)
+    row = compare_speed(omega, ref, dynamic=omega == 25.0)  # Exudyn at the lowest speed only (~5 s)
     assert row.linear_status == "ok"
     assert row.linear_error < GALERKIN + LUMPING + 1e-4
     assert row.linear_error < 0.02
@@ -58,7 +52,13 @@ def test_linear_tier_matches_the_reference_at_low_speed(omega):
     # the harness's default (prestressed) linear tier adds the rod's geometric stiffening, which the
     # reference lacks: its error is larger, by ~ N/P_cr ~ r^2 (slider's inertia over the Euler load)
     assert row.linear_prestressed_error > row.linear_error
-    assert row.dynamic_error is None and any("Exudyn" in n for n in row.notes)
+    if omega == 25.0:
+        # Issue's expectation: Exudyn within 2 % of the reference's peak where both are valid.  At r = 0.02
+        # the differences are the reference's two lateral modes (GALERKIN) and its lack of geometric
+        # stiffness (~ N / P_cr ~ 0.2 % here); measured 0.54 % (docs/exudyn_models.md).
+        assert row.dynamic_error is not None and row.dynamic_error < GALERKIN + 0.005
+    else:
+        assert row.dynamic_error is None and any("dynamic: not run" in n for n in row.notes)
     assert row.speed_ratio == pytest.approx(omega / 1276.7, rel=1e-4)
 
 
@@ -76,8 +76,9 @@ def test_text_output_fits_100_columns(capsys):
     res = subprocess.run([sys.executable, "-m", "ked_cli", "benchmark", "simeon", "--speeds", "none"],
                          capture_output=True, text=True, check=True)
     row = {"omega_rad_s": 300.0, "speed_ratio": 0.235, "reference_peak_m": 7.8e-3, "quasi_static_error": 0.266,
-           "linear_error": 0.0028, "linear_prestressed_error": 1.5311, "dynamic_error": None,
-           "notes": ["dynamic: the Exudyn model of the slider-crank is not available yet"]}
+           "linear_error": 0.0028, "linear_prestressed_error": 1.5311, "dynamic_error": 0.4847,
+           "dynamic_error_geometric": 0.05, "notes": ["dynamic: the Exudyn model did not settle to a periodic "
+                                                       "steady state at 300 rad/s"]}
     _speeds_table([row])
     for text in (res.stdout, capsys.readouterr().out):
         assert max(len(line) for line in text.splitlines()) <= 100
@@ -95,7 +96,9 @@ def test_full_sweep_json_contract_and_linear_within_2_percent_up_to_r_0_15():
     assert [r["omega_rad_s"] for r in rows] == list(SPEEDS)
     for r in rows:
         assert {"omega_rad_s", "speed_ratio", "quasi_static_error", "linear_error", "dynamic_error"} <= set(r)
-        assert r["dynamic_error"] is None
+        assert r["dynamic_error"] is not None
+        if r["speed_ratio"] <= 0.06:  # measured 1.98 % at r = 0.059 (docs/exudyn_models.md)
+            assert r["dynamic_error"] < 0.02, r
         if r["speed_ratio"] <= 0.15:
             assert r["linear_error"] < 0.02, r
     # the quasi-static error grows with the speed (the dynamic part it misses, ~ r^2) below the first
