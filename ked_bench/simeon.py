@@ -63,17 +63,25 @@ DAMPING_MATRIX = ((5.0, 0.0, 0.0, 0.0), (0.0, 25.0, 0.0, 0.0),
 """The published damping matrix DQ [N s/m] of the elastic coordinates (its option "damping on")."""
 
 
-STIFFNESS_MODELS = ("linear", "published_nonlinear", "geometric")
-"""The rod's elastic forces.  ``linear``: K q (the published default, no geometric stiffness).
-``published_nonlinear``: the published option "nonlinear stiffness term" (Ex_crank.f, IPAR(1) = 1) as
-written: the gradient of K q's energy plus the cubic term (E A / 2) int u' w'^2 dx of the axial strain
-u' + w'^2 / 2 (w lateral, u axial), without its quartic term (E A / 8) int w'^4 dx.  That truncation is
-inconsistent: the bending shortens the chord, q4 follows (q4 ~ -pi^2 q1^2 / (4 L2)), and the rod's
-geometric stiffness (E A q4 / L2 in place of the axial force) then softens it by a spurious compression,
-E A pi^2 q1^2 / (4 L2^2) (about 1 kN at a 1.7 mm midspan deflection, 13 % of the Euler load).
-``geometric``: the consistent energy (E A / 2) int (u' + w'^2 / 2)^2 dx of the same shape functions (the
-published term plus the quartic one): the rod's geometric stiffening by its axial force, as in the
-harness's geometrically nonlinear beams."""
+STIFFNESS_MODELS = ("linear", "published_nonlinear", "full_quartic", "geometric")
+"""The rod's elastic forces (w lateral, u axial deflection, the axial strain u' + w'^2 / 2).
+
+* ``linear``: K q (the published default, no geometric stiffness).
+* ``published_nonlinear``: the published option "nonlinear stiffness term" (Ex_crank.f, IPAR(1) = 1) as
+  written: K q plus the gradient of the cubic energy (E A / 2) int u' w'^2 dx, without the quartic
+  (E A / 8) int w'^4 dx.  Inconsistent: bending shortens the chord, q4 follows (q4 = -pi^2 q1^2 / (4 L2)
+  on a rod free of axial load), and FACK q1 q4 then acts as a spurious compression E A q4 / L2 (about
+  1 kN, 13.5 % of the Euler load, at a 1.7 mm midspan deflection): the rod softens.
+* ``full_quartic``: the complete energy (E A / 2) int (u' + w'^2 / 2)^2 dx with the published shape
+  functions.  The quadratic axial element (u' linear) cannot follow the cos^2 shape of w'^2 / 2: membrane
+  locking, a spurious hardening FACK pi^2 q1^3 / (8 L2) on a rod free of axial load (half the published
+  option's softening, opposite sign).
+* ``geometric``: (E A / 2) int (u' + P[w'^2 / 2])^2 dx, P the L2 projection onto linear functions (the
+  space of u'): the same cubic terms as the published option (u' is linear, so int u' P[s] = int u' s)
+  plus the projected quartic term; locking-free (a rod free of axial load bends without axial force) and
+  its bending force is int N w' dw'/dq dx with the element's axial force N = E A (u' + P[w'^2 / 2]):
+  the rod's geometric stiffening by its axial force, the physics of the harness's geometrically
+  nonlinear beams and prestressed linear tier."""
 
 
 @dataclass(frozen=True)
@@ -245,21 +253,30 @@ def nonlinear_stiffness_force(par: SimeonParameters, q: np.ndarray) -> np.ndarra
     """The rod's elastic force beyond K q [N] (4,) for ``par.stiffness`` (:data:`STIFFNESS_MODELS`; zero for
     "linear").  With w = q1 sin(pi xi) + q2 sin(2 pi xi), u = q3 4 xi (1 - xi) + q4 xi (2 xi - 1) (xi = x / L2):
     the gradient of the cubic energy (E A / 2) int u' w'^2 dx is the published term (Ex_crank.f, its
-    constants FACK = E A pi^2 / (2 L2^2), FACB = 80 / (9 pi^2)); the quartic energy (E A / 8) int w'^4 dx
-    = FACK pi^2 / (4 L2) (3/8 q1^4 + 6 q1^2 q2^2 + 6 q2^4) adds its gradient for "geometric"."""
+    constants FACK = E A pi^2 / (2 L2^2), FACB = 80 / (9 pi^2)); "full_quartic" adds the gradient of
+    (E A / 8) int w'^4 dx = FACK pi^2 / (4 L2) (3/8 q1^4 + 6 q1^2 q2^2 + 6 q2^4); "geometric" that of the
+    projected quartic (E A L2 / 2) (a0^2 + 12 a1^2), a0 = int s dxi = FACK / (E A) (q1^2 / 2 + 2 q2^2),
+    a1 = int s (xi - 1/2) dxi = -20 q1 q2 / (9 L2^2), s = w'^2 / 2 (model pi)."""
     if par.stiffness == "linear":
         return np.zeros(4)
     q1, q2, q3, q4 = (float(v) for v in q)
-    fack = 0.5 * par.e * par.b * par.h / par.l2**2 * MODEL_PI**2
-    facb = 80.0 / (MODEL_PI**2 * 9.0)
+    ea, length, pi = par.e * par.b * par.h, par.l2, MODEL_PI
+    fack = 0.5 * ea / length**2 * pi**2
+    facb = 80.0 / (pi**2 * 9.0)
     force = fack * np.array([q1 * q4 - facb * q2 * (-4.0 * q3 + 2.0 * q4),
                              4.0 * q2 * q4 - facb * q1 * (-4.0 * q3 + 2.0 * q4),
                              4.0 * facb * q1 * q2,
                              0.5 * q1**2 + 2.0 * q2**2 - 2.0 * facb * q1 * q2])
-    if par.stiffness == "geometric":
-        quartic = fack * MODEL_PI**2 / (4.0 * par.l2)
+    if par.stiffness == "full_quartic":
+        quartic = fack * pi**2 / (4.0 * length)
         force[0] += quartic * (1.5 * q1**3 + 12.0 * q1 * q2**2)
         force[1] += quartic * (24.0 * q2**3 + 12.0 * q1**2 * q2)
+    elif par.stiffness == "geometric":
+        a0 = fack / ea * (0.5 * q1**2 + 2.0 * q2**2)
+        a1 = -20.0 * q1 * q2 / (9.0 * length**2)
+        grad_a0 = fack / ea * np.array([q1, 4.0 * q2])
+        grad_a1 = -20.0 / (9.0 * length**2) * np.array([q2, q1])
+        force[:2] += ea * length * (a0 * grad_a0 + 12.0 * a1 * grad_a1)
     return force
 
 

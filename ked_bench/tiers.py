@@ -15,6 +15,11 @@ the rod's mass in midpoint lumps, :data:`QS_LUMPS` and :data:`LUMPS`, the slider
   geometric stiffening of the rod by its axial inertia load, a model difference of size ~ r^2;
 * dynamic (Exudyn): :func:`exudyn_midspan` (``exudyn_models.slider_midspan_history``).
 
+The reference's default (linear stiffness) lacks the rod's geometric stiffening by its axial force, which
+the harness's Exudyn beams (geometrically nonlinear) and prestressed linear tier contain; optionally the
+tiers are also compared with the reference with geometric stiffness (``steady_state(omega,
+stiffness="geometric")``): the like-for-like comparison for those two.
+
 Each error is the history error of ``compare.metrics`` (max |a - ref| / max |ref| over the cycle).  SI units.
 """
 
@@ -111,7 +116,10 @@ class SpeedComparison:
     answer; the reason in ``notes``), the linear tier without prestress like the reference;
     linear_prestressed_error: the linear tier with the harness's default prestress (geometric stiffness of
     the axial inertia loads, which the reference model lacks); linear_status: the linear tier's Floquet
-    verdict (without prestress)."""
+    verdict (without prestress); reference_geometric_peak_m, dynamic_error_geometric,
+    linear_prestressed_error_geometric: the same against the reference with geometric stiffness
+    (``stiffness="geometric"`` of ``ked_bench.simeon``, the like-for-like model of the harness's
+    geometrically nonlinear beams and prestressed linear tier; None: not marched)."""
 
     omega_rad_s: float
     speed_ratio: float
@@ -122,37 +130,49 @@ class SpeedComparison:
     dynamic_error: float | None
     linear_status: str
     notes: tuple[str, ...]
+    reference_geometric_peak_m: float | None = None
+    dynamic_error_geometric: float | None = None
+    linear_prestressed_error_geometric: float | None = None
 
     def to_dict(self) -> dict[str, object]:
         return {"omega_rad_s": self.omega_rad_s, "speed_ratio": self.speed_ratio,
                 "quasi_static_error": self.quasi_static_error, "linear_error": self.linear_error,
                 "dynamic_error": self.dynamic_error, "linear_prestressed_error": self.linear_prestressed_error,
                 "reference_peak_m": self.reference_peak_m, "linear_status": self.linear_status,
-                "notes": list(self.notes)}
+                "dynamic_error_geometric": self.dynamic_error_geometric,
+                "linear_prestressed_error_geometric": self.linear_prestressed_error_geometric,
+                "reference_geometric_peak_m": self.reference_geometric_peak_m, "notes": list(self.notes)}
 
 
 def compare_speed(omega: float, reference: SteadyState | None = None, lumps: int = LUMPS,
-                  dynamic: bool = True) -> SpeedComparison:
+                  dynamic: bool = True, geometric: SteadyState | None = None) -> SpeedComparison:
     """The tiers against the reference at crank speed ``omega`` [rad/s] (``reference``: its steady state if
-    already marched; ``dynamic``: also run the Exudyn tier, else ``dynamic_error`` is None)."""
+    already marched; ``dynamic``: also run the Exudyn tier, else ``dynamic_error`` is None; ``geometric``:
+    the reference's steady state with geometric stiffness, to compare the prestressed linear and the Exudyn
+    tiers with it too)."""
     from compare.metrics import history_error
 
     ref = steady_state(omega) if reference is None else reference
     n = ref.crank_angle.size
     notes: list[str] = []
     qs = history_error(quasi_static_midspan(omega, n), ref.midspan)
-    lin_errors, status = [], "ok"
+    lin_errors, status, lin_geo = [], "ok", None
     for prestress in (False, True):
         res = linear_midspan(omega, n, lumps, prestress)
         if not prestress:
             status = res.status
         lin_errors.append(history_error(res.midspan, ref.midspan) if res.stable else None)
+        if prestress and res.stable and geometric is not None:
+            lin_geo = history_error(res.midspan, geometric.midspan)
         if not res.stable:
             notes.append(f"linear{' (prestressed)' if prestress else ''}: {res.message}")
     dyn: float | None = None
+    dyn_geo: float | None = None
     if dynamic:
         try:
-            dyn = history_error(exudyn_midspan(omega, n), ref.midspan)
+            exu = exudyn_midspan(omega, n)
+            dyn = history_error(exu, ref.midspan)
+            dyn_geo = None if geometric is None else history_error(exu, geometric.midspan)
         except RuntimeError as exc:  # SimulationError is one: no answer, the reason in the notes
             notes.append(f"dynamic: {exc}")
     else:
@@ -161,7 +181,9 @@ def compare_speed(omega: float, reference: SteadyState | None = None, lumps: int
                                                                              reference_first_bending_hz()),
                            reference_peak_m=ref.peak, quasi_static_error=qs, linear_error=lin_errors[0],
                            linear_prestressed_error=lin_errors[1], dynamic_error=dyn, linear_status=status,
-                           notes=tuple(notes))
+                           notes=tuple(notes),
+                           reference_geometric_peak_m=None if geometric is None else geometric.peak,
+                           dynamic_error_geometric=dyn_geo, linear_prestressed_error_geometric=lin_geo)
 
 
 __all__ = ["LUMPS", "QS_LUMPS", "SPEEDS", "SpeedComparison", "compare_speed", "exudyn_midspan", "linear_midspan",

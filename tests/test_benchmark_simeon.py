@@ -44,7 +44,8 @@ def test_linear_tier_matches_the_reference_at_low_speed(omega):
     # part, ~ (k r)^2 + 2 zeta k r: the linear tier must be closer.  The reference is marched at loose
     # tolerances here (~8 s per speed); the slow sweep uses its defaults.
     ref = steady_state(omega, samples=36, tolerance=1e-4, rtol=1e-8)
-    row = compare_speed(omega, ref, dynamic=omega == 25.0)  # Exudyn at the lowest speed only (~5 s)
+    geo = steady_state(omega, samples=36, tolerance=1e-4, rtol=1e-8, stiffness="geometric") if omega == 25 else None
+    row = compare_speed(omega, ref, dynamic=omega == 25.0, geometric=geo)  # Exudyn at the lowest speed only
     assert row.linear_status == "ok"
     assert row.linear_error < GALERKIN + LUMPING + 1e-4
     assert row.linear_error < 0.02
@@ -57,6 +58,10 @@ def test_linear_tier_matches_the_reference_at_low_speed(omega):
         # the differences are the reference's two lateral modes (GALERKIN) and its lack of geometric
         # stiffness (~ N / P_cr ~ 0.2 % here); measured 0.54 % (docs/exudyn_models.md).
         assert row.dynamic_error is not None and row.dynamic_error < GALERKIN + 0.005
+        # against the reference with geometric stiffness (like for like) only the two-mode difference
+        # remains (GALERKIN) plus Exudyn's discretization (< 1e-5) and the loose tolerance
+        assert row.dynamic_error_geometric < GALERKIN + 0.002
+        assert row.linear_prestressed_error_geometric < GALERKIN + LUMPING + 1e-4
     else:
         assert row.dynamic_error is None and any("dynamic: not run" in n for n in row.notes)
     assert row.speed_ratio == pytest.approx(omega / 1276.7, rel=1e-4)
@@ -96,7 +101,7 @@ def test_full_sweep_json_contract_and_linear_within_2_percent_up_to_r_0_15():
     assert [r["omega_rad_s"] for r in rows] == list(SPEEDS)
     for r in rows:
         assert {"omega_rad_s", "speed_ratio", "quasi_static_error", "linear_error", "dynamic_error"} <= set(r)
-        assert r["dynamic_error"] is not None
+        assert r["dynamic_error"] is not None and r["dynamic_error_geometric"] is not None
         if r["speed_ratio"] <= 0.06:  # measured 1.98 % at r = 0.059 (docs/exudyn_models.md)
             assert r["dynamic_error"] < 0.02, r
         if r["speed_ratio"] <= 0.15:
@@ -106,3 +111,20 @@ def test_full_sweep_json_contract_and_linear_within_2_percent_up_to_r_0_15():
     # (k = 5) it need not (measured: 24.3 % at r = 0.196, 24.1 % at 0.215)
     qs = [r["quasi_static_error"] for r in rows if r["speed_ratio"] < 1 / 6]
     assert len(qs) == 8 and all(b > a for a, b in zip(qs, qs[1:]))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("omega", [100.0, 150.0])
+def test_exudyn_matches_the_reference_with_geometric_stiffness(omega):
+    # The model difference named and measured: Exudyn's beams are geometrically nonlinear, the published
+    # reference (linear stiffness) is not.  Against the reference with the consistent geometric stiffness
+    # (ked_bench.simeon, "geometric") the bound, 2 % of the reference's peak, must hold where the
+    # linear-stiffness reference misses it (measured 3.3 % and 7.0 %, docs/exudyn_models.md); the
+    # published "nonlinear stiffness" option as written softens the rod spuriously and moves the
+    # reference away (measured +21 % at 150 rad/s).
+    ref = steady_state(omega, tolerance=1e-6, rtol=1e-9)
+    geo = steady_state(omega, tolerance=1e-6, rtol=1e-9, stiffness="geometric")
+    row = compare_speed(omega, ref, geometric=geo)
+    assert row.dynamic_error > 0.02
+    assert row.dynamic_error_geometric < 0.02
+    assert row.linear_prestressed_error_geometric < 0.02
