@@ -104,6 +104,8 @@ def test_full_sweep_json_contract_and_linear_within_2_percent_up_to_r_0_15():
         assert r["dynamic_error"] is not None and r["dynamic_error_geometric"] is not None
         if r["speed_ratio"] <= 0.06:  # measured 1.98 % at r = 0.059 (docs/exudyn_models.md)
             assert r["dynamic_error"] < 0.02, r
+        if r["speed_ratio"] <= 0.18:  # like for like (geometric stiffness): the 2 %; measured
+            assert r["dynamic_error_geometric"] < 0.02, r  # 0.4-0.6 % to r = 0.157, 1.46 % at r = 0.176
         if r["speed_ratio"] <= 0.15:
             assert r["linear_error"] < 0.02, r
     # the quasi-static error grows with the speed (the dynamic part it misses, ~ r^2) below the first
