@@ -130,3 +130,23 @@ def test_exudyn_matches_the_reference_with_geometric_stiffness(omega):
     assert row.dynamic_error > 0.02
     assert row.dynamic_error_geometric < 0.02
     assert row.linear_prestressed_error_geometric < 0.02
+
+
+def test_figure_option_refuses_to_overwrite_and_needs_the_sweep(tmp_path):
+    existing = tmp_path / "old.png"
+    existing.write_bytes(b"stored")
+    for args in (["--figure", str(existing)], ["--speeds", "none", "--figure", str(tmp_path / "new.png")]):
+        res = subprocess.run([sys.executable, "-m", "ked_cli", "benchmark", "simeon", *args], capture_output=True,
+                             text=True)
+        assert res.returncode == 2 and len(res.stderr.strip().splitlines()) == 1, (args, res.stderr)
+        assert "--figure" in res.stderr and "Traceback" not in res.stderr
+    assert existing.read_bytes() == b"stored"
+
+
+def test_validity_figure_is_a_png_of_the_rows(tmp_path):
+    from ked_bench.figure import write_validity_figure
+
+    rows = [{"speed_ratio": r, "quasi_static_error": 0.3 * r, "linear_error": 0.002, "dynamic_error": None,
+             "dynamic_error_geometric": 0.004, "linear_prestressed_error_geometric": 0.002} for r in (0.02, 0.1)]
+    out = write_validity_figure(rows, tmp_path / "v.png")
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
