@@ -154,6 +154,9 @@ def compare_speed(omega: float, reference: SteadyState | None = None, lumps: int
 
     ref = steady_state(omega) if reference is None else reference
     n = ref.crank_angle.size
+    if geometric is not None and geometric.crank_angle.size != n:
+        raise ValueError(f"geometric: the reference with geometric stiffness has {geometric.crank_angle.size} "
+                         f"crank angles, the reference {n}; march both on the same grid")
     notes: list[str] = []
     qs = history_error(quasi_static_midspan(omega, n), ref.midspan)
     lin_errors, status, lin_geo = [], "ok", None
