@@ -63,6 +63,27 @@ DAMPING_MATRIX = ((5.0, 0.0, 0.0, 0.0), (0.0, 25.0, 0.0, 0.0),
 """The published damping matrix DQ [N s/m] of the elastic coordinates (its option "damping on")."""
 
 
+STIFFNESS_MODELS = ("linear", "published_nonlinear", "full_quartic", "geometric")
+"""The rod's elastic forces (w lateral, u axial deflection, the axial strain u' + w'^2 / 2).
+
+* ``linear``: K q (the published default, no geometric stiffness).
+* ``published_nonlinear``: the published option "nonlinear stiffness term" (Ex_crank.f, IPAR(1) = 1) as
+  written: K q plus the gradient of the cubic energy (E A / 2) int u' w'^2 dx, without the quartic
+  (E A / 8) int w'^4 dx.  Inconsistent: bending shortens the chord, q4 follows (q4 = -pi^2 q1^2 / (4 L2)
+  on a rod free of axial load), and FACK q1 q4 then acts as a spurious compression E A q4 / L2 (about
+  1 kN, 13.5 % of the Euler load, at a 1.7 mm midspan deflection): the rod softens.
+* ``full_quartic``: the complete energy (E A / 2) int (u' + w'^2 / 2)^2 dx with the published shape
+  functions.  The quadratic axial element (u' linear) cannot follow the cos^2 shape of w'^2 / 2: membrane
+  locking, a spurious hardening FACK pi^2 q1^3 / (8 L2) on a rod free of axial load (half the published
+  option's softening, opposite sign).
+* ``geometric``: (E A / 2) int (u' + P[w'^2 / 2])^2 dx, P the L2 projection onto linear functions (the
+  space of u'): the same cubic terms as the published option (u' is linear, so int u' P[s] = int u' s)
+  plus the projected quartic term; locking-free (a rod free of axial load bends without axial force) and
+  its bending force is int N w' dw'/dq dx with the element's axial force N = E A (u' + P[w'^2 / 2]):
+  the rod's geometric stiffening by its axial force, the physics of the harness's geometrically
+  nonlinear beams and prestressed linear tier."""
+
+
 @dataclass(frozen=True)
 class SimeonParameters:
     """The published parameters (SI).  Crank: length l1 [m], mass m1 [kg], inertia j1 [kg m^2] about its
@@ -70,7 +91,8 @@ class SimeonParameters:
     Young's modulus e [Pa], density rho [kg/m^3]; slider mass m3 [kg]; crank speed omega [rad/s];
     ``damped``: the published damping matrix on or off; ``consistent_axial_mass``: replace the published
     axial mass block rho b h L2 [[8, 1], [1, 2]] by the consistent quadratic element's, 1/15 of it (a
-    variant, to measure what the published block changes; False: the published model)."""
+    variant, to measure what the published block changes; False: the published model); ``stiffness``: the
+    rod's elastic forces, one of :data:`STIFFNESS_MODELS` ("linear": K q, the published default)."""
 
     l1: float = 0.15
     l2: float = 0.30
@@ -86,8 +108,12 @@ class SimeonParameters:
     omega: float = 150.0
     damped: bool = False
     consistent_axial_mass: bool = False
+    stiffness: str = "linear"
 
     def __post_init__(self) -> None:
+        if self.stiffness not in STIFFNESS_MODELS:
+            raise ValueError(f"SimeonParameters.stiffness: must be one of {', '.join(STIFFNESS_MODELS)}; "
+                             f"got {self.stiffness!r}")
         for name in ("l1", "l2", "m1", "m2", "m3", "j1", "j2", "b", "h", "e", "rho"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
@@ -173,6 +199,8 @@ class SimeonModel:
         f[2] = 0.0
         f[3:] = (v2**2 * mqq + rho * (v2**2 * rod.c12 + par.l1 * v1**2 * (c12 * rod.c1 + s12 * rod.c2)
                                        + 2.0 * v2 * bqqd) - rod.kq @ q - rod.dq @ qd)
+        if par.stiffness != "linear":
+            f[3:] -= nonlinear_stiffness_force(par, q)
         return m, f
 
     def constraints(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -219,6 +247,37 @@ class SimeonModel:
         y = np.zeros(14)
         y[2], y[7], y[8] = par.l1 + par.l2, par.omega, -par.l1 * par.omega / par.l2
         return y
+
+
+def nonlinear_stiffness_force(par: SimeonParameters, q: np.ndarray) -> np.ndarray:
+    """The rod's elastic force beyond K q [N] (4,) for ``par.stiffness`` (:data:`STIFFNESS_MODELS`; zero for
+    "linear").  With w = q1 sin(pi xi) + q2 sin(2 pi xi), u = q3 4 xi (1 - xi) + q4 xi (2 xi - 1) (xi = x / L2):
+    the gradient of the cubic energy (E A / 2) int u' w'^2 dx is the published term (Ex_crank.f, its
+    constants FACK = E A pi^2 / (2 L2^2), FACB = 80 / (9 pi^2)); "full_quartic" adds the gradient of
+    (E A / 8) int w'^4 dx = FACK pi^2 / (4 L2) (3/8 q1^4 + 6 q1^2 q2^2 + 6 q2^4); "geometric" that of the
+    projected quartic (E A L2 / 2) (a0^2 + 12 a1^2), a0 = int s dxi = FACK / (E A) (q1^2 / 2 + 2 q2^2),
+    a1 = int s (xi - 1/2) dxi = -20 q1 q2 / (9 L2^2), s = w'^2 / 2 (model pi)."""
+    if par.stiffness == "linear":
+        return np.zeros(4)
+    q1, q2, q3, q4 = (float(v) for v in q)
+    ea, length, pi = par.e * par.b * par.h, par.l2, MODEL_PI
+    fack = 0.5 * ea / length**2 * pi**2
+    facb = 80.0 / (pi**2 * 9.0)
+    force = fack * np.array([q1 * q4 - facb * q2 * (-4.0 * q3 + 2.0 * q4),
+                             4.0 * q2 * q4 - facb * q1 * (-4.0 * q3 + 2.0 * q4),
+                             4.0 * facb * q1 * q2,
+                             0.5 * q1**2 + 2.0 * q2**2 - 2.0 * facb * q1 * q2])
+    if par.stiffness == "full_quartic":
+        quartic = fack * pi**2 / (4.0 * length)
+        force[0] += quartic * (1.5 * q1**3 + 12.0 * q1 * q2**2)
+        force[1] += quartic * (24.0 * q2**3 + 12.0 * q1**2 * q2)
+    elif par.stiffness == "geometric":
+        a0 = fack / ea * (0.5 * q1**2 + 2.0 * q2**2)
+        a1 = -20.0 * q1 * q2 / (9.0 * length**2)
+        grad_a0 = fack / ea * np.array([q1, 4.0 * q2])
+        grad_a1 = -20.0 / (9.0 * length**2) * np.array([q2, q1])
+        force[:2] += ea * length * (a0 * grad_a0 + 12.0 * a1 * grad_a1)
+    return force
 
 
 def _saddle(m: np.ndarray, g: np.ndarray) -> np.ndarray:
@@ -291,11 +350,12 @@ class SteadyState:
 
 
 def steady_state(omega: float, *, samples: int = 72, tolerance: float = 1e-8, max_cycles: int = 40,
-                 rtol: float = 1e-10, consistent_axial_mass: bool = False) -> SteadyState:
+                 rtol: float = 1e-10, consistent_axial_mass: bool = False, stiffness: str = "linear") -> SteadyState:
     """March the damped model (published damping matrix) from the rigid start at crank speed ``omega``
     [rad/s] cycle by cycle until the midspan history repeats within ``tolerance`` of its peak
-    (``consistent_axial_mass``: the variant of :class:`SimeonParameters`)."""
-    model = SimeonModel(SimeonParameters(omega=omega, damped=True, consistent_axial_mass=consistent_axial_mass))
+    (``consistent_axial_mass``, ``stiffness``: the variants of :class:`SimeonParameters`)."""
+    model = SimeonModel(SimeonParameters(omega=omega, damped=True, consistent_axial_mass=consistent_axial_mass,
+                                         stiffness=stiffness))
     period = 2.0 * math.pi / abs(omega)
     y, last, change = model.rigid_start(), None, math.inf
     for cycle in range(1, max_cycles + 1):

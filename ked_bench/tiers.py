@@ -13,7 +13,12 @@ the rod's mass in midpoint lumps, :data:`QS_LUMPS` and :data:`LUMPS`, the slider
   the reference model (linear stiffness) has no geometric stiffness, so this is the like-for-like
   comparison; the harness's default linear tier (prestress on) is compared too, and the difference is the
   geometric stiffening of the rod by its axial inertia load, a model difference of size ~ r^2;
-* dynamic (Exudyn): :func:`exudyn_midspan`, the hook for the slider-crank's Exudyn model.
+* dynamic (Exudyn): :func:`exudyn_midspan` (``exudyn_models.slider_midspan_history``).
+
+The reference's default (linear stiffness) lacks the rod's geometric stiffening by its axial force, which
+the harness's Exudyn beams (geometrically nonlinear) and prestressed linear tier contain; optionally the
+tiers are also compared with the reference with geometric stiffness (``steady_state(omega,
+stiffness="geometric")``): the like-for-like comparison for those two.
 
 Each error is the history error of ``compare.metrics`` (max |a - ref| / max |ref| over the cycle).  SI units.
 """
@@ -87,11 +92,20 @@ def linear_midspan(omega: float, samples: int = 72, lumps: int = LUMPS, prestres
 
 def exudyn_midspan(omega: float, samples: int = 72) -> np.ndarray:
     """The Exudyn tier's steady-state midspan deflection [m] of the benchmark's slider-crank at crank speed
-    ``omega`` [rad/s] on ``samples`` crank angles from 0 (damping as :func:`linear_settings`).
+    ``omega`` [rad/s] on ``samples`` crank angles from 0 (``exudyn_models.slider_midspan_history``: 6 ANCF
+    elements on the rod, 1080 steps per cycle, damping as :func:`linear_settings`; the sign of the
+    reference's q1, the CCW normal of the rod's chord).
 
-    The one hook for the dynamic tier: NotImplementedError (the benchmark reports ``dynamic_error`` null
-    with this reason) until the slider-crank's Exudyn model exists."""
-    raise NotImplementedError("the Exudyn model of the slider-crank is not available yet")
+    Raises ``exudyn_models.SimulationError`` when no run goes through, RuntimeError when the run did not
+    settle to a periodic steady state (no answer: the benchmark reports ``dynamic_error`` null)."""
+    from exudyn_models.slider_simeon import slider_midspan_history
+
+    _, midspan, res = slider_midspan_history(omega, step_deg=360.0 / samples)
+    if not res.converged:
+        raise RuntimeError(f"the Exudyn model did not settle to a periodic steady state at {omega:g} rad/s")
+    if midspan.shape != (samples,):
+        raise RuntimeError(f"the Exudyn model gave {midspan.size} crank angles, expected {samples}")
+    return midspan
 
 
 @dataclass(frozen=True)
@@ -102,7 +116,10 @@ class SpeedComparison:
     answer; the reason in ``notes``), the linear tier without prestress like the reference;
     linear_prestressed_error: the linear tier with the harness's default prestress (geometric stiffness of
     the axial inertia loads, which the reference model lacks); linear_status: the linear tier's Floquet
-    verdict (without prestress)."""
+    verdict (without prestress); reference_geometric_peak_m, dynamic_error_geometric,
+    linear_prestressed_error_geometric: the same against the reference with geometric stiffness
+    (``stiffness="geometric"`` of ``ked_bench.simeon``, the like-for-like model of the harness's
+    geometrically nonlinear beams and prestressed linear tier; None: not marched)."""
 
     omega_rad_s: float
     speed_ratio: float
@@ -113,42 +130,63 @@ class SpeedComparison:
     dynamic_error: float | None
     linear_status: str
     notes: tuple[str, ...]
+    reference_geometric_peak_m: float | None = None
+    dynamic_error_geometric: float | None = None
+    linear_prestressed_error_geometric: float | None = None
 
     def to_dict(self) -> dict[str, object]:
         return {"omega_rad_s": self.omega_rad_s, "speed_ratio": self.speed_ratio,
                 "quasi_static_error": self.quasi_static_error, "linear_error": self.linear_error,
                 "dynamic_error": self.dynamic_error, "linear_prestressed_error": self.linear_prestressed_error,
                 "reference_peak_m": self.reference_peak_m, "linear_status": self.linear_status,
-                "notes": list(self.notes)}
+                "dynamic_error_geometric": self.dynamic_error_geometric,
+                "linear_prestressed_error_geometric": self.linear_prestressed_error_geometric,
+                "reference_geometric_peak_m": self.reference_geometric_peak_m, "notes": list(self.notes)}
 
 
-def compare_speed(omega: float, reference: SteadyState | None = None, lumps: int = LUMPS) -> SpeedComparison:
+def compare_speed(omega: float, reference: SteadyState | None = None, lumps: int = LUMPS,
+                  dynamic: bool = True, geometric: SteadyState | None = None) -> SpeedComparison:
     """The tiers against the reference at crank speed ``omega`` [rad/s] (``reference``: its steady state if
-    already marched)."""
+    already marched; ``dynamic``: also run the Exudyn tier, else ``dynamic_error`` is None; ``geometric``:
+    the reference's steady state with geometric stiffness, to compare the prestressed linear and the Exudyn
+    tiers with it too)."""
     from compare.metrics import history_error
 
     ref = steady_state(omega) if reference is None else reference
     n = ref.crank_angle.size
+    if geometric is not None and geometric.crank_angle.size != n:
+        raise ValueError(f"geometric: the reference with geometric stiffness has {geometric.crank_angle.size} "
+                         f"crank angles, the reference {n}; march both on the same grid")
     notes: list[str] = []
     qs = history_error(quasi_static_midspan(omega, n), ref.midspan)
-    lin_errors, status = [], "ok"
+    lin_errors, status, lin_geo = [], "ok", None
     for prestress in (False, True):
         res = linear_midspan(omega, n, lumps, prestress)
         if not prestress:
             status = res.status
         lin_errors.append(history_error(res.midspan, ref.midspan) if res.stable else None)
+        if prestress and res.stable and geometric is not None:
+            lin_geo = history_error(res.midspan, geometric.midspan)
         if not res.stable:
             notes.append(f"linear{' (prestressed)' if prestress else ''}: {res.message}")
-    try:
-        dyn: float | None = history_error(exudyn_midspan(omega, n), ref.midspan)
-    except NotImplementedError as exc:
-        dyn = None
-        notes.append(f"dynamic: {exc}")
+    dyn: float | None = None
+    dyn_geo: float | None = None
+    if dynamic:
+        try:
+            exu = exudyn_midspan(omega, n)
+            dyn = history_error(exu, ref.midspan)
+            dyn_geo = None if geometric is None else history_error(exu, geometric.midspan)
+        except RuntimeError as exc:  # SimulationError is one: no answer, the reason in the notes
+            notes.append(f"dynamic: {exc}")
+    else:
+        notes.append("dynamic: not run")
     return SpeedComparison(omega_rad_s=float(omega), speed_ratio=abs(omega) / (2.0 * math.pi *
                                                                              reference_first_bending_hz()),
                            reference_peak_m=ref.peak, quasi_static_error=qs, linear_error=lin_errors[0],
                            linear_prestressed_error=lin_errors[1], dynamic_error=dyn, linear_status=status,
-                           notes=tuple(notes))
+                           notes=tuple(notes),
+                           reference_geometric_peak_m=None if geometric is None else geometric.peak,
+                           dynamic_error_geometric=dyn_geo, linear_prestressed_error_geometric=lin_geo)
 
 
 __all__ = ["LUMPS", "QS_LUMPS", "SPEEDS", "SpeedComparison", "compare_speed", "exudyn_midspan", "linear_midspan",

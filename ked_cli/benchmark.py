@@ -34,10 +34,20 @@ def _speeds(text: str, option: str = "--steady-state") -> list[float]:
                    "midspan deflection.")
 @click.option("--speeds", "speeds", default="25:300:25", show_default=True, metavar="RAD_S[,RAD_S...]|FROM:TO:STEP",
               help="Crank speeds [rad/s] of the tier comparison (reference model marched to its damped steady "
-                   "state, ~20 s per speed, against the quasi-static and linear tiers), as a list or a range; "
+                   "state, with and without geometric stiffness, ~1 min per speed, against the quasi-static, "
+                   "linear and Exudyn tiers), as a list or a range; "
                    "'none' skips it.")
+@click.option("--no-dynamic", is_flag=True,
+              help="Skip the Exudyn tier in the tier comparison (dynamic_error and dynamic_error_geometric null).")
+@click.option("--no-geometric", is_flag=True,
+              help="Skip the reference with geometric stiffness in the tier comparison (the *_geometric keys "
+                   "null; halves the reference's cost).")
+@click.option("--figure", "figure", default=None, type=click.Path(dir_okay=False, writable=True),
+              help="Also draw the tiers' errors against the speed ratio (PNG) from this run's numbers; refuses "
+                   "to overwrite an existing file.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-def simeon(no_project: bool, steady: str | None, speeds: str, as_json: bool) -> None:
+def simeon(no_project: bool, steady: str | None, speeds: str, no_dynamic: bool, no_geometric: bool,
+           figure: str | None, as_json: bool) -> None:
     """Simeon's flexible slider-crank (Test Set for IVP solvers, problem "crank"): the published state at
     t = 0.1 s (linear stiffness, no damping) against this harness's independent implementation of the
     published equations (ked_bench.simeon: index-1 form, scipy DOP853).
@@ -52,13 +62,26 @@ def simeon(no_project: bool, steady: str | None, speeds: str, as_json: bool) -> 
     reference model's damped periodic steady state (published damping matrix, rigid start); the linear
     tier with the reference's first-mode damping ratio (2.59 %) at the rod's first bending frequency and,
     like the reference, without geometric stiffness (linear_prestressed_error: with it, the harness's
-    default); null where a tier gives no answer, the reason in notes (dynamic_error: the slider-crank's
-    Exudyn model is not available yet).
+    default); dynamic_error: the Exudyn tier (6 ANCF elements, 1080 steps per cycle, the same damping);
+    null where a tier gives no answer, the reason in notes.  The reference's default (linear stiffness)
+    lacks the rod's geometric stiffening by its axial force, which Exudyn's beams and the prestressed
+    linear tier contain: reference_geometric_peak_m, dynamic_error_geometric,
+    linear_prestressed_error_geometric compare them with the reference with geometric stiffness (the
+    like-for-like comparison of those tiers).
     """
     from ked_bench.simeon import COMPONENTS, SimeonParameters, reproduce, steady_state
 
     omegas = _speeds(steady) if steady is not None else []
     sweep = _sweep(speeds)
+    if figure is not None:
+        from pathlib import Path
+
+        if Path(figure).exists():
+            raise click.BadParameter(f"{figure!r}: exists; give a new file name (stored results are never "
+                                     "overwritten)", param_hint="--figure")
+        if not sweep:
+            raise click.BadParameter("needs the tier comparison (--speeds other than 'none')",
+                                     param_hint="--figure")
     rep = reproduce(project=not no_project)
     out = {"published": rep.published, "reproduced": rep.reproduced, "relative_error": rep.relative_error,
            "max_relative_error": rep.max_relative_error, "projected": rep.projected,
@@ -76,7 +99,15 @@ def simeon(no_project: bool, steady: str | None, speeds: str, as_json: bool) -> 
     if omegas:
         out["steady_states"] = rows
     if sweep:
-        out["speeds"] = _compare(sweep)
+        out["speeds"] = _compare(sweep, dynamic=not no_dynamic, geometric=not no_geometric)
+    if figure is not None:
+        from ked_bench.figure import write_validity_figure
+        from ked_cli.errors import UserError
+
+        try:
+            write_validity_figure(out["speeds"], figure)
+        except OSError as exc:
+            raise UserError(f"--figure: cannot write {figure!r}: {exc.strerror or exc}") from None
     if as_json:
         click.echo(json_text(out))
         return
@@ -119,7 +150,7 @@ def _sweep(text: str) -> list[float]:
     return [lo + k * step for k in range(int((hi - lo) / step + 1e-9) + 1)]
 
 
-def _compare(omegas: list[float]) -> list[dict]:
+def _compare(omegas: list[float], dynamic: bool = True, geometric: bool = True) -> list[dict]:
     from ked_bench.simeon import steady_state
     from ked_bench.tiers import compare_speed
     from ked_cli.errors import UserError
@@ -128,9 +159,10 @@ def _compare(omegas: list[float]) -> list[dict]:
     for omega in omegas:
         try:
             ref = steady_state(omega)
+            geo = steady_state(omega, stiffness="geometric") if geometric else None
         except RuntimeError as exc:
             raise UserError(f"--speeds: {exc}; try another crank speed") from None
-        rows.append(compare_speed(omega, ref).to_dict())
+        rows.append(compare_speed(omega, ref, dynamic=dynamic, geometric=geo).to_dict())
     return rows
 
 
@@ -141,13 +173,16 @@ def _pct(x: float | None) -> str:
 def _speeds_table(rows: list[dict]) -> None:
     click.echo("\nTiers against the reference, rod midspan deflection, damped periodic steady state")
     click.echo("(history error max|a - ref| / max|ref|; linear: reference damping 2.59 % at the rod's f1, no")
-    click.echo("geometric stiffness like the reference; prestressed: the harness's default linear tier)")
+    click.echo("geometric stiffness like the reference; prestressed: the harness's default linear tier;")
+    click.echo("'geo': against the reference with geometric stiffness, like for like for prestressed and Exudyn)")
     click.echo(f"{'omega rad/s':>11} {'r':>7} {'peak mm':>9} {'quasi-static':>12} {'linear':>9} "
-               f"{'prestressed':>11} {'dynamic':>9}")
+               f"{'prestressed':>11} {'dynamic':>9} {'prestr. geo':>11} {'dyn. geo':>9}")
     for row in rows:
         click.echo(f"{row['omega_rad_s']:>11g} {row['speed_ratio']:>7.4f} {1e3 * row['reference_peak_m']:>9.4f} "
                    f"{_pct(row['quasi_static_error']):>12} {_pct(row['linear_error']):>9} "
-                   f"{_pct(row['linear_prestressed_error']):>11} {_pct(row['dynamic_error']):>9}")
+                   f"{_pct(row['linear_prestressed_error']):>11} {_pct(row['dynamic_error']):>9} "
+                   f"{_pct(row.get('linear_prestressed_error_geometric')):>11} "
+                   f"{_pct(row.get('dynamic_error_geometric')):>9}")
     notes = sorted({n for row in rows for n in row["notes"]})
     for n in notes:
         click.echo(f"note: {n}")

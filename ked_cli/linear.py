@@ -6,7 +6,7 @@ from typing import Any
 
 import click
 
-from ked_cli.options import SceneOptions, build_scene, json_text, scene_options, wrap
+from ked_cli.options import SceneOptions, build_scene, build_slider, json_text, scene_options, wrap
 from ked_quasi import rules
 
 
@@ -99,20 +99,9 @@ def _table(opts: SceneOptions, scene: Any, res: Any, out: dict[str, Any]) -> Non
 
 
 def _slider_scene(opts: SceneOptions) -> Any:
-    """The slider-crank scene ``--linkage`` names (as ``ked quasi`` builds it), or None for a four-bar."""
+    """The slider-crank scene ``--linkage`` names (``ked_cli.options.build_slider`` without the quasi-static
+    speed bound: the linear model flags its own validity), or None for a four-bar."""
     from ked_cli.quasi import slider_source
-    from ked_quasi.slidercrank import build_slider_scene
 
     sc = slider_source(opts.linkage)
-    if sc is None:
-        return None
-    if opts.mechanism != "source":
-        raise click.BadParameter("a slider-crank has no Roberts cognate; use --mechanism source",
-                                 param_hint="--mechanism")
-    ctx = click.get_current_context()
-    given = ctx.get_parameter_source("mass_model") not in (click.core.ParameterSource.DEFAULT, None)
-    try:
-        return build_slider_scene(sc, opts.mass_model if given else "distributed", opts.rpm, opts.step_deg,
-                                  opts.lumps, opts.payload_kg, opts.stiffness_scale, opts.direction)
-    except ValueError as exc:
-        raise click.UsageError(str(exc)) from None
+    return None if sc is None else build_slider(opts, sc, refuse_fast=False)

@@ -155,9 +155,10 @@ def build_scene(o: SceneOptions, mechanism: str | None = None, mass_model: str |
     return scene
 
 
-def build_slider(o: SceneOptions, sc: Any) -> Any:
+def build_slider(o: SceneOptions, sc: Any, refuse_fast: bool = True) -> Any:
     """The ``SliderScene`` the options describe for a slider-crank ``sc`` (as ``ked quasi`` builds it: mass
-    model distributed unless --mass-model is given, the source mechanism only, the speed-ratio bound)."""
+    model distributed unless --mass-model is given, the source mechanism only, the speed-ratio bound unless
+    ``refuse_fast`` is False)."""
     from ked_quasi.slider_static import slider_natural_frequencies
     from ked_quasi.slidercrank import build_slider_scene
 
@@ -172,7 +173,8 @@ def build_slider(o: SceneOptions, sc: Any) -> Any:
                                    o.payload_kg, o.stiffness_scale, o.direction)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
-    refuse_fast_slider(scene, [o.rpm], "--rpm", slider_natural_frequencies)
+    if refuse_fast:
+        refuse_fast_slider(scene, [o.rpm], "--rpm", slider_natural_frequencies)
     return scene
 
 

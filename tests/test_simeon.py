@@ -11,7 +11,15 @@ import sys
 import numpy as np
 import pytest
 
-from ked_bench.simeon import COMPONENTS, INITIAL_STATE, PUBLISHED, SimeonModel, SimeonParameters, reproduce
+from ked_bench.simeon import (
+    COMPONENTS,
+    INITIAL_STATE,
+    MODEL_PI,
+    PUBLISHED,
+    SimeonModel,
+    SimeonParameters,
+    reproduce,
+)
 
 
 def test_published_state_at_0_1_s_reproduced_within_1e_6():
@@ -77,3 +85,72 @@ def test_cli_json_contract_and_one_line_refusal():
     bad = subprocess.run([sys.executable, "-m", "ked_cli", "benchmark", "simeon", "--steady-state", "0"],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1 and "Traceback" not in bad.stderr
+
+
+def _strain_energy_beyond_linear(par, q, stiffness: str) -> float:
+    """The axial strain energy beyond (E A / 2) int u'^2 dx by Gauss quadrature of the shape functions
+    (lateral sin(pi xi), sin(2 pi xi); axial quadratic, nodes at xi = 1/2 (q3) and 1 (q4)), s = w'^2 / 2:
+    (E A / 2) int (2 u' s) dx, plus int s^2 ("full_quartic") or int P[s]^2 with P the L2 projection onto
+    linear functions done here by quadrature ("geometric").  Independent of the closed-form gradients in
+    ked_bench.simeon (model pi here too)."""
+    xi, wq = np.polynomial.legendre.leggauss(24)
+    xi, wq = 0.5 * (xi + 1.0), 0.5 * wq
+    length, ea, pi = par.l2, par.e * par.b * par.h, MODEL_PI
+    w1 = (pi * q[0] * np.cos(pi * xi) + 2.0 * pi * q[1] * np.cos(2.0 * pi * xi)) / length
+    u1 = (q[2] * (4.0 - 8.0 * xi) + q[3] * (4.0 * xi - 1.0)) / length
+    s = 0.5 * w1**2
+    if stiffness == "geometric":
+        s = np.sum(wq * s) + 12.0 * np.sum(wq * s * (xi - 0.5)) * (xi - 0.5)
+    quartic = s**2 if stiffness != "published_nonlinear" else 0.0
+    return float(0.5 * ea * length * np.sum(wq * (2.0 * u1 * 0.5 * w1**2 + quartic)))
+
+
+@pytest.mark.parametrize("stiffness", ["published_nonlinear", "full_quartic", "geometric"])
+def test_nonlinear_stiffness_forces_are_the_gradient_of_the_axial_strain_energy(stiffness):
+    # Expected: the published option "nonlinear stiffness term" (Ex_crank.f) is the gradient of the cubic
+    # energy (E A / 2) int u' w'^2 dx; "full_quartic" adds (E A / 8) int w'^4 dx of the strain u' + w'^2 / 2,
+    # "geometric" the quartic of the projected stretching.  Central differences of the quadrature energy
+    # (relative step 1e-4: error ~1e-8).
+    from ked_bench.simeon import nonlinear_stiffness_force
+
+    par = SimeonParameters(stiffness=stiffness)
+    q = np.array([1.7e-3, -2.0e-4, -5.0e-6, 9.0e-6])
+    grad = np.empty(4)
+    for i in range(4):
+        h = 1e-4 * abs(q[i])
+        qp, qm = q.copy(), q.copy()
+        qp[i] += h
+        qm[i] -= h
+        grad[i] = (_strain_energy_beyond_linear(par, qp, stiffness)
+                   - _strain_energy_beyond_linear(par, qm, stiffness)) / (2.0 * h)
+    force = nonlinear_stiffness_force(par, q)
+    assert np.allclose(force, grad, rtol=1e-6, atol=1e-9 * np.max(np.abs(grad)))
+    assert not np.any(nonlinear_stiffness_force(SimeonParameters(), q))
+
+
+def test_published_nonlinear_option_softens_a_rod_free_of_axial_load():
+    # Expected (strain energy): a rod with a free axial end and no axial load carries no axial force, so
+    # bending it gives no geometric stiffness; the consistent energy leaves only the membrane hardening of
+    # the non-uniform w'^2.  Closed form (mode 1): the axial equilibrium gives q4 = -pi^2 q1^2 / (4 L2)
+    # (the chord shortening) in both models; the published truncation keeps FACK q1 q4, a compression
+    # E A q4 / L2 of about 1 kN at q1 = 1.7 mm (a softening of 13.5 % of KQ11), the quartic term adds
+    # FACK (3 pi^2 / (8 L2)) q1^3: net +FACK pi^2 q1^3 / (8 L2), half the size, hardening (membrane locking
+    # of the quadratic axial element); the projected stretching ("geometric") is free of it: zero.
+    from ked_bench.simeon import nonlinear_stiffness_force
+
+    q1 = 1.7e-3
+    kq11 = SimeonModel().rod.kq[0, 0]
+    ratio = {}
+    for stiffness in ("published_nonlinear", "full_quartic", "geometric"):
+        par = SimeonParameters(stiffness=stiffness)
+        kaa = SimeonModel(par).rod.kq[2:, 2:]
+        qa = np.zeros(2)
+        for _ in range(50):  # axial equilibrium K_aa q_a + f_nl,a(q1, q_a) = 0 (fixed point, contracting)
+            qa = -np.linalg.solve(kaa, nonlinear_stiffness_force(par, np.array([q1, 0.0, *qa]))[2:])
+        ratio[stiffness] = nonlinear_stiffness_force(par, np.array([q1, 0.0, *qa]))[0] / (q1 * kq11)
+    fack = 0.5 * par.e * par.b * par.h * MODEL_PI**2 / par.l2**2
+    softening = fack * MODEL_PI**2 * q1**2 / (4.0 * par.l2) / kq11
+    assert ratio["published_nonlinear"] == pytest.approx(-softening, rel=1e-6)
+    assert ratio["full_quartic"] == pytest.approx(0.5 * softening, rel=1e-6)
+    assert abs(ratio["geometric"]) < 1e-9
+    assert softening > 0.1
