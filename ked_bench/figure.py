@@ -18,7 +18,7 @@ CURVES = (
 
 def write_validity_figure(rows: list[dict[str, Any]], path: str | Path) -> Path:
     """Draw the per-speed history errors [%] of ``rows`` (the ``speeds`` list of ``ked benchmark simeon
-    --json``) against r on a log axis, with the issue's 2 % line, into the PNG ``path``; returns it."""
+    --json``) against r on a log axis, with the 2 % target line, into the PNG ``path``; returns it."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 

@@ -104,7 +104,7 @@ def test_full_sweep_json_contract_and_linear_within_2_percent_up_to_r_0_15():
         assert r["dynamic_error"] is not None and r["dynamic_error_geometric"] is not None
         if r["speed_ratio"] <= 0.06:  # measured 1.98 % at r = 0.059 (docs/exudyn_models.md)
             assert r["dynamic_error"] < 0.02, r
-        if r["speed_ratio"] <= 0.18:  # like for like (geometric stiffness): the 2 %; measured
+        if r["speed_ratio"] <= 0.18:  # like for like (geometric stiffness): the 2 % target; measured
             assert r["dynamic_error_geometric"] < 0.02, r  # 0.4-0.6 % to r = 0.157, 1.46 % at r = 0.176
         if r["speed_ratio"] <= 0.15:
             assert r["linear_error"] < 0.02, r
@@ -120,7 +120,7 @@ def test_full_sweep_json_contract_and_linear_within_2_percent_up_to_r_0_15():
 def test_exudyn_matches_the_reference_with_geometric_stiffness(omega):
     # The model difference named and measured: Exudyn's beams are geometrically nonlinear, the published
     # reference (linear stiffness) is not.  Against the reference with the consistent geometric stiffness
-    # (ked_bench.simeon, "geometric") the bound, 2 % of the reference's peak, must hold where the
+    # (ked_bench.simeon, "geometric") the target bound, 2 % of the reference's peak, must hold where the
     # linear-stiffness reference misses it (measured 3.3 % and 7.0 %, docs/exudyn_models.md); the
     # published "nonlinear stiffness" option as written softens the rod spuriously and moves the
     # reference away (measured +21 % at 150 rad/s).

@@ -25,7 +25,7 @@ from ked_bench.simeon import (
 def test_published_state_at_0_1_s_reproduced_within_1e_6():
     # Expected: the published reference (MEBDFI at tolerance 1e-14, data sheet); the test set scores
     # components 1-7.  With the initial velocities projected onto the constraint the data sheet's notes
-    # measured ~5e-11 with another implementation; 1e-6 is the bound.
+    # measured ~5e-11 with another implementation; 1e-6 is the target bound.
     rep = reproduce()
     assert rep.max_relative_error < 1e-6, rep.relative_error
     assert all(rep.relative_error[k] < 1e-6 for k in COMPONENTS[:7])

@@ -110,7 +110,7 @@ def test_refused_input():
 @pytest.mark.parametrize("omega, bound", [(50.0, 0.02), (150.0, 0.08)])
 def test_against_simeon_reference(omega, bound):
     """Against Simeon's damped model (ked_bench.simeon.steady_state), history error of the midspan deflection
-    relative to the reference's peak.  At 50 rad/s (r = 0.04) within 2 % (the issue's expectation; measured
+    relative to the reference's peak.  At 50 rad/s (r = 0.04) within 2 % (the target; measured
     1.07 %).  At 150 rad/s (r = 0.12) measured 7.0 %, a model difference (docs/exudyn_models.md): Exudyn's
     beams are geometrically nonlinear (the axial force changes their bending stiffness), Simeon's default
     model has linear stiffness; without the slider mass, the main axial load, the difference halves (3.7 %),
