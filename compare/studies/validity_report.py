@@ -338,26 +338,22 @@ def _setup_part(points: Sequence[Point], files: Sequence[Path], refine_file: Pat
 
 
 def _families_part(ref: Sequence[FamilySummary]) -> list[str]:
-    L: list[str] = []
-    L += ["", "Per family (f1: first frozen frequency over the cycle, min-max; rpm at r = 1; the error at the "
+    L = ["", "Per family (f1: first frozen frequency over the cycle, min-max; rpm at r = 1; the error at the "
           "smallest ratio is the floor that is not dynamics: mass discretization of the quasi-static model, "
           "geometric nonlinearity, steady-state tolerance):", ""]
-    L += table(["linkage", "mass model", "f1 [Hz]", "rpm at r=1", "history error at smallest r",
-                 "peak 5 %", "peak 10 %", "history 5 %",
-                 "history 10 %"], answer_rows(ref))
-    return L
+    return L + table(["linkage", "mass model", "f1 [Hz]", "rpm at r=1", "history error at smallest r", "peak 5 %",
+                      "peak 10 %", "history 5 %", "history 10 %"], answer_rows(ref))
 
 
 def _rule_part(ref: Sequence[FamilySummary]) -> list[str]:
     crossings = [lim.r_limit for fs in ref for lim in fs.limits.values() if lim.status == "crossed"]
     beyond = max(crossings, default=math.nan)
-    L: list[str] = []
-    L += ["", "### Does a harmonic rule explain it?", ""]
-    L += ["Harmonic content of the quasi-static inertia loads (all nodes, amplitudes of crank harmonics 1-6 "
-          "normalized by the largest), k_sig = highest harmonic above 1 % / 5 % of the largest, the one-mode "
-          "estimate's limit (each harmonic k of the quasi-static history amplified by "
-          "1/(1 - (k r)^2 + 2 i zeta k r) with omega1 = omega1_min) and the dynamic limit (history error), "
-          "and the implied fraction c = k_sig * r_lim(10 %):", ""]
+    L = ["", "### Does a harmonic rule explain it?", "",
+         "Harmonic content of the quasi-static inertia loads (all nodes, amplitudes of crank harmonics 1-6 "
+         "normalized by the largest), k_sig = highest harmonic above 1 % / 5 % of the largest, the one-mode "
+         "estimate's limit (each harmonic k of the quasi-static history amplified by "
+         "1/(1 - (k r)^2 + 2 i zeta k r) with omega1 = omega1_min) and the dynamic limit (history error), "
+         "and the implied fraction c = k_sig * r_lim(10 %):", ""]
     L += table(["linkage", "mass model", "load harmonics 1-6", "k_sig 1 %", "k_sig 5 %", "one-mode 5 %",
                  "dynamic 5 %", "one-mode 10 %", "dynamic 10 %", "c (1 %)", "c (5 %)", "f1 max/min"],
                 rule_rows(ref))
@@ -378,9 +374,9 @@ def _rule_part(ref: Sequence[FamilySummary]) -> list[str]:
 
 
 def _claims_part(summaries: Sequence[FamilySummary]) -> list[str]:
-    L: list[str] = []
     found = claims(summaries)
     dbl, cog = claims_rows(found)
+    L: list[str] = []
     if dbl:
         L += ["", "### The thesis's claims, checked with dynamics", ""]
         L += ["'The deflection doubles for +100 rpm (300 -> 400 rpm)': peak |d| of P [mm]; quasi-static "
@@ -398,24 +394,18 @@ def _claims_part(summaries: Sequence[FamilySummary]) -> list[str]:
 
 
 def _variants_part(summaries: Sequence[FamilySummary]) -> list[str]:
-    L: list[str] = []
     var = variant_rows(summaries)
-    if var:
-        L += ["", "### Damping and crank direction", ""]
-        L += table(["linkage", "mass model", "damping", "direction", "history 5 %", "history 10 %",
-                     "error r=0.1", "error r=0.25", "error r=0.5"], var)
-    return L
+    return ["", "### Damping and crank direction", ""] + table(
+        ["linkage", "mass model", "damping", "direction", "history 5 %", "history 10 %", "error r=0.1",
+         "error r=0.25", "error r=0.5"], var) if var else []
 
 
 def _failures_part(summaries: Sequence[FamilySummary]) -> list[str]:
-    L: list[str] = []
     lines, failed, retried, rescued = failure_lines(summaries)
-    L += ["", "### Failures of the dynamic model (recorded in the HDF5 files)", ""]
-    L += [f"{failed} grid slots have no dynamic steady state; {retried} slots were retried with "
-          f"{RETRY_STEP_FACTOR}x the steps per cycle, {rescued} of them solved by the retry "
-          "(open markers in the figures).", ""]
-    L += lines
-    return L
+    return ["", "### Failures of the dynamic model (recorded in the HDF5 files)", "",
+            f"{failed} grid slots have no dynamic steady state; {retried} slots were retried with "
+            f"{RETRY_STEP_FACTOR}x the steps per cycle, {rescued} of them solved by the retry "
+            "(open markers in the figures).", "", *lines]
 
 
 def _run_time_part(points: Sequence[Point], files: Sequence[Path], refine_file: Path) -> list[str]:
