@@ -1,4 +1,4 @@
-"""I/O edge shared by the work-precision and stability studies.
+"""I/O edge shared by the studies.
 
 * running several campaign configs into one results file (:func:`run_configs`);
 * derived study tables stored next to the scenes in ``/study/<table>`` of the same HDF5 file, tables
@@ -84,3 +84,16 @@ def read_tables(path: Path) -> tuple[dict[str, dict[str, np.ndarray]], dict[str,
 
 
 rows = table_io.rows
+
+
+def save_figures(figures: dict[str, Any], out_dir: Path, dpi: int) -> list[Path]:
+    """Write each figure (name -> matplotlib figure, None: left out) into ``out_dir`` and close it;
+    returns the paths written, in order."""
+    import matplotlib.pyplot as plt
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for name, fig in figures.items():
+        if fig is not None:
+            fig.savefig(out_dir / name, dpi=dpi)
+            plt.close(fig)
+    return [out_dir / name for name, fig in figures.items() if fig is not None]

@@ -14,6 +14,7 @@ import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from compare.limits import TOLERANCES, one_mode_curves  # noqa: E402
+from compare.studies.study_io import save_figures  # noqa: E402
 from compare.studies.validity_summary import FamilySummary  # noqa: E402
 
 DPI = 100
@@ -48,7 +49,10 @@ def _layout(fig: Figure) -> None:
                         hspace=1.1 / (h / max(1, len(fig.axes) // 2 or 1)))
 
 
-def _resonances(ax) -> None:
+def _resonances(ax, tolerances: bool = True) -> None:
+    """Dotted resonance lines k r = 1 (k = 1, 2, 3) and, with ``tolerances``, the 5 % and 10 % lines."""
+    for tol in TOLERANCES if tolerances else ():
+        ax.axhline(tol, color="k", lw=0.8, ls="-." if tol < 0.1 else "-")
     for k in (2, 3):
         ax.axvline(1.0 / k, color="0.75", lw=0.8, ls=":")
     ax.axvline(1.0, color="0.6", lw=0.8, ls=":")
@@ -61,11 +65,13 @@ def _qs_shape(fs: FamilySummary) -> np.ndarray | None:
     return None
 
 
-def _log_axes(ax, title: str, ylabel: str, ylim: tuple[float, float], legend_loc: str) -> None:
+def _log_axes(ax, title: str, ylabel: str, ylim: tuple[float, float] | None = None, legend_loc: str = "best"
+              ) -> None:
     """Log-log axes over the speed ratio r, with title, labels, grid and legend."""
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_ylim(*ylim)
+    if ylim:
+        ax.set_ylim(*ylim)
     ax.set_title(title)
     ax.set_xlabel("r = Omega / omega1_min")
     ax.set_ylabel(ylabel)
@@ -89,8 +95,6 @@ def error_figure(summaries: Sequence[FamilySummary]) -> Figure:
             ax.plot([s.r for s in re], [s.errors.history for s in re], "o", mfc="white", color=c, ms=5)
             bad = [s.r for s in fs.slots if not s.ok]
             ax.plot(bad, [8.0] * len(bad), "x", color=c, ms=6)
-        for tol in TOLERANCES:
-            ax.axhline(tol, color="k", lw=0.8, ls="-." if tol < 0.1 else "-")
         _resonances(ax)
         _log_axes(ax, f"{lk} / {mech}", "relative error of quasi-static", (1e-3, 10), "lower right")
     fig.suptitle("Quasi-static error vs speed ratio (solid: whole history, dashed: peak |d|; "
@@ -115,7 +119,7 @@ def amplification_figure(summaries: Sequence[FamilySummary]) -> Figure:
                 ax.plot(rs, one_mode_curves(qs, rs, fs.damping)["amplification"], ":", color=c, lw=1)
             bad = [s.r for s in fs.slots if not s.ok]
             ax.plot(bad, [0.55] * len(bad), "x", color=c, ms=6)
-        _resonances(ax)
+        _resonances(ax, tolerances=False)
         ax.axhline(1.0, color="k", lw=0.6)
         _log_axes(ax, f"{lk} / {mech}", "dynamic amplification", (0.5, 20), "upper left")
     fig.suptitle("Dynamic amplification of the peak deflection (dotted: one-mode estimate; "
@@ -190,16 +194,8 @@ def variants_figure(summaries: Sequence[FamilySummary]) -> Figure | None:
             ls = "-" if fs.direction == "ccw" else "--"
             ax.plot([s.r for s in ok], [s.errors.history for s in ok], ls, marker="o", ms=3,
                     label=f"zeta {100 * fs.damping:g} %, {fs.direction}")
-        for tol in TOLERANCES:
-            ax.axhline(tol, color="k", lw=0.8, ls="-." if tol < 0.1 else "-")
         _resonances(ax)
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_title(f"{lk} / {mech} / {mm}")
-        ax.set_xlabel("r = Omega / omega1_min")
-        ax.set_ylabel("history error")
-        ax.grid(True, alpha=0.25)
-        ax.legend(fontsize=7)
+        _log_axes(ax, f"{lk} / {mech} / {mm}", "history error")
     fig.suptitle("Effect of damping ratio and crank direction on the quasi-static error", fontsize=9)
     _layout(fig)
     return fig
@@ -258,14 +254,4 @@ FIGURES = {
 
 def write_figures(summaries: Sequence[FamilySummary], out_dir: Path) -> list[Path]:
     """Write every figure of the study; returns their paths."""
-    out_dir.mkdir(parents=True, exist_ok=True)
-    paths = []
-    for name, make in FIGURES.items():
-        fig = make(summaries)
-        if fig is None:
-            continue
-        p = out_dir / name
-        fig.savefig(p, dpi=DPI)
-        plt.close(fig)
-        paths.append(p)
-    return paths
+    return save_figures({name: make(summaries) for name, make in FIGURES.items()}, out_dir, DPI)

@@ -16,11 +16,10 @@ import matplotlib
 
 matplotlib.use("Agg")
 
-import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from compare.markdown import Column, pct, table  # noqa: E402
-from compare.studies.study_io import rows  # noqa: E402
+from compare.studies.study_io import rows, save_figures  # noqa: E402
 from compare.studies.wp_analysis import (  # noqa: E402
     MASS_MODELS,
     TIE,
@@ -163,15 +162,8 @@ def lumps_figure(tables: dict) -> Figure:
 
 def write_figures(tables: dict, attrs: dict, out_dir: Path) -> list[Path]:
     """Draw both figures into ``out_dir``; returns their paths."""
-    out_dir.mkdir(parents=True, exist_ok=True)
-    paths = []
-    for name, fig in (("work_precision.png", work_precision_figure(tables, attrs)),
-                      ("work_precision_lumps.png", lumps_figure(tables))):
-        p = out_dir / name
-        fig.savefig(p, dpi=DPI)
-        plt.close(fig)
-        paths.append(p)
-    return paths
+    return save_figures({"work_precision.png": work_precision_figure(tables, attrs),
+                         "work_precision_lumps.png": lumps_figure(tables)}, out_dir, DPI)
 
 
 def _disc(d: Discretization) -> str:
