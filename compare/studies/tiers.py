@@ -19,21 +19,22 @@ The study runs nothing of its own: the validity campaigns list the linear solver
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from compare import metrics, store
-from compare.limits import Limit, validity_limit
+from compare.limits import TOLERANCES, Limit, validity_limit
 from compare.markdown import table
 from compare.paths import CONFIG_DIR, StudyPaths
 from compare.sections import write_section
 from compare.studies import validity
 from compare.studies.validity_data import linkage_json, read_points
+from ked_quasi.massmodel import MASS_MODELS
 
 SECTION = "tiers"
 MODELS = ("quasi_static", "linear", "linear_classic")
-TOLERANCES = (0.05, 0.10)
 FIGURE = "tiers_error_parts.png"
 COARSE_STEP = 0.02
 """A first crossing known only to a grid step above this is called coarse in the report."""
@@ -103,13 +104,10 @@ def load(files: Sequence[Path]) -> list[TierPoint]:
     return out
 
 
-_ORDER = {m: i for i, m in enumerate(("tip", "joints", "extender", "distributed"))}
-
-
 def families(points: Sequence[TierPoint]) -> dict[tuple[str, str, str], list[TierPoint]]:
     """Scenes by (linkage, mechanism, mass model), in report order, each sorted by r (one r once)."""
     fams: dict[tuple[str, str, str], list[TierPoint]] = {}
-    for p in sorted(points, key=lambda p: (p.linkage, p.mechanism != "source", _ORDER.get(p.mass_model, 9), p.r)):
+    for p in sorted(points, key=lambda p: (p.linkage, p.mechanism != "source", MASS_MODELS.index(p.mass_model), p.r)):
         fams.setdefault((p.linkage, p.mechanism, p.mass_model), []).append(p)
     return fams
 
@@ -215,11 +213,8 @@ def markdown(f: TiersFindings, figure: Path | None, readme: Path) -> str:
                  f"(5 %) / {_span(s['linear', 0.1])} (10 %) (without prestress: "
                  f"{_span(s['linear_classic', 0.05])} / {_span(s['linear_classic', 0.1])}); beyond that the "
                  "nonlinear model is needed.")
-    L += ["", _parts_text(f)]
-    L += _failures(f.failures)
+    L += ["", _parts_text(f), *_failures(f.failures)]
     if figure is not None:
-        import os
-
         L += ["", f"![tiers]({os.path.relpath(figure.resolve(), readme.resolve().parent)})"]
     return "\n".join(L) + "\n"
 
@@ -254,7 +249,7 @@ def figure(points: Sequence[TierPoint], path: Path) -> Path:
 
     fig = Figure(figsize=(12, 4.5), layout="constrained")
     ax1, ax2 = fig.subplots(1, 2)
-    for mm, marker in zip(("tip", "joints", "extender", "distributed"), "osD^"):
+    for mm, marker in zip(MASS_MODELS, "osD^"):
         sel = [p for p in points if p.mass_model == mm and math.isfinite(p.dynamic_part)]
         if not sel:
             continue
