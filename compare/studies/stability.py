@@ -45,7 +45,8 @@ SECTION = "stability"
 
 @dataclass(frozen=True)
 class CaseRow:
-    """One scene of the stability campaign (see module docstring). Peaks [m], wall [s], angles [deg]."""
+    """One scene of the stability campaign (see module docstring). Peaks [m], wall [s], angles [deg]; the
+    defaults: not computed."""
 
     case: str
     config: str
@@ -58,34 +59,31 @@ class CaseRow:
     stage: str
     error_type: str
     message: str
-    qs_peak_m: float
-    qs_peak_unflagged_m: float
-    qs_condition_max: float
-    qs_flagged_deg: str
-    qs_toggle_distance_deg: float
-    qs_nonfinite: int
-    qs_warning: str
-    dyn_converged: bool
-    dyn_cycles: int
-    dyn_newton_iterations: int
-    dyn_steps: int
-    dyn_wall_s: float
-    dyn_peak_m: float
-    amplification: float
-    deviation_from_default: float
-    check: str
-    stable_steps_per_cycle: int
-    ladder: str
+    qs_peak_m: float = math.nan
+    qs_peak_unflagged_m: float = math.nan
+    qs_condition_max: float = math.nan
+    qs_flagged_deg: str = ""
+    qs_toggle_distance_deg: float = math.nan
+    qs_nonfinite: int = -1
+    qs_warning: str = ""
+    dyn_converged: bool = False
+    dyn_cycles: int = -1
+    dyn_newton_iterations: int = -1
+    dyn_steps: int = -1
+    dyn_wall_s: float = 0.0
+    dyn_peak_m: float = math.nan
+    amplification: float = math.nan
+    deviation_from_default: float = math.nan
+    check: str = "-"
+    stable_steps_per_cycle: int = -1
+    ladder: str = ""
 
 
 def case_of_keys(configs: Sequence[Path]) -> dict[str, tuple[str, str]]:
     """Scene key -> (case name = campaign.name, config file name); configs refused at load have no scenes."""
-    out = {}
+    out: dict[str, tuple[str, str]] = {}
     refused = study_io.refused_configs(configs)
-    for c in configs:
-        if c.name in refused:
-            continue
-        cfg = load_config(c)
+    for cfg, c in ((load_config(c), c) for c in configs if c.name not in refused):
         for s in cfg.scenes():
             out.setdefault(s.key, (cfg.name, c.name))
     return out
@@ -94,8 +92,7 @@ def case_of_keys(configs: Sequence[Path]) -> dict[str, tuple[str, str]]:
 def variant_text(r: SceneResult) -> str:
     """What sets the scene apart: speed, stiffness scale, payload, explicit Exudyn settings."""
     s = r.spec
-    parts = [f"{s.mass_model.name}"]
-    parts.append(f"{s.speed.value:g} rpm" if s.speed.kind == "rpm" else f"r={s.speed.value:g}")
+    parts = [s.mass_model.name, f"{s.speed.value:g} rpm" if s.speed.kind == "rpm" else f"r={s.speed.value:g}"]
     if s.stiffness_scale != 1.0:
         parts.append(f"E x{s.stiffness_scale:g}")
     if s.mass_model.name != "tip" and s.mass_model.payload > 0:
@@ -137,14 +134,9 @@ def ladder_search(r: SceneResult) -> tuple[int, str]:
 
 def refused_row(config: str, message: str) -> CaseRow:
     """The row of a case whose config is refused at load (nothing runs; the reason is the result)."""
-    nan = math.nan
     return CaseRow(case=config.split("_", 1)[-1].removesuffix(".toml").replace("_", "-"), config=config, key="",
-                   label="", variant="", speed_ratio=nan, rpm=nan, status="refused", stage="load",
-                   error_type="ConfigError", message=message[:400], qs_peak_m=nan, qs_peak_unflagged_m=nan,
-                   qs_condition_max=nan, qs_flagged_deg="", qs_toggle_distance_deg=nan, qs_nonfinite=-1,
-                   qs_warning="", dyn_converged=False, dyn_cycles=-1, dyn_newton_iterations=-1, dyn_steps=-1,
-                   dyn_wall_s=0.0, dyn_peak_m=nan, amplification=nan, deviation_from_default=nan, check="-",
-                   stable_steps_per_cycle=-1, ladder="")
+                   label="", variant="", speed_ratio=math.nan, rpm=math.nan, status="refused", stage="load",
+                   error_type="ConfigError", message=message[:400])
 
 
 def case_rows(results: Sequence[SceneResult], cases: dict[str, tuple[str, str]], ladder: bool = True) -> list[CaseRow]:
@@ -156,8 +148,7 @@ def case_rows(results: Sequence[SceneResult], cases: dict[str, tuple[str, str]],
         r = by_key.get(key)
         if r is None:
             continue
-        qs = None
-        warn = ""
+        qs, warn = None, ""
         if r.crank_angle is not None and math.isfinite(r.rpm):
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
@@ -183,12 +174,10 @@ def case_rows(results: Sequence[SceneResult], cases: dict[str, tuple[str, str]],
         rows.append(CaseRow(
             case=case, config=config, key=key, label=r.spec.label, variant=variant_text(r), speed_ratio=ratio,
             rpm=r.rpm, status=r.status, stage=r.stage, error_type=r.error_type, message=r.message[:400],
-            qs_peak_m=qs.peak_m if qs else math.nan,
-            qs_peak_unflagged_m=qs.peak_unflagged_m if qs else math.nan,
-            qs_condition_max=qs.condition_max if qs else math.nan,
-            qs_flagged_deg=",".join(f"{x:g}" for x in qs.flagged_deg) if qs else "",
-            qs_toggle_distance_deg=qs.toggle_distance_deg if qs else math.nan,
-            qs_nonfinite=qs.nonfinite if qs else -1, qs_warning=warn,
+            **(dict(qs_peak_m=qs.peak_m, qs_peak_unflagged_m=qs.peak_unflagged_m, qs_condition_max=qs.condition_max,
+                    qs_flagged_deg=",".join(f"{x:g}" for x in qs.flagged_deg),
+                    qs_toggle_distance_deg=qs.toggle_distance_deg, qs_nonfinite=qs.nonfinite) if qs else {}),
+            qs_warning=warn,
             dyn_converged=bool(r.stat("dynamic", "converged", False)), dyn_cycles=r.stat("dynamic", "cycles", -1),
             dyn_newton_iterations=r.stat("dynamic", "newton_iterations", -1), dyn_steps=r.stat("dynamic", "steps", -1),
             dyn_wall_s=r.stat("dynamic", "wall_s", 0.0), dyn_peak_m=dyn_peak, amplification=amp,

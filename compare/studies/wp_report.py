@@ -77,20 +77,16 @@ def work_precision_figure(tables: dict, attrs: dict) -> Figure:
             for p in pts:
                 if p.disc == dflt:
                     ax.plot(p.wall_s, p.error, "*", color="gold", mec="k", ms=16, zorder=4)
-        qs = sorted((q for q in quasi if q["mass_model"] == model), key=lambda q: q["speed_ratio"])
-        if qs:
-            ax.plot([q["wall_s"] for q in qs], [q["error"] for q in qs], "D", color="crimson", ms=6, zorder=4)
-            for q in qs:
-                ax.annotate(f"QS r={q['speed_ratio']:.2g}", (q["wall_s"], q["error"]), fontsize=7,
-                            xytext=(4, 2), textcoords="offset points", color="crimson")
-        lin = sorted((q for q in linear if q["mass_model"] == model and math.isfinite(q["error"])),
-                     key=lambda q: q["speed_ratio"])
-        if lin:
-            ax.plot([q["wall_s"] for q in lin], [q["error"] for q in lin], "X", color=LINEAR_COLOR, mec="k",
-                    mew=0.5, ms=8, zorder=5)
-            for q in lin:
-                ax.annotate(f"lin r={q['speed_ratio']:.2g}", (q["wall_s"], q["error"]), fontsize=7,
-                            xytext=(4, -8), textcoords="offset points", color=LINEAR_COLOR)
+        for tab, name, dy, fmt, kw in ((quasi, "QS", 2, "D", dict(color="crimson", ms=6, zorder=4)),
+                                         (linear, "lin", -8, "X", dict(color=LINEAR_COLOR, mec="k", mew=0.5, ms=8,
+                                                                       zorder=5))):
+            pts = sorted((q for q in tab if q["mass_model"] == model and (name == "QS" or math.isfinite(q["error"]))),
+                         key=lambda q: q["speed_ratio"])
+            if pts:
+                ax.plot([q["wall_s"] for q in pts], [q["error"] for q in pts], fmt, **kw)
+            for q in pts:
+                ax.annotate(f"{name} r={q['speed_ratio']:.2g}", (q["wall_s"], q["error"]), fontsize=7,
+                            xytext=(4, dy), textcoords="offset points", color=kw["color"])
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlim(3e-4, 200.0)
@@ -111,11 +107,10 @@ def work_precision_figure(tables: dict, attrs: dict) -> Figure:
                 Line2D([], [], color="gray", marker="^", ls="-", label="ANCF rho 1.0"),
                 Line2D([], [], color="k", marker="o", mfc="none", ms=9, ls="-", label="Pareto front"),
                 Line2D([], [], color="gold", mec="k", marker="*", ms=14, ls="", label="current default"),
-                Line2D([], [], color="crimson", marker="D", ls="", label="quasi-static"
-                       + _lumps_label(rows(tables.get("quasi_static", {}))))]
-    if rows(tables.get("linear", {})):
+                Line2D([], [], color="crimson", marker="D", ls="", label="quasi-static" + _lumps_label(quasi))]
+    if linear:
         handles.append(Line2D([], [], color=LINEAR_COLOR, mec="k", mew=0.5, marker="X", ms=8, ls="",
-                              label="linear KED" + _lumps_label(rows(tables["linear"]))))
+                              label="linear KED" + _lumps_label(linear)))
     fig.legend(handles=handles, loc="lower center", ncol=(len(handles) + 1) // 2, fontsize=8, frameon=False)
     fig.suptitle("Work-precision: steady-cycle error vs wall time (points along a line: 90..2880 steps/cycle)",
                  fontsize=11)
