@@ -30,6 +30,7 @@ from compare.limits import (
 )
 from compare.studies.validity_data import Point
 from ked_quasi.harmonics import significant_harmonic
+from ked_quasi.massmodel import MASS_MODELS
 
 HARMONIC_FRACTIONS = (0.01, 0.05)
 
@@ -71,25 +72,12 @@ class FamilySummary:
     one_mode: dict[tuple[str, float], float]
     rpm_points: tuple[Slot, ...] = field(default=())
 
-    @property
-    def linkage(self) -> str:
-        return self.family[0]
-
-    @property
-    def mechanism(self) -> str:
-        return self.family[1]
-
-    @property
-    def mass_model(self) -> str:
-        return self.family[2]
-
-    @property
-    def damping(self) -> float:
-        return self.family[3]
-
-    @property
-    def direction(self) -> str:
-        return self.family[4]
+    # the parts of ``family``: linkage, mechanism, mass model, damping ratio [1], crank direction
+    linkage = property(lambda self: self.family[0])
+    mechanism = property(lambda self: self.family[1])
+    mass_model = property(lambda self: self.family[2])
+    damping = property(lambda self: self.family[3])
+    direction = property(lambda self: self.family[4])
 
     def discretization_shift(self, kind: str, tol: float) -> float:
         """|r_cross(refined) - r_cross(base)| [1] (nan if not measured)."""
@@ -176,11 +164,9 @@ def summarize(points: Sequence[Point],
     for p in points:
         fams.setdefault(p.family, []).append(p)
     link_order = list(dict.fromkeys(p.linkage for p in points))
-    mm_order = ("tip", "joints", "extender", "distributed")
 
     def order(f: Family) -> tuple:
-        return (link_order.index(f[0]), f[1] != "source", mm_order.index(f[2]) if f[2] in mm_order else 9,
-                f[3], f[4] != "ccw")
+        return link_order.index(f[0]), f[1] != "source", MASS_MODELS.index(f[2]), f[3], f[4] != "ccw"
 
     return [summarize_family(f, fams[f], loads_of) for f in sorted(fams, key=order)
             if any(not p.refined for p in fams[f])]

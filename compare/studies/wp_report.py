@@ -78,8 +78,8 @@ def work_precision_figure(tables: dict, attrs: dict) -> Figure:
                 if p.disc == dflt:
                     ax.plot(p.wall_s, p.error, "*", color="gold", mec="k", ms=16, zorder=4)
         for tab, name, dy, fmt, kw in ((quasi, "QS", 2, "D", dict(color="crimson", ms=6, zorder=4)),
-                                         (linear, "lin", -8, "X", dict(color=LINEAR_COLOR, mec="k", mew=0.5, ms=8,
-                                                                       zorder=5))):
+                                       (linear, "lin", -8, "X", dict(color=LINEAR_COLOR, mec="k", mew=0.5, ms=8,
+                                                                     zorder=5))):
             pts = sorted((q for q in tab if q["mass_model"] == model and (name == "QS" or math.isfinite(q["error"]))),
                          key=lambda q: q["speed_ratio"])
             if pts:
