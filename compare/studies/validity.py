@@ -49,9 +49,7 @@ def explicit_text(specs: Sequence[SceneSpec]) -> str:
 
 def with_dynamic(spec: SceneSpec, **overrides: object) -> SceneSpec:
     """The scene with some pinned ``[dynamic]`` settings changed (a new content key)."""
-    d = dict(spec.dynamic)
-    d.update(overrides)
-    return replace(spec, dynamic=tuple(sorted(d.items())))
+    return replace(spec, dynamic=tuple(sorted({**dict(spec.dynamic), **overrides}.items())))
 
 
 def ladder_retries(points: Sequence[Point], stored: Sequence[SceneResult]) -> list[SceneSpec]:
@@ -82,22 +80,12 @@ def refine_specs(summaries: Sequence[FamilySummary]) -> list[SceneSpec]:
     for fs in summaries:
         if fs.damping != REFERENCE_DAMPING or fs.direction != REFERENCE_DIRECTION:
             continue
-        for kind in ERROR_KINDS:
-            for tol in TOLERANCES:
-                lim = fs.limits[(kind, tol)]
-                if lim.status != "crossed":
-                    continue
-                for s in fs.slots:
-                    if s.r in (lim.r_pass, lim.r_fail):
-                        p = s.point
-                        spec = with_dynamic(p.spec, elements_per_link=REFINE_FACTOR * p.elements_per_link,
-                                            steps_per_cycle=REFINE_FACTOR * p.steps_per_cycle)
-                        out[spec.key] = spec
+        for lim in (fs.limits[kind, tol] for kind in ERROR_KINDS for tol in TOLERANCES):
+            for p in (s.point for s in fs.slots if lim.status == "crossed" and s.r in (lim.r_pass, lim.r_fail)):
+                spec = with_dynamic(p.spec, elements_per_link=REFINE_FACTOR * p.elements_per_link,
+                                    steps_per_cycle=REFINE_FACTOR * p.steps_per_cycle)
+                out[spec.key] = spec
     return list(out.values())
-
-
-def _loads_of(p: Point):
-    return quasi_static_loads(p.spec)
 
 
 def load_study(files: Sequence[Path], refine_file: Path | None) -> tuple[list[Point], list[FamilySummary]]:
@@ -111,7 +99,7 @@ def load_study(files: Sequence[Path], refine_file: Path | None) -> tuple[list[Po
         points += pts
     if refine_file is not None and refine_file.exists():
         points += read_points(refine_file, refined=True, labels=labels)
-    return points, summarize(points, _loads_of)
+    return points, summarize(points, lambda p: quasi_static_loads(p.spec))
 
 
 @dataclass(frozen=True)

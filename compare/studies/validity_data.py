@@ -134,11 +134,8 @@ def read_points(path: str | Path, linkage: str | None = None, refined: bool = Fa
     by the scene's linkage JSON in ``labels``, else from the file's ``campaign_name``."""
     info = store.file_info(path)
     default = linkage or linkage_label(str(info.get("campaign_name", Path(path).stem)))
-    out = []
-    for r in store.read_scenes(path):
-        lab = linkage or (labels or {}).get(linkage_json(r.spec), default)
-        out.append(to_point(r, lab, refined, Path(path).name))
-    return out
+    return [to_point(r, linkage or (labels or {}).get(linkage_json(r.spec), default), refined, Path(path).name)
+            for r in store.read_scenes(path)]
 
 
 def run_starts(path: str | Path) -> list[str]:
