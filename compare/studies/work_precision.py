@@ -35,13 +35,7 @@ from compare.sections import write_section
 from compare.solvers import COMPONENTS
 from compare.solvers.dynamic import settings_for as build_settings
 from compare.studies import study_io
-from compare.studies.wp_analysis import (
-    REFERENCE,
-    Discretization,
-    LumpPoint,
-    WPPoint,
-    is_reference,
-)
+from compare.studies.wp_analysis import REFERENCE, LumpPoint, WPPoint, disc_of, is_reference
 from ked_linear import LinearSettings, solve_linear
 from ked_quasi.massmodel import MassModel
 from ked_quasi.presets import linkage
@@ -74,11 +68,6 @@ def deflection(side: dict[str, np.ndarray]) -> np.ndarray:
     return np.column_stack([side[c] for c in COMPONENTS])
 
 
-def discretization(settings: dict) -> Discretization:
-    return Discretization(str(settings["element"]), int(settings["elements_per_link"]),
-                          int(settings["steps_per_cycle"]), float(settings["spectral_radius"]))
-
-
 def ked_scene(r: SceneResult):
     """The ked_quasi Scene a stored result was computed on (resolved crank speed)."""
     return r.spec.scene(r.rpm)
@@ -105,11 +94,8 @@ def retime(results: Sequence[SceneResult], below_s: float, extra: int) -> dict[s
         if not r.ok or r.stat("dynamic", "wall_s") >= below_s:
             continue
         scene, settings = ked_scene(r), build_settings(r.spec)
-        walls = [r.stat("dynamic", "wall_s")]
-        for _ in range(extra):
-            t0 = time.perf_counter()
-            simulate_steady_state(scene, settings)
-            walls.append(time.perf_counter() - t0)
+        walls = [r.stat("dynamic", "wall_s")] + [
+            median_time(lambda s=scene, c=settings: simulate_steady_state(s, c), 1) for _ in range(extra)]
         med = statistics.median(walls)
         out[r.key] = (med, len(walls), (max(walls) - min(walls)) / med)
     return out
@@ -129,7 +115,7 @@ def dynamic_points(results: Sequence[SceneResult], timings: dict[str, tuple[floa
         ok = r.ok and bool(r.dynamic)
         err = cycle_error(deflection(r.dynamic), deflection(ref.dynamic)) if ok else math.nan
         points.append(WPPoint(
-            family=family_label(r.spec), disc=discretization(r.dynamic_settings),
+            family=family_label(r.spec), disc=disc_of(r.dynamic_settings),
             reference=r.key == ref.key, ok=ok, wall_s=float(wall), repeats=n, error=err,
             cycles=r.stat("dynamic", "cycles", -1), newton_iterations=r.stat("dynamic", "newton_iterations", -1),
             message=(r.message or r.stat("dynamic", "dynamic_message", ""))[:300], wall_spread=float(spread)))
