@@ -27,6 +27,7 @@ from compare.atlas import store as atlas_store
 from compare.atlas.compute import RATIOS, flag_bits, spec_of, xy
 from compare.atlas.generate import Linkage, candidate
 from compare.execute import frame, solve_one
+from compare.tables import columns
 from ked_quasi.massmodel import MASS_MODELS
 
 FACTORS = (0.6, 1.0, 1.4, 2.0, 3.0)
@@ -53,7 +54,7 @@ class ConfirmPoint:
 class ConfirmRecord:
     """A confirmed scene: history / peak errors [1] against Exudyn (nan when a solver failed), the
     quasi-static error against the linear model, Exudyn's wall time [s], the peak Exudyn deflection
-    over the shortest link [1], linear flag bits and max |Floquet multiplier|."""
+    over the shortest link [1], linear flag bits and max |Floquet multiplier| (defaults: not computed)."""
 
     key: str
     linkage: int
@@ -64,15 +65,15 @@ class ConfirmRecord:
     atlas_r10: float
     status: str
     reason: str
-    qs_vs_dyn: float
-    linear_vs_dyn: float
-    qs_vs_linear: float
-    qs_peak_vs_dyn: float
-    linear_peak_vs_dyn: float
-    deflection_ratio: float
-    floquet_max_abs: float
-    linear_flags: int
-    dyn_wall_s: float
+    qs_vs_dyn: float = math.nan
+    linear_vs_dyn: float = math.nan
+    qs_vs_linear: float = math.nan
+    qs_peak_vs_dyn: float = math.nan
+    linear_peak_vs_dyn: float = math.nan
+    deflection_ratio: float = math.nan
+    floquet_max_abs: float = math.nan
+    linear_flags: int = 0
+    dyn_wall_s: float = math.nan
 
 
 def _strata_pick(rows: list[int], r10: np.ndarray, k: int, rng: np.random.Generator) -> list[int]:
@@ -106,7 +107,7 @@ def confirm_scene(linkage: Linkage, point: ConfirmPoint) -> ConfirmRecord:
     """Quasi-static, linear and Exudyn on one scene (on a worker)."""
     mm = next(m for m in linkage.mass_models if m.name == point.mass_model)
     spec = spec_of(linkage, point.mechanism, mm, point.r)
-    base = dict(key=point.key, **{k: v for k, v in asdict(point).items()})
+    base = dict(key=point.key, **asdict(point))
     try:
         fr = frame(spec)
     except Exception as exc:  # cannot be set up
@@ -137,11 +138,7 @@ def _record(base: dict[str, Any], sol: dict[str, registry.Solution], fb: Any) ->
 
 
 def confirm_columns(records: Sequence[ConfirmRecord]) -> dict[str, list[Any]]:
-    cols: dict[str, list[Any]] = {}
-    for rec in records:
-        for k, v in asdict(rec).items():
-            cols.setdefault(k, []).append(v)
-    return cols
+    return columns([asdict(rec) for rec in records])
 
 
 def run_confirm(path: Path, *, n: int = 200, seed: int = 0, workers: int = 2, scheduler: str | None = None,
@@ -178,7 +175,4 @@ def _confirm(path: Path, todo: list[ConfirmPoint], seed: int, *, workers: int, s
 
 def failed_confirm(p: ConfirmPoint, reason: str) -> ConfirmRecord:
     """The record of a scene that could not be confirmed at all."""
-    nan = math.nan
-    return ConfirmRecord(key=p.key, **asdict(p), status="failed", reason=reason[:500], qs_vs_dyn=nan, linear_vs_dyn=nan,
-                         qs_vs_linear=nan, qs_peak_vs_dyn=nan, linear_peak_vs_dyn=nan, deflection_ratio=nan,
-                         floquet_max_abs=nan, linear_flags=0, dyn_wall_s=nan)
+    return ConfirmRecord(key=p.key, **asdict(p), status="failed", reason=reason[:500])

@@ -28,6 +28,7 @@ from compare.atlas.compute import (
     failed_record,
 )
 from compare.atlas.generate import Linkage, Sample, generate, ranges_dict
+from compare.tables import columns
 
 COMMIT_EVERY_S = 10.0
 """Completed linkages are committed together at most this often (each commit copies the file)."""
@@ -73,16 +74,15 @@ def linkage_columns(sample: Sample) -> dict[str, list[Any]]:
 
 def family_columns(records: Sequence[FamilyRecord]) -> dict[str, list[Any]]:
     """The /families rows of ``records`` (limits flattened to r5_*, r10_*)."""
-    cols: dict[str, list[Any]] = {}
+    rows = []
     for rec in records:
         row = {k: v for k, v in asdict(rec).items() if k not in ("limits", "one_mode_limits")}
         for tol, lim, om in zip(TOLERANCES, rec.limits, rec.one_mode_limits):
             tag = f"r{round(100 * tol)}"
             row.update({f"{tag}_status": lim.status, tag: lim.r_record, f"{tag}_half_bracket": lim.half_bracket,
                         f"one_mode_{tag}": om})
-        for k, v in row.items():
-            cols.setdefault(k, []).append(v)
-    return cols
+        rows.append(row)
+    return columns(rows)
 
 
 def crashed(linkage: Linkage, reason: str, ratios: Sequence[float]) -> tuple[FamilyRecord, ...]:
