@@ -144,33 +144,35 @@ def confirm_columns(records: Sequence[ConfirmRecord]) -> dict[str, list[Any]]:
 def run_confirm(path: Path, *, n: int = 200, seed: int = 0, workers: int = 2, scheduler: str | None = None,
                 progress: bool = False, echo: Callable[[str], Any] = print) -> dict[str, int]:
     """Confirm the sample's scenes not yet stored in the atlas file (resumable)."""
-    from compare import store
-
     atlas_store.check_atlas(path, {"seed": seed})  # the sample's linkages are regenerated from the seed
-    points = select(atlas_store.read(path, "families"), n, seed)
-    done = set(atlas_store.read(path, "confirm").get("key", []))
-    todo = [p for p in points if p.key not in done]
-    if todo:
-        echo(f"atlas: {len(todo)} scene(s) to confirm with Exudyn")
-        t0 = time.perf_counter()
-        with store.writer_lock(path):
-            _confirm(path, todo, seed, workers=workers, scheduler=scheduler, progress=progress)
-            atlas_store.compact(path)
-        echo(f"atlas: confirmed {len(todo)} scene(s) in {time.perf_counter() - t0:.0f} s")
-    return {"sample": len(points), "computed": len(todo), "skipped": len(points) - len(todo)}
+    return confirm_points(path, select(atlas_store.read(path, "families"), n, seed), "confirm", seed,
+                          workers=workers, scheduler=scheduler, progress=progress, echo=echo)
 
 
-def _confirm(path: Path, todo: list[ConfirmPoint], seed: int, *, workers: int, scheduler: str | None,
-             progress: bool) -> None:
+def confirm_points(path: Path, points: Sequence[ConfirmPoint], table: str, seed: int, *, workers: int,
+                   scheduler: str | None, progress: bool, echo: Callable[[str], Any]) -> dict[str, int]:
+    """Run :func:`confirm_scene` on the ``points`` not yet stored in ``table`` of the atlas file (whose
+    linkages are regenerated from ``seed``) and append their records there; returns the counts."""
+    from compare import store
     from compare.atlas.run import run_records
 
-    info = atlas_store.attrs(path)
-    meta = {k: info[k] for k in ("seed", "ratios", "ranges", "settings")}
-    links = {p.linkage: candidate(seed, p.linkage) for p in todo}
-    run_records(todo, confirm_scene,
-                lambda recs: atlas_store.write(path, meta, appends={"confirm": confirm_columns(recs)}),
-                lambda p, reason: [failed_confirm(p, reason)], args=lambda p: (links[p.linkage], p), workers=workers,
-                scheduler=scheduler, progress=progress, label="confirm")
+    done = set(atlas_store.read(path, table).get("key", []))
+    todo = [p for p in points if p.key not in done]
+    what = "scene(s)" if table == "confirm" else f"{table} scene(s)"
+    if todo:
+        echo(f"atlas: {len(todo)} {what} to confirm with Exudyn")
+        t0 = time.perf_counter()
+        links = {p.linkage: candidate(seed, p.linkage) for p in todo}
+        with store.writer_lock(path):
+            info = atlas_store.attrs(path)
+            meta = {k: info[k] for k in ("seed", "ratios", "ranges", "settings")}
+            run_records(todo, confirm_scene,
+                        lambda recs: atlas_store.write(path, meta, appends={table: confirm_columns(recs)}),
+                        lambda p, reason: [failed_confirm(p, reason)], args=lambda p: (links[p.linkage], p),
+                        workers=workers, scheduler=scheduler, progress=progress, label=table)
+            atlas_store.compact(path)
+        echo(f"atlas: confirmed {len(todo)} {what} in {time.perf_counter() - t0:.0f} s")
+    return {"sample": len(points), "computed": len(todo), "skipped": len(points) - len(todo)}
 
 
 def failed_confirm(p: ConfirmPoint, reason: str) -> ConfirmRecord:

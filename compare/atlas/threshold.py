@@ -15,18 +15,14 @@ with its reason; rerunning resumes (stored keys are skipped).
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from compare import store
 from compare.atlas import store as atlas_store
-from compare.atlas.confirm import ConfirmPoint, confirm_columns, confirm_scene, failed_confirm
-from compare.atlas.generate import candidate
-from compare.atlas.run import run_records
+from compare.atlas.confirm import ConfirmPoint, confirm_points
 from ked_quasi.massmodel import MASS_MODELS
 
 BAND = 0.25
@@ -66,20 +62,5 @@ def run_threshold(path: Path, *, n: int = DEFAULT_THRESHOLD, seed: int = 0, work
                   echo: Callable[[str], Any] = print) -> dict[str, int]:
     """Confirm the threshold sample's scenes not yet stored in the atlas file (resumable)."""
     atlas_store.check_atlas(path, {"seed": seed})
-    points = select_threshold(atlas_store.read(path, "families"), n, seed)
-    done = set(atlas_store.read(path, TABLE).get("key", []))
-    todo = [p for p in points if p.key not in done]
-    if todo:
-        echo(f"atlas: {len(todo)} threshold scene(s) to confirm with Exudyn")
-        t0 = time.perf_counter()
-        info = atlas_store.attrs(path)
-        meta = {k: info[k] for k in ("seed", "ratios", "ranges", "settings")}
-        links = {p.linkage: candidate(seed, p.linkage) for p in todo}
-        with store.writer_lock(path):
-            run_records(todo, confirm_scene,
-                        lambda recs: atlas_store.write(path, meta, appends={TABLE: confirm_columns(recs)}),
-                        lambda p, reason: [failed_confirm(p, reason)], args=lambda p: (links[p.linkage], p),
-                        workers=workers, scheduler=scheduler, progress=progress, label="threshold")
-            atlas_store.compact(path)
-        echo(f"atlas: confirmed {len(todo)} threshold scene(s) in {time.perf_counter() - t0:.0f} s")
-    return {"sample": len(points), "computed": len(todo), "skipped": len(points) - len(todo)}
+    return confirm_points(path, select_threshold(atlas_store.read(path, "families"), n, seed), TABLE, seed,
+                          workers=workers, scheduler=scheduler, progress=progress, echo=echo)
