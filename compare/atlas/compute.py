@@ -22,7 +22,7 @@ from compare import metrics
 from compare import solvers as registry
 from compare.atlas.generate import Linkage
 from compare.execute import frame, resolve_rpm, solve_one
-from compare.limits import Limit, one_mode_curves, one_mode_limit, validity_limit
+from compare.limits import TOLERANCES, Limit, one_mode_curves, one_mode_limit, validity_limit
 from compare.scenes import SceneSpec, SpeedSpec
 from ked_quasi.harmonics import significant_harmonic
 from ked_quasi.massmodel import MassModel
@@ -30,11 +30,9 @@ from ked_quasi.solver import solve_quasi_static
 
 RATIOS = (0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.09, 0.10, 0.115, 0.13, 0.15, 0.175, 0.2, 0.25, 0.3, 0.4, 0.5)
 """The speed-ratio sweep r = Omega / omega1_min (dense where the limits are)."""
-TOLERANCES = (0.05, 0.10)
 STOP_ERROR = 0.20
 DAMPING = 0.02
 STEP_DEG = 10.0
-HARMONIC_FRACTIONS = (0.01, 0.05)
 # per-ratio status codes
 OK, UNSTABLE, FAILED, NOT_COMPUTED = 0, 1, 2, 3
 FLAG_BITS = {"large_deflection": 1, "large_rotation": 2, "non_finite": 4}
@@ -71,8 +69,7 @@ class FamilyRecord:
 
 def failed_record(index: int, mechanism: str, mm: MassModel, reason: str, n: int, wall_s: float = 0.0) -> FamilyRecord:
     """The record of a family that could not be computed (every ratio code :data:`FAILED`)."""
-    nan = math.nan
-    empty = (nan,) * n
+    nan, empty = math.nan, (math.nan,) * n
     return FamilyRecord(index, mechanism, mm.name, mm.payload, "failed", reason[:500], nan, nan, nan, nan, 0, 0,
                         empty, empty, empty, empty, empty, (0,) * n, (FAILED,) * n,
                         tuple(Limit(tol, "no_data") for tol in TOLERANCES), (nan,) * len(TOLERANCES), wall_s)
