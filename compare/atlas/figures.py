@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from compare.atlas.analysis import crossed, within
+from compare.limits import TOLERANCES
 from ked_quasi.massmodel import MASS_MODELS
 
 MARKERS = dict(zip(MASS_MODELS, "osD^"))
@@ -18,6 +19,15 @@ def _figure(size: tuple[float, float]):  # noqa: ANN202 - matplotlib Figure
     from matplotlib.figure import Figure
 
     return Figure(figsize=size, layout="constrained")
+
+
+def _axes(ax, xlabel: str, ylabel: str, legend: float | None = 8, which: str = "major", **legend_kw: float) -> None:
+    """Axis labels, the grid and, of font size ``legend`` (None: none), the legend."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.grid(alpha=0.3, which=which)
+    if legend:
+        ax.legend(fontsize=legend, **legend_kw)
 
 
 def _save(fig, path: Path) -> Path:  # noqa: ANN001
@@ -34,10 +44,7 @@ def limits_histogram(fam: dict[str, np.ndarray], path: Path) -> Path:
         for mm in MASS_MODELS:
             r = np.asarray(fam[tag], float)[crossed(fam, tag, mm)]
             ax.hist(r, bins=bins, histtype="step", lw=1.6, color=COLORS[mm], label=f"{mm} ({r.size})")
-        ax.set_xlabel(f"quasi-static limit r* ({tol} history error against the linear model)")
-        ax.set_ylabel("families")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+        _axes(ax, f"quasi-static limit r* ({tol} history error against the linear model)", "families")
     return _save(fig, path)
 
 
@@ -55,9 +62,7 @@ def features(fam: dict[str, np.ndarray], feats: dict[str, np.ndarray], path: Pat
                 x = x + rng.uniform(-0.25, 0.25, x.size)
             ax.scatter(x, np.asarray(fam["r10"], float)[m], s=6, alpha=0.5, marker=MARKERS[mm], color=COLORS[mm],
                        label=mm)
-        ax.set_xlabel(name)
-        ax.set_ylabel("quasi-static r* (10 %)")
-        ax.grid(alpha=0.3)
+        _axes(ax, name, "quasi-static r* (10 %)", None)
     axes[0].legend(fontsize=8, markerscale=2)
     for ax in axes[len(names):]:
         ax.set_visible(False)
@@ -79,12 +84,9 @@ def predictions(fam: dict[str, np.ndarray], rule_r10: np.ndarray, path: Path) ->
         ax.fill_between(x, 0.75 * x, 1.25 * x, color="grey", alpha=0.2, label="+-25 %")
         ok = within(pred[m], actual[m])
         ax.set_title(f"{title}: {ok.mean():.0%} of {m.sum()} families within +-25 %", fontsize=10)
-        ax.set_xlabel("atlas r* (10 %)")
-        ax.set_ylabel("predicted r* (10 %)")
         ax.set_xlim(0, 0.3)
         ax.set_ylim(0, 0.3)
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8, markerscale=2)
+        _axes(ax, "atlas r* (10 %)", "predicted r* (10 %)", markerscale=2)
     return _save(fig, path)
 
 
@@ -117,16 +119,12 @@ def confirm(conf: dict[str, np.ndarray], path: Path) -> Path:
                     label=mm)
     lim = np.array([1e-3, 10.0])
     ax1.plot(lim, lim, "k-", lw=0.8)
-    ax1.set_xlabel("quasi-static vs linear (atlas tier)")
-    ax1.set_ylabel("quasi-static vs Exudyn")
-    ax2.set_xlabel("r / quasi-static r* (10 %)")
-    ax2.set_ylabel("linear vs Exudyn")
-    for ax in (ax1, ax2):
+    for ax, xlabel, ylabel in ((ax1, "quasi-static vs linear (atlas tier)", "quasi-static vs Exudyn"),
+                               (ax2, "r / quasi-static r* (10 %)", "linear vs Exudyn")):
         ax.set_yscale("log")
-        ax.grid(alpha=0.3, which="both")
-        for tol in (0.05, 0.10):
+        for tol in TOLERANCES:
             ax.axhline(tol, color="r", lw=0.8, ls=":")
-        ax.legend(fontsize=8)
+        _axes(ax, xlabel, ylabel, which="both")
     ax1.set_xscale("log")
     return _save(fig, path)
 
@@ -144,10 +142,7 @@ def coupler_curves(curves: Sequence[dict], path: Path) -> Path:
         ax.plot(*(rig + mag * c["linear"])[close].T, "C3-", lw=1.2, label=f"linear KED x{mag:.3g}")
         ax.set_aspect("equal")
         ax.set_title(c["title"], fontsize=9)
-        ax.set_xlabel("x [m]")
-        ax.set_ylabel("y [m]")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+        _axes(ax, "x [m]", "y [m]")
     return _save(fig, path)
 
 
@@ -176,13 +171,8 @@ def threshold(e: np.ndarray, measured: np.ndarray, mass_model: np.ndarray, facto
 
     for axis in (ax1.xaxis, ax1.yaxis):
         axis.set_minor_formatter(NullFormatter())
-    ax1.set_xlabel("predicted: quasi-static vs linear")
-    ax1.set_ylabel("measured: quasi-static vs Exudyn")
     ax2.axhline(tolerance, color="r", lw=0.8, ls=":")
     ax2.set_yscale("log")
-    ax2.set_xlabel("r / family's interpolated quasi-static r10")
-    ax2.set_ylabel("measured: quasi-static vs Exudyn")
-    for ax in (ax1, ax2):
-        ax.grid(alpha=0.3, which="both")
-        ax.legend(fontsize=7)
+    _axes(ax1, "predicted: quasi-static vs linear", "measured: quasi-static vs Exudyn", 7, "both")
+    _axes(ax2, "r / family's interpolated quasi-static r10", "measured: quasi-static vs Exudyn", 7, "both")
     return _save(fig, path)
