@@ -15,12 +15,11 @@ from compare.atlas.calibration import store_margins
 from compare.atlas.confirm import run_confirm
 from compare.atlas.report import write_report
 from compare.atlas.run import run_atlas
-from compare.atlas.threshold import run_threshold
+from compare.atlas.threshold import DEFAULT_THRESHOLD, run_threshold
 from compare.paths import StudyPaths, remove_outputs
 
 DEFAULT_LINKAGES = 1000
 DEFAULT_CONFIRM = 200
-DEFAULT_THRESHOLD = 400
 
 
 def atlas_file(paths: StudyPaths) -> Path:
