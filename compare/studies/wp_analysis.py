@@ -21,6 +21,7 @@ import numpy as np
 
 from compare.studies.study_io import rows
 from ked_linear import UNRESOLVED_ESTIMATE
+from ked_quasi.massmodel import MASS_MODELS
 
 #: settings (besides those of [dynamic]) that make a scene the fine reference of its family
 REFERENCE = {"element": "ancf", "elements_per_link": 8, "steps_per_cycle": 2880, "spectral_radius": 0.9,
@@ -166,9 +167,6 @@ def observed_order(lumps: Sequence[int], error: Sequence[float]) -> float:
     return float(-np.polyfit(np.log(n[half]), np.log(e[half]), 1)[0])
 
 
-MASS_MODELS = ("tip", "joints", "extender", "distributed")
-
-
 def _json(x: Any) -> Any:
     return json.loads(x) if isinstance(x, str) else x
 
@@ -177,8 +175,7 @@ def wp_points(tables: dict[str, dict[str, np.ndarray]]) -> list[WPPoint]:
     """The stored ``dynamic`` table as :class:`WPPoint` records."""
     out = []
     for r in rows(tables.get("dynamic", {})):
-        disc = Discretization(r["disc_element"], int(r["disc_elements_per_link"]), int(r["disc_steps_per_cycle"]),
-                              float(r["disc_spectral_radius"]))
+        disc = disc_of({k.removeprefix("disc_"): v for k, v in r.items() if k.startswith("disc_")})
         out.append(WPPoint(r["family"], disc, bool(r["reference"]), bool(r["ok"]), float(r["wall_s"]),
                            int(r["repeats"]), float(r["error"]), int(r["cycles"]), int(r["newton_iterations"]),
                            str(r["message"]), float(r.get("wall_spread", 0.0))))
