@@ -74,10 +74,8 @@ def answer_rows(ref: Sequence[FamilySummary]) -> list[list[str]]:
     for fs in ref:
         s0 = fs.slots[0] if fs.slots else None
         floor = f"{pct(s0.errors.history, '.2f')} ({s0.r:g})" if s0 is not None and s0.ok else "-"
-        rows.append([_name(fs), fs.mass_model,
-                     f"{fs.f1_range_hz[0]:.1f}-{fs.f1_range_hz[1]:.1f}",
-                     f"{_rpm_at(fs, 1.0):.0f}", floor,
-                     limit_text(fs, "peak", 0.05), limit_text(fs, "peak", 0.10),
+        rows.append([_name(fs), fs.mass_model, f"{fs.f1_range_hz[0]:.1f}-{fs.f1_range_hz[1]:.1f}",
+                     f"{_rpm_at(fs, 1.0):.0f}", floor, limit_text(fs, "peak", 0.05), limit_text(fs, "peak", 0.10),
                      limit_text(fs, "history", 0.05), limit_text(fs, "history", 0.10)])
     return rows
 
@@ -237,10 +235,8 @@ def variant_rows(summaries: Sequence[FamilySummary]) -> list[list[str]]:
             continue
         for fs in sorted(fams, key=lambda f: (f.direction, f.damping)):
             errs = {round(s.r, 6): s for s in fs.slots}
-            cells = []
-            for r in (0.1, 0.25, 0.5):
-                s = errs.get(r)
-                cells.append(pct(s.errors.history, ".1f") if s is not None and s.ok else ("failed" if s else "-"))
+            cells = [pct(s.errors.history, ".1f") if s is not None and s.ok else ("failed" if s else "-")
+                     for s in (errs.get(r) for r in (0.1, 0.25, 0.5))]
             rows.append([_name(fs), fs.mass_model, f"{100 * fs.damping:g} %", fs.direction,
                          limit_text(fs, "history", 0.05), limit_text(fs, "history", 0.10), *cells])
     return rows
