@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import warnings
 from typing import Any
 
@@ -170,13 +171,12 @@ def _slider(opts: SceneOptions, sc: Any, as_json: bool, summary: bool) -> None:
     out, msgs = solve_slider(scene)
     f1_min = min((f for f in out["f1_hz"] if f is not None), default=float("nan"))
     try:
-        rules.check_speed_ratio(scene.omega / (2.0 * 3.141592653589793 * f1_min), opts.rpm, f1_min, "value")
+        rules.check_speed_ratio(scene.omega / (2.0 * math.pi * f1_min), opts.rpm, f1_min, "value")
     except ValueError as exc:
         raise click.BadParameter(str(exc).removeprefix("value = "), param_hint="--rpm") from None
     for m in msgs:
         click.echo(wrap(f"warning: {m}"), err=True)
     if as_json:
-
         click.echo(json_text(out))
         return
     _slider_table(opts, scene, out)

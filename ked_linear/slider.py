@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ked_quasi.damping import rayleigh_beta
-from ked_quasi.frame import _local_stiffness, _rotate
+from ked_quasi.frame import _congruence, _local_stiffness, _rotate, _static_modes
 from ked_quasi.slider_static import (
     SliderTopology,
     force_transformation,
@@ -217,20 +217,6 @@ def condensed_slider(scene: SliderScene, crank_angle: np.ndarray | None = None,
     flat = loads.reshape(theta.size, -1)
     return SliderCondensed(stiffness=Kc, material_stiffness=Km, mass=frame.mass, load=flat[:, frame.master],
                            output=out)
-
-
-def _static_modes(K: np.ndarray, master: np.ndarray) -> np.ndarray:
-    """Psi (n, dofs, k): all dofs per unit master displacement, the slaves carrying no load."""
-    slave = np.setdiff1d(np.arange(K.shape[-1]), master)
-    psi = np.zeros((K.shape[0], K.shape[-1], master.size))
-    psi[:, master, np.arange(master.size)] = 1.0
-    psi[:, slave] = -np.linalg.solve(K[:, slave[:, None], slave], K[:, slave[:, None], master])
-    return psi
-
-
-def _congruence(psi: np.ndarray, K: np.ndarray) -> np.ndarray:
-    Kc = np.swapaxes(psi, 1, 2) @ K @ psi
-    return 0.5 * (Kc + np.swapaxes(Kc, 1, 2))
 
 
 def slider_damping_reference_hz(scene: SliderScene) -> float:
