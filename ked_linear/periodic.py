@@ -137,26 +137,74 @@ def solve_periodic(system: PeriodicSystem, harmonics: int, points: int | None = 
     N = collocation_points(H) if points is None else int(points)
     if H < 1 or N <= 2 * H:
         raise ValueError(f"need harmonics >= 1 and points > 2 * harmonics; got harmonics={H}, points={N}")
-    theta = np.arange(N) * (2.0 * np.pi / N)
-    co = system.coefficients(theta)
-    s, m = system.speed, system.mass
-    Kinv = np.linalg.inv(co.stiffness)
-    q_hat = spectrum(_apply(Kinv, co.load))
-    rhs = -_apply(Kinv, s * _apply(co.damping, _on_grid(q_hat, N, 1)) + s**2 * m * _on_grid(q_hat, N, 2))
-    E, E1, E2 = trig_basis(theta, H)
-    weight = np.r_[1.0, np.full(2 * H, 2.0)] / N  # Pi_H: c_b = weight_b sum_j E[j, b] x_j
-    X, Y = Kinv @ co.damping, Kinv * m  # K^-1 C, K^-1 M
-    c0 = weight[:, None] * (E.T @ rhs)
+    return _solve_on(_Collocation(system, N), H, start)
+
+
+class _Collocation:
+    """What every level of the periodic solve on the same N collocation points shares: the
+    coefficients there, K^-1, the quasi-static solution's spectrum, the right-hand side -K^-1 B q, X = K^-1 C,
+    Y = K^-1 M and (on first use) their DFTs and the dense operator of the largest H asked for."""
+
+    def __init__(self, system: PeriodicSystem, N: int):
+        self.system, self.N = system, N
+        self.theta = np.arange(N) * (2.0 * np.pi / N)
+        co = system.coefficients(self.theta)
+        s, m = system.speed, system.mass
+        Kinv = np.linalg.inv(co.stiffness)
+        self.q_hat = spectrum(_apply(Kinv, co.load))
+        self.rhs = -_apply(Kinv, s * _apply(co.damping, _on_grid(self.q_hat, N, 1))
+                           + s**2 * m * _on_grid(self.q_hat, N, 2))
+        self.rhs_hat = np.fft.rfft(self.rhs, axis=0) / N
+        self.X, self.Y = Kinv @ co.damping, Kinv * m  # K^-1 C, K^-1 M
+        self._dft: tuple[np.ndarray, np.ndarray] | None = None
+        self._dense: np.ndarray | None = None
+
+    def projected_rhs(self, H: int) -> np.ndarray:
+        """c0 = Pi_H rhs, real coefficients (2H + 1, n) [mean, 2 Re, -2 Im of the DFT: weight * E^T rhs]."""
+        c0 = np.empty((2 * H + 1, self.rhs.shape[1]))
+        c0[0] = self.rhs_hat[0].real
+        c0[1::2], c0[2::2] = 2.0 * self.rhs_hat[1:H + 1].real, -2.0 * self.rhs_hat[1:H + 1].imag
+        return c0
+
+    def dft(self) -> tuple[np.ndarray, np.ndarray]:
+        if self._dft is None:
+            self._dft = (np.fft.fft(self.X, axis=0) / self.N, np.fft.fft(self.Y, axis=0) / self.N)
+        return self._dft
+
+    def dense(self, H: int, largest: int) -> np.ndarray:
+        """I + G (P n, P n), P = 2H + 1: the leading block of the operator of ``largest`` harmonics (built
+        once; its real coefficients are ordered by harmonic, so every smaller H is its leading block)."""
+        if self._dense is None or self._dense.shape[0] < 2 * H + 1:
+            n = self.X.shape[1]
+            top = max(H, largest)
+            G = _dense_operator(self.system.speed, self.X, self.Y, top, self.dft())
+            G.reshape((2 * top + 1) * n, -1)[np.diag_indices((2 * top + 1) * n)] += 1.0
+            self._dense = G
+        P = 2 * H + 1
+        G = self._dense[:P, :, :P, :]
+        return G.reshape(P * G.shape[1], -1)
+
+
+def _solve_on(col: _Collocation, H: int, start: PeriodicSolution | None = None,
+              largest: int = 0) -> PeriodicSolution:
+    """The level H on the collocation points of ``col`` (``largest``: the largest H that will be asked of
+    ``col``, whose dense operator then serves the smaller ones)."""
+    s, N = col.system.speed, col.N
+    c0 = col.projected_rhs(H)
     banded = False
     if c0.size <= DENSE_LIMIT:
-        c = _solve_dense(s, E, E1, E2, weight, X, Y, c0)
+        if (2 * max(H, largest) + 1) * c0.shape[1] > DENSE_LIMIT:
+            largest = H
+        c = np.linalg.solve(col.dense(H, largest), c0.ravel()).reshape(c0.shape)
     else:
-        c, banded = _solve_krylov(s, E, E1, E2, weight, X, Y, c0, _first_guess(start, c0.shape),
+        E, E1, E2 = trig_basis(col.theta, H)
+        weight = np.r_[1.0, np.full(2 * H, 2.0)] / N  # Pi_H: c_b = weight_b sum_j E[j, b] x_j
+        c, banded = _solve_krylov(s, E, E1, E2, weight, col.X, col.Y, c0, _first_guess(start, c0.shape),
                                   cheap=not (start is not None and start.banded))
-    z_hat = q_hat.astype(complex)
+    z_hat = col.q_hat.astype(complex)
     z_hat[0] += c[0]
     z_hat[1:H + 1] += 0.5 * (c[1::2] - 1j * c[2::2])
-    return PeriodicSolution(system=system, harmonics=H, points=N, kinematic=z_hat, correction=c,
+    return PeriodicSolution(system=col.system, harmonics=H, points=N, kinematic=z_hat, correction=c,
                             banded=banded)
 
 
@@ -188,13 +236,15 @@ def _solve_dense(s, E, E1, E2, weight, X, Y, c0) -> np.ndarray:
     return np.linalg.solve(G, c0.ravel()).reshape(P, n)
 
 
-def _dense_operator(s: float, X: np.ndarray, Y: np.ndarray, H: int) -> np.ndarray:
+def _dense_operator(s: float, X: np.ndarray, Y: np.ndarray, H: int,
+                    dft: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """G (2H + 1, n, 2H + 1, n) on the real coefficients [1, cos, sin, ...]: the complex blocks
     G^[k, l] = (i l s) X^_{k-l} - (l s)^2 Y^_{k-l} (X^_d the DFT of X on the N collocation points:
     block Toeplitz), combined for an input cos(l theta) = (e^{il} + e^{-il}) / 2 and sin(l theta) =
-    -i (e^{il} - e^{-il}) / 2, and read out as 2 Re (cos), -2 Im (sin), Re (mean) of harmonic k."""
+    -i (e^{il} - e^{-il}) / 2, and read out as 2 Re (cos), -2 Im (sin), Re (mean) of harmonic k.
+    ``dft``: (X^, Y^) if already at hand."""
     N, n = X.shape[0], X.shape[1]
-    Xh, Yh = np.fft.fft(X, axis=0) / N, np.fft.fft(Y, axis=0) / N
+    Xh, Yh = (np.fft.fft(X, axis=0) / N, np.fft.fft(Y, axis=0) / N) if dft is None else dft
     k, l = np.arange(H + 1)[:, None], np.arange(1, H + 1)[None, :]
 
     def blocks(lv: np.ndarray) -> np.ndarray:  # G^[k, lv], (H + 1, H, n, n)
@@ -319,7 +369,12 @@ def evaluate(solution: PeriodicSolution, theta: np.ndarray,
     sys_ = solution.system
     co = sys_.coefficients(theta) if coefficients is None else coefficients
     s = sys_.speed
-    z1, z2 = series(solution.kinematic, theta, 1), series(solution.kinematic, theta, 2)
+    Z = solution.kinematic
+    k = np.arange(Z.shape[0])
+    # z' and z'' of the series (as :func:`series`) in one product: weights 2 i k and -2 k^2 (k > 0)
+    both = np.concatenate([(2j * k)[:, None] * Z, (-2.0 * k**2)[:, None] * Z], axis=1)
+    z12 = (np.exp(1j * np.outer(theta, k)) @ both).real
+    z1, z2 = z12[:, :Z.shape[1]], z12[:, Z.shape[1]:]
     rhs = co.load - s * _apply(co.damping, z1) - s**2 * sys_.mass * z2
     u = np.linalg.solve(co.stiffness, rhs[..., None])[..., 0]
     return u, None if co.output is None else _apply(co.output, u)
@@ -373,8 +428,13 @@ def steady_state(system: PeriodicSystem, theta: np.ndarray, tolerance: float, ha
     else:
         levels = harmonic_levels(max_harmonics)
     previous, changes, est, sol = None, [], float("nan"), None
+    grids: dict[int, _Collocation] = {}  # the levels on the same collocation points share their setup
+    largest = {collocation_points(H): H for H in levels}
     for H in levels:
-        sol = solve_periodic(system, H, start=sol)
+        N = collocation_points(H)
+        if N not in grids:
+            grids = {N: _Collocation(system, N)}  # a finer grid: the coarser one is not needed again
+        sol = _solve_on(grids[N], H, start=sol, largest=largest[N])
         u, y = evaluate(sol, theta, co)
         current = u if y is None else y
         if previous is not None:
