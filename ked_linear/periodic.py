@@ -300,7 +300,15 @@ def _solve_krylov(s, E, E1, E2, weight, X, Y, c0, x0=None, cheap: bool = True) -
     lu = _banded_operator(s, X, Y, H, PRECONDITIONER_BANDS)
 
     def banded(x: np.ndarray) -> np.ndarray:
-        return _real_form(lu.solve(_complex_form(x.reshape(P, n)).ravel()).reshape(2 * H + 1, n)).ravel()
+        c = x.reshape(P, n)
+        a = np.empty((H + 1, n), dtype=complex)  # the amplitudes of e^{ik theta}, k = 0 .. H
+        a[0] = c[0]
+        a[1:] = 0.5 * (c[1::2] - 1j * c[2::2])
+        a = lu.solve(a.ravel()).reshape(H + 1, n)
+        out = np.empty((P, n))
+        out[0] = a[0].real
+        out[1::2], out[2::2] = 2.0 * a[1:].real, -2.0 * a[1:].imag
+        return out.ravel()
 
     x, info = spla.gmres(op, c0.ravel(), x0=x, M=spla.LinearOperator(op.shape, matvec=banded, dtype=float),
                          restart=200, maxiter=5, **tol)
@@ -320,44 +328,28 @@ KRYLOV_TOLERANCE = 1e-11
 """Relative residual at which the iterative periodic solve stops."""
 
 
-def _complex_form(c: np.ndarray) -> np.ndarray:
-    """Real trigonometric coefficients (2H + 1, n) [1, cos, sin, ...] -> complex amplitudes a_k of
-    e^{i k theta}, k = -H .. H (2H + 1, n)."""
-    H = (c.shape[0] - 1) // 2
-    a = np.empty(c.shape, dtype=complex)
-    a[H] = c[0]
-    a[H + 1:] = 0.5 * (c[1::2] - 1j * c[2::2])
-    a[:H] = np.conj(a[H + 1:][::-1])
-    return a
-
-
-def _real_form(a: np.ndarray) -> np.ndarray:
-    """Inverse of :func:`_complex_form` (the real part of a Hermitian set of amplitudes)."""
-    H = (a.shape[0] - 1) // 2
-    c = np.empty(a.shape)
-    c[0] = a[H].real
-    c[1::2], c[2::2] = 2.0 * a[H + 1:].real, -2.0 * a[H + 1:].imag
-    return c
-
-
 def _banded_operator(s: float, X: np.ndarray, Y: np.ndarray, H: int, bands: int):
-    """Sparse LU of the collocation operator in complex amplitudes (k, l = -H .. H) kept to the bands
-    |k - l| <= ``bands``: block (k, l) = delta_kl I + (i l s) X^_{k-l} - (l s)^2 Y^_{k-l}, X^_d the DFT
-    of X on the N collocation points (exactly the operator's coupling, block Toeplitz in the harmonics)."""
+    """Sparse LU of the collocation operator in complex amplitudes of the nonnegative harmonics
+    (k, l = 0 .. H) kept to the bands |k - l| <= ``bands``: block (k, l) = delta_kl I + (i l s) X^_{k-l} -
+    (l s)^2 Y^_{k-l}, X^_d the DFT of X on the N collocation points (the operator's coupling, block Toeplitz
+    in the harmonics).  A real solution's amplitudes of -k are the conjugates of those of k; the coupling
+    of k to the conjugates, |k + l| <= ``bands`` (the lowest harmonics, where the operator is near the
+    identity), is left out: half the size of the system on all harmonics -H .. H, for a preconditioner."""
     from scipy import sparse
     from scipy.sparse import linalg as spla
 
     N, n = X.shape[0], X.shape[1]
-    Xh, Yh = np.fft.fft(X, axis=0) / N, np.fft.fft(Y, axis=0) / N
-    d, l = np.meshgrid(np.arange(-bands, bands + 1), np.arange(-H, H + 1), indexing="ij")
-    keep = np.abs(l + d) <= H
+    d, l = np.meshgrid(np.arange(-bands, bands + 1), np.arange(H + 1), indexing="ij")
+    keep = (l + d >= 0) & (l + d <= H)
     d, l = d[keep], l[keep]
-    blocks = (1j * s * l)[:, None, None] * Xh[d % N] - ((s * l) ** 2)[:, None, None] * Yh[d % N]
+    Xh = np.fft.fft(X, axis=0)[np.arange(-bands, bands + 1) % N] / N  # only the bands' coefficients
+    Yh = np.fft.fft(Y, axis=0)[np.arange(-bands, bands + 1) % N] / N
+    blocks = (1j * s * l)[:, None, None] * Xh[d + bands] - ((s * l) ** 2)[:, None, None] * Yh[d + bands]
     blocks[d == 0] += np.eye(n)
     i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    rows = ((l + d + H) * n)[:, None, None] + i
-    cols = ((l + H) * n)[:, None, None] + j
-    size = (2 * H + 1) * n
+    rows = ((l + d) * n)[:, None, None] + i
+    cols = (l * n)[:, None, None] + j
+    size = (H + 1) * n
     A = sparse.csc_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())), shape=(size, size))
     return spla.splu(A, permc_spec="NATURAL")  # banded: natural order keeps the fill in the band
 
