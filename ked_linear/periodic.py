@@ -273,9 +273,11 @@ def _solve_krylov(s, E, E1, E2, weight, X, Y, c0, x0=None, cheap: bool = True) -
     P, n = c0.shape
     H = (P - 1) // 2
 
+    XY = np.concatenate([s * X, s**2 * Y], axis=2)  # one batched product per matvec: [s X, s^2 Y] [E1 c; E2 c]
+
     def apply(x: np.ndarray) -> np.ndarray:
         c = x.reshape(P, n)
-        g = _apply(X, s * (E1 @ c)) + _apply(Y, s**2 * (E2 @ c))
+        g = (XY @ np.concatenate([E1 @ c, E2 @ c], axis=1)[..., None])[..., 0]
         return (c + weight[:, None] * (E.T @ g)).ravel()
 
     k = np.arange(1, H + 1)[:, None, None]
