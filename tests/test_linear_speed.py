@@ -128,6 +128,41 @@ def test_krylov_solve_equals_dense_solve(seed, monkeypatch):
         assert np.abs(krylov.kinematic - dense.kinematic).max() < 1e-10 * np.abs(dense.kinematic).max()
 
 
+def test_dense_operator_equals_its_definition_and_nests():
+    # the operator built from the DFTs of X = K^-1 C, Y = K^-1 M (block Toeplitz in the harmonics) equals its
+    # definition on the collocation points, G[b, a] = w_b sum_j E[j, b] (s E1[j, a] X_j + s^2 E2[j, a] Y_j)
+    # (trigonometric basis E and its derivatives, w the projection's weights), and the operator of fewer
+    # harmonics is its leading block (the levels of the periodic solve on the same points share it)
+    from ked_linear.periodic import _dense_operator, trig_basis
+
+    rng = np.random.default_rng(7)
+    N, n, s = 32, 3, 1.7
+    X, Y = rng.normal(size=(2, N, n, n))
+    theta = np.arange(N) * (2 * np.pi / N)
+    for H in (4, 8):
+        E, E1, E2 = trig_basis(theta, H)
+        w = np.r_[1.0, np.full(2 * H, 2.0)] / N
+        direct = np.einsum("b,jb,ja,jik->biak", w, E, s * E1, X) + np.einsum("b,jb,ja,jik->biak", w, E, s**2 * E2, Y)
+        G = _dense_operator(s, X, Y, H)
+        np.testing.assert_allclose(G, direct, atol=1e-12 * np.abs(direct).max())
+    big, small = _dense_operator(s, X, Y, 8), _dense_operator(s, X, Y, 4)
+    assert np.array_equal(big[:9, :, :9, :], small)
+
+
+def test_levels_sharing_collocation_points_equal_separate_solves():
+    # steady_state solves H = 4 and 8 (both on 32 points) from one shared setup and dense operator: the
+    # answer equals solve_periodic at H = 8 on its own, and the error estimate the change from H = 4 alone
+    from ked_linear.periodic import evaluate, relative_change, steady_state
+
+    system = _random_system(4, 11)
+    theta = np.arange(36) * (2 * np.pi / 36)
+    ss = steady_state(system, theta, tolerance=1e-3, harmonics=8)
+    u8, _ = evaluate(solve_periodic(system, 8), theta)
+    u4, _ = evaluate(solve_periodic(system, 4), theta)
+    np.testing.assert_allclose(ss.displacement, u8, rtol=0, atol=1e-12 * np.abs(u8).max())
+    assert ss.error_estimate == pytest.approx(relative_change(u8, u4), rel=1e-9)
+
+
 def test_warm_start_does_not_change_the_answer(monkeypatch):
     system = _random_system(5, 3)
     monkeypatch.setattr(periodic, "DENSE_LIMIT", 0)
