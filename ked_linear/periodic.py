@@ -662,7 +662,7 @@ def _compact(co: Coefficients, symmetric: tuple[bool, ...]) -> np.ndarray:
     """Like :func:`_pack`, the symmetric fields by their upper triangles."""
     parts = []
     for f, sym in zip(_fields(co), symmetric):
-        parts.append(f[(slice(None), *np.triu_indices(f.shape[1]))] if sym else f.reshape(f.shape[0], -1))
+        parts.append(f.reshape(f.shape[0], -1)[:, _upper_flat(f.shape[1])] if sym else f.reshape(f.shape[0], -1))
     return np.concatenate(parts, axis=1)
 
 
@@ -682,6 +682,18 @@ def _expand(flat: np.ndarray, layout: tuple[tuple[int, ...], ...], symmetric: tu
 
 
 _TRIANGLES: dict[int, np.ndarray] = {}
+
+
+_UPPER: dict[int, np.ndarray] = {}
+
+
+def _upper_flat(n: int) -> np.ndarray:
+    """The row-major flat indices of ``np.triu_indices(n)`` in an n x n matrix (cached: built per call, they
+    cost more than the gather itself for the small matrices of a linkage)."""
+    if n not in _UPPER:
+        i, j = np.triu_indices(n)
+        _UPPER[n] = i * n + j
+    return _UPPER[n]
 
 
 def _triangle_index(n: int) -> np.ndarray:
