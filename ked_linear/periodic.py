@@ -268,8 +268,6 @@ def _solve_krylov(s, E, E1, E2, weight, X, Y, c0, x0=None, cheap: bool = True) -
     converged in :data:`CHEAP_ITERATIONS` iterations, on from there with the operator truncated to
     the coefficients' harmonics |k - l| <= :data:`PRECONDITIONER_BANDS` (block banded: a sparse LU).
     ``cheap``: False skips the first stage.  Returns c and whether the banded stage was needed."""
-    from scipy.sparse import linalg as spla  # here: scipy's import time is spent only when needed
-
     P, n = c0.shape
     H = (P - 1) // 2
 
@@ -291,13 +289,12 @@ def _solve_krylov(s, E, E1, E2, weight, X, Y, c0, x0=None, cheap: bool = True) -
         out[1::2], out[2::2] = z.real, -z.imag
         return out.ravel()
 
-    op = spla.LinearOperator((P * n, P * n), matvec=apply, dtype=float)
-    tol = {"rtol": KRYLOV_TOLERANCE, "atol": KRYLOV_TOLERANCE * np.linalg.norm(c0)}
-    x = x0
+    b = c0.ravel()
+    tol = KRYLOV_TOLERANCE * np.linalg.norm(b)
+    x = np.zeros_like(b) if x0 is None else np.asarray(x0, dtype=float)
     if cheap and CHEAP_ITERATIONS > 0:
-        x, info = spla.gmres(op, c0.ravel(), x0=x0, M=spla.LinearOperator(op.shape, matvec=averaged, dtype=float),
-                             restart=CHEAP_ITERATIONS, maxiter=1, **tol)
-        if info == 0:
+        x, done = _gmres(apply, averaged, b, x, tol, CHEAP_ITERATIONS, 1)
+        if done:
             return x.reshape(P, n), False
     lu = _banded_operator(s, X, Y, H, PRECONDITIONER_BANDS)
 
@@ -312,11 +309,58 @@ def _solve_krylov(s, E, E1, E2, weight, X, Y, c0, x0=None, cheap: bool = True) -
         out[1::2], out[2::2] = 2.0 * a[1:].real, -2.0 * a[1:].imag
         return out.ravel()
 
-    x, info = spla.gmres(op, c0.ravel(), x0=x, M=spla.LinearOperator(op.shape, matvec=banded, dtype=float),
-                         restart=200, maxiter=5, **tol)
-    if info != 0:
+    x, done = _gmres(apply, banded, b, x, tol, 200, 5)
+    if not done:
         return _solve_dense(s, E, E1, E2, weight, X, Y, c0), True
     return x.reshape(P, n), True
+
+
+def _gmres(apply: Callable[[np.ndarray], np.ndarray], precondition: Callable[[np.ndarray], np.ndarray],
+           b: np.ndarray, x: np.ndarray, tol: float, restart: int, cycles: int) -> tuple[np.ndarray, bool]:
+    """GMRES preconditioned on the right (A M y = b, x = M y: its residual is that of A x = b) from ``x``,
+    at most ``cycles`` cycles of ``restart`` iterations, until |b - A x| <= ``tol``; returns x and whether
+    it got there.  The Krylov basis is orthogonalized by classical Gram-Schmidt applied twice (two matrix
+    products per iteration: a few hundred unknowns' worth of Python work less per iteration than a loop
+    over the basis vectors), the small least-squares problem by Givens rotations."""
+    for _ in range(cycles):
+        r = b - apply(x)
+        beta = float(np.linalg.norm(r))
+        if beta <= tol:
+            return x, True
+        V = np.empty((restart + 1, b.size))
+        R = np.zeros((restart + 1, restart))  # the Hessenberg matrix, rotated to upper triangular
+        g = np.zeros(restart + 1)
+        cs, sn = np.zeros(restart), np.zeros(restart)
+        V[0], g[0] = r / beta, beta
+        j = 0
+        for j in range(restart):
+            w = apply(precondition(V[j]))
+            h = V[:j + 1] @ w
+            w -= h @ V[:j + 1]
+            h2 = V[:j + 1] @ w  # the second pass: orthogonal to rounding whatever the first lost
+            w -= h2 @ V[:j + 1]
+            h += h2
+            norm = float(np.linalg.norm(w))
+            for i in range(j):  # the earlier rotations on the new column
+                h[i], h[i + 1] = cs[i] * h[i] + sn[i] * h[i + 1], -sn[i] * h[i] + cs[i] * h[i + 1]
+            d = float(np.hypot(h[j], norm))
+            cs[j], sn[j] = (1.0, 0.0) if d == 0.0 else (h[j] / d, norm / d)
+            R[:j + 1, j], R[j, j] = h, d
+            g[j + 1], g[j] = -sn[j] * g[j], cs[j] * g[j]
+            if abs(g[j + 1]) <= tol or norm == 0.0:
+                break
+            V[j + 1] = w / norm
+        m = j + 1
+        y = _upper_solve(R[:m, :m], g[:m])
+        x = x + precondition(y @ V[:m])
+    r = b - apply(x)
+    return x, bool(np.linalg.norm(r) <= tol)
+
+
+def _upper_solve(R: np.ndarray, g: np.ndarray) -> np.ndarray:
+    from scipy.linalg import solve_triangular
+
+    return solve_triangular(R, g)
 
 
 CHEAP_ITERATIONS = 20

@@ -163,6 +163,25 @@ def test_levels_sharing_collocation_points_equal_separate_solves():
     assert ss.error_estimate == pytest.approx(relative_change(u8, u4), rel=1e-9)
 
 
+@pytest.mark.parametrize("restart", [3, 8, 60])
+def test_gmres_equals_dense_solve_with_restarts(restart):
+    # the right-preconditioned GMRES of the iterative periodic solve against numpy's dense solve of a
+    # nonsymmetric system (a diagonal preconditioner, restarted every few iterations or not at all)
+    from ked_linear.periodic import _gmres
+
+    rng = np.random.default_rng(5)
+    n = 40
+    A = np.diag(rng.uniform(1.0, 10.0, n)) + 0.5 * rng.normal(size=(n, n)) / np.sqrt(n)
+    b = rng.normal(size=n)
+    d = 1.0 / np.diag(A)
+    x, done = _gmres(lambda v: A @ v, lambda v: d * v, b, np.zeros(n), 1e-12 * np.linalg.norm(b), restart, 200)
+    exact = np.linalg.solve(A, b)
+    assert done and np.abs(x - exact).max() < 1e-10 * np.abs(exact).max()
+    # too few iterations: it says so, and its iterate is still a fair start
+    x, done = _gmres(lambda v: A @ v, lambda v: d * v, b, np.zeros(n), 1e-12 * np.linalg.norm(b), 2, 1)
+    assert not done and np.linalg.norm(b - A @ x) < np.linalg.norm(b)
+
+
 def test_warm_start_does_not_change_the_answer(monkeypatch):
     system = _random_system(5, 3)
     monkeypatch.setattr(periodic, "DENSE_LIMIT", 0)
