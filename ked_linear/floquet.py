@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .periodic import Coefficients, PeriodicSystem
+from .periodic import Coefficients, PeriodicSystem, SampledCoefficients, _triangle_index
 
 GAUSS = 0.5 + np.array([-1.0, 1.0]) * np.sqrt(3.0) / 6.0
 """The two Gauss-Legendre nodes on [0, 1] (fractions of a step)."""
@@ -96,17 +96,83 @@ def _stage_coefficients(system: PeriodicSystem, steps: int, first: int, count: i
     return system.coefficients(system.speed * np.concatenate([t + c[0], t + c[1]]))
 
 
-def _steps_from(system: PeriodicSystem, co: Coefficients, lo: int, hi: int, count: int, h: float,
-                damped: bool) -> np.ndarray:
-    """Step matrices of the steps whose stage coefficients are rows lo .. hi - 1 (first stage) and
-    count + lo .. count + hi - 1 (second stage) of ``co``."""
-    K1, K2 = co.stiffness[lo:hi], co.stiffness[count + lo:count + hi]
-    C1, C2 = co.damping[lo:hi], co.damping[count + lo:count + hi]
-    if damped:
-        return _sdirk_steps_from(system.mass, K1, C1, K2, C2, h)
-    a = _state_matrices(system, Coefficients(stiffness=np.concatenate([K1, K2]), damping=np.concatenate([C1, C2]),
-                                             load=np.zeros((2 * (hi - lo), system.mass.size))))
-    return _gauss_steps(a[:hi - lo], a[hi - lo:], h)
+@dataclass(frozen=True)
+class _Series:
+    """K and C of a sampled system as one real trigonometric series: the value (2, n, n) at theta is
+    ``(basis(theta) @ rows)[expand]``, basis [1, cos t, sin t, ..., cos Ht, sin Ht], rows (2H + 1,
+    columns) from the interpolant's spectrum (the interpolant ``SampledCoefficients`` evaluates by
+    inverse FFTs on whole-turn grids, here by one matrix product per chunk of steps, for K and C only,
+    straight into the chunk's layout; H at most G/2 of the G samples: see :data:`SERIES_TAIL`)."""
+
+    harmonics: int
+    rows: np.ndarray
+    expand: np.ndarray
+    """The column of ``rows`` of each entry of (K, C) (2 n^2,): a symmetric field's rows are its upper
+    triangle's (as sampled)."""
+
+    def basis(self, theta0: float, step: float, steps: int, j: np.ndarray) -> np.ndarray:
+        """The basis (j.size, 2H + 1) at theta0 + step * j, step = +-2 pi / steps (j integer: the
+        phases k j are reduced modulo ``steps`` exactly)."""
+        k = np.arange(1, self.harmonics + 1)
+        z = np.exp(1j * step * np.arange(steps))[np.outer(j, k) % steps] * np.exp(1j * k * theta0)
+        E = np.empty((j.size, 2 * self.harmonics + 1))
+        E[:, 0] = 1.0
+        E[:, 1::2], E[:, 2::2] = z.real, z.imag
+        return E
+
+
+def _series(system: PeriodicSystem) -> _Series | None:
+    """K and C as a :class:`_Series` when the coefficients are sampled in the stiffness form (else None:
+    the flexibility form rebuilds K per angle, a plain callable has no series)."""
+    co = system.coefficients
+    if not isinstance(co, SampledCoefficients) or co.form != "stiffness":
+        return None
+    n = system.mass.size
+    spectrum, G = co.interpolant.spectrum, co.interpolant.points  # (F, G + 1), frequencies -G/2 .. G/2
+    columns, start, sizes = [], 0, []
+    for shape, sym in zip(co.layout[:2], co.symmetric[:2]):
+        if shape != (n, n):
+            return None
+        columns.append(start + (_triangle_index(n) if sym else np.arange(n * n)))
+        sizes.append(n * (n + 1) // 2 if sym else n * n)
+        start += sizes[-1]
+    s = spectrum[:start, G // 2:]  # K's and C's columns, frequencies 0 .. G/2: (columns, G/2 + 1)
+    # sum over f = -G/2 .. G/2 of s_f e^{i f t}, s_{-f} = conj(s_f): s_0 + sum_f 2 Re(s_f) cos ft - 2 Im(s_f) sin ft
+    rows = np.empty((G + 1, s.shape[0]))
+    rows[0] = s[:, 0].real
+    rows[1::2], rows[2::2] = 2.0 * s[:, 1:].real.T, -2.0 * s[:, 1:].imag.T
+    # the harmonics whose whole tail is round-off: at most SERIES_TAIL of each field's largest coefficient
+    tail = np.zeros(G // 2 + 1)
+    for f in (slice(0, sizes[0]), slice(sizes[0], sizes[0] + sizes[1])):
+        peak = np.max(np.abs(rows[:, f]), initial=0.0)
+        if peak > 0.0:
+            size = np.max(np.abs(rows[1::2, f]) + np.abs(rows[2::2, f]), axis=1) / peak  # (G/2,)
+            tail[:-1] = np.maximum(tail[:-1], np.cumsum(size[::-1])[::-1])
+    H = int(np.argmax(tail <= SERIES_TAIL))  # tail[H]: harmonics above H
+    return _Series(harmonics=H, rows=np.ascontiguousarray(rows[:2 * H + 1]), expand=np.concatenate(columns))
+
+
+SERIES_TAIL = 1e-14
+"""Harmonics of the coefficients' series dropped from the top while the sum of their amplitudes stays
+below this fraction of the field's largest coefficient (the interpolant's round-off noise: the values
+change by no more than the rounding of their own evaluation)."""
+
+
+def _stage_fields(system: PeriodicSystem, series: _Series | None, steps: int, first: int, count: int,
+                  damped: bool) -> tuple[np.ndarray, np.ndarray]:
+    """K and C (2, count, n, n) at the two stage angles (first stage, second stage) of steps first ..
+    first + count - 1 of ``steps`` per cycle: from the series if there is one, else from the system."""
+    n = system.mass.size
+    if series is None:
+        co = _stage_coefficients(system, steps, first, count, damped)
+        return co.stiffness.reshape(2, count, n, n), co.damping.reshape(2, count, n, n)
+    step = np.sign(system.speed) * 2.0 * np.pi / steps
+    j = first + np.arange(count)
+    c = _stage_offsets(damped, system.period / steps)
+    E = np.concatenate([series.basis(system.speed * c[0], step, steps, j),
+                        series.basis(system.speed * c[1], step, steps, j)])
+    fields = np.take(E @ series.rows, series.expand, axis=1).reshape(2, count, 2, n, n)
+    return fields[:, :, 0], fields[:, :, 1]
 
 
 def step_matrices(system: PeriodicSystem, steps: int, first: int = 0, count: int | None = None) -> np.ndarray:
@@ -115,8 +181,19 @@ def step_matrices(system: PeriodicSystem, steps: int, first: int = 0, count: int
     (:func:`undamped`), else SDIRK2 (L-stable)."""
     count = steps - first if count is None else count
     damped = not undamped(system)
-    co = _stage_coefficients(system, steps, first, count, damped)
-    return _steps_from(system, co, 0, count, count, system.period / steps, damped)
+    K, C = _stage_fields(system, _series(system), steps, first, count, damped)
+    return _steps(system, K, C, system.period / steps, damped)
+
+
+def _steps(system: PeriodicSystem, K: np.ndarray, C: np.ndarray, h: float, damped: bool) -> np.ndarray:
+    """Step matrices (count, 2n, 2n) from K and C (2, count, n, n) at the two stage angles of each step."""
+    if damped:
+        return _sdirk_steps_from(system.mass, K, C, h)
+    count = K.shape[1]
+    a = _state_matrices(system, Coefficients(stiffness=K.reshape((2 * count,) + K.shape[2:]),
+                                             damping=C.reshape((2 * count,) + C.shape[2:]),
+                                             load=np.zeros((2 * count, system.mass.size))))
+    return _gauss_steps(a[:count], a[count:], h)
 
 
 SDIRK_GAMMA = 1.0 - 1.0 / np.sqrt(2.0)
@@ -124,7 +201,7 @@ SDIRK_GAMMA = 1.0 - 1.0 / np.sqrt(2.0)
 
 def _resolvent(system: PeriodicSystem, theta: np.ndarray, a: float) -> np.ndarray:
     """(I - a A(theta))^-1 for each angle, (m, 2n, 2n), via the n x n matrix Z = M + a C + a^2 K (the
-    reference form of the resolvent; :func:`_sdirk_steps` applies it by blocks instead)."""
+    reference form of the resolvent; :func:`_sdirk_steps_from` applies it by blocks instead)."""
     co = system.coefficients(theta)
     m = system.mass
     Zi = np.linalg.inv(np.eye(m.size) * m + a * co.damping + a**2 * co.stiffness)
@@ -135,60 +212,81 @@ def _resolvent(system: PeriodicSystem, theta: np.ndarray, a: float) -> np.ndarra
     return np.concatenate([top, bottom], axis=1)
 
 
-def _sdirk_steps(system: PeriodicSystem, first: int, count: int, h: float) -> np.ndarray:
-    """Step matrices of the two-stage L-stable SDIRK method (Alexander 1977), steps first .. first +
-    count - 1 of length h (see :func:`_sdirk_steps_from`)."""
-    co = _stage_coefficients(system, int(round(system.period / h)), first, count, True)
-    return _sdirk_steps_from(system.mass, co.stiffness[:count], co.damping[:count], co.stiffness[count:],
-                             co.damping[count:], h)
-
-
-def _sdirk_steps_from(m: np.ndarray, K1: np.ndarray, C1: np.ndarray, K2: np.ndarray, C2: np.ndarray,
-                      h: float) -> np.ndarray:
+def _sdirk_steps_from(m: np.ndarray, K: np.ndarray, C: np.ndarray, h: float) -> np.ndarray:
     """SDIRK2 step matrices x_{j+1} = R(t_j + h) [(1 - alpha) I + alpha R(t_j + gamma h)] x_j,
-    R = (I - gamma h A)^-1, alpha = (1 - gamma) / gamma, from the coefficients at the stage angles (K1, C1
-    at t_j + gamma h, K2, C2 at t_j + h).
+    R = (I - gamma h A)^-1, alpha = (1 - gamma) / gamma, from K and C (2, count, n, n) at the stage
+    angles (first stage t_j + gamma h, second t_j + h).
 
-    By blocks, never forming R: for x = (u, v), R x = (u + a y, y) with y = Z^-1 (M v - a K u),
-    Z = M + a C + a^2 K, a = gamma h (the Z-form of :func:`_resolvent`), so a step costs two batched
-    n x n solves with 2n right-hand sides and one n x n x 2n product instead of two inverses and 2n x 2n
-    products (about half the flops, a fraction of the memory traffic)."""
-    count, n = K1.shape[0], m.size
+    By blocks, never forming R: for x = (u, v), R x = (u + a y, y) with y = W (M v - a K u),
+    W = Z^-1, Z = M + a C + a^2 K, a = gamma h (the Z-form of :func:`_resolvent`).  With P = -a W K and
+    Q = W M of each stage: stage 1 on X = I gives Y1 = [P1, Q1]; B = (1 - alpha) I + alpha R1 =
+    [[I, 0] + alpha a Y1; (1 - alpha) [0, I] + alpha Y1]; stage 2, y2 = W2 (M Bv - a K2 Bu) =
+    [P2, (1 - alpha) Q2] + alpha (Q2 + a P2) Y1, and S = [Bu + a y2; y2].  Per step: two n x n inverses
+    (one batched call for both stages), W K (n^3) and one n x n x 2n product: cheaper than two batched
+    solves with 2n right-hand sides."""
+    count, n = K.shape[1], m.size
     a = SDIRK_GAMMA * h
     alpha = (1.0 - SDIRK_GAMMA) / SDIRK_GAMMA
-    # stage 1 on X = I: y1 = Z1^-1 [-a K1, M]
     diag = np.arange(n)
-    rhs = np.zeros((count, n, 2 * n))
-    np.multiply(K1, -a, out=rhs[:, :, :n])
-    rhs[:, diag, n + diag] = m
-    Y1 = np.linalg.solve(_z_matrix(m, K1, C1, a), rhs)
-    # B = (1 - alpha) I + alpha R1: Bu = [I, 0] + alpha a Y1, Bv = (1 - alpha) [0, I] + alpha Y1
-    Bu = Y1 * (alpha * a)
-    Bu[:, diag, diag] += 1.0
-    Bv = np.multiply(Y1, alpha, out=Y1)
-    Bv[:, diag, n + diag] += 1.0 - alpha
-    # stage 2: S = R2 B = [Bu + a y2; y2], y2 = Z2^-1 (M Bv - a K2 Bu)
-    rhs = K2 @ Bu
-    rhs *= -a
-    rhs += m[:, None] * Bv
+    Z = K * (a * a)
+    Z += a * C
+    Z[:, :, diag, diag] += m
+    W = _inverse(Z)
+    P = np.matmul(W, K, out=Z)
+    P *= -a
+    Q = np.multiply(W, m, out=W)  # W diag(m): columns scaled
+    Y1 = np.concatenate([P[0], Q[0]], axis=2)
+    G2 = Q[1] + a * P[1]
     S = np.empty((count, 2 * n, 2 * n))
-    S[:, n:] = np.linalg.solve(_z_matrix(m, K2, C2, a), rhs)
-    np.multiply(S[:, n:], a, out=S[:, :n])
-    S[:, :n] += Bu
+    y2 = S[:, n:]
+    np.matmul(G2, Y1, out=y2)
+    y2 *= alpha
+    y2[:, :, :n] += P[1]
+    y2[:, :, n:] += (1.0 - alpha) * Q[1]
+    top = S[:, :n]
+    np.multiply(y2, a, out=top)
+    Y1 *= alpha * a
+    top += Y1
+    top[:, diag, diag] += 1.0
     return S
 
 
-def _z_matrix(m: np.ndarray, K: np.ndarray, C: np.ndarray, a: float) -> np.ndarray:
-    """Z = M + a C + a^2 K per angle (count, n, n), with one temporary."""
-    Z = K * (a * a)
-    Z += a * C
-    idx = np.arange(m.size)
-    Z[:, idx, idx] += m
-    return Z
+def _inverse(Z: np.ndarray) -> np.ndarray:
+    """Z^-1 of symmetric matrices (..., n, n): by Cholesky (Z = L L^T, Z^-1 = L^-T L^-1, the triangular
+    inverse by blocks, vectorized over the matrices) when every Z is positive definite (M > 0 and K, C
+    positive semi-definite: unstressed, or prestressed short of buckling), else by LU (numpy's inv)."""
+    try:
+        L = np.linalg.cholesky(Z)
+    except np.linalg.LinAlgError:
+        return np.linalg.inv(Z)
+    Li = _lower_inverse(L)
+    return np.matmul(np.swapaxes(Li, -1, -2), Li)
 
 
-CHUNK_BYTES = 64e6
-"""Memory bound of the step matrices built at once [bytes] (the Gauss stage matrices are (4n)^2 each)."""
+def _lower_inverse(L: np.ndarray) -> np.ndarray:
+    """L^-1 of lower triangular matrices (..., n, n) with a positive diagonal: by halves,
+    [[A, 0], [B, D]]^-1 = [[A^-1, 0], [-D^-1 B A^-1, D^-1]], down to blocks of at most 10 solved by
+    forward substitution row by row (each row one product over all the matrices at once)."""
+    k = L.shape[-1]
+    if k > 10:
+        h = k // 2
+        out = np.zeros_like(L)
+        A, D = _lower_inverse(L[..., :h, :h]), _lower_inverse(L[..., h:, h:])
+        out[..., :h, :h], out[..., h:, h:] = A, D
+        out[..., h:, :h] = -(D @ (L[..., h:, :h] @ A))
+        return out
+    X = np.zeros_like(L)
+    d = 1.0 / np.diagonal(L, axis1=-2, axis2=-1)
+    for i in range(k):
+        X[..., i, i] = d[..., i]
+        if i:
+            X[..., i, :i] = -np.einsum("...j,...jk->...k", L[..., i, :i], X[..., :i, :i]) * d[..., i, None]
+    return X
+
+
+CHUNK_BYTES = 16e6
+"""Memory bound of the step matrices built at once [bytes] (the Gauss stage matrices are (4n)^2 each);
+small enough that a chunk's work stays in cache."""
 
 
 def _product(S: np.ndarray) -> np.ndarray:
@@ -201,8 +299,9 @@ def _product(S: np.ndarray) -> np.ndarray:
 
 COEFFICIENT_BYTES = 160e6
 """Memory bound of the stage coefficients (K and C at both stage angles of every step) evaluated at once
-[bytes]: within it they are evaluated on two uniform full-turn grids (interpolated, see
-``periodic.SampledCoefficients``), beyond it chunk by chunk (partial turns: the direct frame condensation)."""
+[bytes] when they are not a series (:func:`_series`): within it they are evaluated on two uniform
+full-turn grids (interpolated, see ``periodic.SampledCoefficients``), beyond it chunk by chunk (partial
+turns: the direct frame condensation)."""
 
 
 def monodromy(system: PeriodicSystem, steps: int) -> np.ndarray:
@@ -213,18 +312,29 @@ def monodromy(system: PeriodicSystem, steps: int) -> np.ndarray:
     chunk = max(8, int(CHUNK_BYTES / (8.0 * (4 * n) ** 2)))
     damped = not undamped(system)
     h = system.period / steps
-    whole = 8.0 * 2 * steps * (2 * n * n + 4 * n) <= COEFFICIENT_BYTES
-    co = _stage_coefficients(system, steps, 0, steps, damped) if whole else None
+    series = _series(system)
+    fields = _whole_turn_fields(system, series, steps, damped)
     phi = np.eye(2 * n)
     for first in range(0, steps, chunk):
         count = min(chunk, steps - first)
-        if whole:
-            S = _steps_from(system, co, first, first + count, steps, h, damped)
-        else:
-            S = _steps_from(system, _stage_coefficients(system, steps, first, count, damped), 0, count, count, h,
-                            damped)
-        phi = _product(S) @ phi
+        K, C = fields(first, count) if fields is not None else _stage_fields(system, series, steps, first, count,
+                                                                               damped)
+        phi = _product(_steps(system, K, C, h, damped)) @ phi
     return phi
+
+
+def _whole_turn_fields(system: PeriodicSystem, series: _Series | None, steps: int, damped: bool):
+    """Without a series, if the stage coefficients of a whole turn fit in :data:`COEFFICIENT_BYTES`: a
+    function (first, count) -> K, C (2, count, n, n) of those steps, from the system's coefficients
+    evaluated once on the two uniform full-turn stage grids; else None."""
+    if series is not None:  # evaluated chunk by chunk, cheaply
+        return None
+    n = system.mass.size
+    if 8.0 * 2 * steps * (2 * n * n + 4 * n) > COEFFICIENT_BYTES:
+        return None
+    co = _stage_coefficients(system, steps, 0, steps, damped)
+    K, C = co.stiffness.reshape(2, steps, n, n), co.damping.reshape(2, steps, n, n)
+    return lambda first, count: (K[:, first:first + count], C[:, first:first + count])
 
 
 def multipliers(system: PeriodicSystem, steps: int) -> np.ndarray:
