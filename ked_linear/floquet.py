@@ -33,7 +33,7 @@ The eigenvalues of Phi are the multipliers; the periodic steady state is asympto
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -109,6 +109,22 @@ class _Series:
     expand: np.ndarray
     """The column of ``rows`` of each entry of (K, C) (2 n^2,): a symmetric field's rows are its upper
     triangle's (as sampled)."""
+    split: int
+    """The columns of ``rows`` before this one are K's, the others C's."""
+
+    def zk(self, mass: np.ndarray, a: float) -> _Series | None:
+        """The series of (Z, K) instead of (K, C), Z = M + a C + a^2 K (SDIRK2's stage matrix, linear
+        in the coefficients), when K and C have the same layout (else None)."""
+        n = mass.size
+        if 2 * self.split != self.rows.shape[1]:
+            return None
+        T = self.split
+        rows = np.empty_like(self.rows)
+        np.multiply(self.rows[:, :T], a * a, out=rows[:, :T])
+        rows[:, :T] += a * self.rows[:, T:]
+        rows[:, T:] = self.rows[:, :T]
+        rows[0, self.expand[np.arange(n) * (n + 1)]] += mass  # the constant term's diagonal
+        return replace(self, rows=rows)
 
     def basis(self, theta0: float, step: float, steps: int, j: np.ndarray) -> np.ndarray:
         """The basis (j.size, 2H + 1) at theta0 + step * j, step = +-2 pi / steps (j integer: the
@@ -149,7 +165,8 @@ def _series(system: PeriodicSystem) -> _Series | None:
             size = np.max(np.abs(rows[1::2, f]) + np.abs(rows[2::2, f]), axis=1) / peak  # (G/2,)
             tail[:-1] = np.maximum(tail[:-1], np.cumsum(size[::-1])[::-1])
     H = int(np.argmax(tail <= SERIES_TAIL))  # tail[H]: harmonics above H
-    return _Series(harmonics=H, rows=np.ascontiguousarray(rows[:2 * H + 1]), expand=np.concatenate(columns))
+    return _Series(harmonics=H, rows=np.ascontiguousarray(rows[:2 * H + 1]), expand=np.concatenate(columns),
+                   split=sizes[0])
 
 
 SERIES_TAIL = 1e-14
@@ -180,9 +197,30 @@ def step_matrices(system: PeriodicSystem, steps: int, first: int = 0, count: int
     (default: all), step 0 starting at theta = 0: Gauss-Legendre (symplectic) if the system is undamped
     (:func:`undamped`), else SDIRK2 (L-stable)."""
     count = steps - first if count is None else count
-    damped = not undamped(system)
-    K, C = _stage_fields(system, _series(system), steps, first, count, damped)
-    return _steps(system, K, C, system.period / steps, damped)
+    return _step_source(system, steps, not undamped(system), whole=False)(first, count)
+
+
+def _step_source(system: PeriodicSystem, steps: int, damped: bool, whole: bool = True):
+    """A function (first, count) -> the step matrices (count, 2n, 2n) of steps first .. first + count - 1:
+    damped with a series, from the stage matrices Z and K evaluated straight from their series; else from
+    K and C (on whole-turn grids if ``whole`` and they fit, :func:`_whole_turn_fields`)."""
+    h = system.period / steps
+    series = _series(system)
+    zk = series.zk(system.mass, SDIRK_GAMMA * h) if damped and series is not None else None
+    if zk is not None:
+        def from_zk(first: int, count: int) -> np.ndarray:
+            Z, K = _stage_fields(system, zk, steps, first, count, damped)
+            return _sdirk_steps_from(system.mass, K, None, h, Z=Z)
+
+        return from_zk
+    fields = _whole_turn_fields(system, series, steps, damped) if whole else None
+
+    def from_kc(first: int, count: int) -> np.ndarray:
+        K, C = fields(first, count) if fields is not None else _stage_fields(system, series, steps, first, count,
+                                                                               damped)
+        return _steps(system, K, C, h, damped)
+
+    return from_kc
 
 
 def _steps(system: PeriodicSystem, K: np.ndarray, C: np.ndarray, h: float, damped: bool) -> np.ndarray:
@@ -212,10 +250,11 @@ def _resolvent(system: PeriodicSystem, theta: np.ndarray, a: float) -> np.ndarra
     return np.concatenate([top, bottom], axis=1)
 
 
-def _sdirk_steps_from(m: np.ndarray, K: np.ndarray, C: np.ndarray, h: float) -> np.ndarray:
+def _sdirk_steps_from(m: np.ndarray, K: np.ndarray, C: np.ndarray | None, h: float,
+                      Z: np.ndarray | None = None) -> np.ndarray:
     """SDIRK2 step matrices x_{j+1} = R(t_j + h) [(1 - alpha) I + alpha R(t_j + gamma h)] x_j,
     R = (I - gamma h A)^-1, alpha = (1 - gamma) / gamma, from K and C (2, count, n, n) at the stage
-    angles (first stage t_j + gamma h, second t_j + h).
+    angles (first stage t_j + gamma h, second t_j + h), or K and Z (below) if Z is given.
 
     By blocks, never forming R: for x = (u, v), R x = (u + a y, y) with y = W (M v - a K u),
     W = Z^-1, Z = M + a C + a^2 K, a = gamma h (the Z-form of :func:`_resolvent`).  With P = -a W K and
@@ -228,10 +267,12 @@ def _sdirk_steps_from(m: np.ndarray, K: np.ndarray, C: np.ndarray, h: float) -> 
     a = SDIRK_GAMMA * h
     alpha = (1.0 - SDIRK_GAMMA) / SDIRK_GAMMA
     diag = np.arange(n)
-    Z = K * (a * a)
-    Z += a * C
-    Z[:, :, diag, diag] += m
+    if Z is None:
+        Z = K * (a * a)
+        Z += a * C
+        Z[:, :, diag, diag] += m
     W = _inverse(Z)
+    Z = np.empty_like(W)
     P = np.matmul(W, K, out=Z)
     P *= -a
     Q = np.multiply(W, m, out=W)  # W diag(m): columns scaled
@@ -265,13 +306,18 @@ def _inverse(Z: np.ndarray) -> np.ndarray:
 
 def _lower_inverse(L: np.ndarray) -> np.ndarray:
     """L^-1 of lower triangular matrices (..., n, n) with a positive diagonal: by halves,
-    [[A, 0], [B, D]]^-1 = [[A^-1, 0], [-D^-1 B A^-1, D^-1]], down to blocks of at most 10 solved by
-    forward substitution row by row (each row one product over all the matrices at once)."""
+    [[A, 0], [B, D]]^-1 = [[A^-1, 0], [-D^-1 B A^-1, D^-1]] (A and D in one call when of equal size),
+    down to blocks of at most 10 solved by forward substitution row by row (each row one product over
+    all the matrices at once)."""
     k = L.shape[-1]
     if k > 10:
         h = k // 2
+        if 2 * h == k:
+            both = _lower_inverse(np.stack([L[..., :h, :h], L[..., h:, h:]]))
+            A, D = both[0], both[1]
+        else:
+            A, D = _lower_inverse(L[..., :h, :h]), _lower_inverse(L[..., h:, h:])
         out = np.zeros_like(L)
-        A, D = _lower_inverse(L[..., :h, :h]), _lower_inverse(L[..., h:, h:])
         out[..., :h, :h], out[..., h:, h:] = A, D
         out[..., h:, :h] = -(D @ (L[..., h:, :h] @ A))
         return out
@@ -312,15 +358,10 @@ def monodromy(system: PeriodicSystem, steps: int) -> np.ndarray:
     n = system.mass.size
     chunk = max(8, int(CHUNK_BYTES / (8.0 * (4 * n) ** 2)))
     damped = not undamped(system)
-    h = system.period / steps
-    series = _series(system)
-    fields = _whole_turn_fields(system, series, steps, damped)
+    source = _step_source(system, steps, damped)
     phi = np.eye(2 * n)
     for first in range(0, steps, chunk):
-        count = min(chunk, steps - first)
-        K, C = fields(first, count) if fields is not None else _stage_fields(system, series, steps, first, count,
-                                                                               damped)
-        phi = _product(_steps(system, K, C, h, damped)) @ phi
+        phi = _product(source(first, min(chunk, steps - first))) @ phi
     return phi
 
 
