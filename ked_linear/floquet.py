@@ -24,9 +24,12 @@ coefficients, but its coefficient jumps cause spurious parametric resonances whe
 up to 11 on the joints model at 1 rpm even at 32768 steps, and, damped, kick energy into the damped stiff
 modes: less accurate than SDIRK2 at equal steps, and 4 to 35 times slower on the larger models).
 
-The step matrices are built vectorized over the steps (in chunks of bounded memory; SDIRK2's by blocks,
-two n x n solves per stage, never forming the 2n x 2n resolvents) from stage coefficients evaluated on two
-whole-turn grids per level (interpolated, :data:`COEFFICIENT_BYTES`), and multiplied in a balanced tree.
+The step matrices are built vectorized over the steps, in chunks small enough to stay in the cache
+(:data:`CHUNK_BYTES`); SDIRK2's by blocks, never forming the 2n x 2n resolvents, from the inverses of
+the n x n stage matrices Z (by Cholesky when they are positive definite, both stages in one call).  The
+stage coefficients of sampled coefficients come straight from their trigonometric series (one matrix
+product per chunk, Z itself being linear in K and C); others are evaluated on two whole-turn grids per
+level (:data:`COEFFICIENT_BYTES`).  The chunks' matrices are multiplied in a balanced tree.
 The eigenvalues of Phi are the multipliers; the periodic steady state is asymptotically stable iff all
 |mu| < 1.
 """
@@ -420,7 +423,13 @@ def floquet(system: PeriodicSystem, tolerance: float, steps: int | None = None,
     automatic choice stops once the changes of max |mu| between the last three levels are settled
     (:func:`_settled`).  The estimate is the last change itself (Richardson: at order p
     the error of the finer level is about 1 / (2^p - 1) of it, a third for SDIRK2
-    (damped), a fifteenth for Gauss-Legendre (undamped)), at least :data:`ROUND_OFF_FLOOR`."""
+    (damped), a fifteenth for Gauss-Legendre (undamped)), at least :data:`ROUND_OFF_FLOOR`.
+
+    Measured and not used: starting the levels at a count that resolves the first frozen mode.  The
+    settled level is not tied to it (thesis grid of benchmarks/compare_linear_grid.py: settled steps 1.4
+    to 380 times the first mode's oscillations per cycle; 256 steps at 30 rpm where that count is 74-181,
+    2048 at 100 rpm where it is 22), so any start that keeps today's answers is 64 nearly everywhere,
+    and the coarse levels cost at most half of the finest anyway."""
     plan = [max(8, steps // 2), steps] if steps is not None else [64 * 2**k for k in range(9) if 64 * 2**k <= max_steps]
     tops: list[float] = []
     changes: list[float] = []
