@@ -36,6 +36,7 @@ The eigenvalues of Phi are the multipliers; the periodic steady state is asympto
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -114,6 +115,8 @@ class _Series:
     triangle's (as sampled)."""
     split: int
     """The columns of ``rows`` before this one are K's, the others C's."""
+    form: str = "stiffness"
+    """"stiffness": the fields are K and C; "flexibility": F = K^-1 and F C F (``SampledCoefficients``)."""
 
     def zk(self, mass: np.ndarray, a: float) -> _Series | None:
         """The series of (Z, K) instead of (K, C), Z = M + a C + a^2 K (SDIRK2's stage matrix, linear
@@ -141,12 +144,25 @@ class _Series:
 
 
 def _series(system: PeriodicSystem) -> _Series | None:
-    """K and C as a :class:`_Series` when the coefficients are sampled in the stiffness form (else None:
-    the flexibility form rebuilds K per angle, a plain callable has no series)."""
+    """K and C as a :class:`_Series` when the coefficients are sampled in the stiffness form, or the
+    flexibility F = K^-1 and F C F in the flexibility form (``form``); None for a plain callable."""
     co = system.coefficients
-    if not isinstance(co, SampledCoefficients) or co.form != "stiffness":
+    if not isinstance(co, SampledCoefficients) or co.form not in ("stiffness", "flexibility"):
         return None
     n = system.mass.size
+    known = _SERIES.setdefault(co, {})
+    if n not in known:
+        known[n] = _series_of(co, n)
+    return known[n]
+
+
+_SERIES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+"""The series of each sampled coefficients object (by its size n), computed once (every level asks for
+it), forgotten with the coefficients."""
+
+
+def _series_of(co: SampledCoefficients, n: int) -> _Series | None:
+    """:func:`_series` of sampled coefficients."""
     spectrum, G = co.interpolant.spectrum, co.interpolant.points  # (F, G + 1), frequencies -G/2 .. G/2
     columns, start, sizes = [], 0, []
     for shape, sym in zip(co.layout[:2], co.symmetric[:2]):
@@ -167,10 +183,17 @@ def _series(system: PeriodicSystem) -> _Series | None:
         if peak > 0.0:
             size = np.max(np.abs(rows[1::2, f]) + np.abs(rows[2::2, f]), axis=1) / peak  # (G/2,)
             tail[:-1] = np.maximum(tail[:-1], np.cumsum(size[::-1])[::-1])
-    H = int(np.argmax(tail <= SERIES_TAIL))  # tail[H]: harmonics above H
+    # (none dropped in the flexibility form: K = F^-1 amplifies an error of F by F's condition number)
+    H = int(np.argmax(tail <= SERIES_TAIL)) if co.form == "stiffness" else G // 2  # tail[H]: harmonics above H
+    if start < SERIES_MIN_COLUMNS * H:  # a tiny system: whole-turn FFTs are cheaper than the basis
+        return None
     return _Series(harmonics=H, rows=np.ascontiguousarray(rows[:2 * H + 1]), expand=np.concatenate(columns),
-                   split=sizes[0])
+                   split=sizes[0], form=co.form)
 
+
+SERIES_MIN_COLUMNS = 1.0
+"""The series is used when K and C have at least this many sampled columns per harmonic (below it,
+a 2-coordinate tip model, computing the basis costs more than the product it saves)."""
 
 SERIES_TAIL = 1e-14
 """Harmonics of the coefficients' series dropped from the top while the sum of their amplitudes stays
@@ -209,6 +232,15 @@ def _step_source(system: PeriodicSystem, steps: int, damped: bool, whole: bool =
     K and C (on whole-turn grids if ``whole`` and they fit, :func:`_whole_turn_fields`)."""
     h = system.period / steps
     series = _series(system)
+    if series is not None and series.form == "flexibility":
+        def from_flexibility(first: int, count: int) -> np.ndarray:
+            # K = F^-1 and C = K (F C F) K per stage angle, as SampledCoefficients rebuilds them
+            Fl, Cf = _stage_fields(system, series, steps, first, count, damped)
+            K = _inverse(Fl)
+            K = 0.5 * (K + np.swapaxes(K, -1, -2))
+            return _steps(system, K, K @ Cf @ K, h, damped)
+
+        return from_flexibility
     zk = series.zk(system.mass, SDIRK_GAMMA * h) if damped and series is not None else None
     if zk is not None:
         def from_zk(first: int, count: int) -> np.ndarray:

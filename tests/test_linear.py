@@ -439,6 +439,33 @@ def test_sdirk_block_steps_equal_resolvent_form(mm, thesis, monkeypatch):
     assert np.abs(np.sort(whole) - np.sort(chunked)).max() < 1e-7
 
 
+def test_flexibility_series_steps_equal_resolvent_form(thesis, monkeypatch):
+    # coefficients sampled in the flexibility form (F = K^-1 and F C F: the thesis tip model): the step
+    # matrices from their series (K = F^-1, C = K (F C F) K per stage angle) against the explicit
+    # resolvent form, equal to round-off; the multipliers against the sampled system's own evaluation
+    import sys
+
+    fq = sys.modules["ked_linear.floquet"]
+    sys_ = linkage_system(_scene(thesis, "tip", 100.0), LinearSettings(damping_ratio=0.02)).system
+    assert sys_.coefficients.form == "flexibility"
+    monkeypatch.setattr(fq, "SERIES_MIN_COLUMNS", 0.0)  # the 2-coordinate model would otherwise skip it
+    fq._SERIES.clear()
+    try:
+        assert fq._series(sys_).form == "flexibility"
+        steps, h = 256, sys_.period / 256
+        t = np.arange(steps) * h
+        R = fq._resolvent(sys_, sys_.speed * np.concatenate([t + fq.SDIRK_GAMMA * h, t + h]), fq.SDIRK_GAMMA * h)
+        alpha = (1.0 - fq.SDIRK_GAMMA) / fq.SDIRK_GAMMA
+        reference = R[steps:] @ ((1.0 - alpha) * np.eye(R.shape[-1]) + alpha * R[:steps])
+        got = fq.step_matrices(sys_, steps)
+        assert np.abs(got - reference).max() <= 1e-8 * np.abs(reference).max()
+        plain = PeriodicSystem(mass=sys_.mass, speed=sys_.speed, coefficients=lambda th: sys_.coefficients(th))
+        mu, ref = np.abs(multipliers(sys_, 1024)), np.abs(multipliers(plain, 1024))
+        assert np.abs(np.sort(mu) - np.sort(ref)).max() < 1e-9
+    finally:
+        fq._SERIES.clear()
+
+
 def test_series_stage_coefficients_equal_interpolant(thesis):
     # the series of K and C evaluated at the stage angles of a chunk of steps (harmonics whose tail is
     # round-off dropped) against the sampled coefficients' own interpolation on the whole-turn stage grids:
