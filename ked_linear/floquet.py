@@ -24,20 +24,24 @@ coefficients, but its coefficient jumps cause spurious parametric resonances whe
 up to 11 on the joints model at 1 rpm even at 32768 steps, and, damped, kick energy into the damped stiff
 modes: less accurate than SDIRK2 at equal steps, and 4 to 35 times slower on the larger models).
 
-The step matrices are built vectorized over the steps (in chunks of bounded memory; SDIRK2's by blocks,
-two n x n solves per stage, never forming the 2n x 2n resolvents) from stage coefficients evaluated on two
-whole-turn grids per level (interpolated, :data:`COEFFICIENT_BYTES`), and multiplied in a balanced tree.
+The step matrices are built vectorized over the steps, in chunks small enough to stay in the cache
+(:data:`CHUNK_BYTES`); SDIRK2's by blocks, never forming the 2n x 2n resolvents, from the inverses of
+the n x n stage matrices Z (by Cholesky when they are positive definite, both stages in one call).  The
+stage coefficients of sampled coefficients come straight from their trigonometric series (one matrix
+product per chunk, Z itself being linear in K and C); others are evaluated on two whole-turn grids per
+level (:data:`COEFFICIENT_BYTES`).  The chunks' matrices are multiplied in a balanced tree.
 The eigenvalues of Phi are the multipliers; the periodic steady state is asymptotically stable iff all
 |mu| < 1.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import weakref
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .periodic import Coefficients, PeriodicSystem
+from .periodic import Coefficients, PeriodicSystem, SampledCoefficients, _triangle_index
 
 GAUSS = 0.5 + np.array([-1.0, 1.0]) * np.sqrt(3.0) / 6.0
 """The two Gauss-Legendre nodes on [0, 1] (fractions of a step)."""
@@ -96,17 +100,122 @@ def _stage_coefficients(system: PeriodicSystem, steps: int, first: int, count: i
     return system.coefficients(system.speed * np.concatenate([t + c[0], t + c[1]]))
 
 
-def _steps_from(system: PeriodicSystem, co: Coefficients, lo: int, hi: int, count: int, h: float,
-                damped: bool) -> np.ndarray:
-    """Step matrices of the steps whose stage coefficients are rows lo .. hi - 1 (first stage) and
-    count + lo .. count + hi - 1 (second stage) of ``co``."""
-    K1, K2 = co.stiffness[lo:hi], co.stiffness[count + lo:count + hi]
-    C1, C2 = co.damping[lo:hi], co.damping[count + lo:count + hi]
-    if damped:
-        return _sdirk_steps_from(system.mass, K1, C1, K2, C2, h)
-    a = _state_matrices(system, Coefficients(stiffness=np.concatenate([K1, K2]), damping=np.concatenate([C1, C2]),
-                                             load=np.zeros((2 * (hi - lo), system.mass.size))))
-    return _gauss_steps(a[:hi - lo], a[hi - lo:], h)
+@dataclass(frozen=True)
+class _Series:
+    """K and C of a sampled system as one real trigonometric series: the value (2, n, n) at theta is
+    ``(basis(theta) @ rows)[expand]``, basis [1, cos t, sin t, ..., cos Ht, sin Ht], rows (2H + 1,
+    columns) from the interpolant's spectrum (the interpolant ``SampledCoefficients`` evaluates by
+    inverse FFTs on whole-turn grids, here by one matrix product per chunk of steps, for K and C only,
+    straight into the chunk's layout; H at most G/2 of the G samples: see :data:`SERIES_TAIL`)."""
+
+    harmonics: int
+    rows: np.ndarray
+    expand: np.ndarray
+    """The column of ``rows`` of each entry of (K, C) (2 n^2,): a symmetric field's rows are its upper
+    triangle's (as sampled)."""
+    split: int
+    """The columns of ``rows`` before this one are K's, the others C's."""
+    form: str = "stiffness"
+    """"stiffness": the fields are K and C; "flexibility": F = K^-1 and F C F (``SampledCoefficients``)."""
+
+    def zk(self, mass: np.ndarray, a: float) -> _Series | None:
+        """The series of (Z, K) instead of (K, C), Z = M + a C + a^2 K (SDIRK2's stage matrix, linear
+        in the coefficients), when K and C have the same layout (else None)."""
+        n = mass.size
+        if 2 * self.split != self.rows.shape[1]:
+            return None
+        T = self.split
+        rows = np.empty_like(self.rows)
+        np.multiply(self.rows[:, :T], a * a, out=rows[:, :T])
+        rows[:, :T] += a * self.rows[:, T:]
+        rows[:, T:] = self.rows[:, :T]
+        rows[0, self.expand[np.arange(n) * (n + 1)]] += mass  # the constant term's diagonal
+        return replace(self, rows=rows)
+
+    def basis(self, theta0: float, step: float, steps: int, j: np.ndarray) -> np.ndarray:
+        """The basis (j.size, 2H + 1) at theta0 + step * j, step = +-2 pi / steps (j integer: the
+        phases k j are reduced modulo ``steps`` exactly)."""
+        k = np.arange(1, self.harmonics + 1)
+        z = np.exp(1j * step * np.arange(steps))[np.outer(j, k) % steps] * np.exp(1j * k * theta0)
+        E = np.empty((j.size, 2 * self.harmonics + 1))
+        E[:, 0] = 1.0
+        E[:, 1::2], E[:, 2::2] = z.real, z.imag
+        return E
+
+
+def _series(system: PeriodicSystem) -> _Series | None:
+    """K and C as a :class:`_Series` when the coefficients are sampled in the stiffness form, or the
+    flexibility F = K^-1 and F C F in the flexibility form (``form``); None for a plain callable."""
+    co = system.coefficients
+    if not isinstance(co, SampledCoefficients) or co.form not in ("stiffness", "flexibility"):
+        return None
+    n = system.mass.size
+    known = _SERIES.setdefault(co, {})
+    if n not in known:
+        known[n] = _series_of(co, n)
+    return known[n]
+
+
+_SERIES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+"""The series of each sampled coefficients object (by its size n), computed once (every level asks for
+it), forgotten with the coefficients."""
+
+
+def _series_of(co: SampledCoefficients, n: int) -> _Series | None:
+    """:func:`_series` of sampled coefficients."""
+    spectrum, G = co.interpolant.spectrum, co.interpolant.points  # (F, G + 1), frequencies -G/2 .. G/2
+    columns, start, sizes = [], 0, []
+    for shape, sym in zip(co.layout[:2], co.symmetric[:2]):
+        if shape != (n, n):
+            return None
+        columns.append(start + (_triangle_index(n) if sym else np.arange(n * n)))
+        sizes.append(n * (n + 1) // 2 if sym else n * n)
+        start += sizes[-1]
+    s = spectrum[:start, G // 2:]  # K's and C's columns, frequencies 0 .. G/2: (columns, G/2 + 1)
+    # sum over f = -G/2 .. G/2 of s_f e^{i f t}, s_{-f} = conj(s_f): s_0 + sum_f 2 Re(s_f) cos ft - 2 Im(s_f) sin ft
+    rows = np.empty((G + 1, s.shape[0]))
+    rows[0] = s[:, 0].real
+    rows[1::2], rows[2::2] = 2.0 * s[:, 1:].real.T, -2.0 * s[:, 1:].imag.T
+    # the harmonics whose whole tail is round-off: at most SERIES_TAIL of each field's largest coefficient
+    tail = np.zeros(G // 2 + 1)
+    for f in (slice(0, sizes[0]), slice(sizes[0], sizes[0] + sizes[1])):
+        peak = np.max(np.abs(rows[:, f]), initial=0.0)
+        if peak > 0.0:
+            size = np.max(np.abs(rows[1::2, f]) + np.abs(rows[2::2, f]), axis=1) / peak  # (G/2,)
+            tail[:-1] = np.maximum(tail[:-1], np.cumsum(size[::-1])[::-1])
+    # (none dropped in the flexibility form: K = F^-1 amplifies an error of F by F's condition number)
+    H = int(np.argmax(tail <= SERIES_TAIL)) if co.form == "stiffness" else G // 2  # tail[H]: harmonics above H
+    if start < SERIES_MIN_COLUMNS * H:  # a tiny system: whole-turn FFTs are cheaper than the basis
+        return None
+    return _Series(harmonics=H, rows=np.ascontiguousarray(rows[:2 * H + 1]), expand=np.concatenate(columns),
+                   split=sizes[0], form=co.form)
+
+
+SERIES_MIN_COLUMNS = 1.0
+"""The series is used when K and C have at least this many sampled columns per harmonic (below it,
+a 2-coordinate tip model, computing the basis costs more than the product it saves)."""
+
+SERIES_TAIL = 1e-14
+"""Harmonics of the coefficients' series dropped from the top while the sum of their amplitudes stays
+below this fraction of the field's largest coefficient (the interpolant's round-off noise: the values
+change by no more than the rounding of their own evaluation)."""
+
+
+def _stage_fields(system: PeriodicSystem, series: _Series | None, steps: int, first: int, count: int,
+                  damped: bool) -> tuple[np.ndarray, np.ndarray]:
+    """K and C (2, count, n, n) at the two stage angles (first stage, second stage) of steps first ..
+    first + count - 1 of ``steps`` per cycle: from the series if there is one, else from the system."""
+    n = system.mass.size
+    if series is None:
+        co = _stage_coefficients(system, steps, first, count, damped)
+        return co.stiffness.reshape(2, count, n, n), co.damping.reshape(2, count, n, n)
+    step = np.sign(system.speed) * 2.0 * np.pi / steps
+    j = first + np.arange(count)
+    c = _stage_offsets(damped, system.period / steps)
+    E = np.concatenate([series.basis(system.speed * c[0], step, steps, j),
+                        series.basis(system.speed * c[1], step, steps, j)])
+    fields = np.take(E @ series.rows, series.expand, axis=1).reshape(2, count, 2, n, n)
+    return fields[:, :, 0], fields[:, :, 1]
 
 
 def step_matrices(system: PeriodicSystem, steps: int, first: int = 0, count: int | None = None) -> np.ndarray:
@@ -114,9 +223,50 @@ def step_matrices(system: PeriodicSystem, steps: int, first: int = 0, count: int
     (default: all), step 0 starting at theta = 0: Gauss-Legendre (symplectic) if the system is undamped
     (:func:`undamped`), else SDIRK2 (L-stable)."""
     count = steps - first if count is None else count
-    damped = not undamped(system)
-    co = _stage_coefficients(system, steps, first, count, damped)
-    return _steps_from(system, co, 0, count, count, system.period / steps, damped)
+    return _step_source(system, steps, not undamped(system), whole=False)(first, count)
+
+
+def _step_source(system: PeriodicSystem, steps: int, damped: bool, whole: bool = True):
+    """A function (first, count) -> the step matrices (count, 2n, 2n) of steps first .. first + count - 1:
+    damped with a series, from the stage matrices Z and K evaluated straight from their series; else from
+    K and C (on whole-turn grids if ``whole`` and they fit, :func:`_whole_turn_fields`)."""
+    h = system.period / steps
+    series = _series(system)
+    if series is not None and series.form == "flexibility":
+        def from_flexibility(first: int, count: int) -> np.ndarray:
+            # K = F^-1 and C = K (F C F) K per stage angle, as SampledCoefficients rebuilds them
+            Fl, Cf = _stage_fields(system, series, steps, first, count, damped)
+            K = _inverse(Fl)
+            K = 0.5 * (K + np.swapaxes(K, -1, -2))
+            return _steps(system, K, K @ Cf @ K, h, damped)
+
+        return from_flexibility
+    zk = series.zk(system.mass, SDIRK_GAMMA * h) if damped and series is not None else None
+    if zk is not None:
+        def from_zk(first: int, count: int) -> np.ndarray:
+            Z, K = _stage_fields(system, zk, steps, first, count, damped)
+            return _sdirk_steps_from(system.mass, K, None, h, Z=Z)
+
+        return from_zk
+    fields = _whole_turn_fields(system, series, steps, damped) if whole else None
+
+    def from_kc(first: int, count: int) -> np.ndarray:
+        K, C = fields(first, count) if fields is not None else _stage_fields(system, series, steps, first, count,
+                                                                               damped)
+        return _steps(system, K, C, h, damped)
+
+    return from_kc
+
+
+def _steps(system: PeriodicSystem, K: np.ndarray, C: np.ndarray, h: float, damped: bool) -> np.ndarray:
+    """Step matrices (count, 2n, 2n) from K and C (2, count, n, n) at the two stage angles of each step."""
+    if damped:
+        return _sdirk_steps_from(system.mass, K, C, h)
+    count = K.shape[1]
+    a = _state_matrices(system, Coefficients(stiffness=K.reshape((2 * count,) + K.shape[2:]),
+                                             damping=C.reshape((2 * count,) + C.shape[2:]),
+                                             load=np.zeros((2 * count, system.mass.size))))
+    return _gauss_steps(a[:count], a[count:], h)
 
 
 SDIRK_GAMMA = 1.0 - 1.0 / np.sqrt(2.0)
@@ -124,7 +274,7 @@ SDIRK_GAMMA = 1.0 - 1.0 / np.sqrt(2.0)
 
 def _resolvent(system: PeriodicSystem, theta: np.ndarray, a: float) -> np.ndarray:
     """(I - a A(theta))^-1 for each angle, (m, 2n, 2n), via the n x n matrix Z = M + a C + a^2 K (the
-    reference form of the resolvent; :func:`_sdirk_steps` applies it by blocks instead)."""
+    reference form of the resolvent; :func:`_sdirk_steps_from` applies it by blocks instead)."""
     co = system.coefficients(theta)
     m = system.mass
     Zi = np.linalg.inv(np.eye(m.size) * m + a * co.damping + a**2 * co.stiffness)
@@ -135,60 +285,90 @@ def _resolvent(system: PeriodicSystem, theta: np.ndarray, a: float) -> np.ndarra
     return np.concatenate([top, bottom], axis=1)
 
 
-def _sdirk_steps(system: PeriodicSystem, first: int, count: int, h: float) -> np.ndarray:
-    """Step matrices of the two-stage L-stable SDIRK method (Alexander 1977), steps first .. first +
-    count - 1 of length h (see :func:`_sdirk_steps_from`)."""
-    co = _stage_coefficients(system, int(round(system.period / h)), first, count, True)
-    return _sdirk_steps_from(system.mass, co.stiffness[:count], co.damping[:count], co.stiffness[count:],
-                             co.damping[count:], h)
-
-
-def _sdirk_steps_from(m: np.ndarray, K1: np.ndarray, C1: np.ndarray, K2: np.ndarray, C2: np.ndarray,
-                      h: float) -> np.ndarray:
+def _sdirk_steps_from(m: np.ndarray, K: np.ndarray, C: np.ndarray | None, h: float,
+                      Z: np.ndarray | None = None) -> np.ndarray:
     """SDIRK2 step matrices x_{j+1} = R(t_j + h) [(1 - alpha) I + alpha R(t_j + gamma h)] x_j,
-    R = (I - gamma h A)^-1, alpha = (1 - gamma) / gamma, from the coefficients at the stage angles (K1, C1
-    at t_j + gamma h, K2, C2 at t_j + h).
+    R = (I - gamma h A)^-1, alpha = (1 - gamma) / gamma, from K and C (2, count, n, n) at the stage
+    angles (first stage t_j + gamma h, second t_j + h), or K and Z (below) if Z is given.
 
-    By blocks, never forming R: for x = (u, v), R x = (u + a y, y) with y = Z^-1 (M v - a K u),
-    Z = M + a C + a^2 K, a = gamma h (the Z-form of :func:`_resolvent`), so a step costs two batched
-    n x n solves with 2n right-hand sides and one n x n x 2n product instead of two inverses and 2n x 2n
-    products (about half the flops, a fraction of the memory traffic)."""
-    count, n = K1.shape[0], m.size
+    By blocks, never forming R: for x = (u, v), R x = (u + a y, y) with y = W (M v - a K u),
+    W = Z^-1, Z = M + a C + a^2 K, a = gamma h (the Z-form of :func:`_resolvent`).  With P = -a W K and
+    Q = W M of each stage: stage 1 on X = I gives Y1 = [P1, Q1]; B = (1 - alpha) I + alpha R1 =
+    [[I, 0] + alpha a Y1; (1 - alpha) [0, I] + alpha Y1]; stage 2, y2 = W2 (M Bv - a K2 Bu) =
+    [P2, (1 - alpha) Q2] + alpha (Q2 + a P2) Y1, and S = [Bu + a y2; y2].  Per step: two n x n inverses
+    (one batched call for both stages), W K (n^3) and one n x n x 2n product: cheaper than two batched
+    solves with 2n right-hand sides."""
+    count, n = K.shape[1], m.size
     a = SDIRK_GAMMA * h
     alpha = (1.0 - SDIRK_GAMMA) / SDIRK_GAMMA
-    # stage 1 on X = I: y1 = Z1^-1 [-a K1, M]
     diag = np.arange(n)
-    rhs = np.zeros((count, n, 2 * n))
-    np.multiply(K1, -a, out=rhs[:, :, :n])
-    rhs[:, diag, n + diag] = m
-    Y1 = np.linalg.solve(_z_matrix(m, K1, C1, a), rhs)
-    # B = (1 - alpha) I + alpha R1: Bu = [I, 0] + alpha a Y1, Bv = (1 - alpha) [0, I] + alpha Y1
-    Bu = Y1 * (alpha * a)
-    Bu[:, diag, diag] += 1.0
-    Bv = np.multiply(Y1, alpha, out=Y1)
-    Bv[:, diag, n + diag] += 1.0 - alpha
-    # stage 2: S = R2 B = [Bu + a y2; y2], y2 = Z2^-1 (M Bv - a K2 Bu)
-    rhs = K2 @ Bu
-    rhs *= -a
-    rhs += m[:, None] * Bv
+    if Z is None:
+        Z = K * (a * a)
+        Z += a * C
+        Z[:, :, diag, diag] += m
+    W = _inverse(Z)
+    Z = np.empty_like(W)
+    P = np.matmul(W, K, out=Z)
+    P *= -a
+    Q = np.multiply(W, m, out=W)  # W diag(m): columns scaled
+    Y1 = np.concatenate([P[0], Q[0]], axis=2)
+    G2 = Q[1] + a * P[1]
     S = np.empty((count, 2 * n, 2 * n))
-    S[:, n:] = np.linalg.solve(_z_matrix(m, K2, C2, a), rhs)
-    np.multiply(S[:, n:], a, out=S[:, :n])
-    S[:, :n] += Bu
+    y2 = S[:, n:]
+    np.matmul(G2, Y1, out=y2)
+    y2 *= alpha
+    y2[:, :, :n] += P[1]
+    y2[:, :, n:] += (1.0 - alpha) * Q[1]
+    top = S[:, :n]
+    np.multiply(y2, a, out=top)
+    Y1 *= alpha * a
+    top += Y1
+    top[:, diag, diag] += 1.0
     return S
 
 
-def _z_matrix(m: np.ndarray, K: np.ndarray, C: np.ndarray, a: float) -> np.ndarray:
-    """Z = M + a C + a^2 K per angle (count, n, n), with one temporary."""
-    Z = K * (a * a)
-    Z += a * C
-    idx = np.arange(m.size)
-    Z[:, idx, idx] += m
-    return Z
+def _inverse(Z: np.ndarray) -> np.ndarray:
+    """Z^-1 of symmetric matrices (..., n, n): by Cholesky (Z = L L^T, Z^-1 = L^-T L^-1, the triangular
+    inverse by blocks, vectorized over the matrices) when every Z is positive definite (M > 0 and K, C
+    positive semi-definite: unstressed, or prestressed short of buckling), else by LU (numpy's inv)."""
+    try:
+        L = np.linalg.cholesky(Z)
+    except np.linalg.LinAlgError:
+        return np.linalg.inv(Z)
+    Li = _lower_inverse(L)
+    return np.matmul(np.swapaxes(Li, -1, -2), Li)
 
 
-CHUNK_BYTES = 64e6
-"""Memory bound of the step matrices built at once [bytes] (the Gauss stage matrices are (4n)^2 each)."""
+def _lower_inverse(L: np.ndarray) -> np.ndarray:
+    """L^-1 of lower triangular matrices (..., n, n) with a positive diagonal: by halves,
+    [[A, 0], [B, D]]^-1 = [[A^-1, 0], [-D^-1 B A^-1, D^-1]] (A and D in one call when of equal size),
+    down to blocks of at most 10 solved by forward substitution row by row (each row one product over
+    all the matrices at once)."""
+    k = L.shape[-1]
+    if k > 10:
+        h = k // 2
+        if 2 * h == k:
+            both = _lower_inverse(np.stack([L[..., :h, :h], L[..., h:, h:]]))
+            A, D = both[0], both[1]
+        else:
+            A, D = _lower_inverse(L[..., :h, :h]), _lower_inverse(L[..., h:, h:])
+        out = np.zeros_like(L)
+        out[..., :h, :h], out[..., h:, h:] = A, D
+        out[..., h:, :h] = -(D @ (L[..., h:, :h] @ A))
+        return out
+    X = np.zeros_like(L)
+    d = 1.0 / np.diagonal(L, axis1=-2, axis2=-1)
+    for i in range(k):
+        X[..., i, i] = d[..., i]
+        if i:
+            X[..., i, :i] = -np.einsum("...j,...jk->...k", L[..., i, :i], X[..., :i, :i]) * d[..., i, None]
+    return X
+
+
+CHUNK_BYTES = 4e6
+"""Memory bound of the step matrices built at once [bytes] (the Gauss stage matrices are (4n)^2 each):
+small, so that a chunk's work stays in the cache (measured on 1 MB of L2 per core: 20 steps at n = 40,
+300 at n = 10 were the fastest; 4 times as many took 1.3-1.6 times as long)."""
 
 
 def _product(S: np.ndarray) -> np.ndarray:
@@ -201,8 +381,9 @@ def _product(S: np.ndarray) -> np.ndarray:
 
 COEFFICIENT_BYTES = 160e6
 """Memory bound of the stage coefficients (K and C at both stage angles of every step) evaluated at once
-[bytes]: within it they are evaluated on two uniform full-turn grids (interpolated, see
-``periodic.SampledCoefficients``), beyond it chunk by chunk (partial turns: the direct frame condensation)."""
+[bytes] when they are not a series (:func:`_series`): within it they are evaluated on two uniform
+full-turn grids (interpolated, see ``periodic.SampledCoefficients``), beyond it chunk by chunk (partial
+turns: the direct frame condensation)."""
 
 
 def monodromy(system: PeriodicSystem, steps: int) -> np.ndarray:
@@ -212,19 +393,25 @@ def monodromy(system: PeriodicSystem, steps: int) -> np.ndarray:
     n = system.mass.size
     chunk = max(8, int(CHUNK_BYTES / (8.0 * (4 * n) ** 2)))
     damped = not undamped(system)
-    h = system.period / steps
-    whole = 8.0 * 2 * steps * (2 * n * n + 4 * n) <= COEFFICIENT_BYTES
-    co = _stage_coefficients(system, steps, 0, steps, damped) if whole else None
+    source = _step_source(system, steps, damped)
     phi = np.eye(2 * n)
     for first in range(0, steps, chunk):
-        count = min(chunk, steps - first)
-        if whole:
-            S = _steps_from(system, co, first, first + count, steps, h, damped)
-        else:
-            S = _steps_from(system, _stage_coefficients(system, steps, first, count, damped), 0, count, count, h,
-                            damped)
-        phi = _product(S) @ phi
+        phi = _product(source(first, min(chunk, steps - first))) @ phi
     return phi
+
+
+def _whole_turn_fields(system: PeriodicSystem, series: _Series | None, steps: int, damped: bool):
+    """Without a series, if the stage coefficients of a whole turn fit in :data:`COEFFICIENT_BYTES`: a
+    function (first, count) -> K, C (2, count, n, n) of those steps, from the system's coefficients
+    evaluated once on the two uniform full-turn stage grids; else None."""
+    if series is not None:  # evaluated chunk by chunk, cheaply
+        return None
+    n = system.mass.size
+    if 8.0 * 2 * steps * (2 * n * n + 4 * n) > COEFFICIENT_BYTES:
+        return None
+    co = _stage_coefficients(system, steps, 0, steps, damped)
+    K, C = co.stiffness.reshape(2, steps, n, n), co.damping.reshape(2, steps, n, n)
+    return lambda first, count: (K[:, first:first + count], C[:, first:first + count])
 
 
 def multipliers(system: PeriodicSystem, steps: int) -> np.ndarray:
@@ -268,7 +455,13 @@ def floquet(system: PeriodicSystem, tolerance: float, steps: int | None = None,
     automatic choice stops once the changes of max |mu| between the last three levels are settled
     (:func:`_settled`).  The estimate is the last change itself (Richardson: at order p
     the error of the finer level is about 1 / (2^p - 1) of it, a third for SDIRK2
-    (damped), a fifteenth for Gauss-Legendre (undamped)), at least :data:`ROUND_OFF_FLOOR`."""
+    (damped), a fifteenth for Gauss-Legendre (undamped)), at least :data:`ROUND_OFF_FLOOR`.
+
+    Measured and not used: starting the levels at a count that resolves the first frozen mode.  The
+    settled level is not tied to it (thesis grid of benchmarks/compare_linear_grid.py: settled steps 1.4
+    to 380 times the first mode's oscillations per cycle; 256 steps at 30 rpm where that count is 74-181,
+    2048 at 100 rpm where it is 22), so any start that keeps today's answers is 64 nearly everywhere,
+    and the coarse levels cost at most half of the finest anyway."""
     plan = [max(8, steps // 2), steps] if steps is not None else [64 * 2**k for k in range(9) if 64 * 2**k <= max_steps]
     tops: list[float] = []
     changes: list[float] = []

@@ -410,11 +410,12 @@ def test_campaign_solver_flags_weakly_damped_and_fails_marginal(thesis):
 
 @pytest.mark.parametrize("mm", ["joints", "extender"])
 def test_sdirk_block_steps_equal_resolvent_form(mm, thesis, monkeypatch):
-    # the SDIRK2 step matrices applied by blocks (two n x n solves, never forming R) against the previous
+    # the SDIRK2 step matrices applied by blocks (Z^-1 by Cholesky, never forming R) against the previous
     # full computation R(t_j + h) [(1 - alpha) I + alpha R(t_j + gamma h)] with the explicit 2n x 2n
-    # resolvents R = (I - gamma h A)^-1 (an algebraic identity: equal to round-off); and the monodromy
-    # from coefficients evaluated chunk by chunk (direct frame condensation on partial turns) against the
-    # one from whole-turn (interpolated) coefficients: equal within the interpolation tolerance
+    # resolvents R = (I - gamma h A)^-1 (an algebraic identity: equal to round-off); the coefficients from
+    # the series (one matrix product per chunk) against those of the sampled system on whole-turn grids
+    # (its inverse FFTs, a plain callable around it); and the monodromy from coefficients evaluated chunk
+    # by chunk (direct frame condensation on partial turns): equal within the interpolation tolerance
     import sys
 
     fq = sys.modules["ked_linear.floquet"]
@@ -424,13 +425,83 @@ def test_sdirk_block_steps_equal_resolvent_form(mm, thesis, monkeypatch):
     R = fq._resolvent(sys_, sys_.speed * np.concatenate([t + fq.SDIRK_GAMMA * h, t + h]), fq.SDIRK_GAMMA * h)
     alpha = (1.0 - fq.SDIRK_GAMMA) / fq.SDIRK_GAMMA
     reference = R[steps:] @ ((1.0 - alpha) * np.eye(R.shape[-1]) + alpha * R[:steps])
+    assert fq._series(sys_) is not None  # the fast path is the one tested
     got = fq.step_matrices(sys_, steps)
     assert np.abs(got - reference).max() <= 1e-8 * np.abs(reference).max()
+    plain = PeriodicSystem(mass=sys_.mass, speed=sys_.speed, coefficients=lambda th: sys_.coefficients(th))
+    assert fq._series(plain) is None
+    assert np.abs(fq.step_matrices(plain, steps) - got).max() <= 1e-10 * np.abs(got).max()
     whole = np.abs(multipliers(sys_, steps))
     monkeypatch.setattr(fq, "COEFFICIENT_BYTES", 0.0)
     monkeypatch.setattr(fq, "CHUNK_BYTES", 8.0 * 37 * (4 * sys_.mass.size) ** 2)  # 37 steps: partial turns
-    chunked = np.abs(multipliers(sys_, steps))
+    direct = PeriodicSystem(mass=sys_.mass, speed=sys_.speed, coefficients=sys_.coefficients.direct)
+    chunked = np.abs(multipliers(direct, steps))
     assert np.abs(np.sort(whole) - np.sort(chunked)).max() < 1e-7
+
+
+def test_flexibility_series_steps_equal_resolvent_form(thesis, monkeypatch):
+    # coefficients sampled in the flexibility form (F = K^-1 and F C F: the thesis tip model): the step
+    # matrices from their series (K = F^-1, C = K (F C F) K per stage angle) against the explicit
+    # resolvent form, equal to round-off; the multipliers against the sampled system's own evaluation
+    import sys
+
+    fq = sys.modules["ked_linear.floquet"]
+    sys_ = linkage_system(_scene(thesis, "tip", 100.0), LinearSettings(damping_ratio=0.02)).system
+    assert sys_.coefficients.form == "flexibility"
+    monkeypatch.setattr(fq, "SERIES_MIN_COLUMNS", 0.0)  # the 2-coordinate model would otherwise skip it
+    fq._SERIES.clear()
+    try:
+        assert fq._series(sys_).form == "flexibility"
+        steps, h = 256, sys_.period / 256
+        t = np.arange(steps) * h
+        R = fq._resolvent(sys_, sys_.speed * np.concatenate([t + fq.SDIRK_GAMMA * h, t + h]), fq.SDIRK_GAMMA * h)
+        alpha = (1.0 - fq.SDIRK_GAMMA) / fq.SDIRK_GAMMA
+        reference = R[steps:] @ ((1.0 - alpha) * np.eye(R.shape[-1]) + alpha * R[:steps])
+        got = fq.step_matrices(sys_, steps)
+        assert np.abs(got - reference).max() <= 1e-8 * np.abs(reference).max()
+        plain = PeriodicSystem(mass=sys_.mass, speed=sys_.speed, coefficients=lambda th: sys_.coefficients(th))
+        mu, ref = np.abs(multipliers(sys_, 1024)), np.abs(multipliers(plain, 1024))
+        assert np.abs(np.sort(mu) - np.sort(ref)).max() < 1e-9
+    finally:
+        fq._SERIES.clear()
+
+
+def test_series_stage_coefficients_equal_interpolant(thesis):
+    # the series of K and C evaluated at the stage angles of a chunk of steps (harmonics whose tail is
+    # round-off dropped) against the sampled coefficients' own interpolation on the whole-turn stage grids:
+    # the same trigonometric interpolant, so equal to round-off (relative to each field's peak)
+    import sys
+
+    fq = sys.modules["ked_linear.floquet"]
+    sys_ = linkage_system(_scene(thesis, "distributed", 100.0), LinearSettings(damping_ratio=0.02)).system
+    series = fq._series(sys_)
+    assert series is not None and series.harmonics <= sys_.coefficients.points // 2
+    for steps, damped in ((64, True), (512, True), (128, False)):
+        co = fq._stage_coefficients(sys_, steps, 0, steps, damped)
+        n = sys_.mass.size
+        first, count = 5, steps - 9  # a partial chunk: the phases of the later steps matter
+        K, C = fq._stage_fields(sys_, series, steps, first, count, damped)
+        for got, full in ((K, co.stiffness), (C, co.damping)):
+            ref = full.reshape(2, steps, n, n)[:, first:first + count]
+            assert np.abs(got - ref).max() <= 1e-13 * np.abs(full).max()
+
+
+def test_spd_inverse_by_cholesky_and_lu_fallback():
+    # Z^-1 by Cholesky and the blocked triangular inverse against numpy's LU inverse (round-off), for sizes
+    # below, at and above the block size; an indefinite Z (a buckled prestressed structure) falls back to LU
+    import sys
+
+    fq = sys.modules["ked_linear.floquet"]
+    rng = np.random.default_rng(3)
+    for n in (1, 3, 10, 11, 40):
+        A = rng.standard_normal((2, 7, n, n))
+        Z = A @ np.swapaxes(A, -1, -2) + 0.1 * np.eye(n)
+        W = fq._inverse(Z)
+        assert np.abs(W - np.linalg.inv(Z)).max() <= 1e-9 * np.abs(W).max()
+        assert np.abs(W @ Z - np.eye(n)).max() < 1e-9
+    B = rng.standard_normal((4, 6, 6))
+    Z = B + np.swapaxes(B, -1, -2)  # symmetric, indefinite
+    assert np.abs(fq._inverse(Z) @ Z - np.eye(6)).max() < 1e-9
 
 
 @pytest.mark.parametrize(("mm", "lumps"), [("tip", 1), ("joints", 5), ("extender", 3), ("distributed", 1),
