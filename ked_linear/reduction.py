@@ -45,7 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .floquet import FloquetResult, undamped
+from .floquet import FloquetResult
 from .periodic import Coefficients, PeriodicSystem, TrigInterpolant, uniform_grids
 
 FULL_NEAR_ONE = 0.9
@@ -145,11 +145,12 @@ def frozen_stiffness(system: PeriodicSystem, frames: LinkFrames, theta: np.ndarr
     return np.swapaxes(rotate_columns(np.swapaxes(RtK, 1, 2), -phi), 1, 2)  # (R^T (R^T K)^T)^T = R^T K R
 
 
-def greedy_basis(Ks: np.ndarray, modes: int, ritz_tolerance: float, max_size: int) -> np.ndarray | None:
+def greedy_basis(Ks: np.ndarray, modes: int, ritz_tolerance: float, max_size: int,
+                 eigen: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray | None:
     """An orthonormal basis W (n, r) whose Ritz values on every matrix of ``Ks`` (m, n, n, symmetric:
     mass-scaled stiffnesses) match the ``modes`` lowest eigenvalues within ``ritz_tolerance`` (relative);
-    None if that needs more than ``max_size`` columns."""
-    lam, X = np.linalg.eigh(Ks)
+    None if that needs more than ``max_size`` columns.  ``eigen``: ``np.linalg.eigh(Ks)`` if at hand."""
+    lam, X = np.linalg.eigh(Ks) if eigen is None else eigen
     lam, X = lam[:, :modes], X[:, :, :modes]
     n = Ks.shape[1]
     W = np.zeros((n, 0))
@@ -303,9 +304,10 @@ def bases(Ks: np.ndarray, mass: np.ndarray) -> list[np.ndarray] | None:
     """The M-orthonormal bases of :data:`BASES` in v (n, r each) from the mass-scaled frozen stiffnesses
     ``Ks`` (m, n, n) in the link frames, or None."""
     w = 1.0 / np.sqrt(mass)
+    eigen = np.linalg.eigh(Ks)
     out = []
     for modes, tol in BASES:
-        W = greedy_basis(Ks, modes, tol, mass.size)
+        W = greedy_basis(Ks, modes, tol, mass.size, eigen)
         if W is None:
             return None
         out.append(w[:, None] * W)
@@ -319,11 +321,14 @@ against odd ones); their grid doubles from :data:`TRAINING_ANGLES` x 2 up to 512
 
 def reduced_systems(system: PeriodicSystem, frames: LinkFrames) -> tuple[list[PeriodicSystem], list[int]] | None:
     """The reduced systems of the two bases (unit mass, interpolated coefficients) and their sizes, or None
-    if the bases or an interpolation within :data:`INTERPOLATION_TOLERANCE` cannot be had."""
+    if the system is undamped (C = 0 on the grid) or the bases or an interpolation within
+    :data:`INTERPOLATION_TOLERANCE` cannot be had."""
     m = system.mass
     G = 2 * TRAINING_ANGLES
     theta = np.arange(G) * (2.0 * np.pi / G)
     co = system.coefficients(theta)
+    if not np.any(co.damping):
+        return None  # undamped: Hamiltonian, the full model's symplectic propagator
     lumps = frames.of_lumps(theta)
     train = slice(0, G, G // TRAINING_ANGLES)
     RtK = rotate_columns(co.stiffness[train], -lumps[0][train])
@@ -363,8 +368,6 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
     ``tolerance`` and either the change before it too or the last change fell fourfold (the asymptotic
     range of a fifth-order method); the richer basis once, at the level before the last, against the
     smaller one at the same steps (their discretization errors then nearly cancel)."""
-    if undamped(system):
-        return None
     built = reduced_systems(system, frames)
     if built is None:
         return None

@@ -106,7 +106,7 @@ def solve_linear(scene: Scene, settings: LinearSettings | None = None) -> Linear
         return _solve_linear(scene, settings)
 
 
-REDUCE_FROM = 12
+REDUCE_FROM = 8
 """Four-bar systems with at least this many coordinates get their Floquet multipliers from the reduced system
 (:mod:`ked_linear.reduction`) when it vouches for the tolerance; smaller ones, and a fixed
 ``floquet_steps``, use the full propagator (:func:`ked_linear.floquet.floquet`)."""
