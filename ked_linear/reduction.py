@@ -58,7 +58,7 @@ BASES = ((2, 1e-4), (4, 1e-6))
 TRAINING_ANGLES = 64
 """Uniform grid of crank angles on which the basis is built and checked."""
 
-RADAU_LEVELS = (64, 128, 256, 512, 1024, 2048)
+RADAU_LEVELS = (64, 128, 256, 512, 1024, 2048, 4096)
 """Step counts per cycle of the reduced propagator, tried in turn."""
 
 
@@ -300,9 +300,10 @@ class Reduction:
     step_error: float
 
 
-def bases(Ks: np.ndarray, mass: np.ndarray) -> list[np.ndarray] | None:
+def bases(Ks: np.ndarray, mass: np.ndarray) -> tuple[list[np.ndarray], float] | None:
     """The M-orthonormal bases of :data:`BASES` in v (n, r each) from the mass-scaled frozen stiffnesses
-    ``Ks`` (m, n, n) in the link frames, or None."""
+    ``Ks`` (m, n, n) in the link frames, and the largest frozen angular frequency [rad/s] of the modes the
+    smaller one keeps exact; None if a basis needs more columns than the system has."""
     w = 1.0 / np.sqrt(mass)
     eigen = np.linalg.eigh(Ks)
     out = []
@@ -311,7 +312,7 @@ def bases(Ks: np.ndarray, mass: np.ndarray) -> list[np.ndarray] | None:
         if W is None:
             return None
         out.append(w[:, None] * W)
-    return out
+    return out, float(np.sqrt(np.max(np.abs(eigen[0][:, BASES[0][0] - 1]))))
 
 
 INTERPOLATION_TOLERANCE = 1e-8
@@ -319,8 +320,22 @@ INTERPOLATION_TOLERANCE = 1e-8
 against odd ones); their grid doubles from :data:`TRAINING_ANGLES` x 2 up to 512 angles until it holds."""
 
 
-def reduced_systems(system: PeriodicSystem, frames: LinkFrames) -> tuple[list[PeriodicSystem], list[int]] | None:
-    """The reduced systems of the two bases (unit mass, interpolated coefficients) and their sizes, or None
+@dataclass(frozen=True)
+class ReducedSystems:
+    """The reduced systems of the two bases (:data:`BASES`: smaller, richer; unit mass, interpolated
+    coefficients) and the largest frozen angular frequency of the modes the smaller basis keeps [rad/s]."""
+
+    smaller: PeriodicSystem
+    richer: PeriodicSystem
+    omega_kept: float
+
+    @property
+    def sizes(self) -> tuple[int, int]:
+        return self.smaller.mass.size, self.richer.mass.size
+
+
+def reduced_systems(system: PeriodicSystem, frames: LinkFrames) -> ReducedSystems | None:
+    """The reduced systems of the two bases (unit mass, interpolated coefficients), or None
     if the system is undamped (C = 0 on the grid) or the bases or an interpolation within
     :data:`INTERPOLATION_TOLERANCE` cannot be had."""
     m = system.mass
@@ -335,9 +350,10 @@ def reduced_systems(system: PeriodicSystem, frames: LinkFrames) -> tuple[list[Pe
     K = np.swapaxes(rotate_columns(np.swapaxes(RtK, 1, 2), -lumps[0][train]), 1, 2)  # R^T K R
     w = 1.0 / np.sqrt(m)
     Ks = w[:, None] * K * w[None, :]
-    Vs = bases(0.5 * (Ks + np.swapaxes(Ks, 1, 2)), m)
-    if Vs is None:
+    found = bases(0.5 * (Ks + np.swapaxes(Ks, 1, 2)), m)
+    if found is None:
         return None
+    Vs, omega_kept = found
     samples = [projection(co, lumps, m, V) for V in Vs]
     while max(interpolation_error(*kc) for kc in samples) > INTERPOLATION_TOLERANCE:
         if 2 * G > 512:
@@ -349,9 +365,9 @@ def reduced_systems(system: PeriodicSystem, frames: LinkFrames) -> tuple[list[Pe
             Km, Cm = projection(co_mid, lumps_mid, m, V)
             merged.append((_interleave(Kr, Km), _interleave(Cr, Cm)))
         samples, G = merged, 2 * G
-    systems = [PeriodicSystem(mass=np.ones(V.shape[1]), speed=system.speed,
-                              coefficients=InterpolatedCoefficients(*kc)) for V, kc in zip(Vs, samples)]
-    return systems, [V.shape[1] for V in Vs]
+    small, rich = (PeriodicSystem(mass=np.ones(V.shape[1]), speed=system.speed,
+                                  coefficients=InterpolatedCoefficients(*kc)) for V, kc in zip(Vs, samples))
+    return ReducedSystems(smaller=small, richer=rich, omega_kept=omega_kept)
 
 
 def _interleave(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -364,7 +380,9 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
     """max |mu| of ``system`` from its reductions (module docstring), or None when they cannot vouch for
     ``tolerance`` / 2 (or the answer is near instability, or the system is undamped): use the full model.
 
-    The smaller basis is propagated at 64, 128, ... steps; from the third level on, the error of the last
+    The smaller basis is propagated at 64, 128, ... steps; from the third level on, once the steps resolve
+    the kept frozen modes (h omega <= 1 at their highest frequency over the cycle: coarser levels of a
+    low-speed cycle damp them numerically and agree with each other near 0), the error of the last
     one is estimated from the changes between levels as in the periodic solve
     (:func:`ked_linear.periodic.error_estimate`: the last change, or the tail of a geometric series when
     the last two changes fall faster than 1/2), and the levels stop once it is below ``tolerance`` / 8.
@@ -375,7 +393,9 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
     built = reduced_systems(system, frames)
     if built is None:
         return None
-    (small, rich), sizes = built
+    small, rich = built.smaller, built.richer
+    # the last level resolves the kept modes: h omega <= 1 (fifth order: ~1e-4 of their decay per cycle)
+    resolved = built.omega_kept * system.period
     tops: list[float] = []
     changes: list[float] = []
     mu, steps, step_est = np.array([np.nan]), RADAU_LEVELS[0], np.inf
@@ -384,7 +404,7 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
         tops.append(float(np.abs(mu[0])))
         if len(tops) >= 2:
             changes.append(abs(tops[-1] - tops[-2]))
-        if len(changes) >= 2:
+        if len(changes) >= 2 and steps >= resolved:
             step_est = error_estimate(changes)
             if step_est < 0.125 * tolerance:
                 break
@@ -397,5 +417,5 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
     if not np.isfinite(tops[-1]) or est > 0.5 * tolerance or tops[-1] + est >= FULL_NEAR_ONE:
         return None
     result = FloquetResult(max_abs=tops[-1], error_estimate=est, steps=steps, multipliers=mu)
-    return Reduction(result=result, sizes=(sizes[0], sizes[1]), richer_max_abs=other, basis_change=basis_change,
+    return Reduction(result=result, sizes=built.sizes, richer_max_abs=other, basis_change=basis_change,
                      step_error=step_est)

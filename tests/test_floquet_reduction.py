@@ -139,8 +139,11 @@ def test_fallback_undamped_and_unvouched():
 def test_reduced_systems_are_small_and_interpolated():
     with single_threaded_blas():
         scene, system, _ = _system("distributed", 300)
-        (small, rich), sizes = reduced_systems(system, link_frames(scene))
-    assert sizes == [small.mass.size, rich.mass.size] and sizes[0] < sizes[1] < system.mass.size
+        built = reduced_systems(system, link_frames(scene))
+    small, rich = built.smaller, built.richer
+    assert built.sizes[0] < built.sizes[1] < system.mass.size
+    # the kept modes' highest frozen frequency: the distributed model's second mode, ~50 Hz (docs: 30-50 Hz)
+    assert 2.0 * np.pi * 30.0 < built.omega_kept < 2.0 * np.pi * 120.0
     # the reduced system at a non-grid angle: the interpolated coefficients are finite and the Radau levels agree
     assert abs(np.abs(radau_multipliers(small, 256)[0]) - np.abs(radau_multipliers(small, 512)[0])) < 1e-4
 
