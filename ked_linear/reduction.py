@@ -52,8 +52,9 @@ FULL_NEAR_ONE = 0.9
 """A reduced max |mu| + error at or above this goes to the full model (the weakly damped threshold of the
 result flags: a verdict near the stability boundary is decided on the unreduced system)."""
 
-BASES = ((2, 1e-4), (4, 1e-6))
-"""(frozen modes kept exact, relative Ritz-value tolerance) of the smaller and the richer basis."""
+BASES = ((2, 1e-4), (4, 1e-6), (6, 1e-7))
+"""The ladder of bases, each (frozen modes kept exact, relative Ritz-value tolerance), each checked against
+the next (:func:`reduced_floquet`)."""
 
 TRAINING_ANGLES = 64
 """Uniform grid of crank angles on which the basis is built and checked."""
@@ -300,74 +301,72 @@ class Reduction:
     step_error: float
 
 
-def bases(Ks: np.ndarray, mass: np.ndarray) -> tuple[list[np.ndarray], float] | None:
-    """The M-orthonormal bases of :data:`BASES` in v (n, r each) from the mass-scaled frozen stiffnesses
-    ``Ks`` (m, n, n) in the link frames, and the largest frozen angular frequency [rad/s] of the modes the
-    smaller one keeps exact; None if a basis needs more columns than the system has."""
-    w = 1.0 / np.sqrt(mass)
-    eigen = np.linalg.eigh(Ks)
-    out = []
-    for modes, tol in BASES:
-        W = greedy_basis(Ks, modes, tol, mass.size, eigen)
-        if W is None:
-            return None
-        out.append(w[:, None] * W)
-    return out, float(np.sqrt(np.max(np.abs(eigen[0][:, BASES[0][0] - 1]))))
-
-
 INTERPOLATION_TOLERANCE = 1e-8
 """Largest interpolation error of the reduced coefficients (fraction of each field's peak, even samples
 against odd ones); their grid doubles from :data:`TRAINING_ANGLES` x 2 up to 512 angles until it holds."""
 
 
-@dataclass(frozen=True)
-class ReducedSystems:
-    """The reduced systems of the two bases (:data:`BASES`: smaller, richer; unit mass, interpolated
-    coefficients) and the largest frozen angular frequency of the modes the smaller basis keeps [rad/s]."""
+class Reductions:
+    """The reduced systems of the ladder :data:`BASES` on one system, each built when first asked for
+    (:meth:`system`): the full coefficients on a uniform grid, the frozen stiffness in the link frames and
+    its eigendecomposition on the training angles are shared.
 
-    smaller: PeriodicSystem
-    richer: PeriodicSystem
-    omega_kept: float
+    ``usable``: False if the system is undamped (C = 0 on the grid: Hamiltonian, the full model's
+    symplectic propagator decides); ``omega_kept``: the largest frozen angular frequency over the cycle of
+    the modes the first basis keeps exact [rad/s]."""
 
-    @property
-    def sizes(self) -> tuple[int, int]:
-        return self.smaller.mass.size, self.richer.mass.size
+    def __init__(self, system: PeriodicSystem, frames: LinkFrames):
+        self.full, self.frames = system, frames
+        G = 2 * TRAINING_ANGLES
+        theta = np.arange(G) * (2.0 * np.pi / G)
+        co = system.coefficients(theta)
+        self.usable = bool(np.any(co.damping))
+        lumps = frames.of_lumps(theta)
+        self._grids: dict[int, tuple[Coefficients, tuple[np.ndarray, np.ndarray, np.ndarray]]] = {G: (co, lumps)}
+        train = slice(0, G, G // TRAINING_ANGLES)
+        RtK = rotate_columns(co.stiffness[train], -lumps[0][train])
+        K = np.swapaxes(rotate_columns(np.swapaxes(RtK, 1, 2), -lumps[0][train]), 1, 2)  # R^T K R
+        w = 1.0 / np.sqrt(system.mass)
+        Ks = w[:, None] * K * w[None, :]
+        self._Ks = 0.5 * (Ks + np.swapaxes(Ks, 1, 2))
+        self._eigen = np.linalg.eigh(self._Ks)
+        self.omega_kept = float(np.sqrt(np.max(np.abs(self._eigen[0][:, BASES[0][0] - 1]))))
+        self._systems: dict[int, PeriodicSystem | None] = {}
 
+    def basis(self, i: int) -> np.ndarray | None:
+        """The M-orthonormal basis V (n, r) of rung ``i`` of :data:`BASES` in v (None: not smaller than n)."""
+        modes, tol = BASES[i]
+        W = greedy_basis(self._Ks, modes, tol, self.full.mass.size, self._eigen)
+        return None if W is None else W / np.sqrt(self.full.mass)[:, None]
 
-def reduced_systems(system: PeriodicSystem, frames: LinkFrames) -> ReducedSystems | None:
-    """The reduced systems of the two bases (unit mass, interpolated coefficients), or None
-    if the system is undamped (C = 0 on the grid) or the bases or an interpolation within
-    :data:`INTERPOLATION_TOLERANCE` cannot be had."""
-    m = system.mass
-    G = 2 * TRAINING_ANGLES
-    theta = np.arange(G) * (2.0 * np.pi / G)
-    co = system.coefficients(theta)
-    if not np.any(co.damping):
-        return None  # undamped: Hamiltonian, the full model's symplectic propagator
-    lumps = frames.of_lumps(theta)
-    train = slice(0, G, G // TRAINING_ANGLES)
-    RtK = rotate_columns(co.stiffness[train], -lumps[0][train])
-    K = np.swapaxes(rotate_columns(np.swapaxes(RtK, 1, 2), -lumps[0][train]), 1, 2)  # R^T K R
-    w = 1.0 / np.sqrt(m)
-    Ks = w[:, None] * K * w[None, :]
-    found = bases(0.5 * (Ks + np.swapaxes(Ks, 1, 2)), m)
-    if found is None:
-        return None
-    Vs, omega_kept = found
-    samples = [projection(co, lumps, m, V) for V in Vs]
-    while max(interpolation_error(*kc) for kc in samples) > INTERPOLATION_TOLERANCE:
-        if 2 * G > 512:
+    def _grid(self, G: int) -> tuple[Coefficients, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """The full coefficients and frame angles at the midpoints of the G / 2 grid (G > the first grid)."""
+        if G not in self._grids:
+            mid = (np.arange(G // 2) + 0.5) * (4.0 * np.pi / G)
+            self._grids[G] = (self.full.coefficients(mid), self.frames.of_lumps(mid))
+        return self._grids[G]
+
+    def system(self, i: int) -> PeriodicSystem | None:
+        """The reduced system of rung ``i`` (unit mass, interpolated coefficients), or None if its basis or an
+        interpolation within :data:`INTERPOLATION_TOLERANCE` on at most 512 angles cannot be had."""
+        if i not in self._systems:
+            self._systems[i] = self._build(i)
+        return self._systems[i]
+
+    def _build(self, i: int) -> PeriodicSystem | None:
+        V = self.basis(i)
+        if V is None:
             return None
-        mid = (np.arange(G) + 0.5) * (2.0 * np.pi / G)
-        co_mid, lumps_mid = system.coefficients(mid), frames.of_lumps(mid)
-        merged = []
-        for (Kr, Cr), V in zip(samples, Vs):
-            Km, Cm = projection(co_mid, lumps_mid, m, V)
-            merged.append((_interleave(Kr, Km), _interleave(Cr, Cm)))
-        samples, G = merged, 2 * G
-    small, rich = (PeriodicSystem(mass=np.ones(V.shape[1]), speed=system.speed,
-                                  coefficients=InterpolatedCoefficients(*kc)) for V, kc in zip(Vs, samples))
-    return ReducedSystems(smaller=small, richer=rich, omega_kept=omega_kept)
+        G = 2 * TRAINING_ANGLES
+        K, C = projection(*self._grid(G), self.full.mass, V)
+        while interpolation_error(K, C) > INTERPOLATION_TOLERANCE:
+            if 2 * G > 512:
+                return None
+            G *= 2
+            Km, Cm = projection(*self._grid(G), self.full.mass, V)
+            K, C = _interleave(K, Km), _interleave(C, Cm)
+        return PeriodicSystem(mass=np.ones(V.shape[1]), speed=self.full.speed,
+                              coefficients=InterpolatedCoefficients(K, C))
 
 
 def _interleave(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -376,46 +375,59 @@ def _interleave(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
-def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float) -> Reduction | None:
-    """max |mu| of ``system`` from its reductions (module docstring), or None when they cannot vouch for
-    ``tolerance`` / 2 (or the answer is near instability, or the system is undamped): use the full model.
-
-    The smaller basis is propagated at 64, 128, ... steps; from the third level on, once the steps resolve
-    the kept frozen modes (h omega <= 1 at their highest frequency over the cycle: coarser levels of a
-    low-speed cycle damp them numerically and agree with each other near 0), the error of the last
-    one is estimated from the changes between levels as in the periodic solve
-    (:func:`ked_linear.periodic.error_estimate`: the last change, or the tail of a geometric series when
-    the last two changes fall faster than 1/2), and the levels stop once it is below ``tolerance`` / 8.
-    The richer basis is propagated once, at a quarter of the last level's steps (at least 128, at most half),
-    against the smaller one at the same steps (their discretization errors then nearly cancel: measured on
-    the distributed model, the difference at 128 and 512 steps agrees within 1e-6); twice their difference
-    is the basis error."""
-    built = reduced_systems(system, frames)
-    if built is None:
-        return None
-    small, rich = built.smaller, built.richer
-    # the last level resolves the kept modes: h omega <= 1 (fifth order: ~1e-4 of their decay per cycle)
-    resolved = built.omega_kept * system.period
+def _levels(system: PeriodicSystem, resolved: float,
+            tolerance: float) -> tuple[list[float], int, float, np.ndarray] | None:
+    """Radau levels of ``system`` (:data:`RADAU_LEVELS`) until, with at least ``resolved`` steps, the step
+    error estimate is below ``tolerance`` / 8: (max |mu| per level, steps, estimate, multipliers)."""
     tops: list[float] = []
     changes: list[float] = []
-    mu, steps, step_est = np.array([np.nan]), RADAU_LEVELS[0], np.inf
     for steps in RADAU_LEVELS:
-        mu = radau_multipliers(small, steps)
+        mu = radau_multipliers(system, steps)
         tops.append(float(np.abs(mu[0])))
         if len(tops) >= 2:
             changes.append(abs(tops[-1] - tops[-2]))
         if len(changes) >= 2 and steps >= resolved:
-            step_est = error_estimate(changes)
-            if step_est < 0.125 * tolerance:
-                break
-    else:
+            est = error_estimate(changes)
+            if est < 0.125 * tolerance:
+                return tops, steps, est, mu
+    return None
+
+
+def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float) -> Reduction | None:
+    """max |mu| of ``system`` from its reductions (module docstring), or None when they cannot vouch for
+    ``tolerance`` / 2 (or the answer is near instability, or the system is undamped): use the full model.
+
+    A rung of :data:`BASES` is propagated at 64, 128, ... steps; from the third level on, once the steps
+    resolve the kept frozen modes (h omega <= 1 at their highest frequency over the cycle: coarser levels
+    of a low-speed cycle damp them numerically and agree with each other near 0), the error of the last
+    one is estimated from the changes between levels as in the periodic solve
+    (:func:`ked_linear.periodic.error_estimate`: the last change, or the tail of a geometric series when
+    the last two changes fall faster than 1/2), and the levels stop once it is below ``tolerance`` / 8.
+    The next rung is propagated once, at a quarter of the last level's steps (at least 128, at most half),
+    against this one at the same steps (their discretization errors then nearly cancel: measured on the
+    distributed model, the difference at 128 and 512 steps agrees within 1e-6); twice their difference is
+    the basis error.  If the sum is not below ``tolerance`` / 2 the next rung is tried against the one
+    after it."""
+    red = Reductions(system, frames)
+    if not red.usable:
         return None
-    check = min(max(RADAU_LEVELS[1], steps // 4), steps // 2)
-    other = float(np.abs(radau_multipliers(rich, check)[0]))
-    basis_change = abs(other - tops[RADAU_LEVELS.index(check)])
-    est = max(step_est + 2.0 * basis_change, 1e-10)
-    if not np.isfinite(tops[-1]) or est > 0.5 * tolerance or tops[-1] + est >= FULL_NEAR_ONE:
-        return None
-    result = FloquetResult(max_abs=tops[-1], error_estimate=est, steps=steps, multipliers=mu)
-    return Reduction(result=result, sizes=built.sizes, richer_max_abs=other, basis_change=basis_change,
-                     step_error=step_est)
+    resolved = red.omega_kept * system.period  # steps with h omega <= 1 for the kept modes
+    for i in range(len(BASES) - 1):
+        small, rich = red.system(i), red.system(i + 1)
+        if small is None or rich is None:
+            return None
+        levels = _levels(small, resolved, tolerance)
+        if levels is None:
+            return None
+        tops, steps, step_est, mu = levels
+        check = min(max(RADAU_LEVELS[1], steps // 4), steps // 2)
+        other = float(np.abs(radau_multipliers(rich, check)[0]))
+        basis_change = abs(other - tops[RADAU_LEVELS.index(check)])
+        est = max(step_est + 2.0 * basis_change, 1e-10)
+        if not np.isfinite(tops[-1]) or tops[-1] + est >= FULL_NEAR_ONE:
+            return None
+        if est <= 0.5 * tolerance:
+            result = FloquetResult(max_abs=tops[-1], error_estimate=est, steps=steps, multipliers=mu)
+            return Reduction(result=result, sizes=(small.mass.size, rich.mass.size), richer_max_abs=other,
+                             basis_change=basis_change, step_error=step_est)
+    return None

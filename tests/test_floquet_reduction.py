@@ -13,12 +13,12 @@ from ked_linear.floquet import floquet, multipliers
 from ked_linear.linkage import linkage_system
 from ked_linear.periodic import Coefficients, PeriodicSystem
 from ked_linear.reduction import (
+    Reductions,
     corotated,
     link_frames,
     projection,
     radau_multipliers,
     reduced_floquet,
-    reduced_systems,
 )
 from ked_linear.settings import LinearSettings
 from ked_linear.solver import single_threaded_blas, stability
@@ -139,9 +139,9 @@ def test_fallback_undamped_and_unvouched():
 def test_reduced_systems_are_small_and_interpolated():
     with single_threaded_blas():
         scene, system, _ = _system("distributed", 300)
-        built = reduced_systems(system, link_frames(scene))
-    small, rich = built.smaller, built.richer
-    assert built.sizes[0] < built.sizes[1] < system.mass.size
+        built = Reductions(system, link_frames(scene))
+        small, rich = built.system(0), built.system(1)
+    assert small.mass.size < rich.mass.size < system.mass.size
     # the kept modes' highest frozen frequency: the distributed model's second mode, ~50 Hz (docs: 30-50 Hz)
     assert 2.0 * np.pi * 30.0 < built.omega_kept < 2.0 * np.pi * 120.0
     # the reduced system at a non-grid angle: the interpolated coefficients are finite and the Radau levels agree
