@@ -312,8 +312,8 @@ class Reductions:
     its eigendecomposition on the training angles are shared.
 
     ``usable``: False if the system is undamped (C = 0 on the grid: Hamiltonian, the full model's
-    symplectic propagator decides); ``omega_kept``: the largest frozen angular frequency over the cycle of
-    the modes the first basis keeps exact [rad/s]."""
+    symplectic propagator decides); ``omega_kept``: the largest frozen angular frequency of the lowest
+    mode over the cycle [rad/s] (with stiffness-proportional damping the least damped one)."""
 
     def __init__(self, system: PeriodicSystem, frames: LinkFrames):
         self.full, self.frames = system, frames
@@ -330,7 +330,7 @@ class Reductions:
         Ks = w[:, None] * K * w[None, :]
         self._Ks = 0.5 * (Ks + np.swapaxes(Ks, 1, 2))
         self._eigen = np.linalg.eigh(self._Ks)
-        self.omega_kept = float(np.sqrt(np.max(np.abs(self._eigen[0][:, BASES[0][0] - 1]))))
+        self.omega_kept = float(np.sqrt(np.max(np.abs(self._eigen[0][:, 0]))))
         self._systems: dict[int, PeriodicSystem | None] = {}
 
     def basis(self, i: int) -> np.ndarray | None:
@@ -398,8 +398,8 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
     ``tolerance`` / 2 (or the answer is near instability, or the system is undamped): use the full model.
 
     A rung of :data:`BASES` is propagated at 64, 128, ... steps; from the third level on, once the steps
-    resolve the kept frozen modes (h omega <= 1 at their highest frequency over the cycle: coarser levels
-    of a low-speed cycle damp them numerically and agree with each other near 0), the error of the last
+    resolve the lowest frozen mode (h omega <= 1 at its highest frequency over the cycle: coarser levels
+    of a low-speed cycle damp it numerically and agree with each other near 0), the error of the last
     one is estimated from the changes between levels as in the periodic solve
     (:func:`ked_linear.periodic.error_estimate`: the last change, or the tail of a geometric series when
     the last two changes fall faster than 1/2), and the levels stop once it is below ``tolerance`` / 8.
@@ -411,7 +411,7 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
     red = Reductions(system, frames)
     if not red.usable:
         return None
-    resolved = red.omega_kept * system.period  # steps with h omega <= 1 for the kept modes
+    resolved = red.omega_kept * system.period  # steps with h omega <= 1 for the lowest mode
     for i in range(len(BASES) - 1):
         small, rich = red.system(i), red.system(i + 1)
         if small is None or rich is None:
