@@ -248,21 +248,25 @@ def radau_steps(K: np.ndarray, C: np.ndarray, h: float) -> np.ndarray:
     step; the new state is the last stage (Q_3, P_3)."""
     _, m, r, _ = K.shape
     a = RADAU_A
-    # L[:, i, :, k, :] = h a_ik C_k + h^2 sum_j a_ij a_jk K_j (+ I on the diagonal blocks)
-    L = np.tensordot(np.einsum("ij,jk->ijk", a, a) * (h * h), K, axes=([1], [0]))  # (i, k, m, r, r)
-    L += (h * a)[:, :, None, None, None] * C[None]
-    L = L.transpose(2, 0, 3, 1, 4).copy()  # (m, i, r, k, r)
-    idx = np.arange(r)
-    for i in range(3):
-        L[:, i, idx, i, idx] += 1.0
+    # blocks (i, k) = h^2 sum_j a_ij a_jk K_j + h a_ik C_k: one (9 x 3) product over the flattened K
+    blocks = ((np.einsum("ij,jk->ikj", a, a) * (h * h)).reshape(9, 3) @ K.reshape(3, -1)).reshape(3, 3, m, r, r)
+    for k in range(3):
+        blocks[:, k] += (h * a[:, k])[:, None, None, None] * C[k]
+    L = np.empty((m, 3, r, 3, r))
+    L[...] = blocks.transpose(2, 0, 3, 1, 4)
+    L = L.reshape(m, 3 * r, 3 * r)
+    diag = np.arange(3 * r)
+    L[:, diag, diag] += 1.0
     rhs = np.zeros((m, 3, r, 2 * r))
-    rhs[:, :, :, :r] = np.tensordot(-h * a, K, axes=([1], [0])).transpose(1, 0, 2, 3)
-    for i in range(3):
-        rhs[:, i, idx, r + idx] = 1.0
-    P = np.linalg.solve(L.reshape(m, 3 * r, 3 * r), rhs.reshape(m, 3 * r, 2 * r)).reshape(m, 3, r, 2 * r)
+    rhs[..., :r] = ((-h * a) @ K.reshape(3, -1)).reshape(3, m, r, r).transpose(1, 0, 2, 3)
+    idx = np.arange(r)
+    rhs[:, :, idx, r + idx] = 1.0
+    P = np.linalg.solve(L, rhs.reshape(m, 3 * r, 2 * r)).reshape(m, 3, r, 2 * r)
     S = np.empty((m, 2 * r, 2 * r))
     S[:, r:] = P[:, 2]
-    S[:, :r] = h * np.einsum("k,mkab->mab", a[2], P)
+    np.multiply(P[:, 0], h * a[2, 0], out=S[:, :r])
+    S[:, :r] += (h * a[2, 1]) * P[:, 1]
+    S[:, :r] += (h * a[2, 2]) * P[:, 2]
     S[:, idx, idx] += 1.0
     return S
 
