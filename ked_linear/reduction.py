@@ -325,6 +325,9 @@ class Reductions:
         theta = np.arange(G) * (2.0 * np.pi / G)
         co = system.coefficients(theta)
         self.usable = bool(np.any(co.damping))
+        self._systems: dict[int, PeriodicSystem | None] = {}
+        if not self.usable:
+            return
         lumps = frames.of_lumps(theta)
         self._grids: dict[int, tuple[Coefficients, tuple[np.ndarray, np.ndarray, np.ndarray]]] = {G: (co, lumps)}
         train = slice(0, G, G // TRAINING_ANGLES)
@@ -335,7 +338,6 @@ class Reductions:
         self._Ks = 0.5 * (Ks + np.swapaxes(Ks, 1, 2))
         self._eigen = np.linalg.eigh(self._Ks)
         self.omega_kept = float(np.sqrt(np.max(np.abs(self._eigen[0][:, 0]))))
-        self._systems: dict[int, PeriodicSystem | None] = {}
 
     def basis(self, i: int) -> np.ndarray | None:
         """The M-orthonormal basis V (n, r) of rung ``i`` of :data:`BASES` in v (None: not smaller than n)."""

@@ -12,7 +12,7 @@ import numpy as np
 from ked_quasi.scene import Scene
 from ked_quasi.solver import natural_frequencies
 
-from .floquet import floquet
+from .floquet import FloquetResult, floquet
 from .linkage import frequencies_of, linkage_system
 from .periodic import PeriodicSystem, steady_state
 from .reduction import link_frames, reduced_floquet
@@ -107,16 +107,17 @@ def solve_linear(scene: Scene, settings: LinearSettings | None = None) -> Linear
 
 
 REDUCE_FROM = 8
-"""Four-bar systems with at least this many coordinates get their Floquet multipliers from the reduced system
-(:mod:`ked_linear.reduction`) when it vouches for the tolerance; smaller ones, and a fixed
-``floquet_steps``, use the full propagator (:func:`ked_linear.floquet.floquet`)."""
+"""Damped four-bar systems with at least this many coordinates (extender, distributed) get their Floquet
+multipliers from the reduced system (:mod:`ked_linear.reduction`) when it vouches for the tolerance;
+smaller ones (tip, joints: the full propagator is as fast), undamped ones and a fixed ``floquet_steps``
+use the full propagator (:func:`ked_linear.floquet.floquet`)."""
 
 
-def stability(scene: Scene, system: PeriodicSystem, settings: LinearSettings):
+def stability(scene: Scene, system: PeriodicSystem, settings: LinearSettings) -> FloquetResult:
     """The Floquet result of the linear model of ``scene``: from the reduced system in co-rotating link frames
     if it is large enough and the reduction vouches for half of ``floquet_tolerance`` (its estimate covering
     the step levels and the basis), else from the full system."""
-    if settings.floquet_steps is None and system.mass.size >= REDUCE_FROM:
+    if settings.floquet_steps is None and settings.damping_ratio > 0.0 and system.mass.size >= REDUCE_FROM:
         red = reduced_floquet(system, link_frames(scene), settings.floquet_tolerance)
         if red is not None:
             return red.result
