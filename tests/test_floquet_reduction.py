@@ -47,8 +47,8 @@ FULL_SDIRK2 = {
 }
 
 
-def _system(mass_model: str, rpm: float, **kw):
-    scene = make_scene(mass_model=mass_model, rpm=rpm)
+def _system(mass_model: str, rpm: float, mechanism: str = "source", direction: str | None = None, **kw):
+    scene = make_scene(mechanism_name=mechanism, mass_model=mass_model, rpm=rpm, direction=direction)
     settings = LinearSettings(**kw)
     f_ref = float(np.mean(natural_frequencies(scene, n_modes=1)[:, 0]))
     return scene, linkage_system(scene, replace(settings, damping_reference_hz=f_ref)).system, settings
@@ -82,17 +82,31 @@ def test_radau_constant_coefficients_match_the_matrix_exponential():
     assert np.all(np.abs(mu[2:]) < 1e-12)  # L-stable: the stiff overdamped mode is damped out, not kept near 1
 
 
-def test_corotating_transform_is_exact_on_the_joints_model():
+@pytest.mark.parametrize("mechanism,direction", [("source", None), ("cognate", "cw")])
+def test_corotating_transform_is_exact_on_the_joints_model(mechanism, direction):
     # u = R(t) v is a change of coordinates (R periodic): the multipliers of the co-rotating system equal
-    # those of the absolute one; both propagated by Radau IIA to convergence (the two discretizations differ)
+    # those of the absolute one; both propagated by Radau IIA to convergence (the two discretizations
+    # differ); also turning clockwise on the crossed branch (the frames' rates change sign)
     with single_threaded_blas():
-        scene, system, _ = _system("joints", 300)
+        scene, system, _ = _system("joints", 300, mechanism, direction)
         frames = link_frames(scene)
         full = radau_multipliers(_unit_mass(system, system.coefficients), 1024)
         turned = radau_multipliers(_unit_mass(system, lambda th: corotated(system, frames, th)), 1024)
     assert np.abs(turned[:4]) == pytest.approx(np.abs(full[:4]), abs=1e-8)
-    # and the full model's SDIRK2 (independent propagator, absolute coordinates) at 8192 steps
-    assert abs(np.abs(turned[0]) - FULL_SDIRK2[("joints", 300)][1]) < 1e-5
+    if mechanism == "source":  # and the full model's SDIRK2 (independent propagator) at 8192 steps
+        assert abs(np.abs(turned[0]) - FULL_SDIRK2[("joints", 300)][1]) < 1e-5
+
+
+def test_reduced_clockwise_crossed_against_the_unreduced_model():
+    # the reduction (interpolated on descending angle grids) against the unreduced absolute-coordinate
+    # model propagated by Radau IIA at 512 and 1024 steps: extender, cognate (crossed branch), clockwise
+    with single_threaded_blas():
+        scene, system, settings = _system("extender", 300, "cognate", "cw")
+        red = reduced_floquet(system, link_frames(scene), settings.floquet_tolerance)
+        coarse, fine = (float(np.abs(radau_multipliers(_unit_mass(system, system.coefficients), n)[0]))
+                        for n in (512, 1024))
+    assert red is not None
+    assert abs(red.result.max_abs - fine) <= red.result.error_estimate + abs(fine - coarse)
 
 
 def test_projection_equals_the_reference_form():
