@@ -12,9 +12,10 @@ import numpy as np
 from ked_quasi.scene import Scene
 from ked_quasi.solver import natural_frequencies
 
-from .floquet import floquet
+from .floquet import FloquetResult, floquet
 from .linkage import frequencies_of, linkage_system
-from .periodic import steady_state
+from .periodic import PeriodicSystem, steady_state
+from .reduction import link_frames, reduced_floquet
 from .result import (  # noqa: F401  (the answer's type and flags, re-exported where they were defined)
     MARGINAL,
     MAX_COORDINATES,
@@ -105,6 +106,24 @@ def solve_linear(scene: Scene, settings: LinearSettings | None = None) -> Linear
         return _solve_linear(scene, settings)
 
 
+REDUCE_FROM = 8
+"""Damped four-bar systems with at least this many coordinates (extender, distributed) get their Floquet
+multipliers from the reduced system (:mod:`ked_linear.reduction`) when it vouches for the tolerance;
+smaller ones (tip, joints: the full propagator is as fast), undamped ones and a fixed ``floquet_steps``
+use the full propagator (:func:`ked_linear.floquet.floquet`)."""
+
+
+def stability(scene: Scene, system: PeriodicSystem, settings: LinearSettings) -> FloquetResult:
+    """The Floquet result of the linear model of ``scene``: from the reduced system in co-rotating link frames
+    if it is large enough and the reduction vouches for half of ``floquet_tolerance`` (its estimate covering
+    the step levels and the basis), else from the full system."""
+    if settings.floquet_steps is None and settings.damping_ratio > 0.0 and system.mass.size >= REDUCE_FROM:
+        red = reduced_floquet(system, link_frames(scene), settings.floquet_tolerance)
+        if red is not None:
+            return red.result
+    return floquet(system, settings.floquet_tolerance, settings.floquet_steps)
+
+
 def _solve_linear(scene: Scene, settings: LinearSettings | None) -> LinearResult:
     t0 = time.perf_counter()
     settings = LinearSettings() if settings is None else settings
@@ -126,7 +145,7 @@ def _solve_linear(scene: Scene, settings: LinearSettings | None) -> LinearResult
     ss = steady_state(ls.system, theta, settings.tolerance, settings.harmonics, settings.max_harmonics,
                       OUTPUT_GROUPS)
     fl = _recall(("floquet", *system_key, settings.floquet_tolerance, settings.floquet_steps),
-                 lambda: floquet(ls.system, settings.floquet_tolerance, settings.floquet_steps))
+                 lambda: stability(scene, ls.system, settings))
     # the uncertainty counts against stability: a multiplier within its error of 1 is no attracting orbit
     err = fl.error_estimate if np.isfinite(fl.error_estimate) else 0.0
     stable = bool(fl.max_abs + err < 1.0)

@@ -1,0 +1,447 @@
+"""Floquet multipliers of a linkage's linear model on a reduced system: co-rotating link frames and a constant basis.
+
+The coordinates u of :mod:`ked_linear.linkage` are absolute x, y displacements of the lumps, so the low
+frozen modes turn with the links over the cycle and no constant low-dimensional basis holds them (measured:
+the lowest frozen modes at 16 angles, compressed, gave max |mu| = 0 on the distributed model).  Here:
+
+1. **Co-rotating frames (exact).**  u = R(t) v, R block diagonal with the 2 x 2 rotation by the angle phi of
+   the link each lump belongs to (crank, coupler body = coupler + extender + the joints A, B, follower).
+   The mass of a lump is isotropic (M R = R M), so with R^T R' = phi' J and R^T R'' = phi'' J - phi'^2 I
+   per lump (J the rotation by 90 degrees, phi', phi'' the link's angular rate and acceleration from the
+   loop kinematics)
+
+       M v'' + (R^T C R + 2 M phi' J) v' + (R^T K R + R^T C R phi' J + M (phi'' J - phi'^2)) v = 0,
+
+   the same multipliers (R is periodic: the monodromy is only conjugated by R(0)).
+2. **A constant M-orthonormal basis V in v (Galerkin).**  Built greedily on a uniform grid of angles (the
+   reduced-basis method for parametric eigenproblems): start with the lowest ``modes`` frozen modes of
+   (M, R^T K R) at one angle; while the Ritz values of V at some grid angle differ from the frozen
+   eigenvalues (the ``modes`` lowest) by more than ``ritz_tolerance`` (relative), add that angle's frozen
+   modes.  An amplitude-weighted compression (SVD of the modes of many angles) converges poorly: a low mode
+   has tiny components along the links' stiff axial directions which carry much of its energy; the greedy
+   choice keeps the Ritz values exact to the tolerance on the whole grid.
+3. **The reduced system** q'' + C_r q' + K_r q = 0 (r x r, unit mass; the projection is done without
+   forming R^T K R, :func:`projection`), its coefficients sampled on 128-512 uniform angles (until the
+   interpolant of the even samples matches the odd ones within :data:`INTERPOLATION_TOLERANCE` of the
+   peak) and interpolated trigonometrically, propagated over one cycle by the three-stage **Radau IIA**
+   method (order 5, L-stable and stiffly accurate: the reduced system keeps stiff, overdamped Ritz modes,
+   which it damps to ~0 like the SDIRK2 propagator of the full model; fifth order needs 256-1024 steps
+   where SDIRK2 needs 1024-4096).
+
+**Error estimate and fallback** (:func:`reduced_floquet`).  A ladder of bases (:data:`BASES`: 2, 4, 6 frozen
+modes kept exact); the answer is a rung's, its error the estimate from its step levels plus twice the
+change to the next rung (at equal steps).  When no rung vouches for half the Floquet tolerance, or the
+answer is within its error of :data:`FULL_NEAR_ONE` (a verdict near the stability boundary is decided on
+the full model), or anything cannot be built (undamped system; coefficients not interpolable: the tip
+model's stiffness spike, linkages near toggle), it returns None and the caller uses the full model.
+
+Measured (thesis source linkage, 2 % damping, against the full SDIRK2 model at 4096 and 8192 steps,
+tests/test_floquet_reduction.py): distributed (40 coordinates; r = 14 checked against 20) at 30-300 rpm
+within 2e-4 of the full model's max |mu| and within the estimate; extender (10; r = 6 against 8) within
+2e-5; generated atlas linkages (r = 0.05-0.5) within the estimate.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .floquet import FloquetResult
+from .periodic import Coefficients, PeriodicSystem, TrigInterpolant, error_estimate, uniform_grids
+
+FULL_NEAR_ONE = 0.9
+"""A reduced max |mu| + error at or above this goes to the full model (the weakly damped threshold of the
+result flags: a verdict near the stability boundary is decided on the unreduced system)."""
+
+BASES = ((2, 1e-4), (4, 1e-6), (6, 1e-7))
+"""The ladder of bases, each (frozen modes kept exact, relative Ritz-value tolerance), each checked against
+the next (:func:`reduced_floquet`)."""
+
+ESTIMATE_FLOOR = 1e-6
+"""Least error reported for a reduced max |mu|: below it the step levels and the basis check no longer see
+the error of the interpolated coefficients (1e-8 of each field's peak; measured on a generated atlas
+linkage, distributed, r = 0.5: 1.9e-7 against the full model where the levels and bases agreed to 4e-9)."""
+
+TRAINING_ANGLES = 64
+"""Uniform grid of crank angles on which the basis is built and checked."""
+
+RADAU_LEVELS = (64, 128, 256, 512, 1024, 2048, 4096)
+"""Step counts per cycle of the reduced propagator, tried in turn."""
+
+
+@dataclass(frozen=True)
+class LinkFrames:
+    """The co-rotating frame of each coordinate pair (x, y of one lump).
+
+    link (N,): for lump j (coordinates 2 j, 2 j + 1), the column of ``angles`` it turns with;
+    angles: theta (m,) [rad] -> (phi, phi_dot, phi_ddot), each (m, L): the frame angles [rad], their rates
+    [rad/s] and accelerations [rad/s^2] at those crank angles (at the system's speed)."""
+
+    link: np.ndarray
+    angles: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
+
+    def of_lumps(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(phi, phi_dot, phi_ddot) per lump, each (m, N)."""
+        return tuple(a[:, self.link] for a in self.angles(theta))  # type: ignore[return-value]
+
+
+def link_frames(scene: object) -> LinkFrames:
+    """The frames of a four-bar scene's mass coordinates (:func:`ked_quasi.frame.condensed_structure` order):
+    lumps on the crank turn with the crank, the coupler body's (coupler, extender, A, B, P) with the
+    coupler, the follower's with the follower."""
+    from ked_quasi.frame import condensed_structure
+    from ked_quasi.kinematics import kinematics
+    from ked_quasi.massmodel import lumps
+    from ked_quasi.structure import topology
+
+    topo = topology(lumps(scene.fourbar, scene.mass_model))
+    nodes = condensed_structure(scene, np.zeros(1)).mass_node
+    column = {"crank": 0, "coupler": 1, "extender": 1, "follower": 2}
+    link = np.array([column[topo.node_link[k]] for k in nodes], dtype=int)
+    fourbar, rpm = scene.fourbar, scene.rpm
+
+    def angles(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        kin = kinematics(fourbar, theta, rpm)
+        zero = np.zeros_like(theta)
+        phi = np.stack([fourbar.ground_angle + theta, kin.coupler_angle, kin.follower_angle], axis=1)
+        rate = np.stack([zero + kin.omega, kin.omega_coupler, kin.omega_follower], axis=1)
+        acc = np.stack([zero, kin.alpha_coupler, kin.alpha_follower], axis=1)
+        return phi, rate, acc
+
+    return LinkFrames(link=link, angles=angles)
+
+
+def rotate_columns(X: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """R(phi) X for X (..., n, k) (n = 2 N) and lump angles phi (m, N): (m, n, k)."""
+    c, s = np.cos(phi)[:, :, None], np.sin(phi)[:, :, None]
+    x, y = X[..., 0::2, :], X[..., 1::2, :]
+    out = np.empty(np.broadcast_shapes(X.shape, (phi.shape[0], 2 * phi.shape[1], X.shape[-1])))
+    out[:, 0::2], out[:, 1::2] = c * x - s * y, s * x + c * y
+    return out
+
+
+def _turn(X: np.ndarray) -> np.ndarray:
+    """J X per lump (J = [[0, -1], [1, 0]]), X (..., n, k)."""
+    out = np.empty_like(X)
+    out[..., 0::2, :], out[..., 1::2, :] = -X[..., 1::2, :], X[..., 0::2, :]
+    return out
+
+
+def corotated(system: PeriodicSystem, frames: LinkFrames, theta: np.ndarray) -> Coefficients:
+    """The coefficients of the exact co-rotating system in v (u = R v) at ``theta``: (m, n, n) each (the
+    reference form; :func:`reduced_system` projects without forming them)."""
+    co = system.coefficients(theta)
+    phi, rate, acc = frames.of_lumps(theta)
+    eye = np.broadcast_to(np.eye(system.mass.size), co.stiffness.shape)
+    R = rotate_columns(eye, phi)
+    Rt = np.swapaxes(R, 1, 2)
+    K, C = Rt @ co.stiffness @ R, Rt @ co.damping @ R
+    m = system.mass
+    Jw = np.repeat(rate, 2, axis=1)[:, None, :] * _turn(eye)  # phi' J (block diagonal; columns scaled)
+    Ja = np.repeat(acc, 2, axis=1)[:, None, :] * _turn(eye)
+    spin = np.repeat(rate, 2, axis=1) ** 2
+    stiffness = K + C @ Jw + m[:, None] * Ja - eye * (m * spin)[:, None, :]
+    return Coefficients(stiffness=stiffness, damping=C + 2.0 * m[:, None] * Jw, load=np.zeros(co.load.shape))
+
+
+def frozen_stiffness(system: PeriodicSystem, frames: LinkFrames, theta: np.ndarray) -> np.ndarray:
+    """R^T K R at ``theta`` (m, n, n): the frozen structure in the link frames."""
+    K = system.coefficients(theta).stiffness
+    phi = frames.of_lumps(theta)[0]
+    RtK = rotate_columns(K, -phi)  # R^T K (R(-phi) = R(phi)^T)
+    return np.swapaxes(rotate_columns(np.swapaxes(RtK, 1, 2), -phi), 1, 2)  # (R^T (R^T K)^T)^T = R^T K R
+
+
+def greedy_basis(Ks: np.ndarray, modes: int, ritz_tolerance: float, max_size: int,
+                 eigen: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray | None:
+    """An orthonormal basis W (n, r) whose Ritz values on every matrix of ``Ks`` (m, n, n, symmetric:
+    mass-scaled stiffnesses) match the ``modes`` lowest eigenvalues within ``ritz_tolerance`` (relative);
+    None if that needs more than ``max_size`` columns.  ``eigen``: ``np.linalg.eigh(Ks)`` if at hand."""
+    lam, X = np.linalg.eigh(Ks) if eigen is None else eigen
+    lam, X = lam[:, :modes], X[:, :, :modes]
+    n = Ks.shape[1]
+    W = np.zeros((n, 0))
+    j = 0
+    while True:
+        new = X[j] - W @ (W.T @ X[j])
+        new -= W @ (W.T @ new)  # twice: orthogonal to round-off
+        U, S, _ = np.linalg.svd(new, full_matrices=False)
+        W = np.concatenate([W, U[:, S > 1e-8]], axis=1)
+        ritz = np.linalg.eigvalsh(W.T @ Ks @ W)[:, :modes]
+        err = np.max(np.abs(ritz - lam) / np.abs(lam), axis=1)
+        if err.max() <= ritz_tolerance:
+            return W
+        if W.shape[1] >= max_size:
+            return None
+        j = int(np.argmax(err))
+
+
+def projection(co: Coefficients, lumps: tuple[np.ndarray, np.ndarray, np.ndarray], mass: np.ndarray,
+               V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(K_r, C_r) (m, r, r) at the angles of ``co`` (the full coefficients) and ``lumps`` (their frame
+    angles, rates and accelerations per lump): the Galerkin projection of the co-rotating system on the
+    constant basis V (n, r), V^T M V = I, without forming R^T K R:
+
+        K_r = W^T K W + W^T C (phi' J W) + sum_lumps m (phi'' V^T J V - phi'^2 V^T V),
+        C_r = W^T C W + 2 sum_lumps m phi' V^T J V,       W = R V."""
+    phi, rate, acc = lumps
+    N = mass.size // 2
+    V2, JV2 = V.reshape(N, 2, -1), _turn(V).reshape(N, 2, -1)
+    gram = np.einsum("j,jai,jak->jik", mass[0::2], V2, V2)  # m V^T V per lump
+    skew = np.einsum("j,jai,jak->jik", mass[0::2], V2, JV2)  # m V^T J V per lump
+    W = rotate_columns(V, phi)
+    Wt = np.swapaxes(W, 1, 2)
+    Y = _turn(W) * np.repeat(rate, 2, axis=1)[:, :, None]  # R phi' J V = phi' J R V
+    K = Wt @ (co.stiffness @ W) + Wt @ (co.damping @ Y) + np.einsum("mj,jik->mik", acc, skew) \
+        - np.einsum("mj,jik->mik", rate**2, gram)
+    C = Wt @ (co.damping @ W) + 2.0 * np.einsum("mj,jik->mik", rate, skew)
+    return K, C
+
+
+class InterpolatedCoefficients:
+    """Reduced coefficients (K, C; no load) from samples on a uniform full-turn grid, trigonometric
+    interpolation (one inverse FFT per uniform grid asked for, direct summation elsewhere)."""
+
+    def __init__(self, K: np.ndarray, C: np.ndarray):
+        self.size = K.shape[1]
+        self.interpolant = TrigInterpolant(np.concatenate([K.reshape(K.shape[0], -1), C.reshape(C.shape[0], -1)],
+                                                          axis=1))
+
+    def __call__(self, theta: np.ndarray) -> Coefficients:
+        theta = np.atleast_1d(np.asarray(theta, dtype=float))
+        index = uniform_grids(theta)
+        if index is None:
+            flat = self.interpolant.at(theta)
+        else:
+            flat = np.empty((theta.size, self.interpolant.spectrum.shape[0]))
+            for row in index:
+                sign = 1.0 if theta[row[1]] > theta[row[0]] else -1.0
+                flat[row] = self.interpolant.uniform(theta[row[0]], sign, row.size)
+        r = self.size
+        return Coefficients(stiffness=flat[:, :r * r].reshape(-1, r, r), damping=flat[:, r * r:].reshape(-1, r, r),
+                            load=np.zeros((theta.size, r)))
+
+
+def interpolation_error(K: np.ndarray, C: np.ndarray) -> float:
+    """Largest error, relative to each field's peak, of the interpolant of the even samples at the odd ones:
+    an upper bound of the error of the interpolant of all samples (the series converging geometrically)."""
+    err = 0.0
+    for F in (K, C):
+        flat = F.reshape(F.shape[0], -1)
+        half = TrigInterpolant(flat[0::2]).uniform(np.pi * 2.0 / F.shape[0], 1.0, F.shape[0] // 2)
+        peak = np.max(np.abs(flat))
+        if peak > 0.0:
+            err = max(err, float(np.max(np.abs(half - flat[1::2])) / peak))
+    return err if np.isfinite(err) else float("inf")
+
+
+# --------------------------------------------------------------------------------------------------
+# Radau IIA (three stages, order 5) for q'' + C(t) q' + K(t) q = 0 with unit mass
+
+_S6 = np.sqrt(6.0)
+RADAU_C = np.array([(4.0 - _S6) / 10.0, (4.0 + _S6) / 10.0, 1.0])
+RADAU_A = np.array([[(88.0 - 7.0 * _S6) / 360.0, (296.0 - 169.0 * _S6) / 1800.0, (-2.0 + 3.0 * _S6) / 225.0],
+                    [(296.0 + 169.0 * _S6) / 1800.0, (88.0 + 7.0 * _S6) / 360.0, (-2.0 - 3.0 * _S6) / 225.0],
+                    [(16.0 - _S6) / 36.0, (16.0 + _S6) / 36.0, 1.0 / 9.0]])
+"""Butcher tableau of the three-stage Radau IIA method (weights = last row: stiffly accurate)."""
+
+
+def radau_steps(K: np.ndarray, C: np.ndarray, h: float) -> np.ndarray:
+    """Step matrices (m, 2r, 2r) of x = (q, q') for K, C (3, m, r, r) at the three stage times of each step.
+
+    Stage values Q_i = q + h sum_j a_ij P_j, P_i = p + h sum_j a_ij (-K_j Q_j - C_j P_j); eliminating Q:
+    [delta_ik I + h a_ik C_k + h^2 sum_j a_ij a_jk K_j] P_k = p - h sum_j a_ij K_j q, one 3r x 3r solve per
+    step; the new state is the last stage (Q_3, P_3)."""
+    _, m, r, _ = K.shape
+    a = RADAU_A
+    # blocks (i, k) = h^2 sum_j a_ij a_jk K_j + h a_ik C_k: one (9 x 3) product over the flattened K
+    blocks = ((np.einsum("ij,jk->ikj", a, a) * (h * h)).reshape(9, 3) @ K.reshape(3, -1)).reshape(3, 3, m, r, r)
+    for k in range(3):
+        blocks[:, k] += (h * a[:, k])[:, None, None, None] * C[k]
+    L = np.empty((m, 3, r, 3, r))
+    L[...] = blocks.transpose(2, 0, 3, 1, 4)
+    L = L.reshape(m, 3 * r, 3 * r)
+    diag = np.arange(3 * r)
+    L[:, diag, diag] += 1.0
+    rhs = np.zeros((m, 3, r, 2 * r))
+    rhs[..., :r] = ((-h * a) @ K.reshape(3, -1)).reshape(3, m, r, r).transpose(1, 0, 2, 3)
+    idx = np.arange(r)
+    rhs[:, :, idx, r + idx] = 1.0
+    P = np.linalg.solve(L, rhs.reshape(m, 3 * r, 2 * r)).reshape(m, 3, r, 2 * r)
+    S = np.empty((m, 2 * r, 2 * r))
+    S[:, r:] = P[:, 2]
+    np.multiply(P[:, 0], h * a[2, 0], out=S[:, :r])
+    S[:, :r] += (h * a[2, 1]) * P[:, 1]
+    S[:, :r] += (h * a[2, 2]) * P[:, 2]
+    S[:, idx, idx] += 1.0
+    return S
+
+
+def _product(S: np.ndarray) -> np.ndarray:
+    """S[-1] ... S[0] by pairwise products (balanced tree)."""
+    while S.shape[0] > 1:
+        odd = S[-1:] if S.shape[0] % 2 else S[:0]
+        S = np.concatenate([S[1:S.shape[0] - odd.shape[0]:2] @ S[0:S.shape[0] - odd.shape[0]:2], odd])
+    return S[0]
+
+
+def radau_multipliers(system: PeriodicSystem, steps: int) -> np.ndarray:
+    """Floquet multipliers (2r,) of a unit-mass system by Radau IIA with ``steps`` per cycle, largest first."""
+    if not np.allclose(system.mass, 1.0):
+        raise ValueError("radau_multipliers: needs a unit-mass system (a reduced system)")
+    h = system.period / steps
+    t = np.arange(steps) * h
+    co = system.coefficients(system.speed * np.concatenate([t + c * h for c in RADAU_C]))
+    r = system.mass.size
+    phi = _product(radau_steps(co.stiffness.reshape(3, steps, r, r), co.damping.reshape(3, steps, r, r), h))
+    mu = np.linalg.eigvals(phi)
+    return mu[np.argsort(-np.abs(mu))]
+
+
+@dataclass(frozen=True)
+class Reduction:
+    """A reduced Floquet analysis: ``result`` (the smaller basis; error = the step levels' estimate + twice
+    the change to the richer basis), the basis sizes (smaller, richer), the richer basis's max |mu| (at
+    fewer steps, see :func:`reduced_floquet`), the change and the step levels' estimate."""
+
+    result: FloquetResult
+    sizes: tuple[int, int]
+    richer_max_abs: float
+    basis_change: float
+    step_error: float
+
+
+INTERPOLATION_TOLERANCE = 1e-8
+"""Largest interpolation error of the reduced coefficients (fraction of each field's peak, even samples
+against odd ones); their grid doubles from :data:`TRAINING_ANGLES` x 2 up to 512 angles until it holds."""
+
+
+class Reductions:
+    """The reduced systems of the ladder :data:`BASES` on one system, each built when first asked for
+    (:meth:`system`): the full coefficients on a uniform grid, the frozen stiffness in the link frames and
+    its eigendecomposition on the training angles are shared.
+
+    ``usable``: False if the system is undamped (C = 0 on the grid: Hamiltonian, the full model's
+    symplectic propagator decides); ``omega_kept``: the largest frozen angular frequency of the lowest
+    mode over the cycle [rad/s] (with stiffness-proportional damping the least damped one)."""
+
+    def __init__(self, system: PeriodicSystem, frames: LinkFrames):
+        self.full, self.frames = system, frames
+        G = 2 * TRAINING_ANGLES
+        theta = np.arange(G) * (2.0 * np.pi / G)
+        co = system.coefficients(theta)
+        self.usable = bool(np.any(co.damping))
+        self._systems: dict[int, PeriodicSystem | None] = {}
+        if not self.usable:
+            return
+        lumps = frames.of_lumps(theta)
+        self._grids: dict[int, tuple[Coefficients, tuple[np.ndarray, np.ndarray, np.ndarray]]] = {G: (co, lumps)}
+        train = slice(0, G, G // TRAINING_ANGLES)
+        RtK = rotate_columns(co.stiffness[train], -lumps[0][train])
+        K = np.swapaxes(rotate_columns(np.swapaxes(RtK, 1, 2), -lumps[0][train]), 1, 2)  # R^T K R
+        w = 1.0 / np.sqrt(system.mass)
+        Ks = w[:, None] * K * w[None, :]
+        self._Ks = 0.5 * (Ks + np.swapaxes(Ks, 1, 2))
+        self._eigen = np.linalg.eigh(self._Ks)
+        self.omega_kept = float(np.sqrt(np.max(np.abs(self._eigen[0][:, 0]))))
+
+    def basis(self, i: int) -> np.ndarray | None:
+        """The M-orthonormal basis V (n, r) of rung ``i`` of :data:`BASES` in v (None: not smaller than n)."""
+        modes, tol = BASES[i]
+        W = greedy_basis(self._Ks, modes, tol, self.full.mass.size, self._eigen)
+        return None if W is None else W / np.sqrt(self.full.mass)[:, None]
+
+    def _grid(self, G: int) -> tuple[Coefficients, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """The full coefficients and frame angles at the midpoints of the G / 2 grid (G > the first grid)."""
+        if G not in self._grids:
+            mid = (np.arange(G // 2) + 0.5) * (4.0 * np.pi / G)
+            self._grids[G] = (self.full.coefficients(mid), self.frames.of_lumps(mid))
+        return self._grids[G]
+
+    def system(self, i: int) -> PeriodicSystem | None:
+        """The reduced system of rung ``i`` (unit mass, interpolated coefficients), or None if its basis or an
+        interpolation within :data:`INTERPOLATION_TOLERANCE` on at most 512 angles cannot be had."""
+        if i not in self._systems:
+            self._systems[i] = self._build(i)
+        return self._systems[i]
+
+    def _build(self, i: int) -> PeriodicSystem | None:
+        V = self.basis(i)
+        if V is None:
+            return None
+        G = 2 * TRAINING_ANGLES
+        K, C = projection(*self._grid(G), self.full.mass, V)
+        while interpolation_error(K, C) > INTERPOLATION_TOLERANCE:
+            if 2 * G > 512:
+                return None
+            G *= 2
+            Km, Cm = projection(*self._grid(G), self.full.mass, V)
+            K, C = _interleave(K, Km), _interleave(C, Cm)
+        return PeriodicSystem(mass=np.ones(V.shape[1]), speed=self.full.speed,
+                              coefficients=InterpolatedCoefficients(K, C))
+
+
+def _interleave(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    out = np.empty((2 * a.shape[0],) + a.shape[1:])
+    out[0::2], out[1::2] = a, b
+    return out
+
+
+def _levels(system: PeriodicSystem, resolved: float,
+            tolerance: float) -> tuple[list[float], int, float, np.ndarray] | None:
+    """Radau levels of ``system`` (:data:`RADAU_LEVELS`) until, with at least ``resolved`` steps, the step
+    error estimate is below ``tolerance`` / 8: (max |mu| per level, steps, estimate, multipliers)."""
+    tops: list[float] = []
+    changes: list[float] = []
+    for steps in RADAU_LEVELS:
+        mu = radau_multipliers(system, steps)
+        tops.append(float(np.abs(mu[0])))
+        if len(tops) >= 2:
+            changes.append(abs(tops[-1] - tops[-2]))
+        if len(changes) >= 2 and steps >= resolved:
+            est = error_estimate(changes)
+            if est < 0.125 * tolerance:
+                return tops, steps, est, mu
+    return None
+
+
+def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float) -> Reduction | None:
+    """max |mu| of ``system`` from its reductions (module docstring), or None when they cannot vouch for
+    ``tolerance`` / 2 (or the answer is near instability, or the system is undamped): use the full model.
+
+    A rung of :data:`BASES` is propagated at 64, 128, ... steps; from the third level on, once the steps
+    resolve the lowest frozen mode (h omega <= 1 at its highest frequency over the cycle: coarser levels
+    of a low-speed cycle damp it numerically and agree with each other near 0), the error of the last
+    one is estimated from the changes between levels as in the periodic solve
+    (:func:`ked_linear.periodic.error_estimate`: the last change, or the tail of a geometric series when
+    the last two changes fall faster than 1/2), and the levels stop once it is below ``tolerance`` / 8.
+    The next rung is propagated once, at the first level with h omega <= 2 for the lowest mode, against
+    this one at the same steps (their discretization errors then nearly cancel: measured on the thesis
+    extender and distributed models at 30-300 rpm, the difference there is within 31 % of the one at 512
+    steps); twice their difference is the basis error.  If the sum is not below ``tolerance`` / 2 the next
+    rung is tried against the one after it."""
+    red = Reductions(system, frames)
+    if not red.usable:
+        return None
+    resolved = red.omega_kept * system.period  # steps with h omega <= 1 for the lowest mode
+    for i in range(len(BASES) - 1):
+        small, rich = red.system(i), red.system(i + 1)
+        if small is None or rich is None:
+            return None
+        levels = _levels(small, resolved, tolerance)
+        if levels is None:
+            return None
+        tops, steps, step_est, mu = levels
+        check = min(next(n for n in RADAU_LEVELS if n >= 0.5 * resolved), steps)
+        other = float(np.abs(radau_multipliers(rich, check)[0]))
+        basis_change = abs(other - tops[RADAU_LEVELS.index(check)])
+        est = max(step_est + 2.0 * basis_change, ESTIMATE_FLOOR)
+        if not np.isfinite(tops[-1]) or tops[-1] + est >= FULL_NEAR_ONE:
+            return None
+        if est <= 0.5 * tolerance:
+            result = FloquetResult(max_abs=tops[-1], error_estimate=est, steps=steps, multipliers=mu)
+            return Reduction(result=result, sizes=(small.mass.size, rich.mass.size), richer_max_abs=other,
+                             basis_change=basis_change, step_error=step_est)
+    return None

@@ -1,0 +1,181 @@
+"""The reduced Floquet analysis (ked_linear/reduction.py): co-rotating link frames, a greedy constant basis,
+the Radau IIA propagator, its error estimate and the fallback to the full model."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from scipy.linalg import expm
+
+from ked_linear.floquet import floquet, multipliers
+from ked_linear.linkage import linkage_system
+from ked_linear.periodic import Coefficients, PeriodicSystem
+from ked_linear.reduction import (
+    Reductions,
+    corotated,
+    link_frames,
+    projection,
+    radau_multipliers,
+    reduced_floquet,
+)
+from ked_linear.settings import LinearSettings
+from ked_linear.solver import single_threaded_blas, stability
+from ked_quasi.presets import make_scene
+from ked_quasi.solver import natural_frequencies
+
+# max |mu| of the FULL linear model (absolute coordinates, SDIRK2 propagator of ked_linear.floquet) at 4096
+# and 8192 steps per cycle, thesis source linkage, default LinearSettings (2 % damping, prestress):
+# an independent discretization (other coordinates, other propagator, no reduction).  Regenerate with
+# ``abs(ked_linear.multipliers(linkage_system(scene, settings).system, steps)[0])``, settings with the
+# damping reference frequency of solve_linear (the mean first frozen frequency).
+FULL_SDIRK2 = {
+    ("tip", 100): (0.46484082231469304, 0.46483838275952183),
+    ("tip", 300): (0.6786569757663913, 0.6786572165812025),
+    ("joints", 100): (0.07251711111059718, 0.07250952183404921),
+    ("joints", 300): (0.36187601360488103, 0.3618727475141698),
+    ("extender", 100): (0.011530312812009462, 0.011523421011165805),
+    ("extender", 300): (0.1004901103099041, 0.10050798857984887),
+    ("distributed", 100): (0.010801998425919161, 0.010836022598965742),
+    ("distributed", 300): (0.16275826240247693, 0.1627369917595287),
+    ("extender", 30): (1.5206344866576729e-06, 1.485949151260287e-06),
+    ("extender", 200): (0.058861493328117166, 0.058860809952878006),
+    ("extender", 450): (0.178414270443741, 0.1784089309163326),
+    ("distributed", 30): (0.00012228470589299842, 0.00012171630152189264),
+    ("distributed", 200): (0.06714838809647322, 0.06712654421274619),
+}
+
+
+def _system(mass_model: str, rpm: float, mechanism: str = "source", direction: str | None = None, **kw):
+    scene = make_scene(mechanism_name=mechanism, mass_model=mass_model, rpm=rpm, direction=direction)
+    settings = LinearSettings(**kw)
+    f_ref = float(np.mean(natural_frequencies(scene, n_modes=1)[:, 0]))
+    return scene, linkage_system(scene, replace(settings, damping_reference_hz=f_ref)).system, settings
+
+
+def _unit_mass(system: PeriodicSystem, coefficients) -> PeriodicSystem:
+    """x'' + M^-1 C x' + M^-1 K x = 0 from coefficients of M x'' + C x' + K x = 0 (same multipliers)."""
+    m = system.mass
+
+    def co(theta):
+        c = coefficients(theta)
+        return Coefficients(stiffness=c.stiffness / m[:, None], damping=c.damping / m[:, None], load=c.load)
+
+    return PeriodicSystem(mass=np.ones(m.size), speed=system.speed, coefficients=co)
+
+
+def test_radau_constant_coefficients_match_the_matrix_exponential():
+    # closed form: for constant K, C the monodromy is expm(A T), A = [[0, I], [-K, -C]]; a stiff overdamped
+    # mode (K = 4e6, C = 2e4: roots -1e4 +- ..., h lambda ~ -150 per step) and a lightly damped one
+    K = np.array([[40.0, 5.0], [5.0, 4.0e6]])
+    C = np.array([[0.02, 0.0], [0.0, 2.0e4]])
+    speed = 2.0 * np.pi
+    system = PeriodicSystem(mass=np.ones(2), speed=speed, coefficients=lambda th: Coefficients(
+        stiffness=np.broadcast_to(K, (th.size, 2, 2)), damping=np.broadcast_to(C, (th.size, 2, 2)),
+        load=np.zeros((th.size, 2))))
+    A = np.block([[np.zeros((2, 2)), np.eye(2)], [-K, -C]])
+    exact = np.linalg.eigvals(expm(A * system.period))
+    exact = exact[np.argsort(-np.abs(exact))]
+    mu = radau_multipliers(system, 256)
+    assert np.abs(mu[:2]) == pytest.approx(np.abs(exact[:2]), abs=1e-9)
+    assert np.all(np.abs(mu[2:]) < 1e-12)  # L-stable: the stiff overdamped mode is damped out, not kept near 1
+
+
+@pytest.mark.parametrize("mechanism,direction", [("source", None), ("cognate", "cw")])
+def test_corotating_transform_is_exact_on_the_joints_model(mechanism, direction):
+    # u = R(t) v is a change of coordinates (R periodic): the multipliers of the co-rotating system equal
+    # those of the absolute one; both propagated by Radau IIA to convergence (the two discretizations
+    # differ); also turning clockwise on the crossed branch (the frames' rates change sign)
+    with single_threaded_blas():
+        scene, system, _ = _system("joints", 300, mechanism, direction)
+        frames = link_frames(scene)
+        full = radau_multipliers(_unit_mass(system, system.coefficients), 1024)
+        turned = radau_multipliers(_unit_mass(system, lambda th: corotated(system, frames, th)), 1024)
+    assert np.abs(turned[:4]) == pytest.approx(np.abs(full[:4]), abs=1e-8)
+    if mechanism == "source":  # and the full model's SDIRK2 (independent propagator) at 8192 steps
+        assert abs(np.abs(turned[0]) - FULL_SDIRK2[("joints", 300)][1]) < 1e-5
+
+
+def test_reduced_clockwise_crossed_against_the_unreduced_model():
+    # the reduction (interpolated on descending angle grids) against the unreduced absolute-coordinate
+    # model propagated by Radau IIA at 512 and 1024 steps: extender, cognate (crossed branch), clockwise
+    with single_threaded_blas():
+        scene, system, settings = _system("extender", 300, "cognate", "cw")
+        red = reduced_floquet(system, link_frames(scene), settings.floquet_tolerance)
+        coarse, fine = (float(np.abs(radau_multipliers(_unit_mass(system, system.coefficients), n)[0]))
+                        for n in (512, 1024))
+    assert red is not None
+    assert abs(red.result.max_abs - fine) <= red.result.error_estimate + abs(fine - coarse)
+
+
+def test_projection_equals_the_reference_form():
+    # the fast projection (no n x n rotation) against V^T (R^T K R + ...) V from corotated(), random basis
+    with single_threaded_blas():
+        scene, system, _ = _system("extender", 300)
+        frames = link_frames(scene)
+        theta = np.linspace(0.1, 6.0, 7)
+        V = np.random.default_rng(1).standard_normal((system.mass.size, 4))
+        K, C = projection(system.coefficients(theta), frames.of_lumps(theta), system.mass, V)
+        ref = corotated(system, frames, theta)
+    assert np.allclose(K, V.T @ ref.stiffness @ V, rtol=0, atol=1e-10 * np.abs(K).max())
+    assert np.allclose(C, V.T @ ref.damping @ V, rtol=0, atol=1e-10 * np.abs(C).max())
+
+
+@pytest.mark.parametrize("mass_model,rpm", sorted(k for k in FULL_SDIRK2 if k[0] != "tip"))
+def test_reduced_max_abs_against_the_full_model(mass_model, rpm):
+    with single_threaded_blas():
+        scene, system, settings = _system(mass_model, rpm)
+        red = reduced_floquet(system, link_frames(scene), settings.floquet_tolerance)
+    assert red is not None
+    coarse, fine = FULL_SDIRK2[(mass_model, rpm)]
+    err = abs(red.result.max_abs - fine)
+    assert err < settings.floquet_tolerance
+    # the estimate is honest: it covers the difference, up to the reference's own uncertainty (its last change)
+    assert err <= red.result.error_estimate + abs(fine - coarse)
+    assert red.sizes[0] <= red.sizes[1] <= system.mass.size
+    if mass_model == "distributed":
+        assert red.sizes[1] <= system.mass.size // 2  # a real reduction: 40 coordinates
+
+
+def test_fallback_undamped_and_unvouched():
+    with single_threaded_blas():
+        # Case I (tip): its support stiffens 1000-fold within a few degrees; the reduced coefficients (stiffness
+        # form) are not interpolable within 1e-8 on 512 angles, so the reduction declines
+        scene, system, settings = _system("tip", 100)
+        assert reduced_floquet(system, link_frames(scene), 1e-3) is None
+        scene, system, settings = _system("extender", 300, damping_ratio=0.0)
+        assert reduced_floquet(system, link_frames(scene), 1e-3) is None  # undamped: Hamiltonian, full model
+        scene, system, settings = _system("extender", 300)
+        assert reduced_floquet(system, link_frames(scene), 1e-9) is None  # cannot vouch for 5e-10
+        # a fixed step count is the full propagator's, unchanged
+        fixed = replace(settings, floquet_steps=256)
+        got = stability(scene, system, fixed)
+        ref = floquet(system, fixed.floquet_tolerance, 256)
+    assert got.max_abs == ref.max_abs and got.steps == 256
+
+
+def test_reduced_systems_are_small_and_interpolated():
+    with single_threaded_blas():
+        scene, system, _ = _system("distributed", 300)
+        built = Reductions(system, link_frames(scene))
+        small, rich = built.system(0), built.system(1)
+    assert small.mass.size < rich.mass.size < system.mass.size
+    # the lowest frozen mode's highest frequency over the cycle: the distributed model's first mode, 28 Hz
+    # and up (docs/linear_model.md, frozen frequencies), below its second (~50 Hz at most)
+    assert 2.0 * np.pi * 28.0 < built.omega_kept < 2.0 * np.pi * 60.0
+    # the reduced system at a non-grid angle: the interpolated coefficients are finite and the Radau levels agree
+    assert abs(np.abs(radau_multipliers(small, 256)[0]) - np.abs(radau_multipliers(small, 512)[0])) < 1e-4
+
+
+@pytest.mark.slow
+def test_reduced_against_full_at_other_speeds():
+    # the full SDIRK2 model at 4096 and 8192 steps computed here (slow), extender and distributed off the
+    # speeds above
+    with single_threaded_blas():
+        for mass_model, rpm in (("extender", 600), ("distributed", 150)):
+            scene, system, settings = _system(mass_model, rpm)
+            red = reduced_floquet(system, link_frames(scene), settings.floquet_tolerance)
+            coarse, fine = (float(np.abs(multipliers(system, n)[0])) for n in (4096, 8192))
+            assert red is not None
+            assert abs(red.result.max_abs - fine) <= red.result.error_estimate + abs(fine - coarse)
