@@ -8,7 +8,7 @@ quasi-static peak) are the forced resonances; both are listed.
 
 :func:`critical_speeds` is a pure function of the sampled speeds and max |mu|, optionally refined by a
 callable (the Floquet part of the linear model alone, cheap: no periodic solve): a finer sweep between
-the samples, then a golden-section search on each local maximum.  :func:`floquet_max_abs` is that
+the samples, then a search by Brent's method on each local maximum.  :func:`floquet_max_abs` is that
 callable for a campaign scene.
 """
 
