@@ -154,8 +154,6 @@ class CheckRow:
     """"measured" when Exudyn's errors decided the tier (``--confirm``), else "predicted"."""
     predicted_tier: str = ""
     """The tier the prediction alone gives (equal to ``tier`` unless a measurement decided)."""
-    floquet_steps: int = 0
-    """Propagator steps per cycle at which the linear solve's Floquet refinement ended (0: no linear solve)."""
 
 
 def spec_for(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, rpm: float, *,
@@ -274,7 +272,7 @@ def check_row(r: SceneResult, linear_range: LinearRange, tolerance: float,
         confirmed=confirmed, key=r.key, linear_harmonics=int(lin.stats.get("harmonics", 0)) if lin is not None else 0,
         linear_limit_speed_ratio=linear_range.lower_limit(tolerance), holds_below_error=margins.holds_below * tolerance,
         fails_above_error=margins.fails_above * tolerance, margins_source=margins.source, decided_by=decided_by,
-        predicted_tier=predicted, floquet_steps=int(lin.stats.get("floquet_steps", 0)) if lin is not None else 0,
+        predicted_tier=predicted,
     )
 
 

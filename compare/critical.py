@@ -185,10 +185,8 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
                    **spec_kw: object) -> tuple[tuple[CriticalSpeed, ...], tuple[float, ...], list[object]]:
     """For the rows of a design check (:func:`compare.check.check`, same linkage and keywords of
     :func:`compare.check.spec_for`): its critical speeds (refined with the Floquet part alone), the
-    amplification peaks, and the rows with the verdicts near a critical speed annotated.  A row whose
-    linear solve ended its Floquet refinement at :data:`SWEEP_STEPS` already holds the sweep's value there
-    (the same system and propagator): it is not computed again.  ``bar``: a progress bar
-    (``compare.check.progress``) advanced per Floquet evaluation."""
+    amplification peaks, and the rows with the verdicts near a critical speed annotated.  ``bar``: a
+    progress bar (``compare.check.progress``) advanced per Floquet evaluation."""
     from compare.check import advance, spec_for
 
     spec = spec_for(source, mechanism, mass_model, rows[0].rpm, **spec_kw)
@@ -203,15 +201,13 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
             advance(bar)
         return value
 
-    coarse = [r.floquet_max_abs if getattr(r, "floquet_steps", 0) == SWEEP_STEPS else f(r.rpm) for r in rows]
-    crit = critical_speeds(rpms, coarse, f)
+    crit = critical_speeds(rpms, [f(r) for r in rpms], f)
     amp = amplification_peaks(rpms, [r.linear_peak_m / r.quasi_static_peak_m if r.quasi_static_peak_m > 0
                                      else math.nan for r in rows])
     return crit, amp, mark_near(rows, crit)
 
 
 def sweep_evaluations(rows: Sequence[object], fine: int = 4) -> int:
-    """Floquet evaluations :func:`check_critical` makes on ``rows`` before refining its maxima: the rows
-    not already at :data:`SWEEP_STEPS` and the fine speeds."""
-    return (sum(getattr(r, "floquet_steps", 0) != SWEEP_STEPS for r in rows)
-            + fine_speeds([r.rpm for r in rows], fine).size)
+    """Floquet evaluations :func:`check_critical` makes on ``rows`` before refining its maxima: the rows'
+    speeds and the fine ones."""
+    return len(rows) + fine_speeds([r.rpm for r in rows], fine).size

@@ -90,7 +90,6 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     holds_below_error, fails_above_error (predicted-error bounds of the borderline
     band), margins_source (where those margins come from), decided_by
     ("measured" or "predicted"), predicted_tier (the tier without the measurement),
-    floquet_steps (propagator steps per cycle behind floquet_max_abs),
     critical_speeds_rpm and amplification_peaks_rpm (the same in every object: with
     three speeds or more, the local maxima over the speeds checked of max |Floquet
     multiplier|, refined by the Floquet part alone, and of the amplification linear /
