@@ -1,27 +1,6 @@
-"""ked check's critical-speed sweep: the values it takes from the check's own linear solves, its progress bar."""
+"""ked check's critical-speed sweep: its progress bar."""
 
 from __future__ import annotations
-
-import pytest
-
-from ked_quasi import MassModel
-from ked_quasi.massmodel import default_payload
-
-
-@pytest.mark.parametrize("mass_model, rpm", [("tip", 120.0), ("joints", 240.0)])
-def test_a_rows_floquet_value_is_the_sweeps_at_its_step_count(thesis, mass_model, rpm):
-    # the sweep takes a row's max |mu| instead of computing it when the row's Floquet refinement ended at
-    # the sweep's step count: that is sound only if the check's linear system and the sweep's are the same
-    # (scene, settings, damping reference), so the sweep's function at the row's step count must give the
-    # row's value exactly
-    from compare.check import check, spec_for
-    from compare.critical import floquet_max_abs
-
-    mm = MassModel(mass_model, payload=default_payload(mass_model))
-    (row,) = check(thesis, "source", mm, [rpm])
-    assert row.floquet_steps >= 64
-    f = floquet_max_abs(spec_for(thesis, "source", mm, rpm), steps=row.floquet_steps)
-    assert f(rpm) == row.floquet_max_abs
 
 
 def test_the_progress_bar_covers_the_critical_speed_sweep(monkeypatch):
