@@ -34,6 +34,7 @@ scene again with up to :data:`MAX_HARMONICS` before judging, and says so in the 
 
 from __future__ import annotations
 
+import contextlib
 import math
 import sys
 from collections.abc import Sequence
@@ -296,21 +297,21 @@ def linear_range(mass_model: str) -> LinearRange:
 
 def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, rpms: Sequence[float], *,
           stiffness_scale: float = 1.0, damping_ratio: float = 0.02, direction: str = "ccw", step_deg: float = 10.0,
-          tolerance: float = 0.10, confirm: bool = False) -> list[CheckRow]:
+          tolerance: float = 0.10, confirm: bool = False, bar: object = None) -> list[CheckRow]:
     """The design check of one linkage at each of ``rpms`` [rev/min] (see the module docstring).  A
     slider-crank (``source`` a ``SliderCrank``) has no atlas: neither the linear model's limit nor calibrated
     margins (the four-bar atlas's do not apply), so only a measurement (``confirm``) grants a tier below
-    nonlinear."""
+    nonlinear.  ``bar``: a progress bar (:func:`progress`) advanced per speed; default: one of its own."""
     slider = isinstance(source, SliderCrank)
     rng = LinearRange() if slider else linear_range(mass_model.name)
     margins = VerdictMargins() if slider else verdict_margins(tolerance)
     rows = []
-    with _progress(len(rpms)) as bar:
+    with progress(len(rpms)) if bar is None else contextlib.nullcontext(bar) as bar:
         for rpm in rpms:
             rows.append(_check_one(source, mechanism, mass_model, rpm, rng, margins, bar,
                                    stiffness_scale=stiffness_scale, damping_ratio=damping_ratio,
                                    direction=direction, step_deg=step_deg, tolerance=tolerance, confirm=confirm))
-            bar.update(1)
+            advance(bar)
     return rows
 
 
@@ -321,6 +322,9 @@ PROGRESS_DELAY_S = 2.0
 class _NoBar:
     """The progress bar's interface, doing nothing (not a terminal)."""
 
+    def __init__(self, total: int = 0):
+        self.n, self.total = 0, total
+
     def __enter__(self) -> _NoBar:
         return self
 
@@ -328,21 +332,34 @@ class _NoBar:
         return None
 
     def update(self, n: int = 1) -> None:
+        self.n += n
+
+    def refresh(self) -> None:
         return None
 
     def set_postfix_str(self, text: str) -> None:
         return None
 
 
-def _progress(total: int):
-    """A tqdm bar over the speeds on stderr, shown once the check has run :data:`PROGRESS_DELAY_S`
-    (tqdm's delay; it appears at the next stage of a speed or the next speed), cleared at the end; a
-    do-nothing bar when stderr is no terminal (tqdm not even imported: it costs start-up time)."""
+def progress(total: int):
+    """A tqdm bar over ``total`` steps of a check (its speeds, then the critical-speed sweep's Floquet
+    evaluations) on stderr, shown once the check has run :data:`PROGRESS_DELAY_S` (tqdm's delay; it
+    appears at the next step), cleared at the end; a do-nothing bar when stderr is no terminal (tqdm not
+    even imported: it costs start-up time)."""
     if not (hasattr(sys.stderr, "isatty") and sys.stderr.isatty()):
-        return _NoBar()
+        return _NoBar(total)
     from tqdm import tqdm
 
-    return tqdm(total=total, desc="ked check", unit="speed", delay=PROGRESS_DELAY_S, leave=False, file=sys.stderr)
+    return tqdm(total=total, desc="ked check", unit="step", delay=PROGRESS_DELAY_S, leave=False, file=sys.stderr)
+
+
+def advance(bar) -> None:
+    """One more step done on ``bar``, its total raised when the work outgrows it (the refinement of the
+    critical speeds takes as many Floquet evaluations as their peaks need)."""
+    if bar.total is not None and bar.n + 1 > bar.total:
+        bar.total = bar.n + 1
+        bar.refresh()
+    bar.update(1)
 
 
 def _check_one(source: FourBar, mechanism: str, mass_model: MassModel, rpm: float, rng: LinearRange,

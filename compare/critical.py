@@ -8,7 +8,7 @@ quasi-static peak) are the forced resonances; both are listed.
 
 :func:`critical_speeds` is a pure function of the sampled speeds and max |mu|, optionally refined by a
 callable (the Floquet part of the linear model alone, cheap: no periodic solve): a finer sweep between
-the samples, then a golden-section search on each local maximum.  :func:`floquet_max_abs` is that
+the samples, then a search by Brent's method on each local maximum.  :func:`floquet_max_abs` is that
 callable for a campaign scene.
 """
 
@@ -66,19 +66,57 @@ def _golden(f: Callable[[float], float], a: float, b: float, c: float, fb: float
     return b, fb
 
 
+def _refine(f: Callable[[float], float], a: float, b: float, c: float, fa: float, fb: float, fc: float,
+            rtol: float) -> tuple[float, float]:
+    """Maximum of f on [a, c] bracketed by b (f(b) > f(a), f(c): the values given, not evaluated again):
+    Brent's method (``scipy.optimize``: parabolic steps, golden-section ones where they do not pay) until
+    the bracket is below ``rtol`` of the speed, the criterion of :func:`_golden`, which a bracket that is
+    not strict (a plateau) or a failed evaluation falls back to.  Measured on the Floquet sweeps: 4 to 8
+    evaluations per maximum where the golden section takes 6 to 9, and closer to the peak."""
+    from scipy.optimize import minimize_scalar
+
+    known = {a: fa, b: fb, c: fc}
+    best = [b, fb]
+
+    def negative(x: float) -> float:
+        y = known[x] if x in known else f(x)
+        if not math.isfinite(y):
+            raise ArithmeticError(x)
+        if y > best[1]:
+            best[:] = [x, y]
+        return -y
+
+    if not (fb > fa and fb > fc):
+        return _golden(f, a, b, c, fb, rtol * b)
+    try:
+        # scipy's brent stops once its bracket is below 4 xtol |x| (tol1 = xtol |x|, |x - mid| <= 2 tol1 - half)
+        minimize_scalar(negative, bracket=(a, b, c), method="brent", options={"xtol": rtol / 4.0})
+    except ArithmeticError:
+        pass
+    return best[0], best[1]
+
+
+def fine_speeds(rpms: Sequence[float], fine: int = 4) -> np.ndarray:
+    """The speeds the sweep adds: ``fine`` - 1 evenly between each pair of neighbouring samples (sorted)."""
+    x = np.sort(np.asarray(rpms, dtype=float))
+    if x.size < 2 or fine <= 1:
+        return np.zeros(0)
+    return np.concatenate([np.linspace(a, b, fine + 1)[1:-1] for a, b in zip(x[:-1], x[1:])])
+
+
 def critical_speeds(rpms: Sequence[float], max_abs: Sequence[float],
                     floquet: Callable[[float], float] | None = None, fine: int = 4,
                     rpm_tol: float = 2e-3, prominence: float = PROMINENCE) -> tuple[CriticalSpeed, ...]:
     """The critical speeds (local maxima of max |mu|) of the samples ``rpms`` [rev/min] (any order) and
     their ``max_abs``.  With ``floquet`` (rpm -> max |mu|): ``fine`` - 1 more speeds between neighbouring
-    samples first, then each local maximum of at least ``prominence`` refined by golden-section search to
-    ``rpm_tol`` of its speed.
+    samples first, then each local maximum of at least ``prominence`` refined (Brent's method,
+    :func:`_refine`) to ``rpm_tol`` of its speed.
     A maximum at either end of the range is no critical speed (its peak may lie outside)."""
     order = np.argsort(np.asarray(rpms, dtype=float))
     x = np.asarray(rpms, dtype=float)[order]
     y = np.asarray(max_abs, dtype=float)[order]
     if floquet is not None and x.size >= 2 and fine > 1:
-        extra = np.concatenate([np.linspace(a, b, fine + 1)[1:-1] for a, b in zip(x[:-1], x[1:])])
+        extra = fine_speeds(x, fine)
         x = np.concatenate([x, extra])
         y = np.concatenate([y, [floquet(float(r)) for r in extra]])
         order = np.argsort(x)
@@ -87,7 +125,7 @@ def critical_speeds(rpms: Sequence[float], max_abs: Sequence[float],
     for i in local_maxima(x, y, prominence):
         r, m = float(x[i]), float(y[i])
         if floquet is not None:
-            r, m = _golden(floquet, float(x[i - 1]), r, float(x[i + 1]), m, rpm_tol * r)
+            r, m = _refine(floquet, float(x[i - 1]), r, float(x[i + 1]), float(y[i - 1]), m, float(y[i + 1]), rpm_tol)
         found.append(CriticalSpeed(rpm=r, max_abs=m))
     return tuple(found)
 
@@ -156,17 +194,33 @@ def mark_near(rows: Sequence[object], speeds: Sequence[CriticalSpeed]) -> list[o
     return out
 
 
-def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_model: object,
+def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_model: object, bar: object = None,
                    **spec_kw: object) -> tuple[tuple[CriticalSpeed, ...], tuple[float, ...], list[object]]:
     """For the rows of a design check (:func:`compare.check.check`, same linkage and keywords of
     :func:`compare.check.spec_for`): its critical speeds (refined with the Floquet part alone), the
-    amplification peaks, and the rows with the verdicts near a critical speed annotated."""
-    from compare.check import spec_for
+    amplification peaks, and the rows with the verdicts near a critical speed annotated.  ``bar``: a
+    progress bar (``compare.check.progress``) advanced per Floquet evaluation."""
+    from compare.check import advance, spec_for
 
     spec = spec_for(source, mechanism, mass_model, rows[0].rpm, **spec_kw)
     rpms = [r.rpm for r in rows]
-    f = floquet_max_abs(spec)
+    sweep = floquet_max_abs(spec)
+
+    def f(rpm: float) -> float:
+        if bar is not None:
+            bar.set_postfix_str(f"critical speeds, {rpm:.4g} rpm")
+        value = sweep(rpm)
+        if bar is not None:
+            advance(bar)
+        return value
+
     crit = critical_speeds(rpms, [f(r) for r in rpms], f)
     amp = amplification_peaks(rpms, [r.linear_peak_m / r.quasi_static_peak_m if r.quasi_static_peak_m > 0
                                      else math.nan for r in rows])
     return crit, amp, mark_near(rows, crit)
+
+
+def sweep_evaluations(rows: Sequence[object], fine: int = 4) -> int:
+    """Floquet evaluations :func:`check_critical` makes on ``rows`` before refining its maxima: the rows'
+    speeds and the fine ones."""
+    return len(rows) + fine_speeds([r.rpm for r in rows], fine).size

@@ -96,6 +96,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     quasi-static peak; else empty).
     """
     from compare.check import check as run_check
+    from compare.check import progress
     from ked_cli.quasi import slider_source
     from ked_quasi.massmodel import MassModel, default_payload
     from ked_quasi.scene import variant
@@ -116,15 +117,20 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
             source = slider
             refuse_fast_slider(spec_for(slider, mechanism, mm, speeds[0], stiffness_scale=stiffness_scale,
                                         direction=direction).scene(speeds[0]), speeds, "--rpm")
-        rows = run_check(source, mechanism, mm, speeds, stiffness_scale=stiffness_scale,
-                         damping_ratio=damping_ratio, direction=direction, tolerance=tolerance, confirm=confirm)
-        crit, amp = (), ()
-        if len(rows) >= 3 and slider is None:  # critical speeds: local maxima over the range (compare.critical)
-            from compare.critical import check_critical
+        sweep = len(speeds) >= 3 and slider is None  # critical speeds: local maxima over the range (compare.critical)
+        with progress(len(speeds)) as bar:  # one bar over the speeds and then the critical-speed sweep
+            rows = run_check(source, mechanism, mm, speeds, stiffness_scale=stiffness_scale,
+                             damping_ratio=damping_ratio, direction=direction, tolerance=tolerance, confirm=confirm,
+                             bar=bar)
+            crit, amp = (), ()
+            if sweep:
+                from compare.critical import check_critical, sweep_evaluations
 
-            crit, amp, rows = check_critical(rows, load_source(linkage), mechanism, mm,
-                                             stiffness_scale=stiffness_scale, damping_ratio=damping_ratio,
-                                             direction=direction, tolerance=tolerance)
+                bar.total = bar.n + sweep_evaluations(rows)
+                bar.refresh()
+                crit, amp, rows = check_critical(rows, load_source(linkage), mechanism, mm, bar=bar,
+                                                 stiffness_scale=stiffness_scale, damping_ratio=damping_ratio,
+                                                 direction=direction, tolerance=tolerance)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
     if as_json:

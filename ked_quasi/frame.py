@@ -22,12 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .kinematics import loop
 from .linkage import FourBar
-from .massmodel import lumps
 from .scene import Scene
-from .solver import inertia_loads, node_masses
-from .structure import Geometry, Topology, element_forces, geometry, topology
+from .structure import Geometry, Topology
 
 
 @dataclass(frozen=True)
@@ -148,30 +145,32 @@ def condensed_structure(scene: Scene, crank_angle: np.ndarray | None = None,
                         prestress: bool = False) -> CondensedStructure:
     """Static condensation of the frame model on the mass coordinates at the crank angles [rad] (default
     ``scene.crank_angles``); ``prestress``: add the geometric stiffness of the axial forces of the
-    quasi-static inertia loads at the scene's speed (tension stiffens)."""
+    quasi-static inertia loads at the scene's speed (tension stiffens).  The speed-free parts (geometry,
+    elastic stiffness, reference-speed loads and geometric stiffness, the unstressed condensation) are
+    built once per linkage, mass model and set of angles (:mod:`ked_quasi.framecache`)."""
+    from .framecache import cached, frame_parts, geometric_stiffness, load_scale
+
     theta = scene.crank_angles if crank_angle is None else np.atleast_1d(np.asarray(crank_angle, float))
-    lm = lumps(scene.fourbar, scene.mass_model)
-    topo = topology(lm)
-    dofs = frame_dofs(topo)
-    lp = loop(scene.fourbar, theta)
-    geo = geometry(scene.fourbar, topo, theta, lp)
-    loads = inertia_loads(scene, topo, lm, theta, geo, lp)
-    K_E = assemble(scene.fourbar, topo, dofs, geo)
-    K = K_E
+    parts = frame_parts(scene, theta)
+    scale = load_scale(scene)  # loads, axial forces and geometric stiffness go as the speed squared
     if prestress:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            axial = element_forces(topo, geo, loads)[..., 0]
-        K = K_E + assemble(scene.fourbar, topo, dofs, geo, axial, elastic=False)
-    mass = node_masses(topo, lm)
-    nodes = np.flatnonzero(mass > 0)
-    master = np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel()
+        K = parts.elastic + scale * geometric_stiffness(scene, theta)
+        psi, Kc = _condense(K, parts.master)
+        Km = _congruence(psi, parts.elastic)
+    else:  # the unstressed structure: no part depends on the speed
+        psi, Kc = cached("unstressed", scene, theta, lambda: _condense(parts.elastic, parts.master))
+        Kc = Km = Kc.copy()
+    p, nodes = parts.topo.p_index, parts.nodes
+    out = psi[:, [2 * p, 2 * p + 1, parts.dofs.p_rotation]]
+    return CondensedStructure(stiffness=Kc, material_stiffness=Km, mass=np.repeat(parts.node_mass[nodes], 2),
+                              load=scale * parts.loads[:, nodes].reshape(theta.size, -1), output=out,
+                              mass_node=nodes.copy())
+
+
+def _condense(K: np.ndarray, master: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(Psi, Psi^T K Psi): the static modes of the masters and the condensed stiffness."""
     psi = _static_modes(K, master)
-    Kc = _congruence(psi, K)
-    Km = Kc if not prestress else _congruence(psi, K_E)
-    p = topo.p_index
-    out = psi[:, [2 * p, 2 * p + 1, dofs.p_rotation]]
-    return CondensedStructure(stiffness=Kc, material_stiffness=Km, mass=np.repeat(mass[nodes], 2),
-                              load=loads[:, nodes].reshape(theta.size, -1), output=out, mass_node=nodes)
+    return psi, _congruence(psi, K)
 
 
 def _static_modes(K: np.ndarray, master: np.ndarray) -> np.ndarray:

@@ -153,12 +153,20 @@ def natural_frequencies(scene: Scene, n_modes: int = 3, crank_angle: np.ndarray 
     """
     if isinstance(n_modes, bool) or not isinstance(n_modes, (int, np.integer)) or n_modes < 1:
         raise ValueError(f"n_modes must be an integer >= 1, got {n_modes!r}")
+    from .framecache import cached  # the frequencies do not depend on the speed: computed once per linkage
+
+    theta = scene.crank_angles if crank_angle is None else np.atleast_1d(np.asarray(crank_angle, float))
+    f = cached("frequencies", scene, theta, lambda: _frequencies(scene, theta))
+    out = np.full((f.shape[0], n_modes), np.nan)
+    k = min(n_modes, f.shape[1])
+    out[:, :k] = f[:, :k]
+    return out
+
+
+def _frequencies(scene: Scene, crank_angle: np.ndarray) -> np.ndarray:
+    """All natural frequencies [Hz] (n, 2K) of the frozen structure, the lowest first (NaN: none)."""
     D, m = flexibility_at_masses(scene, crank_angle)
     sq = np.sqrt(m)
     lam = np.linalg.eigvalsh(sq[:, None] * D * sq[None, :])[:, ::-1]  # descending 1/omega^2
     with np.errstate(divide="ignore", invalid="ignore"):
-        f = 1.0 / np.sqrt(lam) / (2.0 * np.pi)
-    out = np.full((D.shape[0], n_modes), np.nan)
-    k = min(n_modes, f.shape[1])
-    out[:, :k] = f[:, :k]
-    return out
+        return 1.0 / np.sqrt(lam) / (2.0 * np.pi)

@@ -1,0 +1,44 @@
+"""ked check's critical-speed sweep: its progress bar."""
+
+from __future__ import annotations
+
+
+def test_the_progress_bar_covers_the_critical_speed_sweep(monkeypatch):
+    # `ked check --rpm-range` on a terminal: one bar over the speeds and then the sweep's Floquet
+    # evaluations (here shown at once: delay 0), which it names; it ends complete (n = total)
+    import sys
+
+    from compare import check as chk
+    from ked_cli.check import check as command
+
+    class Terminal:
+        def __init__(self):
+            self.parts = []
+
+        def isatty(self):
+            return True
+
+        def write(self, text):
+            self.parts.append(text)
+            return len(text)
+
+        def flush(self):
+            return None
+
+    bars = []
+    original = chk.progress
+
+    def recording(total):
+        bar = original(total)
+        bars.append(bar)
+        return bar
+
+    err = Terminal()
+    monkeypatch.setattr(sys, "stderr", err)
+    monkeypatch.setattr(chk, "PROGRESS_DELAY_S", 0.0)
+    monkeypatch.setattr(chk, "progress", recording)
+    command.main(["--mass-model", "tip", "--rpm-range", "100:200:3"], standalone_mode=False)
+    text = "".join(err.parts)
+    assert "critical speeds" in text and "ked check" in text
+    (bar,) = bars
+    assert bar.n == bar.total >= 3 + 2 * 3  # the speeds, then at least the fine sweep's evaluations
