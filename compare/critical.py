@@ -160,12 +160,16 @@ def floquet_max_abs(spec: object, steps: int = SWEEP_STEPS) -> Callable[[float],
     from compare.solvers import get as get_solver
     from ked_linear import linkage_system, multipliers
     from ked_linear.reduction import link_frames, reduced_floquet
-    from ked_linear.solver import REDUCE_FROM
+    from ked_linear.solver import REDUCE_FROM, single_threaded_blas
     from ked_quasi.slidercrank import SliderScene
 
     settings = settings_of(get_solver("linear"), spec)
 
     def f(rpm: float) -> float:
+        with single_threaded_blas():  # as solve_linear: small batched BLAS calls, threads only cost (3-8x)
+            return evaluate(rpm)
+
+    def evaluate(rpm: float) -> float:
         scene = spec.scene(rpm)
         system = linkage_system(scene, settings).system
         if steps == SWEEP_STEPS and system.mass.size >= REDUCE_FROM and settings.floquet_steps is None \
