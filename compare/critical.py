@@ -160,16 +160,12 @@ def floquet_max_abs(spec: object, steps: int = SWEEP_STEPS) -> Callable[[float],
     from compare.solvers import get as get_solver
     from ked_linear import linkage_system, multipliers
     from ked_linear.reduction import link_frames, reduced_floquet
-    from ked_linear.solver import REDUCE_FROM, single_threaded_blas
+    from ked_linear.solver import REDUCE_FROM
     from ked_quasi.slidercrank import SliderScene
 
     settings = settings_of(get_solver("linear"), spec)
 
     def f(rpm: float) -> float:
-        with single_threaded_blas():  # as solve_linear: small batched BLAS calls, threads only cost (3-8x)
-            return evaluate(rpm)
-
-    def evaluate(rpm: float) -> float:
         scene = spec.scene(rpm)
         system = linkage_system(scene, settings).system
         if steps == SWEEP_STEPS and system.mass.size >= REDUCE_FROM and settings.floquet_steps is None \
@@ -205,6 +201,7 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
     amplification peaks, and the rows with the verdicts near a critical speed annotated.  ``bar``: a
     progress bar (``compare.check.progress``) advanced per Floquet evaluation."""
     from compare.check import advance, spec_for
+    from ked_linear.solver import single_threaded_blas
 
     spec = spec_for(source, mechanism, mass_model, rows[0].rpm, **spec_kw)
     rpms = [r.rpm for r in rows]
@@ -218,7 +215,10 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
             advance(bar)
         return value
 
-    crit = critical_speeds(rpms, [f(r) for r in rpms], f)
+    # one BLAS thread, as in solve_linear: the evaluations are small batched calls where threads only cost
+    # (measured on the loaded 2-core machine: the sweep 3-8x slower with threads)
+    with single_threaded_blas():
+        crit = critical_speeds(rpms, [f(r) for r in rpms], f)
     amp = amplification_peaks(rpms, [r.linear_peak_m / r.quasi_static_peak_m if r.quasi_static_peak_m > 0
                                      else math.nan for r in rows])
     return crit, amp, mark_near(rows, crit)
