@@ -168,9 +168,12 @@ def greedy_basis(Ks: np.ndarray, modes: int, ritz_tolerance: float, max_size: in
         new = X[j] - W @ (W.T @ X[j])
         new -= W @ (W.T @ new)  # twice: orthogonal to round-off
         U, S, _ = np.linalg.svd(new, full_matrices=False)
+        if not np.any(S > 1e-8):  # the worst angle's modes are spanned, its Ritz values still off: no progress
+            return None
         W = np.concatenate([W, U[:, S > 1e-8]], axis=1)
         ritz = np.linalg.eigvalsh(W.T @ Ks @ W)[:, :modes]
-        err = np.max(np.abs(ritz - lam) / np.abs(lam), axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):  # a zero eigenvalue: NaN, never accepted
+            err = np.max(np.abs(ritz - lam) / np.abs(lam), axis=1)
         if err.max() <= ritz_tolerance:
             return W
         if W.shape[1] >= max_size:
