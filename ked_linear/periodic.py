@@ -533,6 +533,19 @@ class TrigInterpolant:
         """Values (m, F) at any angles (m,), by direct summation (O(G m) per column)."""
         return (np.exp(1j * np.outer(theta, self.frequency)) @ self.spectrum.T).real
 
+    def evaluate(self, theta: np.ndarray, index: np.ndarray | None = None) -> np.ndarray:
+        """Values (m, F) at the angles ``theta`` (m,): by :meth:`uniform` on each uniform full-turn grid they
+        consist of (``index``, default :func:`uniform_grids` of ``theta``), else by direct summation
+        (:meth:`at`)."""
+        index = uniform_grids(theta) if index is None else index
+        if index is None:
+            return self.at(theta)
+        out = np.empty((theta.size, self.spectrum.shape[0]))
+        for row in index:
+            sign = 1.0 if theta[row[1]] > theta[row[0]] else -1.0
+            out[row] = self.uniform(theta[row[0]], sign, row.size)
+        return out
+
 
 def uniform_grids(theta: np.ndarray, most: int = 4) -> np.ndarray | None:
     """If ``theta`` (m,) consists of r <= ``most`` uniform full-turn grids (theta0 + sign 2 pi j / (m/r),
@@ -641,11 +654,7 @@ class SampledCoefficients:
         index = None if self.interpolant is None else uniform_grids(theta)
         if index is None:
             return self.direct(theta)
-        out = np.empty((theta.size, self.interpolant.spectrum.shape[0]))
-        for row in index:
-            sign = 1.0 if theta[row[1]] > theta[row[0]] else -1.0
-            out[row] = self.interpolant.uniform(theta[row[0]], sign, row.size)
-        return _from_form(self.form, _expand(out, self.layout, self.symmetric))
+        return _from_form(self.form, _expand(self.interpolant.evaluate(theta, index), self.layout, self.symmetric))
 
 
 def _every_other(co: Coefficients, first: int) -> Coefficients:
@@ -654,12 +663,15 @@ def _every_other(co: Coefficients, first: int) -> Coefficients:
 
 def _merge(a: Coefficients, b: Coefficients) -> Coefficients:
     """Interleave the samples of ``a`` and ``b`` (a[0], b[0], a[1], ...)."""
-    fields = []
-    for fa, fb in zip(_fields(a), _fields(b)):
-        f = np.empty((2 * fa.shape[0],) + fa.shape[1:])
-        f[0::2], f[1::2] = fa, fb
-        fields.append(f)
-    return _coefficients(fields)
+    return _coefficients([interleave(fa, fb) for fa, fb in zip(_fields(a), _fields(b))])
+
+
+def interleave(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The rows of ``a`` and ``b`` (same shape) alternately: a[0], b[0], a[1], ... (samples on a grid and
+    on its midpoints -> samples on the grid twice as fine)."""
+    out = np.empty((2 * a.shape[0],) + a.shape[1:])
+    out[0::2], out[1::2] = a, b
+    return out
 
 
 def _fields(co: Coefficients) -> list[np.ndarray]:
