@@ -26,6 +26,7 @@ The truncation error is that of treating harmonics above H of w with one quasi-s
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -601,6 +602,7 @@ class SampledCoefficients:
         self._options = (tolerance, start, max_points)
         self._sampled = False
         self._memo: dict[bytes, Coefficients] = {}
+        self._lock = threading.RLock()  # one object may serve several threads (solve_linear's recalled systems)
 
     form = property(lambda self: self._sample()._form)
     points = property(lambda self: self._sample()._points)
@@ -609,10 +611,12 @@ class SampledCoefficients:
 
     def _sample(self) -> SampledCoefficients:
         if not self._sampled:
-            self._sampled = True
-            self._form, self._points, self._error = "direct", 0, float("nan")
-            self._interpolant: TrigInterpolant | None = None
-            self._refine(*self._options)
+            with self._lock:  # another thread must not see a half-sampled object (form "direct" meanwhile)
+                if not self._sampled:
+                    self._form, self._points, self._error = "direct", 0, float("nan")
+                    self._interpolant: TrigInterpolant | None = None
+                    self._refine(*self._options)
+                    self._sampled = True
         return self
 
     def _refine(self, tolerance: float, start: int, max_points: int) -> None:
@@ -650,11 +654,18 @@ class SampledCoefficients:
         if theta.size > MEMO_ANGLES:  # a propagator's stage angles: large and not asked for twice
             return self._evaluate(theta)
         key = theta.tobytes()
-        if key not in self._memo:
-            if len(self._memo) >= 8:  # bounded: the same angles recur (levels of the periodic solve)
-                self._memo.pop(next(iter(self._memo)))
-            self._memo[key] = self._evaluate(theta)
-        return self._memo[key]
+        with self._lock:
+            if key in self._memo:
+                return self._memo[key]
+        co = self._evaluate(theta)
+        for f in _fields(co):  # shared by every caller asking for these angles: read-only
+            f.flags.writeable = False
+        with self._lock:
+            if key not in self._memo:
+                if len(self._memo) >= 8:  # bounded: the same angles recur (levels of the periodic solve)
+                    self._memo.pop(next(iter(self._memo)))
+                self._memo[key] = co
+            return self._memo[key]
 
     def _evaluate(self, theta: np.ndarray) -> Coefficients:
         index = None if self.interpolant is None else uniform_grids(theta)
