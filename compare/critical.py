@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -191,7 +192,7 @@ def mark_near(rows: Sequence[object], speeds: Sequence[CriticalSpeed]) -> list[o
     return out
 
 
-def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_model: object, bar: object = None,
+def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_model: object, bar: Any = None,
                    **spec_kw: object) -> tuple[tuple[CriticalSpeed, ...], tuple[float, ...], list[object]]:
     """For the rows of a design check (:func:`compare.check.check`, same linkage and keywords of
     :func:`compare.check.spec_for`): its critical speeds (refined with the Floquet part alone), the
