@@ -39,6 +39,7 @@ import math
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 from compare import metrics, verdict_rule
 from compare.config import default_dynamic
@@ -297,7 +298,7 @@ def linear_range(mass_model: str) -> LinearRange:
 
 def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, rpms: Sequence[float], *,
           stiffness_scale: float = 1.0, damping_ratio: float = 0.02, direction: str = "ccw", step_deg: float = 10.0,
-          tolerance: float = 0.10, confirm: bool = False, bar: object = None) -> list[CheckRow]:
+          tolerance: float = 0.10, confirm: bool = False, bar: Any = None) -> list[CheckRow]:
     """The design check of one linkage at each of ``rpms`` [rev/min] (see the module docstring).  A
     slider-crank (``source`` a ``SliderCrank``) has no atlas: neither the linear model's limit nor calibrated
     margins (the four-bar atlas's do not apply), so only a measurement (``confirm``) grants a tier below
@@ -341,7 +342,7 @@ class _NoBar:
         return None
 
 
-def progress(total: int):
+def progress(total: int) -> Any:
     """A tqdm bar over ``total`` steps of a check (its speeds, then the critical-speed sweep's Floquet
     evaluations) on stderr, shown once the check has run :data:`PROGRESS_DELAY_S` (tqdm's delay; it
     appears at the next step), cleared at the end; a do-nothing bar when stderr is no terminal (tqdm not
@@ -353,7 +354,7 @@ def progress(total: int):
     return tqdm(total=total, desc="ked check", unit="step", delay=PROGRESS_DELAY_S, leave=False, file=sys.stderr)
 
 
-def advance(bar) -> None:
+def advance(bar: Any) -> None:
     """One more step done on ``bar``, its total raised when the work outgrows it (the refinement of the
     critical speeds takes as many Floquet evaluations as their peaks need)."""
     if bar.total is not None and bar.n + 1 > bar.total:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -152,27 +153,24 @@ differ from one speed to the next by a factor 2 and its result by its error esti
 def floquet_max_abs(spec: object, steps: int = SWEEP_STEPS) -> Callable[[float], float]:
     """rpm -> max |Floquet multiplier| of the linear model of a campaign scene (``compare.scenes.SceneSpec``)
     at that speed, with the scene's linear settings and ``steps`` per cycle: only the Floquet part (no
-    periodic solve).  With the default ``steps``, a damped four-bar model of
-    ``ked_linear.solver.REDUCE_FROM`` coordinates or more takes the reduced system's converged value where
-    it vouches for half the Floquet tolerance (``ked_linear.reduction``: its error, ~1e-4, is below the
-    fixed-step one's, so it moves no maximum either), else the full model at ``steps``."""
+    periodic solve).  With the default ``steps``, the reduced system's converged value where
+    ``ked_linear.solver.reduced_stability`` gives one (damped four-bar models of
+    ``ked_linear.solver.REDUCE_FROM`` coordinates or more, where the reduction vouches for half the Floquet
+    tolerance: its error, ~1e-4, is below the fixed-step one's, so it moves no maximum either), else the
+    full model at ``steps``."""
     from compare.execute import settings_of
     from compare.solvers import get as get_solver
     from ked_linear import linkage_system, multipliers
-    from ked_linear.reduction import link_frames, reduced_floquet
-    from ked_linear.solver import REDUCE_FROM
-    from ked_quasi.slidercrank import SliderScene
+    from ked_linear.solver import reduced_stability
 
     settings = settings_of(get_solver("linear"), spec)
 
     def f(rpm: float) -> float:
         scene = spec.scene(rpm)
         system = linkage_system(scene, settings).system
-        if steps == SWEEP_STEPS and system.mass.size >= REDUCE_FROM and settings.floquet_steps is None \
-                and not isinstance(scene, SliderScene):
-            red = reduced_floquet(system, link_frames(scene), settings.floquet_tolerance)
-            if red is not None:
-                return red.result.max_abs
+        red = reduced_stability(scene, system, settings) if steps == SWEEP_STEPS else None
+        if red is not None:
+            return red.max_abs
         return float(np.abs(multipliers(system, steps)[0]))
 
     return f
@@ -194,7 +192,7 @@ def mark_near(rows: Sequence[object], speeds: Sequence[CriticalSpeed]) -> list[o
     return out
 
 
-def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_model: object, bar: object = None,
+def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_model: object, bar: Any = None,
                    **spec_kw: object) -> tuple[tuple[CriticalSpeed, ...], tuple[float, ...], list[object]]:
     """For the rows of a design check (:func:`compare.check.check`, same linkage and keywords of
     :func:`compare.check.spec_for`): its critical speeds (refined with the Floquet part alone), the

@@ -158,7 +158,8 @@ def _series(system: PeriodicSystem) -> _Series | None:
 
 _SERIES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 """The series of each sampled coefficients object (by its size n), computed once (every level asks for
-it), forgotten with the coefficients."""
+it), forgotten with the coefficients.  Keyed by the object itself (identity: its samples never change
+once taken), its arrays read-only; two threads asking at once may both compute it, to the same value."""
 
 
 def _series_of(co: SampledCoefficients, n: int) -> _Series | None:
@@ -187,8 +188,9 @@ def _series_of(co: SampledCoefficients, n: int) -> _Series | None:
     H = int(np.argmax(tail <= SERIES_TAIL)) if co.form == "stiffness" else G // 2  # tail[H]: harmonics above H
     if start < SERIES_MIN_COLUMNS * H:  # a tiny system: whole-turn FFTs are cheaper than the basis
         return None
-    return _Series(harmonics=H, rows=np.ascontiguousarray(rows[:2 * H + 1]), expand=np.concatenate(columns),
-                   split=sizes[0], form=co.form)
+    rows, expand = np.ascontiguousarray(rows[:2 * H + 1]), np.concatenate(columns)
+    rows.flags.writeable = expand.flags.writeable = False  # kept in _SERIES and shared by every level
+    return _Series(harmonics=H, rows=rows, expand=expand, split=sizes[0], form=co.form)
 
 
 SERIES_MIN_COLUMNS = 1.0

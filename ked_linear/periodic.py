@@ -26,6 +26,7 @@ The truncation error is that of treating harmonics above H of w with one quasi-s
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -320,8 +321,14 @@ def _gmres(apply: Callable[[np.ndarray], np.ndarray], precondition: Callable[[np
     """GMRES preconditioned on the right (A M y = b, x = M y: its residual is that of A x = b) from ``x``,
     at most ``cycles`` cycles of ``restart`` iterations, until |b - A x| <= ``tol``; returns x and whether
     it got there.  The Krylov basis is orthogonalized by classical Gram-Schmidt applied twice (two matrix
-    products per iteration: a few hundred unknowns' worth of Python work less per iteration than a loop
-    over the basis vectors), the small least-squares problem by Givens rotations."""
+    products per iteration), the small least-squares problem by Givens rotations.
+
+    Why not ``scipy.sparse.linalg.gmres``: scipy 1.17's loops in Python over the basis vectors in every
+    iteration.  Measured (solve_periodic, thesis source linkage, medians of 5 on a loaded 2-core machine,
+    /tmp script swapping in scipy's gmres with the same preconditioner, restart and absolute tolerance;
+    answers equal within 3e-12 of the peak): extender 300 rpm H = 32 5.4 ms against 10.7 ms, distributed
+    100 and 300 rpm H = 32 74 and 85 ms against 81 and 98 ms, H = 16 10 and 34 ms against 12 and 35 ms.
+    Tested against a dense solve (tests/test_linear_speed.py)."""
     for _ in range(cycles):
         r = b - apply(x)
         beta = float(np.linalg.norm(r))
@@ -533,6 +540,19 @@ class TrigInterpolant:
         """Values (m, F) at any angles (m,), by direct summation (O(G m) per column)."""
         return (np.exp(1j * np.outer(theta, self.frequency)) @ self.spectrum.T).real
 
+    def evaluate(self, theta: np.ndarray, index: np.ndarray | None = None) -> np.ndarray:
+        """Values (m, F) at the angles ``theta`` (m,): by :meth:`uniform` on each uniform full-turn grid they
+        consist of (``index``, default :func:`uniform_grids` of ``theta``), else by direct summation
+        (:meth:`at`)."""
+        index = uniform_grids(theta) if index is None else index
+        if index is None:
+            return self.at(theta)
+        out = np.empty((theta.size, self.spectrum.shape[0]))
+        for row in index:
+            sign = 1.0 if theta[row[1]] > theta[row[0]] else -1.0
+            out[row] = self.uniform(theta[row[0]], sign, row.size)
+        return out
+
 
 def uniform_grids(theta: np.ndarray, most: int = 4) -> np.ndarray | None:
     """If ``theta`` (m,) consists of r <= ``most`` uniform full-turn grids (theta0 + sign 2 pi j / (m/r),
@@ -582,6 +602,7 @@ class SampledCoefficients:
         self._options = (tolerance, start, max_points)
         self._sampled = False
         self._memo: dict[bytes, Coefficients] = {}
+        self._lock = threading.RLock()  # one object may serve several threads (solve_linear's recalled systems)
 
     form = property(lambda self: self._sample()._form)
     points = property(lambda self: self._sample()._points)
@@ -590,10 +611,12 @@ class SampledCoefficients:
 
     def _sample(self) -> SampledCoefficients:
         if not self._sampled:
-            self._sampled = True
-            self._form, self._points, self._error = "direct", 0, float("nan")
-            self._interpolant: TrigInterpolant | None = None
-            self._refine(*self._options)
+            with self._lock:  # another thread must not see a half-sampled object (form "direct" meanwhile)
+                if not self._sampled:
+                    self._form, self._points, self._error = "direct", 0, float("nan")
+                    self._interpolant: TrigInterpolant | None = None
+                    self._refine(*self._options)
+                    self._sampled = True
         return self
 
     def _refine(self, tolerance: float, start: int, max_points: int) -> None:
@@ -631,21 +654,24 @@ class SampledCoefficients:
         if theta.size > MEMO_ANGLES:  # a propagator's stage angles: large and not asked for twice
             return self._evaluate(theta)
         key = theta.tobytes()
-        if key not in self._memo:
-            if len(self._memo) >= 8:  # bounded: the same angles recur (levels of the periodic solve)
-                self._memo.pop(next(iter(self._memo)))
-            self._memo[key] = self._evaluate(theta)
-        return self._memo[key]
+        with self._lock:
+            if key in self._memo:
+                return self._memo[key]
+        co = self._evaluate(theta)
+        for f in _fields(co):  # shared by every caller asking for these angles: read-only
+            f.flags.writeable = False
+        with self._lock:
+            if key not in self._memo:
+                if len(self._memo) >= 8:  # bounded: the same angles recur (levels of the periodic solve)
+                    self._memo.pop(next(iter(self._memo)))
+                self._memo[key] = co
+            return self._memo[key]
 
     def _evaluate(self, theta: np.ndarray) -> Coefficients:
         index = None if self.interpolant is None else uniform_grids(theta)
         if index is None:
             return self.direct(theta)
-        out = np.empty((theta.size, self.interpolant.spectrum.shape[0]))
-        for row in index:
-            sign = 1.0 if theta[row[1]] > theta[row[0]] else -1.0
-            out[row] = self.interpolant.uniform(theta[row[0]], sign, row.size)
-        return _from_form(self.form, _expand(out, self.layout, self.symmetric))
+        return _from_form(self.form, _expand(self.interpolant.evaluate(theta, index), self.layout, self.symmetric))
 
 
 def _every_other(co: Coefficients, first: int) -> Coefficients:
@@ -654,12 +680,15 @@ def _every_other(co: Coefficients, first: int) -> Coefficients:
 
 def _merge(a: Coefficients, b: Coefficients) -> Coefficients:
     """Interleave the samples of ``a`` and ``b`` (a[0], b[0], a[1], ...)."""
-    fields = []
-    for fa, fb in zip(_fields(a), _fields(b)):
-        f = np.empty((2 * fa.shape[0],) + fa.shape[1:])
-        f[0::2], f[1::2] = fa, fb
-        fields.append(f)
-    return _coefficients(fields)
+    return _coefficients([interleave(fa, fb) for fa, fb in zip(_fields(a), _fields(b))])
+
+
+def interleave(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The rows of ``a`` and ``b`` (same shape) alternately: a[0], b[0], a[1], ... (samples on a grid and
+    on its midpoints -> samples on the grid twice as fine)."""
+    out = np.empty((2 * a.shape[0],) + a.shape[1:])
+    out[0::2], out[1::2] = a, b
+    return out
 
 
 def _fields(co: Coefficients) -> list[np.ndarray]:

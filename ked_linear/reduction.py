@@ -48,8 +48,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .floquet import FloquetResult
-from .periodic import Coefficients, PeriodicSystem, TrigInterpolant, error_estimate, uniform_grids
+from .floquet import FloquetResult, _product
+from .periodic import Coefficients, PeriodicSystem, TrigInterpolant, error_estimate, interleave
 
 FULL_NEAR_ONE = 0.9
 """A reduced max |mu| + error at or above this goes to the full model (the weakly damped threshold of the
@@ -148,8 +148,11 @@ def corotated(system: PeriodicSystem, frames: LinkFrames, theta: np.ndarray) -> 
 
 def frozen_stiffness(system: PeriodicSystem, frames: LinkFrames, theta: np.ndarray) -> np.ndarray:
     """R^T K R at ``theta`` (m, n, n): the frozen structure in the link frames."""
-    K = system.coefficients(theta).stiffness
-    phi = frames.of_lumps(theta)[0]
+    return _in_frames(system.coefficients(theta).stiffness, frames.of_lumps(theta)[0])
+
+
+def _in_frames(K: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """R^T K R (m, n, n) for K (m, n, n) and the lump angles phi (m, N)."""
     RtK = rotate_columns(K, -phi)  # R^T K (R(-phi) = R(phi)^T)
     return np.swapaxes(rotate_columns(np.swapaxes(RtK, 1, 2), -phi), 1, 2)  # (R^T (R^T K)^T)^T = R^T K R
 
@@ -168,9 +171,12 @@ def greedy_basis(Ks: np.ndarray, modes: int, ritz_tolerance: float, max_size: in
         new = X[j] - W @ (W.T @ X[j])
         new -= W @ (W.T @ new)  # twice: orthogonal to round-off
         U, S, _ = np.linalg.svd(new, full_matrices=False)
+        if not np.any(S > 1e-8):  # the worst angle's modes are spanned, its Ritz values still off: no progress
+            return None
         W = np.concatenate([W, U[:, S > 1e-8]], axis=1)
         ritz = np.linalg.eigvalsh(W.T @ Ks @ W)[:, :modes]
-        err = np.max(np.abs(ritz - lam) / np.abs(lam), axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):  # a zero eigenvalue: NaN, never accepted
+            err = np.max(np.abs(ritz - lam) / np.abs(lam), axis=1)
         if err.max() <= ritz_tolerance:
             return W
         if W.shape[1] >= max_size:
@@ -211,14 +217,7 @@ class InterpolatedCoefficients:
 
     def __call__(self, theta: np.ndarray) -> Coefficients:
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
-        index = uniform_grids(theta)
-        if index is None:
-            flat = self.interpolant.at(theta)
-        else:
-            flat = np.empty((theta.size, self.interpolant.spectrum.shape[0]))
-            for row in index:
-                sign = 1.0 if theta[row[1]] > theta[row[0]] else -1.0
-                flat[row] = self.interpolant.uniform(theta[row[0]], sign, row.size)
+        flat = self.interpolant.evaluate(theta)
         r = self.size
         return Coefficients(stiffness=flat[:, :r * r].reshape(-1, r, r), damping=flat[:, r * r:].reshape(-1, r, r),
                             load=np.zeros((theta.size, r)))
@@ -279,14 +278,6 @@ def radau_steps(K: np.ndarray, C: np.ndarray, h: float) -> np.ndarray:
     return S
 
 
-def _product(S: np.ndarray) -> np.ndarray:
-    """S[-1] ... S[0] by pairwise products (balanced tree)."""
-    while S.shape[0] > 1:
-        odd = S[-1:] if S.shape[0] % 2 else S[:0]
-        S = np.concatenate([S[1:S.shape[0] - odd.shape[0]:2] @ S[0:S.shape[0] - odd.shape[0]:2], odd])
-    return S[0]
-
-
 def radau_multipliers(system: PeriodicSystem, steps: int) -> np.ndarray:
     """Floquet multipliers (2r,) of a unit-mass system by Radau IIA with ``steps`` per cycle, largest first."""
     if not np.allclose(system.mass, 1.0):
@@ -339,8 +330,7 @@ class Reductions:
         lumps = frames.of_lumps(theta)
         self._grids: dict[int, tuple[Coefficients, tuple[np.ndarray, np.ndarray, np.ndarray]]] = {G: (co, lumps)}
         train = slice(0, G, G // TRAINING_ANGLES)
-        RtK = rotate_columns(co.stiffness[train], -lumps[0][train])
-        K = np.swapaxes(rotate_columns(np.swapaxes(RtK, 1, 2), -lumps[0][train]), 1, 2)  # R^T K R
+        K = _in_frames(co.stiffness[train], lumps[0][train])  # R^T K R
         w = 1.0 / np.sqrt(system.mass)
         Ks = w[:, None] * K * w[None, :]
         self._Ks = 0.5 * (Ks + np.swapaxes(Ks, 1, 2))
@@ -378,15 +368,9 @@ class Reductions:
                 return None
             G *= 2
             Km, Cm = projection(*self._grid(G), self.full.mass, V)
-            K, C = _interleave(K, Km), _interleave(C, Cm)
+            K, C = interleave(K, Km), interleave(C, Cm)
         return PeriodicSystem(mass=np.ones(V.shape[1]), speed=self.full.speed,
                               coefficients=InterpolatedCoefficients(K, C))
-
-
-def _interleave(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    out = np.empty((2 * a.shape[0],) + a.shape[1:])
-    out[0::2], out[1::2] = a, b
-    return out
 
 
 class _BasisFails(Exception):

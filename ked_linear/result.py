@@ -24,7 +24,10 @@ class LinearResult:
         its error: the free vibrations never decay; the message says "marginal (undamped)") or "unstable";
         stable: status == "ok"; message: one line saying why.
     floquet_max_abs: largest |Floquet multiplier| of the homogeneous system over one crank cycle;
-        floquet_error: its estimated absolute error; floquet_steps: propagator steps per cycle.
+        floquet_error: its estimated absolute error; floquet_steps: propagator steps per cycle (of the
+        reduced system's Radau IIA propagator when the reduced Floquet analysis answered: damped extender
+        and distributed models, ``ked_linear.reduction``; else of the full model's SDIRK2 or
+        Gauss-Legendre propagator).
     harmonics: crank harmonics H with a dynamic response; collocation_points: N;
         error_estimate: estimated relative error of the history (change from the level below, fraction of the peak).
     damping_reference_hz [Hz], damping_beta [s]: the stiffness-proportional damping used.

@@ -38,8 +38,9 @@ class LinearSettings:
         (4, 8, 16, ... up to ``max_harmonics`` until the estimated error is below ``tolerance``).
     max_harmonics: largest H tried by the automatic choice.
     tolerance: target relative error of the coupler-point history (fraction of its peak).
-    floquet_steps: time steps per crank cycle of the monodromy propagator; None -> automatic (64, 128,
-        ... until the change of max |multiplier| is below ``floquet_tolerance``).
+    floquet_steps: time steps per crank cycle of the monodromy propagator of the full model; None ->
+        automatic (64, 128, ... until the change of max |multiplier| is below ``floquet_tolerance``; damped
+        extender and distributed models then try the reduced system first, ``ked_linear.reduction``).
     floquet_tolerance: target absolute error of max |multiplier|.
     """
 

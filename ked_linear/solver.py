@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import contextlib
 import sys
+import threading
 import time
+from collections.abc import Callable
 from dataclasses import replace
+from typing import TypeVar
 
 import numpy as np
 
@@ -54,21 +57,31 @@ same scene with other periodic-solve settings (``ked check`` solving again with 
 system and its multipliers do not depend on them."""
 
 _RECALL: dict[tuple, object] = {}
+T = TypeVar("T")
 
 
-def _recall(key: tuple, compute):
+_RECALL_LOCK = threading.Lock()
+
+
+def _recall(key: tuple, compute: Callable[[], T]) -> T:
     """compute() once per key among the last :data:`RECALLED` of each kind (key[0]); a key that cannot be
-    hashed is computed every time."""
+    hashed is computed every time.  Thread-safe (threads of one Dask worker may share it): the map is read
+    and changed under a lock, compute() runs outside it (two threads may both compute a new key)."""
     try:
         hash(key)
     except TypeError:
         return compute()
-    if key not in _RECALL:
-        same_kind = [k for k in _RECALL if k[0] == key[0]]
-        for k in same_kind[:max(0, len(same_kind) - RECALLED + 1)]:
-            del _RECALL[k]
-        _RECALL[key] = compute()
-    return _RECALL[key]
+    with _RECALL_LOCK:
+        if key in _RECALL:
+            return _RECALL[key]  # type: ignore[return-value]
+    value = compute()
+    with _RECALL_LOCK:
+        if key not in _RECALL:
+            same_kind = [k for k in _RECALL if k[0] == key[0]]
+            for k in same_kind[:max(0, len(same_kind) - RECALLED + 1)]:
+                del _RECALL[k]
+            _RECALL[key] = value
+        return _RECALL[key]  # type: ignore[return-value]
 
 
 def single_threaded_blas() -> contextlib.AbstractContextManager:
@@ -113,15 +126,24 @@ smaller ones (tip, joints: the full propagator is as fast), undamped ones and a 
 use the full propagator (:func:`ked_linear.floquet.floquet`)."""
 
 
+def reduced_stability(scene: Scene, system: PeriodicSystem, settings: LinearSettings) -> FloquetResult | None:
+    """The Floquet result of the reduced system in co-rotating link frames (:mod:`ked_linear.reduction`;
+    ``steps``: its Radau IIA steps per cycle), or None where the full system must decide: a fixed
+    ``floquet_steps``, no damping, fewer than :data:`REDUCE_FROM` coordinates, a slider-crank, or a
+    reduction that does not vouch for half of ``floquet_tolerance`` (its estimate covering the step levels
+    and the basis)."""
+    if settings.floquet_steps is not None or settings.damping_ratio <= 0.0 or system.mass.size < REDUCE_FROM \
+            or _is_slider(scene):
+        return None
+    red = reduced_floquet(system, link_frames(scene), settings.floquet_tolerance)
+    return None if red is None else red.result
+
+
 def stability(scene: Scene, system: PeriodicSystem, settings: LinearSettings) -> FloquetResult:
-    """The Floquet result of the linear model of ``scene``: from the reduced system in co-rotating link frames
-    if it is large enough and the reduction vouches for half of ``floquet_tolerance`` (its estimate covering
-    the step levels and the basis), else from the full system."""
-    if settings.floquet_steps is None and settings.damping_ratio > 0.0 and system.mass.size >= REDUCE_FROM:
-        red = reduced_floquet(system, link_frames(scene), settings.floquet_tolerance)
-        if red is not None:
-            return red.result
-    return floquet(system, settings.floquet_tolerance, settings.floquet_steps)
+    """The Floquet result of the linear model of ``scene``: :func:`reduced_stability` where it answers, else
+    the full system's (:func:`ked_linear.floquet.floquet`)."""
+    red = reduced_stability(scene, system, settings)
+    return red if red is not None else floquet(system, settings.floquet_tolerance, settings.floquet_steps)
 
 
 def _solve_linear(scene: Scene, settings: LinearSettings | None) -> LinearResult:

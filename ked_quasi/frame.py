@@ -18,13 +18,17 @@ Everything is vectorized over crank angles; units SI.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .framecache import REFERENCE_RPM, cached, load_scale
+from .kinematics import loop
 from .linkage import FourBar
+from .massmodel import lumps
 from .scene import Scene
-from .structure import Geometry, Topology
+from .solver import inertia_loads, node_masses
+from .structure import Geometry, Topology, element_forces, geometry, topology
 
 
 @dataclass(frozen=True)
@@ -147,9 +151,8 @@ def condensed_structure(scene: Scene, crank_angle: np.ndarray | None = None,
     ``scene.crank_angles``); ``prestress``: add the geometric stiffness of the axial forces of the
     quasi-static inertia loads at the scene's speed (tension stiffens).  The speed-free parts (geometry,
     elastic stiffness, reference-speed loads and geometric stiffness, the unstressed condensation) are
-    built once per linkage, mass model and set of angles (:mod:`ked_quasi.framecache`)."""
-    from .framecache import cached, frame_parts, geometric_stiffness, load_scale
-
+    built once per linkage, mass model and set of angles (:func:`frame_parts`, cached by
+    :mod:`ked_quasi.framecache`)."""
     theta = scene.crank_angles if crank_angle is None else np.atleast_1d(np.asarray(crank_angle, float))
     parts = frame_parts(scene, theta)
     scale = load_scale(scene)  # loads, axial forces and geometric stiffness go as the speed squared
@@ -171,6 +174,62 @@ def _condense(K: np.ndarray, master: np.ndarray) -> tuple[np.ndarray, np.ndarray
     """(Psi, Psi^T K Psi): the static modes of the masters and the condensed stiffness."""
     psi = _static_modes(K, master)
     return psi, _congruence(psi, K)
+
+
+@dataclass(frozen=True)
+class FrameParts:
+    """The speed-free frame model at n crank angles.
+
+    topo, dofs: the structure and its dof numbering; geo: the frozen geometry; node_mass (N,) [kg]; nodes:
+    the mass-carrying nodes; master: their translational dofs (x1, y1, x2, y2, ...); elastic (n, d, d): the
+    elastic stiffness K_E [N/m, N, N m]; loads (n, N, 2) [N] and axial (n, E) [N, tension > 0]: the
+    d'Alembert loads and the elements' quasi-static axial forces at :data:`ked_quasi.framecache.REFERENCE_RPM`.
+    """
+
+    topo: Topology
+    dofs: FrameDofs
+    geo: Geometry
+    node_mass: np.ndarray
+    nodes: np.ndarray
+    master: np.ndarray
+    elastic: np.ndarray
+    loads: np.ndarray
+    axial: np.ndarray
+
+
+def _build_parts(scene: Scene, theta: np.ndarray) -> FrameParts:
+    lm = lumps(scene.fourbar, scene.mass_model)
+    topo = topology(lm)
+    dofs = frame_dofs(topo)
+    lp = loop(scene.fourbar, theta)
+    geo = geometry(scene.fourbar, topo, theta, lp)
+    loads = inertia_loads(replace(scene, rpm=REFERENCE_RPM), topo, lm, theta, geo, lp)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        axial = element_forces(topo, geo, loads)[..., 0]
+    mass = node_masses(topo, lm)
+    nodes = np.flatnonzero(mass > 0)
+    master = np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel()
+    return FrameParts(topo=topo, dofs=dofs, geo=geo, node_mass=mass, nodes=nodes, master=master,
+                      elastic=assemble(scene.fourbar, topo, dofs, geo), loads=loads, axial=axial)
+
+
+def frame_parts(scene: Scene, crank_angle: np.ndarray) -> FrameParts:
+    """The speed-free :class:`FrameParts` of ``scene`` at ``crank_angle`` [rad] (cached)."""
+    theta = np.atleast_1d(np.asarray(crank_angle, dtype=float))
+    return cached("parts", scene, theta, lambda: _build_parts(scene, theta))
+
+
+def geometric_stiffness(scene: Scene, crank_angle: np.ndarray) -> np.ndarray:
+    """(n, d, d): the geometric stiffness of the quasi-static axial forces at
+    :data:`ked_quasi.framecache.REFERENCE_RPM` (cached; at the scene's speed it is
+    :func:`ked_quasi.framecache.load_scale` times this)."""
+    theta = np.atleast_1d(np.asarray(crank_angle, dtype=float))
+
+    def build() -> np.ndarray:
+        p = frame_parts(scene, theta)
+        return assemble(scene.fourbar, p.topo, p.dofs, p.geo, p.axial, elastic=False)
+
+    return cached("geometric", scene, theta, build)
 
 
 def _static_modes(K: np.ndarray, master: np.ndarray) -> np.ndarray:

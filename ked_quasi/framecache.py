@@ -10,9 +10,11 @@ K_E, the lumped masses, the unstressed static condensation and natural frequenci
 speed at all.  A repeated solve of one linkage at many speeds (``ked check --rpm-range``, an atlas family's
 speed-ratio sweep, the critical-speed sweep) builds them once here; the static condensation of the
 prestressed structure K_E + (Omega / Omega_ref)^2 K_G,ref is not linear in Omega^2 and is done per speed
-(:func:`ked_quasi.frame.condensed_structure`).
+(:func:`ked_quasi.frame.condensed_structure`).  The parts themselves are built in :mod:`ked_quasi.frame`
+(:func:`~ked_quasi.frame.frame_parts`, :func:`~ked_quasi.frame.geometric_stiffness`); this module holds the
+cache, its key and the speed scaling, and imports neither the frame model nor the solver (they import it).
 
-The cache is keyed by content: the scene's type, its four-bar (every compared field: lengths, coupler angle,
+The cache is keyed by content: the scene's class, its four-bar (every compared field: lengths, coupler angle,
 sections with the stiffness scale in their moduli, pivots, branch, direction) and mass model (name, lumps,
 payload, joint split, placement), and the crank angles' bytes: everything these parts depend on except the
 speed, which is not in the key.  It keeps at most :data:`MAX_ENTRIES` entries and :data:`MAX_BYTES` bytes
@@ -25,17 +27,12 @@ from __future__ import annotations
 import threading
 from collections import OrderedDict
 from collections.abc import Callable
-from dataclasses import dataclass, fields, is_dataclass, replace
+from dataclasses import fields, is_dataclass
 from typing import Any, TypeVar
 
 import numpy as np
 
-from .frame import FrameDofs, assemble, frame_dofs
-from .kinematics import loop
-from .massmodel import lumps
 from .scene import Scene
-from .solver import inertia_loads, node_masses
-from .structure import Geometry, Topology, element_forces, geometry, topology
 
 REFERENCE_RPM = 60.0
 """The speed [rev/min] at which the speed-dependent parts are kept (1 rev/s); at ``rpm`` they are
@@ -125,7 +122,7 @@ CACHE = ContentCache(MAX_ENTRIES, MAX_BYTES)
 def speed_free_key(kind: str, scene: Scene, crank_angle: np.ndarray) -> tuple:
     """The content key of a speed-free part ``kind`` of ``scene`` at ``crank_angle``: everything but the speed."""
     theta = np.ascontiguousarray(crank_angle, dtype=float)
-    return (kind, type(scene).__name__, scene.fourbar, scene.mass_model, theta.shape, theta.tobytes())
+    return (kind, type(scene), scene.fourbar, scene.mass_model, theta.shape, theta.tobytes())
 
 
 def load_scale(scene: Scene) -> float:
@@ -134,66 +131,10 @@ def load_scale(scene: Scene) -> float:
     return (float(scene.rpm) / REFERENCE_RPM) ** 2
 
 
-@dataclass(frozen=True)
-class FrameParts:
-    """The speed-free frame model at n crank angles.
-
-    topo, dofs: the structure and its dof numbering; geo: the frozen geometry; node_mass (N,) [kg]; nodes:
-    the mass-carrying nodes; master: their translational dofs (x1, y1, x2, y2, ...); elastic (n, d, d): the
-    elastic stiffness K_E [N/m, N, N m]; loads (n, N, 2) [N] and axial (n, E) [N, tension > 0]: the
-    d'Alembert loads and the elements' quasi-static axial forces at :data:`REFERENCE_RPM`.
-    """
-
-    topo: Topology
-    dofs: FrameDofs
-    geo: Geometry
-    node_mass: np.ndarray
-    nodes: np.ndarray
-    master: np.ndarray
-    elastic: np.ndarray
-    loads: np.ndarray
-    axial: np.ndarray
-
-
-def _build(scene: Scene, theta: np.ndarray) -> FrameParts:
-    lm = lumps(scene.fourbar, scene.mass_model)
-    topo = topology(lm)
-    dofs = frame_dofs(topo)
-    lp = loop(scene.fourbar, theta)
-    geo = geometry(scene.fourbar, topo, theta, lp)
-    loads = inertia_loads(replace(scene, rpm=REFERENCE_RPM), topo, lm, theta, geo, lp)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        axial = element_forces(topo, geo, loads)[..., 0]
-    mass = node_masses(topo, lm)
-    nodes = np.flatnonzero(mass > 0)
-    master = np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel()
-    return FrameParts(topo=topo, dofs=dofs, geo=geo, node_mass=mass, nodes=nodes, master=master,
-                      elastic=assemble(scene.fourbar, topo, dofs, geo), loads=loads, axial=axial)
-
-
-def frame_parts(scene: Scene, crank_angle: np.ndarray) -> FrameParts:
-    """The speed-free :class:`FrameParts` of ``scene`` at ``crank_angle`` [rad] (cached)."""
-    theta = np.atleast_1d(np.asarray(crank_angle, dtype=float))
-    return CACHE.get(speed_free_key("parts", scene, theta), lambda: _build(scene, theta))
-
-
-def geometric_stiffness(scene: Scene, crank_angle: np.ndarray) -> np.ndarray:
-    """(n, d, d): the geometric stiffness of the quasi-static axial forces at :data:`REFERENCE_RPM` (cached;
-    at the scene's speed it is :func:`load_scale` times this)."""
-    theta = np.atleast_1d(np.asarray(crank_angle, dtype=float))
-
-    def build() -> np.ndarray:
-        p = frame_parts(scene, theta)
-        return assemble(scene.fourbar, p.topo, p.dofs, p.geo, p.axial, elastic=False)
-
-    return CACHE.get(speed_free_key("geometric", scene, theta), build)
-
-
 def cached(kind: str, scene: Scene, crank_angle: np.ndarray, compute: Callable[[], T]) -> T:
     """compute() once per content key (:func:`speed_free_key`) of a speed-free ``kind`` of result: the
     caller promises it depends on the scene only through its four-bar, mass model and ``crank_angle``."""
     return CACHE.get(speed_free_key(kind, scene, crank_angle), compute)
 
 
-__all__ = ["CACHE", "REFERENCE_RPM", "ContentCache", "FrameParts", "cached", "frame_parts", "geometric_stiffness",
-           "load_scale", "speed_free_key"]
+__all__ = ["CACHE", "REFERENCE_RPM", "ContentCache", "cached", "load_scale", "speed_free_key"]

@@ -15,6 +15,7 @@ from ked_linear.periodic import Coefficients, PeriodicSystem
 from ked_linear.reduction import (
     Reductions,
     corotated,
+    greedy_basis,
     link_frames,
     projection,
     radau_multipliers,
@@ -179,3 +180,12 @@ def test_reduced_against_full_at_other_speeds():
             coarse, fine = (float(np.abs(multipliers(system, n)[0])) for n in (4096, 8192))
             assert red is not None
             assert abs(red.result.max_abs - fine) <= red.result.error_estimate + abs(fine - coarse)
+
+
+def test_greedy_basis_gives_up_when_a_spanned_angle_stays_off():
+    """A structure whose lowest frozen eigenvalue is 0 at every angle (a free rigid-body direction): the Ritz
+    value's relative error is undefined there, and the worst angle's mode is spanned after the first column, so
+    no column can improve it.  The greedy basis must give up (None: the caller falls back to the full model)
+    instead of retrying the same angle for ever."""
+    Ks = np.broadcast_to(np.diag([0.0, 1.0, 2.0]), (4, 3, 3)).copy()
+    assert greedy_basis(Ks, modes=1, ritz_tolerance=1e-6, max_size=3) is None

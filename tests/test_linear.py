@@ -408,6 +408,16 @@ def test_campaign_solver_flags_weakly_damped_and_fails_marginal(thesis):
     assert undamped.failure_class == "physical" and "marginal (undamped)" in undamped.message
 
 
+def _sdirk_resolvent_steps(fq, system: PeriodicSystem, steps: int) -> np.ndarray:
+    """The SDIRK2 step matrices by their definition R(t_j + h) [(1 - alpha) I + alpha R(t_j + gamma h)],
+    with the explicit 2n x 2n resolvents R = (I - gamma h A)^-1 (the reference of the block form)."""
+    h = system.period / steps
+    t = np.arange(steps) * h
+    R = fq._resolvent(system, system.speed * np.concatenate([t + fq.SDIRK_GAMMA * h, t + h]), fq.SDIRK_GAMMA * h)
+    alpha = (1.0 - fq.SDIRK_GAMMA) / fq.SDIRK_GAMMA
+    return R[steps:] @ ((1.0 - alpha) * np.eye(R.shape[-1]) + alpha * R[:steps])
+
+
 @pytest.mark.parametrize("mm", ["joints", "extender"])
 def test_sdirk_block_steps_equal_resolvent_form(mm, thesis, monkeypatch):
     # the SDIRK2 step matrices applied by blocks (Z^-1 by Cholesky, never forming R) against the previous
@@ -420,11 +430,8 @@ def test_sdirk_block_steps_equal_resolvent_form(mm, thesis, monkeypatch):
 
     fq = sys.modules["ked_linear.floquet"]
     sys_ = linkage_system(_scene(thesis, mm, 100.0), LinearSettings(damping_ratio=0.02)).system
-    steps, h = 256, sys_.period / 256
-    t = np.arange(steps) * h
-    R = fq._resolvent(sys_, sys_.speed * np.concatenate([t + fq.SDIRK_GAMMA * h, t + h]), fq.SDIRK_GAMMA * h)
-    alpha = (1.0 - fq.SDIRK_GAMMA) / fq.SDIRK_GAMMA
-    reference = R[steps:] @ ((1.0 - alpha) * np.eye(R.shape[-1]) + alpha * R[:steps])
+    steps = 256
+    reference = _sdirk_resolvent_steps(fq, sys_, steps)
     assert fq._series(sys_) is not None  # the fast path is the one tested
     got = fq.step_matrices(sys_, steps)
     assert np.abs(got - reference).max() <= 1e-8 * np.abs(reference).max()
@@ -452,11 +459,8 @@ def test_flexibility_series_steps_equal_resolvent_form(thesis, monkeypatch):
     fq._SERIES.clear()
     try:
         assert fq._series(sys_).form == "flexibility"
-        steps, h = 256, sys_.period / 256
-        t = np.arange(steps) * h
-        R = fq._resolvent(sys_, sys_.speed * np.concatenate([t + fq.SDIRK_GAMMA * h, t + h]), fq.SDIRK_GAMMA * h)
-        alpha = (1.0 - fq.SDIRK_GAMMA) / fq.SDIRK_GAMMA
-        reference = R[steps:] @ ((1.0 - alpha) * np.eye(R.shape[-1]) + alpha * R[:steps])
+        steps = 256
+        reference = _sdirk_resolvent_steps(fq, sys_, steps)
         got = fq.step_matrices(sys_, steps)
         assert np.abs(got - reference).max() <= 1e-8 * np.abs(reference).max()
         plain = PeriodicSystem(mass=sys_.mass, speed=sys_.speed, coefficients=lambda th: sys_.coefficients(th))

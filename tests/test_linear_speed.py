@@ -54,6 +54,35 @@ def test_uniform_grids_layouts():
     assert uniform_grids(np.linspace(0, 2 * np.pi, 9)) is None  # endpoint included: not a full-turn grid
 
 
+def test_interpolant_evaluate_on_grids_and_elsewhere():
+    # closed form: the samples of a trigonometric polynomial of degree 3 < G/2 are interpolated exactly, so
+    # at two interleaved uniform grids running backwards (inverse FFTs) and at scattered angles (direct
+    # summation) the interpolant equals the polynomial itself
+    G = 16
+
+    def poly(t):
+        return np.stack([1.0 + np.cos(t) - 0.5 * np.sin(3 * t), np.sin(2 * t)], axis=1)
+
+    f = TrigInterpolant(poly(np.arange(G) * (2 * np.pi / G)))
+    t = 0.3 - np.arange(12) * (2 * np.pi / 12)
+    stages = np.stack([t, t + 0.05], axis=1).ravel()
+    assert uniform_grids(stages) is not None
+    np.testing.assert_allclose(f.evaluate(stages), poly(stages), atol=1e-13)
+    scattered = np.array([0.0, 0.7, 2.0, 5.5])
+    np.testing.assert_allclose(f.evaluate(scattered), poly(scattered), atol=1e-13)
+
+
+def test_remembered_coefficients_are_read_only():
+    # SampledCoefficients hands every caller asking for the same angles the same remembered arrays: a caller
+    # writing into them would change every later answer, so they are read-only (a write raises)
+    s = SampledCoefficients(_spiky)
+    theta = np.arange(48) * (2 * np.pi / 48)
+    co = s(theta)
+    assert s(theta) is co
+    with pytest.raises(ValueError):
+        co.stiffness[0, 0, 0] = 1.0
+
+
 def _spiky(theta: np.ndarray) -> Coefficients:
     """K = 1 / (1.001 + cos theta): spiky, its inverse a trigonometric polynomial of degree 1."""
     K = (1.0 / (1.001 + np.cos(theta)))[:, None, None]

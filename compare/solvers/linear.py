@@ -31,7 +31,10 @@ def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Sol
     """The linear model's steady state; without an asymptotically stable periodic steady state (max
     |Floquet multiplier| >= 1: "unstable", or undamped with every multiplier on the unit circle:
     "marginal") a failed solution of class "physical" (error type "Unstable" or "Marginal") with the
-    multiplier as evidence; a weakly damped stable one carries the flag "weakly_damped"."""
+    multiplier as evidence; a weakly damped stable one carries the flag "weakly_damped".  The statistic
+    ``floquet_steps`` is ``LinearResult.floquet_steps``: Radau IIA steps of the reduced system where the
+    reduced Floquet analysis answered (damped extender and distributed models), else the full model's
+    propagator steps (docs/linear_model.md)."""
     from ked_linear import describe_flags, result_flags, solve_linear
 
     res = solve_linear(scene, settings)  # a slider-crank scene dispatches to ked_linear.slider
