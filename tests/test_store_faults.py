@@ -335,16 +335,19 @@ def test_ked_run_on_a_file_with_flipped_bytes_loses_nothing(current, tmp_path):
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"
 LIMIT_BYTES = 5_000_000
+ATLAS_LIMIT_BYTES = 10_000_000
+"""The atlas holds 1000 linkages x 8 families x 18 speed ratios (twice the 500 of the first atlas, 3.5 MB)."""
 
 
 def test_committed_results_files_are_compact_and_valid():
-    """Every committed results file (campaign, study and atlas files) under 5 MB and at most 3x the bytes of
-    the arrays it holds (numbers, and text by its length; schema version 3 had files at 7x: one group
-    and ~30 attributes per scene); every campaign file passes the check of `ked inspect --verify`."""
+    """Every committed results file (campaign, study and atlas files) under 5 MB (the atlas under 10 MB) and
+    at most 3x the bytes of the arrays it holds (numbers, and text by its length; schema version 3 had files
+    at 7x: one group and ~30 attributes per scene); every campaign file passes the check of `ked inspect --verify`."""
     files = sorted(RESULTS.rglob("*.h5"))
     assert len(files) >= 16
     for f in files:
-        assert f.stat().st_size <= LIMIT_BYTES, (f, f.stat().st_size)
+        limit = ATLAS_LIMIT_BYTES if f.name == "atlas.h5" else LIMIT_BYTES
+        assert f.stat().st_size <= limit, (f, f.stat().st_size)
         assert store.size_ratio(f) <= 3.0, (f, store.size_ratio(f))
         with h5py.File(f, "r") as h:
             campaign = h.attrs.get("schema") == store.SCHEMA
