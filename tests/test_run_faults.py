@@ -41,9 +41,11 @@ def qs_config(tmp_path) -> Path:
 
 
 def _default_sigint() -> None:
-    """A shell runs background jobs with SIGINT ignored, and Python keeps it ignored: give the child the
-    default handler, as a terminal's foreground job has."""
+    """A shell runs background jobs with SIGINT ignored (and nohup, SIGHUP), and Python keeps them ignored,
+    as ked does on purpose (a hang-up under nohup must not stop a run): give the child the default handlers,
+    as a terminal's foreground job has, whatever the test run was started under."""
     signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.signal(signal.SIGHUP, signal.SIG_DFL)
 
 
 def _start(args: list[str], **kw) -> subprocess.Popen:
