@@ -116,3 +116,23 @@ def test_spearman_ranks_ties_at_their_average():
 
     assert spearman([1, 2, 2, 3], [10, 20, 30, 40]) == pytest.approx(4.5 / math.sqrt(4.5 * 5.0), rel=1e-12)
     assert math.isnan(spearman([5, 5, 5, 5], [1, 2, 3, 4]))
+
+
+def test_report_says_when_the_exudyn_samples_come_from_a_prefix_of_the_atlas(tmp_path):
+    """Samples drawn before the atlas was extended name the prefix they came from (by construction: families of
+    linkages 0..3, samples from linkages 0 and 1 -> the first 2 of 4); samples reaching the last linkage say
+    nothing."""
+    import h5py
+
+    from compare.atlas.report import drawn_from
+
+    path = tmp_path / "atlas.h5"
+    with h5py.File(path, "w") as f:
+        f.create_dataset("families/linkage", data=np.repeat(np.arange(4), 8))
+        f.create_dataset("confirm/linkage", data=np.array([0, 1]))
+        f.create_dataset("threshold/linkage", data=np.array([1]))
+    assert "first 2 of the 4 linkages" in drawn_from(path)
+    with h5py.File(path, "a") as f:
+        del f["threshold/linkage"]
+        f.create_dataset("threshold/linkage", data=np.array([3]))
+    assert drawn_from(path) == ""

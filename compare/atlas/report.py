@@ -271,6 +271,22 @@ def threshold_of(atlas: Path) -> tuple[cal.ThresholdData | None, cal.Margins | N
     return cal.threshold_data(atlas), cal.threshold_margins(atlas)
 
 
+def drawn_from(atlas: Path) -> str:
+    """Where the Exudyn samples (confirm and threshold tables) were drawn: from every linkage of the atlas, or
+    (when they were drawn before the atlas was extended) from its first K linkages: a sentence, or ""."""
+    families = np.unique(atlas_store.read(atlas, "families").get("linkage", np.zeros(0, int)))
+    sampled = [atlas_store.read(atlas, t).get("linkage", np.zeros(0, int)) for t in ("confirm", TABLE)]
+    sampled = np.concatenate([np.asarray(x, int) for x in sampled])
+    if not sampled.size or not families.size:
+        return ""
+    k = int(np.count_nonzero(families <= sampled.max()))
+    if k >= families.size:
+        return ""
+    return (f"Both Exudyn samples below were drawn when the atlas held its first {k} of the {families.size} "
+            "linkages (a random subset of the same seeded draws); `ked study atlas` redraws them from every "
+            "linkage and confirms the new scenes with Exudyn.")
+
+
 def markdown(f: fd.AtlasFindings, atlas: Path, readme: Path, figs: dict[str, Path]) -> str:
     """The README section from the findings (figure and atlas paths relative to the README)."""
     rel = {k: os.path.relpath(v.resolve(), readme.resolve().parent) for k, v in figs.items()}
@@ -316,6 +332,7 @@ def markdown(f: fd.AtlasFindings, atlas: Path, readme: Path, figs: dict[str, Pat
          "that step; `ked check` counts the lower band (limit minus spread) against the linear model.", "",
          *tier_table(f.tiers), "",
          "### Calibration at the threshold (`ked check`'s quasi-static call)", "",
+         *([drawn_from(atlas), ""] if drawn_from(atlas) else []),
          *threshold_text(f.threshold), "", f"![threshold]({rel['threshold']})", "",
          "### Exudyn-confirmed sample (context: mostly far from the threshold)", "",
          "Stratified (`compare.atlas.confirm`): per mass model, families drawn from equal strata of their r* (10 %), "
