@@ -18,6 +18,7 @@ import time
 import warnings
 
 import numpy as np
+from compare_linear_grid import peak_error  # the grid comparison's error (sibling script)
 
 from compare.config import load_config
 from ked_linear import LinearSettings, solve_linear
@@ -42,18 +43,6 @@ def run(prestress_only: bool):
             out[key + "/scalars"] = np.array([res.floquet_max_abs, res.harmonics, res.error_estimate,
                                               float(res.stable), wall, res.floquet_steps])
     return out
-
-
-def peak_error(new: np.ndarray, old: np.ndarray) -> float:
-    """max over (dx, dy) as a vector and the rotation of max |new - old| / max |old| (NaN-safe: both
-    NaN (unstable) counts as equal)."""
-    if np.all(np.isnan(old)) and np.all(np.isnan(new)):
-        return 0.0
-    err = 0.0
-    for g in (slice(0, 2), slice(2, 3)):
-        peak = np.max(np.linalg.norm(old[:, g], axis=1))
-        err = max(err, float(np.max(np.linalg.norm(new[:, g] - old[:, g], axis=1)) / peak))
-    return err
 
 
 def main() -> None:
