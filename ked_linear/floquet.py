@@ -41,7 +41,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .periodic import Coefficients, PeriodicSystem, SampledCoefficients, _triangle_index
+from .periodic import Coefficients, PeriodicSystem
+from .sampled import SampledCoefficients, _triangle_index
 
 GAUSS = 0.5 + np.array([-1.0, 1.0]) * np.sqrt(3.0) / 6.0
 """The two Gauss-Legendre nodes on [0, 1] (fractions of a step)."""
@@ -93,7 +94,7 @@ def _stage_offsets(damped: bool, h: float) -> np.ndarray:
 def _stage_coefficients(system: PeriodicSystem, steps: int, first: int, count: int, damped: bool) -> Coefficients:
     """The coefficients at the two stage angles of steps first .. first + count - 1: the first stage's
     (count,) then the second's; with first = 0 and count = steps two uniform full-turn grids (interpolated
-    when the coefficients are sampled, see ``periodic.SampledCoefficients``)."""
+    when the coefficients are sampled, see ``sampled.SampledCoefficients``)."""
     h = system.period / steps
     t = (first + np.arange(count)) * h
     c = _stage_offsets(damped, h)
@@ -384,7 +385,7 @@ def _product(S: np.ndarray) -> np.ndarray:
 COEFFICIENT_BYTES = 160e6
 """Memory bound of the stage coefficients (K and C at both stage angles of every step) evaluated at once
 [bytes] when they are not a series (:func:`_series`): within it they are evaluated on two uniform
-full-turn grids (interpolated, see ``periodic.SampledCoefficients``), beyond it chunk by chunk (partial
+full-turn grids (interpolated, see ``sampled.SampledCoefficients``), beyond it chunk by chunk (partial
 turns: the direct frame condensation)."""
 
 

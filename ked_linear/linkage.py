@@ -17,7 +17,8 @@ from ked_quasi.damping import damping_reference_hz, rayleigh_beta
 from ked_quasi.frame import condensed_structure
 from ked_quasi.scene import Scene
 
-from .periodic import Coefficients, PeriodicSystem, SampledCoefficients
+from .periodic import Coefficients, PeriodicSystem
+from .sampled import SampledCoefficients
 from .settings import LinearSettings
 
 

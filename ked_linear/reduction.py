@@ -49,7 +49,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .floquet import FloquetResult, _product
-from .periodic import Coefficients, PeriodicSystem, TrigInterpolant, error_estimate, interleave
+from .periodic import Coefficients, PeriodicSystem, error_estimate
+from .sampled import TrigInterpolant, interleave
 
 FULL_NEAR_ONE = 0.9
 """A reduced max |mu| + error at or above this goes to the full model (the weakly damped threshold of the

@@ -47,8 +47,9 @@ from ked_quasi.slider_static import (
 from ked_quasi.slidercrank import SliderScene, slider_kinematics, slider_lumps
 
 from .floquet import floquet
-from .periodic import Coefficients, PeriodicSystem, SampledCoefficients, steady_state
+from .periodic import Coefficients, PeriodicSystem, steady_state
 from .result import MAX_COORDINATES, LinearResult, _message
+from .sampled import SampledCoefficients
 from .settings import LinearSettings
 
 OUTPUTS = ("dx", "dy", "rotation", "midspan")

@@ -8,13 +8,13 @@ import pytest
 
 from compare.config import load_config
 from ked_linear import Coefficients, LinearSettings, PeriodicSystem, linkage_system, periodic, solve_linear
-from ked_linear.periodic import (
+from ked_linear.periodic import solve_periodic
+from ked_linear.sampled import (
     INTERPOLATION_TOLERANCE,
     SampledCoefficients,
     TrigInterpolant,
     _field_error,
     _pack,
-    solve_periodic,
     uniform_grids,
 )
 

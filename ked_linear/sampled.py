@@ -1,0 +1,305 @@
+"""Coefficients sampled once on a uniform grid, trigonometric interpolation elsewhere (:class:`SampledCoefficients`):
+what makes the coefficients K, C, f of a :class:`~ked_linear.periodic.PeriodicSystem` cheap on the uniform grids the
+periodic solve and the time steppers ask for."""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+
+import numpy as np
+
+from .periodic import Coefficients, _apply
+
+
+class TrigInterpolant:
+    """The trigonometric interpolant of samples (G, F) at theta_j = 2 pi j / G, G even: degree G/2
+    with the Nyquist term split between +-G/2, so that it reproduces the samples.  Evaluated on a
+    uniform full-turn grid by folding its spectrum and one inverse FFT (O(G + m log m) per column)."""
+
+    def __init__(self, samples: np.ndarray):
+        G = samples.shape[0]
+        if G % 2 or G < 2:
+            raise ValueError(f"TrigInterpolant: needs an even number of samples >= 2; got {G}")
+        A = np.fft.fft(samples, axis=0) / G
+        half = G // 2
+        # frequencies -G/2 .. G/2 (G + 1 terms), the Nyquist coefficient halved at both ends; stored
+        # transposed, (F, G + 1): the FFTs then run along contiguous rows
+        spectrum = np.concatenate([A[half:half + 1] / 2, A[half + 1:], A[:half], A[half:half + 1] / 2])
+        self.spectrum = np.ascontiguousarray(spectrum.reshape(G + 1, -1).T)
+        self.frequency = np.arange(-half, half + 1)
+        self.points = G
+
+    def uniform(self, theta0: float, step_sign: float, m: int) -> np.ndarray:
+        """Values (m, F) at theta0 + step_sign * 2 pi j / m, j = 0 .. m - 1."""
+        a = self.spectrum * np.exp(1j * self.frequency * theta0)
+        if step_sign < 0:
+            a = np.conj(a)  # sum_f a_f e^{-i f t} is real: the conjugate of sum_f conj(a_f) e^{i f t}
+        residue = self.frequency % m
+        b = np.zeros((a.shape[0], m), dtype=complex)  # b[:, r]: sum of the a_f with f = r (mod m)
+        for start in range(0, a.shape[1], m):  # m consecutive frequencies have distinct residues
+            b[:, residue[start:start + m]] += a[:, start:start + m]
+        out = np.fft.irfft(b[:, :m // 2 + 1], n=m, axis=1) * m if m > 1 else b.real
+        return out.T
+
+    def at(self, theta: np.ndarray) -> np.ndarray:
+        """Values (m, F) at any angles (m,), by direct summation (O(G m) per column)."""
+        return (np.exp(1j * np.outer(theta, self.frequency)) @ self.spectrum.T).real
+
+    def evaluate(self, theta: np.ndarray, index: np.ndarray | None = None) -> np.ndarray:
+        """Values (m, F) at the angles ``theta`` (m,): by :meth:`uniform` on each uniform full-turn grid they
+        consist of (``index``, default :func:`uniform_grids` of ``theta``), else by direct summation
+        (:meth:`at`)."""
+        index = uniform_grids(theta) if index is None else index
+        if index is None:
+            return self.at(theta)
+        out = np.empty((theta.size, self.spectrum.shape[0]))
+        for row in index:
+            sign = 1.0 if theta[row[1]] > theta[row[0]] else -1.0
+            out[row] = self.uniform(theta[row[0]], sign, row.size)
+        return out
+
+
+def uniform_grids(theta: np.ndarray, most: int = 4) -> np.ndarray | None:
+    """If ``theta`` (m,) consists of r <= ``most`` uniform full-turn grids (theta0 + sign 2 pi j / (m/r),
+    j = 0 .. m/r - 1), one after another or interleaved (the angles of a multi-stage time stepper), the
+    index (r, m/r) of each grid's angles in ``theta``; else None."""
+    m = theta.size
+    for r in range(1, most + 1):
+        if m % r or m // r < 2:
+            continue
+        for index in (np.arange(m).reshape(r, m // r), np.arange(m).reshape(m // r, r).T):
+            d = np.diff(theta[index], axis=1)
+            step = 2.0 * np.pi / index.shape[1]
+            if np.all(np.abs(np.abs(d) - step) < 1e-9 * step) and np.all(np.sign(d) == np.sign(d[:, :1])):
+                return index
+    return None
+
+
+INTERPOLATION_TOLERANCE = 1e-9
+"""Largest error of interpolated coefficients, per field (K, C, f, output) as a fraction of its largest
+entry over the cycle, measured at the midpoints of the sampling grid before it is refined once more."""
+
+
+MEMO_ANGLES = 512
+"""Requests of at most this many angles are remembered (the last 8): the collocation grids recur."""
+
+
+class SampledCoefficients:
+    """``direct`` (theta -> :class:`Coefficients`) sampled once on a uniform grid and interpolated
+    trigonometrically on every uniform full-turn grid asked for (the collocation points of the periodic
+    solve, the stage angles of a time stepper); non-uniform angles are evaluated by ``direct``.
+
+    G doubles from ``start``: once the interpolant of G samples matches ``direct`` at the G midpoints
+    within ``tolerance`` (:func:`_field_error`), the 2 G samples (grid and midpoints) are kept, so the
+    interpolant is exact at them and, the series converging geometrically, far within ``tolerance``
+    elsewhere.  Two forms are tried on the same samples: the coefficients themselves ("stiffness"), and
+    the compliance form K^-1, K^-1 C K^-1, K^-1 f, output K^-1 ("flexibility", K etc. rebuilt per angle):
+    the frozen structure's flexibility is smooth even where its stiffness spikes (a lumped mass whose
+    flexibility nearly vanishes in one direction).  Neither passing below ``max_points`` (a linkage
+    near toggle), ``direct`` is used everywhere (``form`` "direct").
+
+    ``points``: the number of samples kept (0: direct); ``error``: the last measured midpoint error.
+    The sampling is done at the first request (or when ``form``, ``points`` or ``error`` is read)."""
+
+    def __init__(self, direct: Callable[[np.ndarray], Coefficients], tolerance: float = INTERPOLATION_TOLERANCE,
+                 start: int = 32, max_points: int = 512):
+        self.direct = direct
+        self._options = (tolerance, start, max_points)
+        self._sampled = False
+        self._memo: dict[bytes, Coefficients] = {}
+        self._lock = threading.RLock()  # one object may serve several threads (solve_linear's recalled systems)
+
+    form = property(lambda self: self._sample()._form)
+    points = property(lambda self: self._sample()._points)
+    error = property(lambda self: self._sample()._error)
+    interpolant = property(lambda self: self._sample()._interpolant)
+
+    def _sample(self) -> SampledCoefficients:
+        if not self._sampled:
+            with self._lock:  # another thread must not see a half-sampled object (form "direct" meanwhile)
+                if not self._sampled:
+                    self._form, self._points, self._error = "direct", 0, float("nan")
+                    self._interpolant: TrigInterpolant | None = None
+                    self._refine(*self._options)
+                    self._sampled = True
+        return self
+
+    def _refine(self, tolerance: float, start: int, max_points: int) -> None:
+        direct = self.direct
+        G = start
+        both = direct(np.arange(2 * G) * (np.pi / G))  # the first grid and its midpoints in one evaluation
+        grid, mid = _every_other(both, 0), _every_other(both, 1)
+        history: list[float] = []
+        while True:
+            exact, layout = _pack(mid)
+            merged = _merge(grid, mid)
+            errors = {}
+            for form in ("stiffness", "flexibility"):
+                sampled = _to_form(form, grid)
+                sym = _symmetric(sampled)
+                values = TrigInterpolant(_compact(sampled, sym)).uniform(np.pi / G, 1.0, G)
+                errors[form] = _field_error(_pack(_from_form(form, _expand(values, layout, sym)))[0], exact, layout)
+                if errors[form] <= tolerance:
+                    self._form, self._points, self._error, self.layout, self.symmetric = form, 2 * G, errors[form], \
+                        layout, sym
+                    self._interpolant = TrigInterpolant(_compact(_to_form(form, merged), sym))
+                    return
+            self._error = min(errors.values(), key=lambda e: e if np.isfinite(e) else np.inf)
+            history.append(self._error)
+            # give up at max_points, or when doubling stops paying (spectral convergence gains orders of
+            # magnitude per doubling; a kink or a near-singularity gains a factor of a few)
+            slow = len(history) >= 2 and not history[-1] < 1e-2 * history[-2]
+            if 4 * G > max_points or slow or not np.isfinite(self._error):
+                return
+            grid, G = merged, 2 * G
+            mid = direct((np.arange(G) + 0.5) * (2.0 * np.pi / G))
+
+    def __call__(self, theta: np.ndarray) -> Coefficients:
+        theta = np.atleast_1d(np.asarray(theta, dtype=float))
+        if theta.size > MEMO_ANGLES:  # a propagator's stage angles: large and not asked for twice
+            return self._evaluate(theta)
+        key = theta.tobytes()
+        with self._lock:
+            if key in self._memo:
+                return self._memo[key]
+        co = self._evaluate(theta)
+        for f in _fields(co):  # shared by every caller asking for these angles: read-only
+            f.flags.writeable = False
+        with self._lock:
+            if key not in self._memo:
+                if len(self._memo) >= 8:  # bounded: the same angles recur (levels of the periodic solve)
+                    self._memo.pop(next(iter(self._memo)))
+                self._memo[key] = co
+            return self._memo[key]
+
+    def _evaluate(self, theta: np.ndarray) -> Coefficients:
+        index = None if self.interpolant is None else uniform_grids(theta)
+        if index is None:
+            return self.direct(theta)
+        return _from_form(self.form, _expand(self.interpolant.evaluate(theta, index), self.layout, self.symmetric))
+
+
+def _every_other(co: Coefficients, first: int) -> Coefficients:
+    return _coefficients([f[first::2] for f in _fields(co)])
+
+
+def _merge(a: Coefficients, b: Coefficients) -> Coefficients:
+    """Interleave the samples of ``a`` and ``b`` (a[0], b[0], a[1], ...)."""
+    return _coefficients([interleave(fa, fb) for fa, fb in zip(_fields(a), _fields(b))])
+
+
+def interleave(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The rows of ``a`` and ``b`` (same shape) alternately: a[0], b[0], a[1], ... (samples on a grid and
+    on its midpoints -> samples on the grid twice as fine)."""
+    out = np.empty((2 * a.shape[0],) + a.shape[1:])
+    out[0::2], out[1::2] = a, b
+    return out
+
+
+def _fields(co: Coefficients) -> list[np.ndarray]:
+    return [co.stiffness, co.damping, co.load] + ([] if co.output is None else [co.output])
+
+
+def _coefficients(fields: list[np.ndarray]) -> Coefficients:
+    return Coefficients(*fields) if len(fields) == 4 else Coefficients(*fields, output=None)
+
+
+def _to_form(form: str, co: Coefficients) -> Coefficients:
+    """The sampled quantities of ``form``: the coefficients, or K^-1, K^-1 C K^-1, K^-1 f, output K^-1
+    (the damping congruent with the flexibility: smooth where C spikes with K, e.g. C = beta K_E of a
+    lump whose support stiffens 1000-fold within a few degrees near toggle, the thesis tip model)."""
+    if form == "stiffness":
+        return co
+    F = np.linalg.inv(co.stiffness)
+    F = 0.5 * (F + np.swapaxes(F, 1, 2))
+    return Coefficients(stiffness=F, damping=F @ co.damping @ F, load=_apply(F, co.load),
+                        output=None if co.output is None else co.output @ F)
+
+
+def _from_form(form: str, co: Coefficients) -> Coefficients:
+    """The coefficients from the quantities of ``form`` (inverse of :func:`_to_form`)."""
+    if form == "stiffness":
+        return co
+    K = np.linalg.inv(co.stiffness)
+    K = 0.5 * (K + np.swapaxes(K, 1, 2))
+    return Coefficients(stiffness=K, damping=K @ co.damping @ K, load=_apply(K, co.load),
+                        output=None if co.output is None else co.output @ K)
+
+
+def _symmetric(co: Coefficients) -> tuple[bool, ...]:
+    """Per field: square and symmetric to rounding (then only its upper triangle is interpolated)."""
+    out = []
+    for f in _fields(co):
+        square = f.ndim == 3 and f.shape[1] == f.shape[2]
+        out.append(bool(square and np.max(np.abs(f - np.swapaxes(f, 1, 2)), initial=0.0)
+                        <= 1e-13 * np.max(np.abs(f), initial=0.0)))
+    return tuple(out)
+
+
+def _compact(co: Coefficients, symmetric: tuple[bool, ...]) -> np.ndarray:
+    """Like :func:`_pack`, the symmetric fields by their upper triangles."""
+    parts = []
+    for f, sym in zip(_fields(co), symmetric):
+        parts.append(f.reshape(f.shape[0], -1)[:, _upper_flat(f.shape[1])] if sym else f.reshape(f.shape[0], -1))
+    return np.concatenate(parts, axis=1)
+
+
+def _expand(flat: np.ndarray, layout: tuple[tuple[int, ...], ...], symmetric: tuple[bool, ...]) -> Coefficients:
+    """Inverse of :func:`_compact` (a symmetric field by one gather of its triangle's columns)."""
+    parts, start, m = [], 0, flat.shape[0]
+    for shape, sym in zip(layout, symmetric):
+        if sym:
+            index = _triangle_index(shape[0])
+            parts.append(np.take(flat[:, start:start + index.max() + 1], index, axis=1).reshape((m,) + shape))
+            start += shape[0] * (shape[0] + 1) // 2
+        else:
+            size = int(np.prod(shape))
+            parts.append(flat[:, start:start + size].reshape((m,) + shape))
+            start += size
+    return _coefficients(parts)
+
+
+_TRIANGLES: dict[int, np.ndarray] = {}
+
+
+_UPPER: dict[int, np.ndarray] = {}
+
+
+def _upper_flat(n: int) -> np.ndarray:
+    """The row-major flat indices of ``np.triu_indices(n)`` in an n x n matrix (cached: built per call, they
+    cost more than the gather itself for the small matrices of a linkage)."""
+    if n not in _UPPER:
+        i, j = np.triu_indices(n)
+        _UPPER[n] = i * n + j
+    return _UPPER[n]
+
+
+def _triangle_index(n: int) -> np.ndarray:
+    """For each entry (i, j) of an n x n matrix, row-major, its column in the upper triangle's list
+    ``np.triu_indices(n)`` (of (min, max))."""
+    if n not in _TRIANGLES:
+        i, j = np.triu_indices(n)
+        where = np.empty((n, n), dtype=np.intp)
+        where[i, j] = where[j, i] = np.arange(i.size)
+        _TRIANGLES[n] = where.ravel()
+    return _TRIANGLES[n]
+
+
+def _pack(co: Coefficients) -> tuple[np.ndarray, tuple[tuple[int, ...], ...]]:
+    """The fields of ``co`` side by side, (m, F), and their shapes (without m)."""
+    fields = _fields(co)
+    m = fields[0].shape[0]
+    return np.concatenate([f.reshape(m, -1) for f in fields], axis=1), tuple(f.shape[1:] for f in fields)
+
+
+def _field_error(approx: np.ndarray, exact: np.ndarray, layout: tuple[tuple[int, ...], ...]) -> float:
+    """max over the fields of max |approx - exact| / max |exact| (NaN if anything is not finite)."""
+    err, start = 0.0, 0
+    for shape in layout:
+        sl = slice(start, start + int(np.prod(shape)))
+        start = sl.stop
+        peak = np.max(np.abs(exact[:, sl]), initial=0.0)
+        if peak > 0.0:
+            err = max(err, float(np.max(np.abs(approx[:, sl] - exact[:, sl])) / peak))
+    return err if np.all(np.isfinite(approx)) and np.all(np.isfinite(exact)) else float("nan")
