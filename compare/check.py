@@ -155,6 +155,9 @@ class CheckRow:
     """"measured" when Exudyn's errors decided the tier (``--confirm``), else "predicted"."""
     predicted_tier: str = ""
     """The tier the prediction alone gives (equal to ``tier`` unless a measurement decided)."""
+    floquet_steps: int = 0
+    """Propagator steps per cycle behind ``floquet_max_abs`` (the reduced system's where its Floquet
+    analysis answered; ``ked_linear.LinearResult.floquet_steps``); 0 without a linear solve."""
 
 
 def spec_for(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, rpm: float, *,
@@ -273,7 +276,7 @@ def check_row(r: SceneResult, linear_range: LinearRange, tolerance: float,
         confirmed=confirmed, key=r.key, linear_harmonics=int(lin.stats.get("harmonics", 0)) if lin is not None else 0,
         linear_limit_speed_ratio=linear_range.lower_limit(tolerance), holds_below_error=margins.holds_below * tolerance,
         fails_above_error=margins.fails_above * tolerance, margins_source=margins.source, decided_by=decided_by,
-        predicted_tier=predicted,
+        predicted_tier=predicted, floquet_steps=int(lin.stats.get("floquet_steps", 0)) if lin is not None else 0,
     )
 
 

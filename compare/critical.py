@@ -98,35 +98,168 @@ def _refine(f: Callable[[float], float], a: float, b: float, c: float, fa: float
 
 
 def fine_speeds(rpms: Sequence[float], fine: int = 4) -> np.ndarray:
-    """The speeds the sweep adds: ``fine`` - 1 evenly between each pair of neighbouring samples (sorted)."""
+    """The speeds a fine sweep adds: ``fine`` - 1 evenly between each pair of neighbouring samples (sorted)."""
     x = np.sort(np.asarray(rpms, dtype=float))
     if x.size < 2 or fine <= 1:
         return np.zeros(0)
     return np.concatenate([np.linspace(a, b, fine + 1)[1:-1] for a, b in zip(x[:-1], x[1:])])
 
 
+MIN_INTERVALS = 16
+"""Least intervals in which the critical-speed sweep samples its range: where fewer speeds are checked,
+each interval between them is divided evenly (:func:`fill_speeds`).  With up to 5 speeds that is the grid
+of the former fine sweep of every interval (4 per interval); a range sampled as sparsely as that shows no
+maximum for a peak between its samples (measured: the thesis joints model at 150-350 rpm in 5 speeds hides
+its peak at 202 rpm, which 8 intervals or more show)."""
+
+CANDIDATE_PROMINENCE = 1e-3
+"""Least prominence of a local maximum of the samples that the sweep looks at more closely: bumps below
+the Floquet tolerance (1e-3, ``ked_linear.settings``) of the samples are their noise."""
+
+
+def fill_speeds(rpms: Sequence[float], intervals: int = MIN_INTERVALS) -> np.ndarray:
+    """The speeds the sweep adds to the samples ``rpms`` so that their range has at least ``intervals``
+    intervals: each interval divided into ceil(intervals / its count) equal parts (none when there are
+    enough; sorted)."""
+    x = np.unique(np.asarray(rpms, dtype=float))
+    if x.size < 2 or x.size - 1 >= intervals:
+        return np.zeros(0)
+    return fine_speeds(x, math.ceil(intervals / (x.size - 1)))
+
+
+class _Sweep:
+    """The samples of a critical-speed sweep: the given speeds ``coarse`` (sorted) with their max |mu|, each
+    exact (a value of ``floquet``) or approximate (known within its Floquet error: it helps find the maxima,
+    ``floquet`` is evaluated there before it decides one), plus the ``fine`` - 1 speeds inside each coarse
+    interval sampled finely.  Every evaluation of ``floquet`` is kept: none is made twice."""
+
+    def __init__(self, rpms: np.ndarray, values: np.ndarray, exact: np.ndarray, floquet: Callable[[float], float],
+                 fine: int):
+        self.f, self.fine = floquet, fine
+        self.coarse = rpms
+        self.exact = {float(r): float(v) for r, v, e in zip(rpms, values, exact) if e}
+        self.approx = {float(r): float(v) for r, v, e in zip(rpms, values, exact) if not e}
+        self.intervals: set[int] = set()
+        self.evaluations = 0
+
+    def value(self, rpm: float) -> float:
+        """max |mu| at ``rpm`` from ``floquet``, evaluated once."""
+        rpm = float(rpm)
+        if rpm not in self.exact:
+            self.exact[rpm] = float(self.f(rpm))
+            self.evaluations += 1
+        return self.exact[rpm]
+
+    def refine_interval(self, k: int) -> None:
+        """Coarse interval ``k`` (between coarse speeds k and k + 1) sampled finely, its ends exactly."""
+        if k in self.intervals or not 0 <= k < self.coarse.size - 1:
+            return
+        self.intervals.add(k)
+        for r in np.linspace(self.coarse[k], self.coarse[k + 1], self.fine + 1):
+            self.value(float(r))
+
+    def points(self) -> tuple[np.ndarray, np.ndarray]:
+        """The speeds sampled so far for the maxima (coarse and finely sampled intervals; not the refinement's
+        evaluations), sorted, with their values (exact where known)."""
+        x = set(self.coarse.tolist())
+        for k in self.intervals:
+            x.update(np.linspace(self.coarse[k], self.coarse[k + 1], self.fine + 1)[1:-1].tolist())
+        xs = np.array(sorted(x))
+        return xs, np.array([self.exact.get(r, self.approx.get(r, math.nan)) for r in xs.tolist()])
+
+    def around(self, rpm: float) -> list[int]:
+        """The coarse intervals next to ``rpm`` (a coarse speed: both sides; else the one holding it)."""
+        k = int(np.searchsorted(self.coarse, rpm))
+        if k < self.coarse.size and self.coarse[k] == rpm:
+            return [i for i in (k - 1, k) if 0 <= i < self.coarse.size - 1]
+        return [k - 1]
+
+    def needs(self, prominence: float) -> tuple[list[int], list[float]]:
+        """What the maxima of the samples still need before they are decided: coarse intervals to sample
+        finely (both next to every maximum of at least :data:`CANDIDATE_PROMINENCE`; those next to the
+        deciding base of one whose prominence is at least half of ``prominence`` but below it: finer
+        samples there can only deepen that base, and a maximum below half the threshold on its own finely
+        sampled intervals is taken as settled) and speeds to evaluate exactly (the bases of a maximum whose
+        prominence is within :data:`CANDIDATE_PROMINENCE` of the threshold: an approximate sample is good
+        to the Floquet tolerance)."""
+        from scipy.signal import peak_prominences
+
+        x, y = self.points()
+        found = local_maxima(x, y, CANDIDATE_PROMINENCE)
+        if not found:
+            return [], []
+        filled = np.where(np.isfinite(y), y, np.nanmin(y) - 1.0)
+        prom, left, right = peak_prominences(filled, found)
+        intervals: list[int] = []
+        exact: list[float] = []
+        for i, p, lb, rb in zip(found, prom, left, right):
+            own = [k for k in self.around(float(x[i])) if k not in self.intervals]
+            if own:  # its own intervals first: the rest is decided on them
+                intervals += own
+                continue
+            if p < prominence + CANDIDATE_PROMINENCE:  # near the threshold: decided on exact values only
+                exact += [float(x[lb]), float(x[rb])]
+            if 0.5 * prominence <= p < prominence:  # undecided: the side whose minimum decides, sampled finely
+                for b in (lb, rb):
+                    if filled[b] == max(filled[lb], filled[rb]):
+                        intervals += self.around(float(x[b]))
+        return ([k for k in dict.fromkeys(intervals) if k not in self.intervals],
+                [r for r in dict.fromkeys(exact) if r not in self.exact])
+
+
 def critical_speeds(rpms: Sequence[float], max_abs: Sequence[float],
                     floquet: Callable[[float], float] | None = None, fine: int = 4,
-                    rpm_tol: float = 2e-3, prominence: float = PROMINENCE) -> tuple[CriticalSpeed, ...]:
+                    rpm_tol: float = 2e-3, prominence: float = PROMINENCE,
+                    exact: bool | Sequence[bool] = True) -> tuple[CriticalSpeed, ...]:
     """The critical speeds (local maxima of max |mu|) of the samples ``rpms`` [rev/min] (any order) and
-    their ``max_abs``.  With ``floquet`` (rpm -> max |mu|): ``fine`` - 1 more speeds between neighbouring
-    samples first, then each local maximum of at least ``prominence`` refined (Brent's method,
-    :func:`_refine`) to ``rpm_tol`` of its speed.
-    A maximum at either end of the range is no critical speed (its peak may lie outside)."""
+    their ``max_abs``.  A maximum at either end of the range is no critical speed (its peak may lie outside).
+
+    Without ``floquet`` (rpm -> max |mu|): the maxima of the samples of at least ``prominence``.  With it, a
+    sweep that looks closer only where a maximum is bracketed (:class:`_Sweep`): the samples, with evenly
+    spaced speeds added where they cut the range in fewer than :data:`MIN_INTERVALS` intervals
+    (:func:`fill_speeds`); every local maximum of the samples of at least :data:`CANDIDATE_PROMINENCE`
+    gets ``fine`` - 1 more speeds in each of its two intervals, and one whose prominence is still below
+    ``prominence`` (but at least half of it) gets them also next to the minimum that decides it (repeated
+    until nothing changes, :meth:`_Sweep.needs`); then
+    each local maximum of at least ``prominence`` on those samples is refined (Brent's method,
+    :func:`_refine`) to ``rpm_tol`` of its speed.  Inside the intervals it samples this is the fine sweep
+    of every interval (``fine`` - 1 speeds in each), with the same maxima and the same refinement, at a
+    fraction of the evaluations (measured, thesis distributed model, 30-600 rpm in 20 speeds: 43
+    evaluations where the fine sweep of every interval took 92, the same three critical speeds to the
+    last digit).  A peak that does not show as a maximum on the given samples (one narrower than their
+    spacing, or than the range over :data:`MIN_INTERVALS`) is not found: the samples set the resolution.
+    ``exact``: whether ``max_abs`` are values of ``floquet`` (one bool, or one per sample); an approximate
+    one (the linear solve's own |mu|, at its own step count) finds the maxima, and ``floquet`` is
+    evaluated there before it decides one."""
     order = np.argsort(np.asarray(rpms, dtype=float))
     x = np.asarray(rpms, dtype=float)[order]
     y = np.asarray(max_abs, dtype=float)[order]
-    if floquet is not None and x.size >= 2 and fine > 1:
-        extra = fine_speeds(x, fine)
-        x = np.concatenate([x, extra])
-        y = np.concatenate([y, [floquet(float(r)) for r in extra]])
+    if floquet is None:
+        return tuple(CriticalSpeed(rpm=float(x[i]), max_abs=float(y[i])) for i in local_maxima(x, y, prominence))
+    known = np.broadcast_to(np.asarray(exact, dtype=bool), np.shape(rpms))[order]
+    fill = fill_speeds(x)
+    if fill.size:  # fewer intervals than MIN_INTERVALS: evenly spaced speeds added, evaluated (exact)
+        x = np.concatenate([x, fill])
+        y = np.concatenate([y, np.full(fill.size, math.nan)])
+        known = np.concatenate([known, np.zeros(fill.size, dtype=bool)])
         order = np.argsort(x)
-        x, y = x[order], y[order]
+        x, y, known = x[order], y[order], known[order]
+    sweep = _Sweep(x, y, known, floquet, max(int(fine), 1))
+    for r in fill:
+        sweep.value(float(r))
+    while True:
+        intervals, points = sweep.needs(prominence)
+        if not intervals and not points:
+            break
+        for k in intervals:
+            sweep.refine_interval(k)
+        for r in points:
+            sweep.value(r)
+    x, y = sweep.points()
     found = []
     for i in local_maxima(x, y, prominence):
-        r, m = float(x[i]), float(y[i])
-        if floquet is not None:
-            r, m = _refine(floquet, float(x[i - 1]), r, float(x[i + 1]), float(y[i - 1]), m, float(y[i + 1]), rpm_tol)
+        a, b, c = (float(v) for v in x[i - 1:i + 2])
+        r, m = _refine(sweep.value, a, b, c, sweep.value(a), sweep.value(b), sweep.value(c), rpm_tol)
         found.append(CriticalSpeed(rpm=r, max_abs=m))
     return tuple(found)
 
@@ -197,7 +330,11 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
     """For the rows of a design check (:func:`compare.check.check`, same linkage and keywords of
     :func:`compare.check.spec_for`): its critical speeds (refined with the Floquet part alone), the
     amplification peaks, and the rows with the verdicts near a critical speed annotated.  ``bar``: a
-    progress bar (``compare.check.progress``) advanced per Floquet evaluation."""
+    progress bar (``compare.check.progress``) advanced per Floquet evaluation.
+
+    The rows' own max |mu| (their linear solves') are the sweep's samples: exact where the solve's Floquet
+    analysis is the sweep's (:func:`sweep_exact`), else approximate (within their Floquet error: they find
+    the maxima, and the sweep evaluates its own value where one is decided)."""
     from compare.check import advance, spec_for
     from ked_linear.solver import single_threaded_blas
 
@@ -216,13 +353,38 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
     # one BLAS thread, as in solve_linear: the evaluations are small batched calls where threads only cost
     # (measured on the loaded 2-core machine: the sweep 3-8x slower with threads)
     with single_threaded_blas():
-        crit = critical_speeds(rpms, [f(r) for r in rpms], f)
+        crit = critical_speeds(rpms, [r.floquet_max_abs for r in rows], f, exact=[sweep_exact(r) for r in rows])
+    if bar is not None and bar.total is not None and bar.n < bar.total:  # fewer evaluations than estimated
+        bar.total = bar.n
+        bar.refresh()
     amp = amplification_peaks(rpms, [r.linear_peak_m / r.quasi_static_peak_m if r.quasi_static_peak_m > 0
                                      else math.nan for r in rows])
     return crit, amp, mark_near(rows, crit)
 
 
+def sweep_exact(row: object) -> bool:
+    """True when a check row's max |mu| is the sweep's own value (:func:`floquet_max_abs`) at its speed: the
+    linear solve's Floquet analysis ran the full model at :data:`SWEEP_STEPS` (the reduced system's answer,
+    when it vouches, is the same in both; at any other count the row does not say which of the two
+    answered, so only the full model's count is taken as proof)."""
+    return int(getattr(row, "floquet_steps", 0)) == SWEEP_STEPS and math.isfinite(row.floquet_max_abs)
+
+
 def sweep_evaluations(rows: Sequence[object], fine: int = 4) -> int:
-    """Floquet evaluations :func:`check_critical` makes on ``rows`` before refining its maxima: the rows'
-    speeds and the fine ones."""
-    return len(rows) + fine_speeds([r.rpm for r in rows], fine).size
+    """An estimate of the Floquet evaluations :func:`check_critical` makes on ``rows`` (for the progress
+    bar; :func:`compare.check.advance` raises its total if the work outgrows it): the speeds
+    :func:`fill_speeds` adds, then per local maximum of the rows' max |mu| (:data:`CANDIDATE_PROMINENCE`)
+    the fine speeds of its two intervals, its three speeds where the rows' values are not the sweep's own,
+    and a typical refinement (:data:`REFINE_EVALUATIONS`)."""
+    x = [r.rpm for r in rows]
+    y = [r.floquet_max_abs for r in rows]
+    order = np.argsort(x)
+    exact = [sweep_exact(rows[i]) for i in order]
+    n = fill_speeds(x).size
+    for i in local_maxima(np.asarray(x)[order], np.asarray(y)[order], CANDIDATE_PROMINENCE):
+        n += 2 * (max(fine, 1) - 1) + sum(not e for e in exact[i - 1:i + 2]) + REFINE_EVALUATIONS
+    return n
+
+
+REFINE_EVALUATIONS = 6
+"""Typical Floquet evaluations of the refinement of one maximum (:func:`_refine`: 4 to 8 measured)."""

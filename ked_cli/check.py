@@ -93,7 +93,8 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     critical_speeds_rpm and amplification_peaks_rpm (the same in every object: with
     three speeds or more, the local maxima over the speeds checked of max |Floquet
     multiplier|, refined by the Floquet part alone, and of the amplification linear /
-    quasi-static peak; else empty).
+    quasi-static peak; else empty), floquet_steps (propagator steps per cycle behind
+    floquet_max_abs).
     """
     from compare.check import check as run_check
     from compare.check import progress
