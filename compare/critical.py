@@ -176,7 +176,8 @@ class _Sweep:
 
     def needs(self, prominence: float) -> tuple[list[int], list[float]]:
         """What the maxima of the samples still need before they are decided: coarse intervals to sample
-        finely (both next to every maximum of at least :data:`CANDIDATE_PROMINENCE`; those next to the
+        finely (an end interval where the samples rise to the end of the range: a peak inside it shows on
+        its fine samples; both next to every maximum of at least :data:`CANDIDATE_PROMINENCE`; those next to the
         deciding base of one whose prominence is at least half of ``prominence`` but below it: finer
         samples there can only deepen that base, and a maximum below half the threshold on its own finely
         sampled intervals is taken as settled) and speeds to evaluate exactly (the bases of a maximum whose
@@ -185,12 +186,14 @@ class _Sweep:
         from scipy.signal import peak_prominences
 
         x, y = self.points()
+        ends = [k for k, rising in ((0, y[0] > y[1]), (self.coarse.size - 2, y[-1] > y[-2]))
+                if rising and k not in self.intervals]  # a peak in an end interval shows as a rise to the end
         found = local_maxima(x, y, CANDIDATE_PROMINENCE)
         if not found:
-            return [], []
+            return ends, []
         filled = np.where(np.isfinite(y), y, np.nanmin(y) - 1.0)
         prom, left, right = peak_prominences(filled, found)
-        intervals: list[int] = []
+        intervals: list[int] = ends
         exact: list[float] = []
         for i, p, lb, rb in zip(found, prom, left, right):
             own = [k for k in self.around(float(x[i])) if k not in self.intervals]
@@ -218,7 +221,8 @@ def critical_speeds(rpms: Sequence[float], max_abs: Sequence[float],
     sweep that looks closer only where a maximum is bracketed (:class:`_Sweep`): the samples, with evenly
     spaced speeds added where they cut the range in fewer than :data:`MIN_INTERVALS` intervals
     (:func:`fill_speeds`); every local maximum of the samples of at least :data:`CANDIDATE_PROMINENCE`
-    gets ``fine`` - 1 more speeds in each of its two intervals, and one whose prominence is still below
+    gets ``fine`` - 1 more speeds in each of its two intervals (an end interval too where the samples rise
+    to that end), and one whose prominence is still below
     ``prominence`` (but at least half of it) gets them also next to the minimum that decides it (repeated
     until nothing changes, :meth:`_Sweep.needs`); then
     each local maximum of at least ``prominence`` on those samples is refined (Brent's method,

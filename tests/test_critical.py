@@ -74,3 +74,103 @@ def test_check_names_a_weakly_damped_speed(thesis):
     assert "weakly_damped" in row.flags and row.tier == "nonlinear"
     assert "weakly damped" in row.verdict and "may never settle" in row.verdict
     assert 0.9 <= row.floquet_max_abs < 1.0
+
+
+def _curve(r):
+    # a max |mu| curve with resonance peaks (Lorentzians: centre, height, half-width) on a rising floor, on
+    # the samples 30, 60, ..., 600 rpm: a pair in one interval (150, 158: the second no maximum of a fine
+    # grid), one of prominence 0.0099 on the samples and 0.0119 on a fine grid (241) with a smaller one
+    # (262, below the threshold) beside it, one tall (330), one within the noise (410, 0.002 high) and one
+    # inside the last interval (590: the samples rise to the end of the range)
+    peaks = ((150.0, 0.05, 4.0), (158.0, 0.03, 5.0), (241.0, 0.02, 5.0), (262.0, 0.01, 4.0), (330.0, 0.2, 12.0),
+             (410.0, 0.002, 5.0), (590.0, 0.1, 10.0))
+    return 1e-4 * r + sum(h / (1.0 + ((r - c) / w) ** 2) for c, h, w in peaks)
+
+
+def _fine_sweep_maxima(f, rpms, fine=4):
+    # the independent reference: f on the fine grid of every interval (the samples and fine - 1 speeds
+    # between each pair), its local maxima of at least PROMINENCE, each located to 1e-3 rpm on a dense grid
+    from compare.critical import PROMINENCE, fine_speeds
+
+    grid = np.sort(np.concatenate([rpms, fine_speeds(rpms, fine)]))
+    values = [f(r) for r in grid]
+    out = []
+    for i in local_maxima(grid, values, PROMINENCE):
+        dense = np.linspace(grid[i - 1], grid[i + 1], 20001)
+        out.append(float(dense[np.argmax([f(r) for r in dense])]))
+    return out
+
+
+def test_the_bracketed_sweep_finds_the_maxima_of_the_fine_sweep_with_fewer_evaluations():
+    # against the fine sweep of every interval and a dense location of each peak (independent of the
+    # refinement): the same critical speeds within the refinement's 2e-3 of the speed, every evaluation
+    # once, fewer than the fine sweep's
+    from compare.critical import fine_speeds
+
+    rpms = np.linspace(30.0, 600.0, 20)
+    expected = _fine_sweep_maxima(_curve, rpms)
+    assert len(expected) == 4  # 150, 241, 330, 590: not 158, 262 (prominence), 410 (noise)
+    calls = []
+
+    def f(r):
+        calls.append(r)
+        return _curve(r)
+
+    found = critical_speeds(rpms, [_curve(r) for r in rpms], f)
+    assert [c.rpm for c in found] == pytest.approx(expected, rel=2e-3)
+    assert all(c.max_abs == _curve(c.rpm) for c in found)
+    assert len(calls) == len(set(calls))
+    assert len(calls) < fine_speeds(rpms).size  # refinements included; the fine sweep's 57 came before them
+
+
+def test_approximate_samples_find_the_maxima_and_are_never_used_to_decide():
+    # the rows' own max |mu| (here: off by up to 5e-4, within the Floquet tolerance): the same critical
+    # speeds and values as with exact samples; the sweep evaluates every speed whose value decides one
+    rpms = np.linspace(30.0, 600.0, 20)
+    noise = 5e-4 * np.sin(7.0 * rpms)
+    calls = []
+
+    def f(r):
+        calls.append(r)
+        return _curve(r)
+
+    exact = critical_speeds(rpms, [_curve(r) for r in rpms], _curve)
+    approx = critical_speeds(rpms, [_curve(r) + e for r, e in zip(rpms, noise)], f, exact=False)
+    assert approx == exact
+    for c in approx:  # the bracket of each refined peak: values of f
+        assert c.rpm in calls
+    assert len(calls) == len(set(calls))
+
+
+def test_few_speeds_are_filled_to_the_least_number_of_intervals():
+    # 5 speeds 50 rpm apart hide the peaks at 150 and 330 (no sample maximum); the sweep divides each
+    # interval into 4 (16 intervals: the former fine sweep's grid) and finds them as that fine sweep does
+    from compare.critical import MIN_INTERVALS, fill_speeds
+
+    rpms = np.linspace(100.0, 500.0, 5)
+    assert fill_speeds(rpms).size == 3 * 4 and fill_speeds(np.linspace(0, 1, MIN_INTERVALS + 1)).size == 0
+    expected = _fine_sweep_maxima(_curve, rpms)
+    found = critical_speeds(rpms, [_curve(r) for r in rpms], _curve)
+    assert [c.rpm for c in found] == pytest.approx(expected, rel=2e-3) and len(found) >= 2
+
+
+@pytest.mark.slow
+def test_thesis_distributed_critical_speeds_as_the_fine_sweep(thesis):
+    # the thesis distributed model, 30-600 rpm in 20 speeds: the critical speeds the fine sweep of every
+    # interval found (213.1, 343.4, 556.2 rpm: regression pin of that former sweep, 92 evaluations), to the
+    # refinement's accuracy, with at most half its evaluations
+    from compare.check import spec_for
+    from compare.critical import floquet_max_abs
+    from ked_quasi import MassModel
+
+    f = floquet_max_abs(spec_for(thesis, "source", MassModel("distributed"), 300.0))
+    rpms = np.linspace(30.0, 600.0, 20)
+    calls = []
+
+    def counted(r):
+        calls.append(r)
+        return f(r)
+
+    found = critical_speeds(rpms, [f(r) for r in rpms], counted)
+    assert [c.rpm for c in found] == pytest.approx([213.094, 343.433, 556.244], rel=2e-3)
+    assert len(calls) == len(set(calls)) and len(rpms) + len(calls) <= 92 // 2 + 20
