@@ -218,20 +218,23 @@ def critical_speeds(rpms: Sequence[float], max_abs: Sequence[float],
     their ``max_abs``.  A maximum at either end of the range is no critical speed (its peak may lie outside).
 
     Without ``floquet`` (rpm -> max |mu|): the maxima of the samples of at least ``prominence``.  With it, a
-    sweep that looks closer only where a maximum is bracketed (:class:`_Sweep`): the samples, with evenly
-    spaced speeds added where they cut the range in fewer than :data:`MIN_INTERVALS` intervals
-    (:func:`fill_speeds`); every local maximum of the samples of at least :data:`CANDIDATE_PROMINENCE`
-    gets ``fine`` - 1 more speeds in each of its two intervals (an end interval too where the samples rise
-    to that end), and one whose prominence is still below
-    ``prominence`` (but at least half of it) gets them also next to the minimum that decides it (repeated
-    until nothing changes, :meth:`_Sweep.needs`); then
-    each local maximum of at least ``prominence`` on those samples is refined (Brent's method,
-    :func:`_refine`) to ``rpm_tol`` of its speed.  Inside the intervals it samples this is the fine sweep
-    of every interval (``fine`` - 1 speeds in each), with the same maxima and the same refinement, at a
-    fraction of the evaluations (measured, thesis distributed model, 30-600 rpm in 20 speeds: 43
-    evaluations where the fine sweep of every interval took 92, the same three critical speeds to the
-    last digit).  A peak that does not show as a maximum on the given samples (one narrower than their
-    spacing, or than the range over :data:`MIN_INTERVALS`) is not found: the samples set the resolution.
+    sweep that looks closer only where a maximum is bracketed (:class:`_Sweep`):
+
+    1. the samples, with evenly spaced speeds added where they cut the range in fewer than
+       :data:`MIN_INTERVALS` intervals (:func:`fill_speeds`; the fine sampling below then takes
+       proportionally fewer speeds per interval);
+    2. every local maximum of the samples of at least :data:`CANDIDATE_PROMINENCE` gets ``fine`` - 1 more
+       speeds in each of its two intervals (an end interval too where the samples rise to that end); one
+       whose prominence is then still below ``prominence`` (but at least half of it) gets them also next to
+       the minimum that decides it; repeated until nothing changes (:meth:`_Sweep.needs`);
+    3. each local maximum of at least ``prominence`` on those samples is refined (Brent's method,
+       :func:`_refine`) to ``rpm_tol`` of its speed.
+
+    Inside the intervals it samples this is the fine sweep of every interval (``fine`` - 1 speeds in each),
+    with the same maxima and the same refinement, at a fraction of the evaluations (measured, thesis
+    distributed model, 30-600 rpm in 20 speeds: 43 evaluations where the fine sweep of every interval took
+    92, the same three critical speeds to the last digit).  A peak that does not show as a maximum on the
+    samples of step 1 (one narrower than their spacing) is not found: the samples set the resolution.
     ``exact``: whether ``max_abs`` are values of ``floquet`` (one bool, or one per sample); an approximate
     one (the linear solve's own |mu|, at its own step count) finds the maxima, and ``floquet`` is
     evaluated there before it decides one."""
@@ -248,7 +251,10 @@ def critical_speeds(rpms: Sequence[float], max_abs: Sequence[float],
         known = np.concatenate([known, np.zeros(fill.size, dtype=bool)])
         order = np.argsort(x)
         x, y, known = x[order], y[order], known[order]
-    sweep = _Sweep(x, y, known, floquet, max(int(fine), 1))
+    # the filled intervals are sampled finely by fewer speeds: the same fine grid as the given samples'
+    # (with 4: 2 in each half of an interval cut in two, none in the quarters of one cut in four)
+    parts = round((x.size - 1) / max(x.size - 1 - fill.size, 1))
+    sweep = _Sweep(x, y, known, floquet, max(math.ceil(max(int(fine), 1) / parts), 1))
     for r in fill:
         sweep.value(float(r))
     while True:
