@@ -40,15 +40,60 @@ this are within the Floquet tolerances and mean nothing to a designer."""
 
 
 def local_maxima(x: Sequence[float], y: Sequence[float], prominence: float = 0.0) -> list[int]:
-    """Indices of the interior local maxima of y(x) (x increasing) with at least ``prominence``
-    (``scipy.signal.find_peaks``; a plateau counts once, at its middle); NaN values count as the lowest."""
-    from scipy.signal import find_peaks
+    """Indices of the interior local maxima of y(x) (x increasing) with at least ``prominence`` (a plateau
+    counts once, at its middle; :func:`peaks`); NaN values count as the lowest."""
+    filled = _filled(y)
+    if filled is None:
+        return []
+    found = peaks(filled)
+    return [i for i, p in zip(found, prominences(filled, found)[0]) if p >= prominence]
 
+
+def _filled(y: Sequence[float]) -> np.ndarray | None:
+    """y with NaN below its lowest finite value (None if none is finite)."""
     y = np.asarray(y, dtype=float)
     if not np.any(np.isfinite(y)):
-        return []
-    filled = np.where(np.isfinite(y), y, np.nanmin(y) - 1.0)
-    return [int(i) for i in find_peaks(filled, prominence=prominence)[0]]
+        return None
+    return np.where(np.isfinite(y), y, np.nanmin(y) - 1.0)
+
+
+def peaks(y: np.ndarray) -> list[int]:
+    """Indices of the interior local maxima of ``y``, a plateau once at its middle (rounded down): the
+    definition of ``scipy.signal.find_peaks``, here because importing ``scipy.signal`` costs a ``ked check``
+    0.3-0.8 s (measured on this project's 2-core machine), several times this whole search."""
+    y = np.asarray(y, dtype=float)
+    out, i, n = [], 1, y.size
+    while i < n - 1:
+        if y[i - 1] < y[i]:
+            ahead = i + 1
+            while ahead < n - 1 and y[ahead] == y[i]:
+                ahead += 1
+            if y[ahead] < y[i]:
+                out.append((i + ahead - 1) // 2)
+                i = ahead
+        i += 1
+    return out
+
+
+def prominences(y: np.ndarray, found: Sequence[int]) -> tuple[np.ndarray, list[int], list[int]]:
+    """(prominence, left base, right base) of each peak index in ``found``: its height above the higher of
+    the lowest points on either side before higher ground or the end (``scipy.signal.peak_prominences``'
+    definition, without a window; see :func:`peaks` for why not scipy's)."""
+    y = np.asarray(y, dtype=float)
+    prom, left, right = [], [], []
+    for k in found:
+        bases = []
+        for step, stop in ((-1, -1), (1, y.size)):
+            base, low, i = k, y[k], k
+            while i != stop and y[i] <= y[k]:
+                if y[i] < low:
+                    base, low = i, y[i]
+                i += step
+            bases.append(base)
+        left.append(bases[0])
+        right.append(bases[1])
+        prom.append(y[k] - max(y[bases[0]], y[bases[1]]))
+    return np.asarray(prom, dtype=float), left, right
 
 
 def _golden(f: Callable[[float], float], a: float, b: float, c: float, fb: float, xtol: float) -> tuple[float, float]:
@@ -183,16 +228,14 @@ class _Sweep:
         sampled intervals is taken as settled) and speeds to evaluate exactly (the bases of a maximum whose
         prominence is within :data:`CANDIDATE_PROMINENCE` of the threshold: an approximate sample is good
         to the Floquet tolerance)."""
-        from scipy.signal import peak_prominences
-
         x, y = self.points()
         ends = [k for k, rising in ((0, y[0] > y[1]), (self.coarse.size - 2, y[-1] > y[-2]))
                 if rising and k not in self.intervals]  # a peak in an end interval shows as a rise to the end
         found = local_maxima(x, y, CANDIDATE_PROMINENCE)
         if not found:
             return ends, []
-        filled = np.where(np.isfinite(y), y, np.nanmin(y) - 1.0)
-        prom, left, right = peak_prominences(filled, found)
+        filled = _filled(y)
+        prom, left, right = prominences(filled, found)
         intervals: list[int] = ends
         exact: list[float] = []
         for i, p, lb, rb in zip(found, prom, left, right):

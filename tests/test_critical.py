@@ -174,3 +174,24 @@ def test_thesis_distributed_critical_speeds_as_the_fine_sweep(thesis):
     found = critical_speeds(rpms, [f(r) for r in rpms], counted)
     assert [c.rpm for c in found] == pytest.approx([213.094, 343.433, 556.244], rel=2e-3)
     assert len(calls) == len(set(calls)) and len(rpms) + len(calls) <= 92 // 2 + 20
+
+
+def test_peaks_and_prominences_as_scipy_signal():
+    # the check's own peak search (scipy.signal costs a check its import) against scipy.signal's
+    # find_peaks and peak_prominences on random curves with plateaus and ties (rounded values)
+    from scipy.signal import find_peaks, peak_prominences
+
+    from compare.critical import peaks, prominences
+
+    rng = np.random.default_rng(7)
+    for n in (3, 5, 40, 200):
+        for _ in range(50):
+            y = np.round(rng.normal(size=n).cumsum(), 1)
+            found = peaks(y)
+            assert found == find_peaks(y)[0].tolist()
+            if found:
+                p, left, right = prominences(y, found)
+                q, ql, qr = peak_prominences(y, found)
+                assert np.array_equal(p, q) and left == ql.tolist() and right == qr.tolist()
+                for m in (0.0, 0.5, 1.0):
+                    assert local_maxima(range(n), y, m) == find_peaks(y, prominence=m)[0].tolist()
