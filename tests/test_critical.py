@@ -221,3 +221,20 @@ def test_brent_as_scipy_optimize():
             xm, gm = brent(g_ours, a, x, b, g(x), tol)
             res = minimize_scalar(g_theirs, bracket=bracket, method="brent", options={"xtol": tol})
             assert theirs[3:] == ours and xm == res.x and gm == res.fun  # scipy evaluates the bracket first
+
+
+def test_a_row_at_the_sweep_steps_is_the_sweeps_own_value(thesis):
+    # the check reuses a row's max |mu| as an exact sample only where its linear solve's Floquet analysis
+    # ran the full model at the sweep's 2048 steps (thesis joints at 120 and 240 rpm: the automatic
+    # doubling stopped there): the independent Floquet-only evaluation of the sweep gives the same
+    # number to the last bit there, and the rows at other counts are flagged approximate
+    from compare.check import check, spec_for
+    from compare.critical import SWEEP_STEPS, floquet_max_abs, sweep_exact
+    from ked_quasi import MassModel
+
+    mm = MassModel("joints")
+    rows = check(thesis, "source", mm, [90.0, 120.0, 240.0])
+    assert [r.floquet_steps for r in rows] == [512, SWEEP_STEPS, SWEEP_STEPS]  # regression pin of the doubling
+    assert [sweep_exact(r) for r in rows] == [False, True, True]
+    f = floquet_max_abs(spec_for(thesis, "source", mm, 120.0))
+    assert [f(r.rpm) for r in rows[1:]] == [r.floquet_max_abs for r in rows[1:]]
