@@ -284,6 +284,8 @@ class _Sweep:
         prominence is within :data:`CANDIDATE_PROMINENCE` of the threshold: an approximate sample is good
         to the Floquet tolerance)."""
         x, y = self.points()
+        if x.size < 3:
+            return [], []
         ends = [k for k, rising in ((0, y[0] > y[1]), (self.coarse.size - 2, y[-1] > y[-2]))
                 if rising and k not in self.intervals]  # a peak in an end interval shows as a rise to the end
         found = local_maxima(x, y, CANDIDATE_PROMINENCE)
@@ -351,7 +353,7 @@ def critical_speeds(rpms: Sequence[float], max_abs: Sequence[float],
         x, y, known = x[order], y[order], known[order]
     # the filled intervals are sampled finely by fewer speeds: the same fine grid as the given samples'
     # (with 4: 2 in each half of an interval cut in two, none in the quarters of one cut in four)
-    parts = round((x.size - 1) / max(x.size - 1 - fill.size, 1))
+    parts = max(round((x.size - 1) / max(x.size - 1 - fill.size, 1)), 1)
     sweep = _Sweep(x, y, known, floquet, max(math.ceil(max(int(fine), 1) / parts), 1))
     for r in fill:
         sweep.value(float(r))

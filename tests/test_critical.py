@@ -238,3 +238,11 @@ def test_a_row_at_the_sweep_steps_is_the_sweeps_own_value(thesis):
     assert [sweep_exact(r) for r in rows] == [False, True, True]
     f = floquet_max_abs(spec_for(thesis, "source", mm, 120.0))
     assert [f(r.rpm) for r in rows[1:]] == [r.floquet_max_abs for r in rows[1:]]
+
+
+def test_a_sweep_of_one_or_no_finite_sample_finds_nothing():
+    assert critical_speeds([100.0], [0.5], _curve) == ()
+    assert critical_speeds([100.0, 150.0, 200.0], [float("nan")] * 3, lambda r: float("nan")) == ()
+    # two samples: the range filled to 16 intervals, the peak at 150 found between them
+    (c,) = critical_speeds([100.0, 200.0], [_curve(100.0), _curve(200.0)], _curve)
+    assert c.rpm == pytest.approx(150.28, rel=2e-3)
