@@ -51,6 +51,7 @@ import numpy as np
 
 from .floquet import _product
 from .periodic import PeriodicSystem, _apply, error_estimate, relative_change, series, spectrum
+from .reduction import RADAU_A, RADAU_C, _turn, rotate_columns
 from .sampled import TrigInterpolant
 
 FrameAngles = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
@@ -71,12 +72,6 @@ INTERPOLATION_TOLERANCE = 1e-6
 coefficients at the odd ones (a bound of the coarser interpolant: the one used, of all samples, is far
 closer; measured on the thesis distributed model: 1.5e-8 with 64 samples against 128, 3e-11 with 128)."""
 
-_S6 = np.sqrt(6.0)
-RADAU_C = np.array([(4.0 - _S6) / 10.0, (4.0 + _S6) / 10.0, 1.0])
-RADAU_A = np.array([[(88.0 - 7.0 * _S6) / 360.0, (296.0 - 169.0 * _S6) / 1800.0, (-2.0 + 3.0 * _S6) / 225.0],
-                    [(296.0 + 169.0 * _S6) / 1800.0, (88.0 + 7.0 * _S6) / 360.0, (-2.0 - 3.0 * _S6) / 225.0],
-                    [(16.0 - _S6) / 36.0, (16.0 + _S6) / 36.0, 1.0 / 9.0]])
-"""Butcher tableau of the three-stage Radau IIA method (as :mod:`ked_linear.reduction`)."""
 
 
 @dataclass(frozen=True)
@@ -95,21 +90,11 @@ class ReducedSteadyState:
     basis_change: float
 
 
-def _turn(X: np.ndarray) -> np.ndarray:
-    """J X per coordinate pair (J = [[0, -1], [1, 0]]), X (..., n, k)."""
-    out = np.empty_like(X)
-    out[..., 0::2, :], out[..., 1::2, :] = -X[..., 1::2, :], X[..., 0::2, :]
-    return out
-
-
 def _frames(angles: FrameAngles, V: np.ndarray, theta: np.ndarray,
             speed: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """W = R V and its theta-derivatives W', W'' (m, n, r) at ``theta``."""
     phi, rate, acc = angles(theta)
-    c, s = np.cos(phi)[:, :, None], np.sin(phi)[:, :, None]
-    x, y = V[0::2], V[1::2]
-    W = np.empty((theta.size,) + V.shape)
-    W[:, 0::2], W[:, 1::2] = c * x - s * y, s * x + c * y
+    W = rotate_columns(V, phi)
     p1 = np.repeat(rate / speed, 2, axis=1)[:, :, None]  # dphi/dtheta
     p2 = np.repeat(acc / speed**2, 2, axis=1)[:, :, None]
     JW = _turn(W)
