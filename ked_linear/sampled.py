@@ -132,18 +132,25 @@ class SampledCoefficients:
         grid, mid = _every_other(both, 0), _every_other(both, 1)
         history: list[float] = []
         while True:
-            exact, layout = _pack(mid)
-            merged = _merge(grid, mid)
+            layout = tuple(f.shape[1:] for f in _fields(mid))
+            exact_sym = _symmetric(mid)
+            exact = _compact(mid, exact_sym)  # the errors are measured on the coefficients, by their triangles
+            bounds = _bounds(layout, exact_sym)
             errors = {}
             for form in ("stiffness", "flexibility"):
                 sampled = _to_form(form, grid)
                 sym = _symmetric(sampled)
-                values = TrigInterpolant(_compact(sampled, sym)).uniform(np.pi / G, 1.0, G)
-                errors[form] = _field_error(_pack(_from_form(form, _expand(values, layout, sym)))[0], exact, layout)
+                values = _midpoint_values(_compact(sampled, sym))
+                if form != "stiffness":
+                    values = _compact(_from_form(form, _expand(values, layout, sym)), exact_sym)
+                elif sym != exact_sym:
+                    values = _compact(_expand(values, layout, sym), exact_sym)
+                errors[form] = _compact_error(values, exact, bounds)
                 if errors[form] <= tolerance:
                     self._form, self._points, self._error, self.layout, self.symmetric = form, 2 * G, errors[form], \
                         layout, sym
-                    self._interpolant = TrigInterpolant(_compact(_to_form(form, merged), sym))
+                    self._interpolant = TrigInterpolant(interleave(_compact(sampled, sym),
+                                                                   _compact(_to_form(form, mid), sym)))
                     return
             self._error = min(errors.values(), key=lambda e: e if np.isfinite(e) else np.inf)
             history.append(self._error)
@@ -152,7 +159,7 @@ class SampledCoefficients:
             slow = len(history) >= 2 and not history[-1] < 1e-2 * history[-2]
             if 4 * G > max_points or slow or not np.isfinite(self._error):
                 return
-            grid, G = merged, 2 * G
+            grid, G = _merge(grid, mid), 2 * G
             mid = direct((np.arange(G) + 0.5) * (2.0 * np.pi / G))
 
     def __call__(self, theta: np.ndarray) -> Coefficients:
@@ -178,6 +185,37 @@ class SampledCoefficients:
         if index is None:
             return self.direct(theta)
         return _from_form(self.form, _expand(self.interpolant.evaluate(theta, index), self.layout, self.symmetric))
+
+
+def _midpoint_values(samples: np.ndarray) -> np.ndarray:
+    """The values (G, F) at the midpoints theta_j + pi / G of the :class:`TrigInterpolant` of ``samples``
+    (G, F) at theta_j = 2 pi j / G: its Nyquist term vanishes there, so one real FFT, a phase shift and
+    one inverse real FFT (the same series as ``TrigInterpolant(samples).uniform(pi / G, 1.0, G)``)."""
+    G = samples.shape[0]
+    X = np.fft.rfft(samples, axis=0)
+    X *= np.exp(1j * (np.pi / G) * np.arange(X.shape[0]))[:, None]
+    X[G // 2] = 0.0
+    return np.fft.irfft(X, n=G, axis=0)
+
+
+def _bounds(layout: tuple[tuple[int, ...], ...], symmetric: tuple[bool, ...]) -> np.ndarray:
+    """The first column of each field in its :func:`_compact` array, then the total."""
+    sizes = [shape[0] * (shape[0] + 1) // 2 if sym else int(np.prod(shape)) for shape, sym in zip(layout, symmetric)]
+    return np.concatenate([[0], np.cumsum(sizes)]).astype(np.intp)
+
+
+def _compact_error(approx: np.ndarray, exact: np.ndarray, bounds: np.ndarray) -> float:
+    """:func:`_field_error` of :func:`_compact` arrays (a symmetric field by its triangle: the same maxima),
+    the fields' columns starting at ``bounds`` (:func:`_bounds`)."""
+    if not (np.all(np.isfinite(approx)) and np.all(np.isfinite(exact))):
+        return float("nan")
+    starts = bounds[:-1][np.diff(bounds) > 0]
+    if starts.size == 0:
+        return 0.0
+    diff = np.maximum.reduceat(np.max(np.abs(approx - exact), axis=0), starts)
+    peak = np.maximum.reduceat(np.max(np.abs(exact), axis=0), starts)
+    some = peak > 0.0
+    return float(np.max(diff[some] / peak[some], initial=0.0))
 
 
 def _every_other(co: Coefficients, first: int) -> Coefficients:
