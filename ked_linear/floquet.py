@@ -42,7 +42,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .periodic import Coefficients, PeriodicSystem
-from .sampled import SampledCoefficients, _triangle_index
+from .sampled import SampledCoefficients, _triangle_index, inverse
 
 GAUSS = 0.5 + np.array([-1.0, 1.0]) * np.sqrt(3.0) / 6.0
 """The two Gauss-Legendre nodes on [0, 1] (fractions of a step)."""
@@ -98,7 +98,11 @@ def _stage_coefficients(system: PeriodicSystem, steps: int, first: int, count: i
     h = system.period / steps
     t = (first + np.arange(count)) * h
     c = _stage_offsets(damped, h)
-    return system.coefficients(system.speed * np.concatenate([t + c[0], t + c[1]]))
+    theta = system.speed * np.concatenate([t + c[0], t + c[1]])
+    if isinstance(system.coefficients, SampledCoefficients):  # K and C only
+        K, C = system.coefficients.stiffness_damping(theta)
+        return Coefficients(stiffness=K, damping=C, load=np.zeros((theta.size, system.mass.size)))
+    return system.coefficients(theta)
 
 
 @dataclass(frozen=True)
@@ -333,7 +337,10 @@ def _sdirk_steps_from(m: np.ndarray, K: np.ndarray, C: np.ndarray | None, h: flo
 def _inverse(Z: np.ndarray) -> np.ndarray:
     """Z^-1 of symmetric matrices (..., n, n): by Cholesky (Z = L L^T, Z^-1 = L^-T L^-1, the triangular
     inverse by blocks, vectorized over the matrices) when every Z is positive definite (M > 0 and K, C
-    positive semi-definite: unstressed, or prestressed short of buckling), else by LU (numpy's inv)."""
+    positive semi-definite: unstressed, or prestressed short of buckling), else by LU (numpy's inv); for
+    n <= 2 in closed form (:func:`ked_linear.sampled.inverse`)."""
+    if Z.shape[-1] <= 2:
+        return inverse(Z)
     try:
         L = np.linalg.cholesky(Z)
     except np.linalg.LinAlgError:
