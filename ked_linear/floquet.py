@@ -346,7 +346,9 @@ def _inverse(Z: np.ndarray) -> np.ndarray:
     except np.linalg.LinAlgError:
         return np.linalg.inv(Z)
     Li = _lower_inverse(L)
-    return np.matmul(np.swapaxes(Li, -1, -2), Li)
+    # a contiguous transpose: numpy's matmul of stacked small matrices takes its BLAS path only for
+    # contiguous operands (measured: 1024 6 x 6 products 0.16 ms from the swapped view, 0.05 from a copy)
+    return np.matmul(np.ascontiguousarray(np.swapaxes(Li, -1, -2)), Li)
 
 
 def _lower_inverse(L: np.ndarray) -> np.ndarray:
