@@ -132,15 +132,18 @@ class SampledCoefficients:
         both = direct(np.arange(2 * G) * (np.pi / G))  # the first grid and its midpoints in one evaluation
         grid, mid = _every_other(both, 0), _every_other(both, 1)
         history: list[float] = []
+        # which fields are symmetric (then interpolated by their triangles), per form: judged on the first
+        # grid a form is tried on (the symmetry of K and C is structural), the coefficients' on both
+        layout = tuple(f.shape[1:] for f in _fields(mid))
+        exact_sym = _symmetric(both)
+        bounds = _bounds(layout, exact_sym)
+        symmetric: dict[str, tuple[bool, ...]] = {}
         while True:
-            layout = tuple(f.shape[1:] for f in _fields(mid))
-            exact_sym = _symmetric(mid)
             exact = _compact(mid, exact_sym)  # the errors are measured on the coefficients, by their triangles
-            bounds = _bounds(layout, exact_sym)
             errors = {}
             for form in ("stiffness", "flexibility"):
                 sampled = _to_form(form, grid)
-                sym = _symmetric(sampled)
+                sym = symmetric.setdefault(form, exact_sym if form == "stiffness" else _symmetric(sampled))
                 values = _midpoint_values(_compact(sampled, sym))
                 if form != "stiffness":
                     values = _compact(_from_form(form, _expand(values, layout, sym)), exact_sym)
