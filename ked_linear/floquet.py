@@ -137,15 +137,18 @@ class _Series:
         rows[0, self.expand[np.arange(n) * (n + 1)]] += mass  # the constant term's diagonal
         return replace(self, rows=rows)
 
-    def basis(self, theta0: float, step: float, steps: int, j: np.ndarray) -> np.ndarray:
+    def basis(self, theta0: float | np.ndarray, step: float, steps: int, j: np.ndarray) -> np.ndarray:
         """The basis (j.size, 2H + 1) at theta0 + step * j, step = +-2 pi / steps (j integer: the
-        phases k j are reduced modulo ``steps`` exactly)."""
+        phases k j are reduced modulo ``steps`` exactly); for several theta0 (r,), the r bases one after
+        another, (r j.size, 2H + 1), from one table of the phases k j."""
         k = np.arange(1, self.harmonics + 1)
-        z = np.exp(1j * step * np.arange(steps))[np.outer(j, k) % steps] * np.exp(1j * k * theta0)
-        E = np.empty((j.size, 2 * self.harmonics + 1))
-        E[:, 0] = 1.0
-        E[:, 1::2], E[:, 2::2] = z.real, z.imag
-        return E
+        offsets = np.atleast_1d(np.asarray(theta0, dtype=float))
+        z = np.exp(1j * step * np.arange(steps))[np.outer(j, k) % steps]
+        z = z[None] * np.exp(1j * np.outer(offsets, k))[:, None, :]  # (r, j, H)
+        E = np.empty((offsets.size, j.size, 2 * self.harmonics + 1))
+        E[..., 0] = 1.0
+        E[..., 1::2], E[..., 2::2] = z.real, z.imag
+        return E.reshape(-1, E.shape[-1])
 
 
 def _series(system: PeriodicSystem) -> _Series | None:
@@ -219,8 +222,7 @@ def _stage_fields(system: PeriodicSystem, series: _Series | None, steps: int, fi
     step = np.sign(system.speed) * 2.0 * np.pi / steps
     j = first + np.arange(count)
     c = _stage_offsets(damped, system.period / steps)
-    E = np.concatenate([series.basis(system.speed * c[0], step, steps, j),
-                        series.basis(system.speed * c[1], step, steps, j)])
+    E = series.basis(system.speed * c, step, steps, j)  # the first stages' rows, then the second's
     fields = np.take(E @ series.rows, series.expand, axis=1).reshape(2, count, 2, n, n)
     return fields[:, :, 0], fields[:, :, 1]
 

@@ -35,11 +35,15 @@ class TrigInterpolant:
         a = self.spectrum * np.exp(1j * self.frequency * theta0)
         if step_sign < 0:
             a = np.conj(a)  # sum_f a_f e^{-i f t} is real: the conjugate of sum_f conj(a_f) e^{i f t}
-        residue = self.frequency % m
-        b = np.zeros((a.shape[0], m), dtype=complex)  # b[:, r]: sum of the a_f with f = r (mod m)
-        for start in range(0, a.shape[1], m):  # m consecutive frequencies have distinct residues
-            b[:, residue[start:start + m]] += a[:, start:start + m]
-        out = np.fft.irfft(b[:, :m // 2 + 1], n=m, axis=1) * m if m > 1 else b.real
+        # b[:, r]: the sum of the a_f with f = r (mod m), r = 0 .. m/2 (all irfft reads): column c holds
+        # f = c - G/2, so the sums of the columns c = r + G/2 (mod m), m consecutive columns at a time
+        F, width = a.shape
+        rows = -(-width // m)
+        folded = a if rows * m == width else np.concatenate([a, np.zeros((F, rows * m - width), complex)], axis=1)
+        if rows > 1:
+            folded = folded.reshape(F, rows, m).sum(axis=1)
+        b = folded[:, (np.arange(m // 2 + 1) + self.points // 2) % m]
+        out = np.fft.irfft(b, n=m, axis=1) * m if m > 1 else b.real
         return out.T
 
     def at(self, theta: np.ndarray) -> np.ndarray:
