@@ -94,7 +94,8 @@ def _stage_offsets(damped: bool, h: float) -> np.ndarray:
 def _stage_coefficients(system: PeriodicSystem, steps: int, first: int, count: int, damped: bool) -> Coefficients:
     """The coefficients at the two stage angles of steps first .. first + count - 1: the first stage's
     (count,) then the second's; with first = 0 and count = steps two uniform full-turn grids (interpolated
-    when the coefficients are sampled, see ``sampled.SampledCoefficients``)."""
+    when the coefficients are sampled, see ``sampled.SampledCoefficients``: then K and C only, the load
+    zero, as the propagator needs no more)."""
     h = system.period / steps
     t = (first + np.arange(count)) * h
     c = _stage_offsets(damped, h)
