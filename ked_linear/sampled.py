@@ -147,7 +147,9 @@ class SampledCoefficients:
             errors = {}
             for form in ("stiffness", "flexibility"):
                 sampled = _to_form(form, grid)
-                sym = symmetric.setdefault(form, exact_sym if form == "stiffness" else _symmetric(sampled))
+                if form not in symmetric:
+                    symmetric[form] = exact_sym if form == "stiffness" else _symmetric(sampled)
+                sym = symmetric[form]
                 values = _midpoint_values(_compact(sampled, sym))
                 if form != "stiffness":
                     values = _compact(_from_form(form, _expand(values, layout, sym)), exact_sym)
