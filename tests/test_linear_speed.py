@@ -14,7 +14,9 @@ from ked_linear.sampled import (
     SampledCoefficients,
     TrigInterpolant,
     _field_error,
+    _midpoint_values,
     _pack,
+    inverse,
     uniform_grids,
 )
 
@@ -123,6 +125,67 @@ def test_interpolated_linkage_coefficients_equal_direct(mm, prestress):
     for theta in (np.arange(48) * (2 * np.pi / 48), -(np.arange(3 * 67) * (2 * np.pi / 67) + 0.3)):
         got, layout = _pack(co(theta))
         assert _field_error(got, _pack(co.direct(theta))[0], layout) < INTERPOLATION_TOLERANCE
+
+
+@pytest.mark.parametrize("G", [2, 16, 32])
+def test_midpoint_values_equal_the_interpolant_summed_directly(G):
+    # the refinement's check: the interpolant of G random samples at the G midpoints, by one real FFT pair,
+    # against the same interpolant summed term by term at those angles (TrigInterpolant.at), rounding only
+    samples = np.random.default_rng(G).normal(size=(G, 3))
+    mid = (np.arange(G) + 0.5) * (2 * np.pi / G)
+    np.testing.assert_allclose(_midpoint_values(samples), TrigInterpolant(samples).at(mid), atol=1e-13)
+
+
+def test_closed_form_inverse_of_small_matrices():
+    # 1 x 1 and 2 x 2 by adjugate over determinant against LAPACK's LU inverse (round-off, well-conditioned
+    # random matrices); a singular one gives non-finite entries instead of an exception (the sampling then
+    # rejects the form); larger sizes are numpy's inverse itself
+    rng = np.random.default_rng(5)
+    for n in (1, 2, 3):
+        A = rng.normal(size=(4, 9, n, n)) + 3.0 * np.eye(n)
+        np.testing.assert_allclose(inverse(A), np.linalg.inv(A), rtol=1e-12, atol=1e-14)
+    singular = np.array([[[1.0, 2.0], [2.0, 4.0]]])
+    assert not np.all(np.isfinite(inverse(singular)))
+
+
+@pytest.mark.parametrize("mm", ["tip", "joints"])
+def test_stage_stiffness_and_damping_equal_the_full_coefficients(mm):
+    # what the propagator asks for (K and C alone at the stage angles: two uniform grids, one running
+    # backwards) equals the full interpolated coefficients at those angles to round-off (tip: compliance
+    # form, K rebuilt from F; joints: stiffness form); scattered angles go to the direct evaluation
+    spec = next(s for s in load_config().scenes() if s.mechanism == "source" and s.mass_model.name == mm)
+    co = linkage_system(spec.scene(100.0), LinearSettings()).system.coefficients
+    assert co.form == {"tip": "flexibility", "joints": "stiffness"}[mm]
+    stages = -(np.concatenate([np.arange(64) + 0.29, np.arange(64) + 1.0]) * (2 * np.pi / 64))
+    scattered = np.array([0.1, 0.7, 2.0, 5.5])
+    for theta, full in ((stages, co(stages)), (scattered, co.direct(scattered))):
+        K, C = co.stiffness_damping(theta)
+        for got, want in ((K, full.stiffness), (C, full.damping)):
+            assert np.abs(got - want).max() <= 1e-12 * np.abs(want).max()
+
+
+@pytest.mark.parametrize("mm", ["tip", "extender", "distributed"])
+def test_prestressed_condensation_from_speed_free_factors_equals_a_solve(mm, monkeypatch):
+    # the prestressed condensation per speed from the cached eigen-factors of the slave block against the
+    # static condensation solved per angle (the fallback, _split refused), at a speed where the geometric
+    # stiffness matters (600 rpm) and one where it barely does (30 rpm): every field to round-off
+    from ked_quasi import frame
+    from ked_quasi.framecache import CACHE
+
+    spec = next(s for s in load_config().scenes() if s.mechanism == "source" and s.mass_model.name == mm)
+    theta = np.arange(40) * (2 * np.pi / 40) + 0.05
+    for rpm in (30.0, 600.0):
+        scene = spec.scene(rpm)
+        CACHE.clear()
+        fast = frame.condensed_structure(scene, theta, prestress=True)
+        with monkeypatch.context() as m:
+            m.setattr(frame, "_split", lambda *args: None)
+            CACHE.clear()
+            solved = frame.condensed_structure(scene, theta, prestress=True)
+        CACHE.clear()
+        for field in ("stiffness", "material_stiffness", "load", "output"):
+            got, want = getattr(fast, field), getattr(solved, field)
+            assert np.abs(got - want).max() <= 1e-11 * np.abs(want).max(), (rpm, field)
 
 
 def _random_system(n: int, seed: int, speed: float = 1.3) -> PeriodicSystem:
