@@ -102,6 +102,36 @@ def single_threaded_blas() -> contextlib.AbstractContextManager:
     return _CONTROLLERS[key].limit(limits=1, user_api="blas")
 
 
+ALLOCATOR_MMAP_BYTES = 32 * 2**20
+ALLOCATOR_TRIM_BYTES = 64 * 2**20
+_ALLOCATOR: list[bool] = []
+
+
+def keep_freed_memory() -> None:
+    """Once per process, on glibc: serve arrays up to :data:`ALLOCATOR_MMAP_BYTES` from the heap and keep
+    up to :data:`ALLOCATOR_TRIM_BYTES` of freed heap mapped (``mallopt``; elsewhere a no-op).
+
+    The linear model makes many short-lived arrays of 0.1 to a few MB (a Floquet level's step matrices,
+    the dense collocation operator); glibc maps the larger ones afresh and returns freed heap to the system
+    above a threshold it adapts, so the next temporary touches new pages: a page fault per 4 kB.
+    Measured (loaded 2-core machine, joints model, one 512-step Floquet level): 2.2 -> 1.3 ms; the stage
+    fields of that level 0.8 -> 0.4 ms.  The cost: up to that much freed memory stays with the process."""
+    if _ALLOCATOR:
+        return
+    _ALLOCATOR.append(True)
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL("libc.so.6")
+        M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3
+        libc.mallopt(M_MMAP_THRESHOLD, ALLOCATOR_MMAP_BYTES)
+        libc.mallopt(M_TRIM_THRESHOLD, ALLOCATOR_TRIM_BYTES)
+    except (OSError, AttributeError):  # not glibc (musl has no mallopt): the default allocator
+        pass
+
+
 def _is_slider(scene: object) -> bool:
     from ked_quasi.slidercrank import SliderScene
 
@@ -111,6 +141,7 @@ def _is_slider(scene: object) -> bool:
 def solve_linear(scene: Scene, settings: LinearSettings | None = None) -> LinearResult:
     """Periodic steady state of the linear KED model of ``scene`` (see docs/linear_model.md); a slider-crank
     scene goes to :func:`ked_linear.slider.solve_slider_linear`."""
+    keep_freed_memory()
     with single_threaded_blas():
         if _is_slider(scene):
             from .slider import solve_slider_linear

@@ -156,15 +156,21 @@ def condensed_structure(scene: Scene, crank_angle: np.ndarray | None = None,
     theta = scene.crank_angles if crank_angle is None else np.atleast_1d(np.asarray(crank_angle, float))
     parts = frame_parts(scene, theta)
     scale = load_scale(scene)  # loads, axial forces and geometric stiffness go as the speed squared
-    if prestress:
+    p, nodes = parts.topo.p_index, parts.nodes
+    out_dofs = [2 * p, 2 * p + 1, parts.dofs.p_rotation]
+    split = cached("split", scene, theta, lambda: _split(parts, geometric_stiffness(scene, theta), out_dofs)) \
+        if prestress else None
+    if split is not None:
+        Kc, Km, out = split.condense(scale)
+    elif prestress:  # the slave block of K_E not positive definite: a solve per speed
         K = parts.elastic + scale * geometric_stiffness(scene, theta)
         psi, Kc = _condense(K, parts.master)
         Km = _congruence(psi, parts.elastic)
+        out = psi[:, out_dofs]
     else:  # the unstressed structure: no part depends on the speed
         psi, Kc = cached("unstressed", scene, theta, lambda: _condense(parts.elastic, parts.master))
         Kc = Km = Kc.copy()
-    p, nodes = parts.topo.p_index, parts.nodes
-    out = psi[:, [2 * p, 2 * p + 1, parts.dofs.p_rotation]]
+        out = psi[:, out_dofs]
     return CondensedStructure(stiffness=Kc, material_stiffness=Km, mass=np.repeat(parts.node_mass[nodes], 2),
                               load=scale * parts.loads[:, nodes].reshape(theta.size, -1), output=out,
                               mass_node=nodes.copy())
@@ -230,6 +236,67 @@ def geometric_stiffness(scene: Scene, crank_angle: np.ndarray) -> np.ndarray:
         return assemble(scene.fourbar, p.topo, p.dofs, p.geo, p.axial, elastic=False)
 
     return cached("geometric", scene, theta, build)
+
+
+@dataclass(frozen=True)
+class _Split:
+    """The prestressed condensation's speed-free factors at n crank angles, for any load scale s (the speed
+    squared, :func:`ked_quasi.framecache.load_scale`): K = K_E + s K_G split into master (m) and slave (s)
+    dofs, K_E,ss = L L^T (Cholesky) and L^-1 K_G,ss L^-T = V diag(lam) V^T, so that K_ss^-1 =
+    T diag(d) T^T with T = L^-T V, d = 1 / (1 + s lam): the slaves' static response X = K_ss^-1 K_sm =
+    T diag(d) R with R = T^T K_sm = A + s B (A = T^T K_E,sm, B = T^T K_G,sm).  Then (T^T K_E,ss T = I)
+
+        Psi^T K Psi   = K_mm - R^T diag(d) R,          K_mm = E_mm + s G_mm,
+        Psi^T K_E Psi = E_mm - A^T D R - R^T D A + (D R)^T (D R),   D = diag(d),
+
+    and the output rows of Psi, unit rows at master dofs, -X rows at slave dofs (``out_unit`` - ``out_t`` D R):
+    per speed a few (k x slaves) products instead of a factorization per angle."""
+
+    e_mm: np.ndarray
+    g_mm: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    lam: np.ndarray
+    out_unit: np.ndarray
+    out_t: np.ndarray
+
+    def condense(self, scale: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(Psi^T K Psi, Psi^T K_E Psi, the output rows of Psi) at load scale ``scale``, symmetrized."""
+        R = self.a + scale * self.b
+        DR = (1.0 / (1.0 + scale * self.lam))[..., None] * R
+        Rt = np.swapaxes(R, 1, 2)
+        Kc = self.e_mm + scale * self.g_mm - Rt @ DR
+        AtDR = np.swapaxes(self.a, 1, 2) @ DR
+        Km = self.e_mm - AtDR - np.swapaxes(AtDR, 1, 2) + np.swapaxes(DR, 1, 2) @ DR
+        out = self.out_unit - self.out_t @ DR
+        return 0.5 * (Kc + np.swapaxes(Kc, 1, 2)), 0.5 * (Km + np.swapaxes(Km, 1, 2)), out
+
+
+def _split(parts: FrameParts, geometric: np.ndarray, out_dofs: list[int]) -> _Split | None:
+    """The :class:`_Split` of ``parts`` with the reference geometric stiffness ``geometric``, or None if
+    the elastic slave block is not positive definite at every angle."""
+    E, G, master = parts.elastic, geometric, parts.master
+    slave = np.setdiff1d(np.arange(E.shape[-1]), master)
+    try:
+        L = np.linalg.cholesky(E[:, slave[:, None], slave])
+    except np.linalg.LinAlgError:
+        return None
+    n = E.shape[0]
+    Linv = np.linalg.solve(L, np.broadcast_to(np.eye(slave.size), L.shape))
+    S = Linv @ G[:, slave[:, None], slave] @ np.swapaxes(Linv, 1, 2)
+    lam, V = np.linalg.eigh(0.5 * (S + np.swapaxes(S, 1, 2)))
+    Tt = np.swapaxes(V, 1, 2) @ Linv  # T^T = V^T L^-1
+    where = {int(d): i for i, d in enumerate(slave)}
+    out_unit = np.zeros((len(out_dofs), master.size))
+    out_t = np.zeros((n, len(out_dofs), slave.size))
+    for row, dof in enumerate(out_dofs):
+        if dof in where:
+            out_t[:, row] = Tt[:, :, where[dof]]  # the row of T = (T^T)^T
+        else:
+            out_unit[row, int(np.flatnonzero(master == dof)[0])] = 1.0
+    return _Split(e_mm=E[:, master[:, None], master], g_mm=G[:, master[:, None], master],
+                  a=Tt @ E[:, slave[:, None], master], b=Tt @ G[:, slave[:, None], master], lam=lam,
+                  out_unit=out_unit, out_t=out_t)
 
 
 def _static_modes(K: np.ndarray, master: np.ndarray) -> np.ndarray:

@@ -9,10 +9,12 @@ times their values at the reference speed :data:`REFERENCE_RPM`, while the geome
 K_E, the lumped masses, the unstressed static condensation and natural frequencies do not depend on the
 speed at all.  A repeated solve of one linkage at many speeds (``ked check --rpm-range``, an atlas family's
 speed-ratio sweep, the critical-speed sweep) builds them once here; the static condensation of the
-prestressed structure K_E + (Omega / Omega_ref)^2 K_G,ref is not linear in Omega^2 and is done per speed
-(:func:`ked_quasi.frame.condensed_structure`).  The parts themselves are built in :mod:`ked_quasi.frame`
-(:func:`~ked_quasi.frame.frame_parts`, :func:`~ked_quasi.frame.geometric_stiffness`); this module holds the
-cache, its key and the speed scaling, and imports neither the frame model nor the solver (they import it).
+prestressed structure K_E + (Omega / Omega_ref)^2 K_G,ref is not linear in Omega^2: its speed-free factors
+(the slave block's Cholesky factor and the eigenvectors of its geometric part) are kept here too and
+combined per speed by a few small products (:func:`ked_quasi.frame.condensed_structure`).  The parts
+themselves are built in :mod:`ked_quasi.frame` (:func:`~ked_quasi.frame.frame_parts`,
+:func:`~ked_quasi.frame.geometric_stiffness`); this module holds the cache, its key and the speed scaling,
+and imports neither the frame model nor the solver (they import it).
 
 The cache is keyed by content: the scene's class, its four-bar (every compared field: lengths, coupler angle,
 sections with the stiffness scale in their moduli, pivots, branch, direction) and mass model (name, lumps,

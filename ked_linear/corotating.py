@@ -1,0 +1,257 @@
+"""Periodic steady state on a constant basis in co-rotating frames, by Radau IIA shooting (modal acceleration).
+
+Why: the Fourier collocation of :mod:`ked_linear.periodic` treats the correction w = u - q in absolute
+coordinates on its first H crank harmonics.  On the thesis's distributed model (5 lumps per link, 40
+coordinates) the frozen modes ring: their frequencies sweep over the cycle (modes 1-4 at 100 rpm: crank
+harmonics 14-22, 23-37, 38-45, 56-59), every lightly damped mode rings at its own sweeping frequency once a
+cycle, and w carries harmonics up to ~60 at a few tenths of a percent of its peak each.  Measured (thesis
+source, default settings, against the same collocation at H = 96): the default H = 32 misses 7.1e-3 of the
+peak at 100 rpm (the level estimate says 5.9e-3: honest) and 1.9e-4 at 300 rpm (estimate 7.4e-3:
+pessimistic); H = 48 / 64 reach 1.0e-3 / 3e-6 at 100 rpm (5160 unknowns at 64).  A ringing mode is broad in
+harmonics but smooth in time, and few modes ring: so here the ringing part is marched in time on a few
+coordinates.
+
+Method (docs/linear_model.md).  With ' = d/dtheta, sigma the speed and B = sigma C d/dtheta + sigma^2 M
+d^2/dtheta^2 (as in :mod:`ked_linear.periodic`), q = K^-1 f the frozen solution:
+
+* u = K^-1 (f - B z), z = q + W a: one quasi-static iteration from z (exact for the static part; with M = C
+  = 0 the quasi-static solution at every angle);
+* W(theta) = R(theta) V: V (n, r) a constant basis with V^T M V = I in co-rotating frames, R the block
+  diagonal 2 x 2 rotation of each coordinate pair by its frame angle phi (the link's angle); W' = phi' J W,
+  W'' = phi'' J W - phi'^2 W (J the rotation by 90 degrees; derivatives in theta);
+* the reduced coordinates a follow from the condition that z's dynamic part is the projection of u's:
+  W^T M (u - q) = a, i.e. (Z = K^-T M W, A_i = Z^T [B W]_i)
+
+      A2 a'' + A1 a' + (I + A0) a = -Z^T B q,
+      A0 = Z^T (sigma C W' + sigma^2 M W''),  A1 = Z^T (sigma C W + 2 sigma^2 M W'),  A2 = sigma^2 Z^T M W:
+
+  on frozen modes the Galerkin modal equations, and with V spanning everything the exact system;
+* its coefficients are sampled on :data:`SAMPLES` angles and interpolated trigonometrically; the periodic
+  solution is found by shooting: Radau IIA steps (three stages, order 5, L-stable: the stiff Ritz
+  directions of V are damped to their quasi-static value) marched in the direction of time give the affine
+  map x(2 pi) = Phi x(0) + d of the state x = (a, a'), and x(0) = (I - Phi)^-1 d.
+
+**Error estimate.**  Step levels :data:`STEP_LEVELS` on the smaller basis until the change of the history
+(relative to its peak, per output group) gives an estimate (:func:`ked_linear.periodic.error_estimate`)
+below half the tolerance; the richer basis is solved at the first level: the answer is the smaller
+basis's at the last level, its error the step estimate plus the change between the bases at the first.
+None when that does not reach the tolerance or anything cannot be built (A2 singular, coefficients not
+interpolable): the caller then uses the Fourier collocation.
+
+This module is generic (no linkage): the caller supplies the bases and the frame angles
+(:func:`ked_linear.reduction.link_frames` and :func:`ked_linear.reduction.greedy_basis` for a four-bar).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .floquet import _product
+from .periodic import PeriodicSystem, _apply, error_estimate, relative_change, series, spectrum
+from .reduction import RADAU_A, RADAU_C, _turn, rotate_columns
+from .sampled import TrigInterpolant
+
+FrameAngles = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
+"""theta (m,) [rad] -> (phi [rad], phi_dot [rad/s], phi_ddot [rad/s^2]), each (m, n/2): the frame angle of
+each coordinate pair (x, y), its rate and acceleration at the system's speed."""
+
+STEP_LEVELS = (128, 256, 512)
+"""Radau IIA steps per cycle, tried in turn (the richer basis is solved at the first)."""
+
+SAMPLES = 64
+"""Angles on which the reduced coefficients are sampled first (doubled up to :data:`MAX_SAMPLES` until the
+interpolant of the even samples matches the odd ones within :data:`INTERPOLATION_TOLERANCE`)."""
+
+MAX_SAMPLES = 256
+
+INTERPOLATION_TOLERANCE = 1e-6
+"""Largest error, relative to each field's peak, of the interpolant of the even samples of the reduced
+coefficients at the odd ones (a bound of the coarser interpolant: the one used, of all samples, is far
+closer; measured on the thesis distributed model: 1.5e-8 with 64 samples against 128, 3e-11 with 128)."""
+
+
+
+@dataclass(frozen=True)
+class ReducedSteadyState:
+    """Output of :func:`corotating_steady_state`: u (m, n) and output y (m, p) (or None) at the requested
+    angles; ``error_estimate``: the step levels' estimate plus the change between the bases (fraction of
+    the peak, per output group); ``steps``: Radau steps per cycle; ``sizes``: (smaller, richer) basis sizes;
+    ``step_error`` and ``basis_change``: the two parts of the estimate."""
+
+    displacement: np.ndarray
+    output: np.ndarray | None
+    error_estimate: float
+    steps: int
+    sizes: tuple[int, int]
+    step_error: float
+    basis_change: float
+
+
+def _frames(angles: FrameAngles, V: np.ndarray, theta: np.ndarray,
+            speed: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """W = R V and its theta-derivatives W', W'' (m, n, r) at ``theta``."""
+    phi, rate, acc = angles(theta)
+    W = rotate_columns(V, phi)
+    p1 = np.repeat(rate / speed, 2, axis=1)[:, :, None]  # dphi/dtheta
+    p2 = np.repeat(acc / speed**2, 2, axis=1)[:, :, None]
+    JW = _turn(W)
+    return W, p1 * JW, p2 * JW - p1**2 * W
+
+
+class _Reduced:
+    """The reduced equation a'' + Ce a' + Ke a = Fe (A2 divided out) of one basis, sampled and interpolated."""
+
+    def __init__(self, system: PeriodicSystem, angles: FrameAngles, V: np.ndarray, q_hat: np.ndarray):
+        self.system, self.angles, self.V, self.q_hat = system, angles, V, q_hat
+        self.r = V.shape[1]
+        G = SAMPLES
+        flat = self._flat(np.arange(G) * (2.0 * np.pi / G))
+        while _interpolation_error(flat, self._layout()) > INTERPOLATION_TOLERANCE:
+            if 2 * G > MAX_SAMPLES:
+                raise ValueError("reduced coefficients not interpolable")
+            mid = self._flat((np.arange(G) + 0.5) * (2.0 * np.pi / G))
+            both = np.empty((2 * G, flat.shape[1]))
+            both[0::2], both[1::2] = flat, mid
+            flat, G = both, 2 * G
+        self.interpolant = TrigInterpolant(flat)
+
+    def _layout(self) -> tuple[slice, slice, slice]:
+        r = self.r
+        return slice(0, r * r), slice(r * r, 2 * r * r), slice(2 * r * r, 2 * r * r + r)
+
+    def _flat(self, theta: np.ndarray) -> np.ndarray:
+        """[Ke, Ce, Fe] flattened (m, 2 r^2 + r) at ``theta``."""
+        sys_ = self.system
+        s, m, r = sys_.speed, sys_.mass, self.r
+        co = sys_.coefficients(theta)
+        W, W1, W2 = _frames(self.angles, self.V, theta, s)
+        Zt = np.swapaxes(np.linalg.solve(np.swapaxes(co.stiffness, 1, 2), m[:, None] * W), 1, 2)  # W^T M K^-1
+        ZtC, ZtM = Zt @ co.damping, Zt * m
+        A0 = s * (ZtC @ W1) + s**2 * (ZtM @ W2)
+        A1 = s * (ZtC @ W) + 2.0 * s**2 * (ZtM @ W1)
+        A2 = s**2 * (ZtM @ W)
+        Bq = s * _apply(co.damping, series(self.q_hat, theta, 1)) + s**2 * m * series(self.q_hat, theta, 2)
+        rhs = np.concatenate([A0 + np.eye(r), A1, -_apply(Zt, Bq)[..., None]], axis=2)
+        X = np.linalg.solve(A2, rhs)
+        return np.concatenate([X[..., :r].reshape(-1, r * r), X[..., r:2 * r].reshape(-1, r * r), X[..., 2 * r]],
+                              axis=1)
+
+    def fields(self, flat: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        r = self.r
+        k, c, f = self._layout()
+        return flat[:, k].reshape(-1, r, r), flat[:, c].reshape(-1, r, r), flat[:, f]
+
+    def periodic(self, steps: int) -> TrigInterpolant:
+        """The periodic solution: the interpolant of x = (a, a') at theta_j = sign 2 pi j / steps."""
+        r = self.r
+        sign = 1.0 if self.system.speed > 0 else -1.0  # march in the direction of time
+        h = sign * 2.0 * np.pi / steps
+        stage = np.concatenate([self.interpolant.uniform(c * h, sign, steps) for c in RADAU_C])
+        K, C, F = self.fields(stage)
+        S = radau_affine_steps(K.reshape(3, steps, r, r), C.reshape(3, steps, r, r), F.reshape(3, steps, r), h)
+        Phi = _product(S)
+        x0 = np.linalg.solve(np.eye(2 * r) - Phi[:2 * r, :2 * r], Phi[:2 * r, 2 * r])
+        X = np.empty((steps, 2 * r))
+        X[0] = x0
+        for j in range(steps - 1):
+            X[j + 1] = S[j, :2 * r, :2 * r] @ X[j] + S[j, :2 * r, 2 * r]
+        if sign < 0:  # samples at -2 pi j / steps: reorder to the increasing grid the interpolant expects
+            X = np.concatenate([X[:1], X[:0:-1]])
+        return TrigInterpolant(X)
+
+    def evaluate(self, steps: int, theta: np.ndarray, co) -> tuple[np.ndarray, np.ndarray | None]:
+        sys_ = self.system
+        s, m, r = sys_.speed, sys_.mass, self.r
+        x = self.periodic(steps).at(theta)
+        a, a1 = x[:, :r], x[:, r:]
+        K, C, F = self.fields(self.interpolant.at(theta))
+        a2 = F - _apply(K, a) - _apply(C, a1)
+        W, W1, W2 = _frames(self.angles, self.V, theta, s)
+        z1 = series(self.q_hat, theta, 1) + _apply(W1, a) + _apply(W, a1)
+        z2 = series(self.q_hat, theta, 2) + _apply(W2, a) + 2.0 * _apply(W1, a1) + _apply(W, a2)
+        rhs = co.load - s * _apply(co.damping, z1) - s**2 * m * z2
+        u = np.linalg.solve(co.stiffness, rhs[..., None])[..., 0]
+        return u, None if co.output is None else _apply(co.output, u)
+
+
+def _interpolation_error(flat: np.ndarray, fields: tuple[slice, ...]) -> float:
+    """Largest error, relative to each field's peak, of the interpolant of the even samples at the odd ones."""
+    G = flat.shape[0]
+    half = TrigInterpolant(flat[0::2]).uniform(2.0 * np.pi / G, 1.0, G // 2)
+    err = 0.0
+    for f in fields:
+        peak = np.max(np.abs(flat[:, f]))
+        if peak > 0.0:
+            err = max(err, float(np.max(np.abs(half[:, f] - flat[1::2, f])) / peak))
+    return err if np.isfinite(err) else float("inf")
+
+
+def radau_affine_steps(K: np.ndarray, C: np.ndarray, F: np.ndarray, h: float) -> np.ndarray:
+    """Affine step maps (m, 2r + 1, 2r + 1) of x = (q, q', 1) for q'' + C q' + K q = F, with K, C (3, m, r, r)
+    and F (3, m, r) at the three stage points of each step (step h, any sign).
+
+    Stage values Q_i = q + h sum_j a_ij P_j, P_i = p + h sum_j a_ij (F_j - K_j Q_j - C_j P_j); eliminating Q:
+    [delta_ik I + h a_ik C_k + h^2 sum_j a_ij a_jk K_j] P_k = p - h sum_j a_ij K_j q + h sum_j a_ij F_j; the
+    new state is the last stage (stiffly accurate)."""
+    _, m, r, _ = K.shape
+    a = RADAU_A
+    blocks = ((np.einsum("ij,jk->ikj", a, a) * (h * h)).reshape(9, 3) @ K.reshape(3, -1)).reshape(3, 3, m, r, r)
+    for k in range(3):
+        blocks[:, k] += (h * a[:, k])[:, None, None, None] * C[k]
+    L = np.ascontiguousarray(blocks.transpose(2, 0, 3, 1, 4)).reshape(m, 3 * r, 3 * r)
+    diag = np.arange(3 * r)
+    L[:, diag, diag] += 1.0
+    rhs = np.zeros((m, 3, r, 2 * r + 1))
+    rhs[..., :r] = ((-h * a) @ K.reshape(3, -1)).reshape(3, m, r, r).transpose(1, 0, 2, 3)
+    idx = np.arange(r)
+    rhs[:, :, idx, r + idx] = 1.0
+    rhs[..., 2 * r] = ((h * a) @ F.reshape(3, -1)).reshape(3, m, r).transpose(1, 0, 2)
+    P = np.linalg.solve(L, rhs.reshape(m, 3 * r, 2 * r + 1)).reshape(m, 3, r, 2 * r + 1)
+    S = np.zeros((m, 2 * r + 1, 2 * r + 1))
+    S[:, r:2 * r] = P[:, 2]
+    S[:, :r] = h * (a[2, 0] * P[:, 0] + a[2, 1] * P[:, 1] + a[2, 2] * P[:, 2])
+    S[:, idx, idx] += 1.0
+    S[:, 2 * r, 2 * r] = 1.0
+    return S
+
+
+def corotating_steady_state(system: PeriodicSystem, angles: FrameAngles, bases: tuple[np.ndarray, np.ndarray],
+                            theta: np.ndarray, tolerance: float,
+                            groups: tuple[slice, ...] | None = None) -> ReducedSteadyState | None:
+    """Steady state at ``theta`` on the co-rotating bases (smaller, richer), each (n, r) with V^T M V = I, in
+    the frames of ``angles``; None when the estimate does not reach ``tolerance`` (relative to the peak per
+    column group of the output) or the reduced system cannot be built (see the module docstring)."""
+    if np.any(system.mass <= 0.0):
+        return None
+    theta = np.atleast_1d(np.asarray(theta, dtype=float))
+    G = 2 * SAMPLES
+    grid = np.arange(G) * (2.0 * np.pi / G)
+    co_grid = system.coefficients(grid)
+    q_hat = spectrum(np.linalg.solve(co_grid.stiffness, co_grid.load[..., None])[..., 0])
+    co = system.coefficients(theta)
+    try:
+        small = _Reduced(system, angles, bases[0], q_hat)
+        outputs, changes, est = [], [], float("inf")
+        for steps in STEP_LEVELS:
+            u, y = small.evaluate(steps, theta, co)
+            outputs.append(u if y is None else y)
+            if len(outputs) > 1:
+                changes.append(relative_change(outputs[-1], outputs[-2], groups))
+                est = error_estimate(changes)
+                if est < 0.5 * tolerance:
+                    break
+        if not est < 0.5 * tolerance:
+            return None
+        u_rich, y_rich = _Reduced(system, angles, bases[1], q_hat).evaluate(STEP_LEVELS[0], theta, co)
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    change = relative_change(u_rich if y_rich is None else y_rich, outputs[0], groups)
+    total = est + change
+    if not (np.isfinite(total) and total < tolerance):
+        return None
+    return ReducedSteadyState(displacement=u, output=y, error_estimate=float(total), steps=steps,
+                              sizes=(bases[0].shape[1], bases[1].shape[1]), step_error=float(est),
+                              basis_change=float(change))
