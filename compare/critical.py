@@ -251,11 +251,12 @@ class _Sweep:
         return self.exact[rpm]
 
     def refine_interval(self, k: int) -> None:
-        """Coarse interval ``k`` (between coarse speeds k and k + 1) sampled finely, its ends exactly."""
+        """Coarse interval ``k`` (between coarse speeds k and k + 1) sampled finely (its ends are samples
+        already: evaluated when they decide, :meth:`needs`)."""
         if k in self.intervals or not 0 <= k < self.coarse.size - 1:
             return
         self.intervals.add(k)
-        for r in np.linspace(self.coarse[k], self.coarse[k + 1], self.fine + 1):
+        for r in np.linspace(self.coarse[k], self.coarse[k + 1], self.fine + 1)[1:-1]:
             self.value(float(r))
 
     def points(self) -> tuple[np.ndarray, np.ndarray]:
@@ -280,9 +281,10 @@ class _Sweep:
         its fine samples; both next to every maximum of at least :data:`CANDIDATE_PROMINENCE`; those next to the
         deciding base of one whose prominence is at least half of ``prominence`` but below it: finer
         samples there can only deepen that base, and a maximum below half the threshold on its own finely
-        sampled intervals is taken as settled) and speeds to evaluate exactly (the bases of a maximum whose
-        prominence is within :data:`CANDIDATE_PROMINENCE` of the threshold: an approximate sample is good
-        to the Floquet tolerance)."""
+        sampled intervals is taken as settled) and speeds to evaluate exactly (a maximum and its two
+        neighbours where it is listed or may be on exact values; the bases of a maximum whose prominence is
+        within :data:`CANDIDATE_PROMINENCE` of the threshold: an approximate sample is good to the Floquet
+        tolerance, which can move neither more)."""
         x, y = self.points()
         if x.size < 3:
             return [], []
@@ -300,8 +302,10 @@ class _Sweep:
             if own:  # its own intervals first: the rest is decided on them
                 intervals += own
                 continue
-            if p < prominence + CANDIDATE_PROMINENCE:  # near the threshold: decided on exact values only
-                exact += [float(x[lb]), float(x[rb])]
+            if p >= prominence - 2.0 * CANDIDATE_PROMINENCE:  # listed, or may be on exact values: its bracket exact
+                exact += [float(v) for v in x[i - 1:i + 2]]
+                if p < prominence + CANDIDATE_PROMINENCE:  # near the threshold: decided on exact values only
+                    exact += [float(x[lb]), float(x[rb])]
             if 0.5 * prominence <= p < prominence:  # undecided: the side whose minimum decides, sampled finely
                 for b in (lb, rb):
                     if filled[b] == max(filled[lb], filled[rb]):
@@ -332,8 +336,9 @@ def critical_speeds(rpms: Sequence[float], max_abs: Sequence[float],
 
     Inside the intervals it samples this is the fine sweep of every interval (``fine`` - 1 speeds in each),
     with the same maxima and the same refinement, at a fraction of the evaluations (measured, thesis
-    distributed model, 30-600 rpm in 20 speeds: 43 evaluations where the fine sweep of every interval took
-    92, the same three critical speeds to the last digit).  A peak that does not show as a maximum on the
+    distributed model, 30-600 rpm in 20 speeds, the rows' own max |mu| as approximate samples: 35
+    evaluations where the fine sweep of every interval took 92, the same three critical speeds to the last
+    digit; 33 with exact samples, 20 of them given).  A peak that does not show as a maximum on the
     samples of step 1 (one narrower than their spacing) is not found: the samples set the resolution.
     ``exact``: whether ``max_abs`` are values of ``floquet`` (one bool, or one per sample); an approximate
     one (the linear solve's own |mu|, at its own step count) finds the maxima, and ``floquet`` is
@@ -484,15 +489,15 @@ def sweep_evaluations(rows: Sequence[object], fine: int = 4) -> int:
     """An estimate of the Floquet evaluations :func:`check_critical` makes on ``rows`` (for the progress
     bar; :func:`compare.check.advance` raises its total if the work outgrows it): the speeds
     :func:`fill_speeds` adds, then per local maximum of the rows' max |mu| (:data:`CANDIDATE_PROMINENCE`)
-    the fine speeds of its two intervals, its three speeds where the rows' values are not the sweep's own,
-    and a typical refinement (:data:`REFINE_EVALUATIONS`)."""
+    the fine speeds of its two intervals, its own speed where the row's value is not the sweep's own, and
+    a typical refinement (:data:`REFINE_EVALUATIONS`)."""
     x = [r.rpm for r in rows]
     y = [r.floquet_max_abs for r in rows]
     order = np.argsort(x)
     exact = [sweep_exact(rows[i]) for i in order]
     n = fill_speeds(x).size
     for i in local_maxima(np.asarray(x)[order], np.asarray(y)[order], CANDIDATE_PROMINENCE):
-        n += 2 * (max(fine, 1) - 1) + sum(not e for e in exact[i - 1:i + 2]) + REFINE_EVALUATIONS
+        n += 2 * (max(fine, 1) - 1) + (not exact[i]) + REFINE_EVALUATIONS
     return n
 
 

@@ -140,6 +140,8 @@ def test_approximate_samples_find_the_maxima_and_are_never_used_to_decide():
     for c in approx:  # the bracket of each refined peak: values of f
         assert c.rpm in calls
     assert len(calls) == len(set(calls))
+    # of the samples, only those next to a listed peak are evaluated (150, 240, 330 and 600 here)
+    assert set(calls) & set(rpms.tolist()) == {150.0, 240.0, 330.0, 600.0}
 
 
 def test_few_speeds_are_filled_to_the_least_number_of_intervals():
