@@ -19,26 +19,32 @@ the lowest frozen modes at 16 angles, compressed, gave max |mu| = 0 on the distr
    eigenvalues (the ``modes`` lowest) by more than ``ritz_tolerance`` (relative), add that angle's frozen
    modes.  An amplitude-weighted compression (SVD of the modes of many angles) converges poorly: a low mode
    has tiny components along the links' stiff axial directions which carry much of its energy; the greedy
-   choice keeps the Ritz values exact to the tolerance on the whole grid.
+   choice keeps the Ritz values exact to the tolerance on the whole grid.  The richer bases add the
+   **static corrections** of their modes (:func:`static_corrections`): the frame terms apply forces
+   M J v to a mode (Coriolis 2 M phi' J v', M phi'' J v, C phi' J v), which the links' stiff directions
+   answer quasi-statically; frozen modes alone span that response only slowly (at high speed a basis of
+   4 modes, 24 columns, was 3e-4 off the full model at 500 rpm; with 2 correction columns 6e-5), which
+   is why without them the reduction did not vouch above ~450 rpm on the distributed model.
 3. **The reduced system** q'' + C_r q' + K_r q = 0 (r x r, unit mass; the projection is done without
    forming R^T K R, :func:`projection`), its coefficients sampled on 128-512 uniform angles (until the
    interpolant of the even samples matches the odd ones within :data:`INTERPOLATION_TOLERANCE` of the
    peak) and interpolated trigonometrically, propagated over one cycle by the three-stage **Radau IIA**
    method (order 5, L-stable and stiffly accurate: the reduced system keeps stiff, overdamped Ritz modes,
-   which it damps to ~0 like the SDIRK2 propagator of the full model; fifth order needs 256-1024 steps
-   where SDIRK2 needs 1024-4096).
+   which it damps to ~0 like the SDIRK2 propagator of the full model), from the level with
+   h omega <= 2 for the lowest frozen mode: 64-512 steps where SDIRK2 needs 1024-4096.
 
-**Error estimate and fallback** (:func:`reduced_floquet`).  A ladder of bases (:data:`BASES`: 2, 4, 6 frozen
-modes kept exact); the answer is a rung's, its error the estimate from its step levels plus twice the
-change to the next rung (at equal steps).  When no rung vouches for half the Floquet tolerance, or the
-answer is within its error of :data:`FULL_NEAR_ONE` (a verdict near the stability boundary is decided on
-the full model), or anything cannot be built (undamped system; coefficients not interpolable: the tip
-model's stiffness spike, linkages near toggle), it returns None and the caller uses the full model.
+**Error estimate and fallback** (:func:`reduced_floquet`). A ladder of bases (:data:`BASES`: 2 frozen modes
+kept exact; 4, 6, 8 with their static corrections); the answer is a rung's, its error the estimate from its
+step levels plus twice the change to the next rung (at equal steps). When no rung vouches for half the Floquet
+tolerance, or the answer is within its error of :data:`FULL_NEAR_ONE` (a verdict near the stability boundary
+is decided on the full model), or anything cannot be built (undamped system; coefficients not interpolable:
+the tip model's stiffness spike, linkages near toggle), it returns None and the caller uses the full model.
 
 Measured (thesis source linkage, 2 % damping, against the full SDIRK2 model at 4096 and 8192 steps,
-tests/test_floquet_reduction.py): distributed (40 coordinates; r = 14 checked against 20) at 30-300 rpm
-within 2e-4 of the full model's max |mu| and within the estimate; extender (10; r = 6 against 8) within
-2e-5; generated atlas linkages (r = 0.05-0.5) within the estimate.
+tests/test_floquet_reduction.py): distributed (40 coordinates; r = 14 checked against 22, above ~300 rpm
+r = 22-26 against 29-31) at 30-600 rpm, source and cognate, within 2e-4 of the full model's max |mu| and
+within the estimate; extender (10; r = 6 against 7) within 2e-5; generated atlas linkages (r = 0.05-0.5)
+within the estimate.
 """
 
 from __future__ import annotations
@@ -281,17 +287,30 @@ def radau_tableau(stages: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 RADAU_STAGES = 3
-"""Stages of the reduced propagator (order 9): per step its amplitude error on an undamped oscillation is
-2e-9 at h omega = 1, 2e-6 at 2, 1e-4 at 3 (three stages, order 5: 1e-4 at h omega = 1), so a cycle
-needs a quarter of the steps; measured on the thesis distributed model at 100 rpm, 64 and 128 steps agree
-within 5e-5 where three stages needed 256 and 512."""
+"""Stages of the reduced propagator (order 2 s - 1 = 5).  More stages need fewer steps (five, order 9: per
+step an amplitude error on an undamped oscillation of 2e-6 at h omega = 2, three stages 7e-3), but a step
+costs ~ (s r)^3: measured on the thesis models at 100 and 300 rpm, five stages at a quarter of the steps
+were no faster, four about as fast as three."""
 
 RESOLVED_H_OMEGA = 1.0
-PROBE_AT = 0.5
-FIRST_CHANGE_RATIO = 8.0
+"""h omega of the lowest frozen mode (at its highest frequency over the cycle) from which a level counts
+as resolved: its step changes the amplitude of an undamped oscillation by 1.3e-4, the phase by 2e-5 (the
+three-stage stability function); coarser levels of a low-speed cycle damp the mode numerically and agree
+with each other near 0.  The levels start at twice this step (h omega <= 2)."""
 
-_TABLEAUX = {s: radau_tableau(s) for s in (3, 4, 5, 6)}
-RADAU_C, RADAU_A = _TABLEAUX[3]
+PROBE_AT = 0.5
+"""The richer rung is propagated at the first level with at least this fraction of the resolved steps
+(h omega <= 2), against the smaller one at the same steps: their discretization errors then nearly cancel."""
+
+FIRST_CHANGE_RATIO = 8.0
+"""With two levels (the coarser at h omega <= 2, the finer at <= 1), the finer one's error is estimated as
+their change / 8: it assumes the error falls 9-fold per halving, where the three-stage method's amplitude
+and phase errors per cycle fall 26 and 57-fold from h omega = 2 to 1 (order 5: 32-fold asymptotically).
+From three levels on, the estimate of :func:`ked_linear.periodic.error_estimate` (the last change, or
+the tail of a geometric series)."""
+
+_TABLEAUX = {RADAU_STAGES: radau_tableau(RADAU_STAGES)}
+RADAU_C, RADAU_A = radau_tableau(3)
 """Butcher tableau of the three-stage Radau IIA method (order 5)."""
 
 
@@ -454,20 +473,17 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
     """max |mu| of ``system`` from its reductions (module docstring), or None when they cannot vouch for
     ``tolerance`` / 2 (or the answer is near instability, or the system is undamped): use the full model.
 
-    A rung of :data:`BASES` is propagated at 64, 128, ... steps; from the third level on, once the steps
-    resolve the lowest frozen mode (h omega <= 1 at its highest frequency over the cycle: coarser levels
-    of a low-speed cycle damp it numerically and agree with each other near 0), the error of the last
-    one is estimated from the changes between levels as in the periodic solve
-    (:func:`ked_linear.periodic.error_estimate`: the last change, or the tail of a geometric series when
-    the last two changes fall faster than 1/2), and the levels stop once it is below ``tolerance`` / 8.
-    The next rung is propagated once, at the first level with h omega <= 2 for the lowest mode, against
-    this one at the same steps (their discretization errors then nearly cancel: measured on the thesis
-    extender and distributed models at 30-300 rpm, the difference there is within 31 % of the one at 512
-    steps); twice their difference is the basis error.  If the sum is not below ``tolerance`` / 2 the next
-    rung is tried against the one after it; the richer rung is propagated as soon as the smaller one reaches
-    that level, and when twice their difference alone exceeds ``tolerance`` / 2 the smaller rung stops there
-    and the next is tried (its further levels could only add to its estimate: the same answer, at a fraction
-    of the cost, where the reduction fails at high speed)."""
+    A rung of :data:`BASES` is propagated at :data:`RADAU_LEVELS` steps from the first with h omega <= 2
+    for the lowest frozen mode (at its highest frequency over the cycle); once a level resolves it
+    (h omega <= 1, :data:`RESOLVED_H_OMEGA`) the error of the last level is estimated from the changes
+    between levels (two levels: :data:`FIRST_CHANGE_RATIO`; more: as in the periodic solve,
+    :func:`ked_linear.periodic.error_estimate`), and the levels stop once it is below ``tolerance`` / 8.
+    The next rung is propagated once, at the first level with h omega <= 2 (:data:`PROBE_AT`), against
+    this one at the same steps (their discretization errors then nearly cancel); twice their difference is
+    the basis error.  If the sum is not below ``tolerance`` / 2 the next rung is tried against the one
+    after it; the richer rung is propagated as soon as the smaller one reaches that level, and when twice
+    their difference alone exceeds ``tolerance`` / 2 the smaller rung stops there and the next is tried
+    (its further levels could only add to its estimate)."""
     red = Reductions(system, frames)
     if not red.usable:
         return None
