@@ -245,12 +245,24 @@ def projection(co: Coefficients, lumps: tuple[np.ndarray, np.ndarray, np.ndarray
 
 class InterpolatedCoefficients:
     """Reduced coefficients (K, C; no load) from samples on a uniform full-turn grid, trigonometric
-    interpolation (one inverse FFT per uniform grid asked for, direct summation elsewhere)."""
+    interpolation (one inverse FFT per uniform grid asked for, direct summation elsewhere; :meth:`grids`:
+    several uniform grids at once from the one-sided spectrum)."""
 
     def __init__(self, K: np.ndarray, C: np.ndarray):
         self.size = K.shape[1]
-        self.interpolant = TrigInterpolant(np.concatenate([K.reshape(K.shape[0], -1), C.reshape(C.shape[0], -1)],
-                                                          axis=1))
+        flat = np.concatenate([K.reshape(K.shape[0], -1), C.reshape(C.shape[0], -1)], axis=1)
+        self.interpolant = TrigInterpolant(flat)
+        # the same interpolant, real form: sum_f Re(w_f A_f e^{i f theta}), f = 0 .. G/2 (w = 1 at 0 and at
+        # the Nyquist frequency, 2 between), A the rfft / G; frequencies whose terms are below SPECTRUM_CUT
+        # of the largest everywhere are left out (they change no value by more than ~1e-11 of its field's peak,
+        # against the 1e-8 of the interpolation itself)
+        G = flat.shape[0]
+        A = np.fft.rfft(flat, axis=0) / G
+        A[1:G // 2] *= 2.0
+        size = np.max(np.abs(A), axis=1)
+        kept = np.nonzero(size > SPECTRUM_CUT * size.max())[0]
+        top = int(kept[-1]) + 1 if kept.size else 1
+        self.one_sided = np.ascontiguousarray(A[:top].T)  # (F, top)
 
     def __call__(self, theta: np.ndarray) -> Coefficients:
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
@@ -258,6 +270,29 @@ class InterpolatedCoefficients:
         r = self.size
         return Coefficients(stiffness=flat[:, :r * r].reshape(-1, r, r), damping=flat[:, r * r:].reshape(-1, r, r),
                             load=np.zeros((theta.size, r)))
+
+    def grids(self, theta0: np.ndarray, step: float, m: int) -> tuple[np.ndarray, np.ndarray]:
+        """(K, C), each (g, m, r, r), at the g uniform full-turn grids theta0[i] + step * j, j = 0 .. m - 1
+        (step = +-2 pi / m): the spectrum folded modulo m, one inverse FFT of length m per field and grid."""
+        a = self.one_sided
+        f = np.arange(a.shape[1])
+        if abs(abs(step) * m - 2.0 * np.pi) > 1e-9:
+            raise ValueError("InterpolatedCoefficients.grids: step must be +-2 pi / m")
+        terms = a[None, :, :] * np.exp(1j * np.outer(np.asarray(theta0, dtype=float), f))[:, None, :]
+        if step < 0:
+            terms = np.conj(terms)  # Re sum_f t_f e^{-i f s} = Re sum_f conj(t_f) e^{i f s}
+        folded = np.zeros(terms.shape[:2] + (m,), dtype=complex)
+        for start in range(0, f.size, m):  # m consecutive frequencies have distinct residues
+            folded[..., f[start:start + m] % m] += terms[..., start:start + m]
+        values = np.fft.ifft(folded, axis=2).real * m  # (g, F, m)
+        r = self.size
+        out = np.swapaxes(values, 1, 2)
+        return out[..., :r * r].reshape(-1, m, r, r), out[..., r * r:].reshape(-1, m, r, r)
+
+
+SPECTRUM_CUT = 1e-13
+"""Relative size below which a frequency of the reduced coefficients' spectrum is left out of
+:meth:`InterpolatedCoefficients.grids`."""
 
 
 def interpolation_error(K: np.ndarray, C: np.ndarray) -> float:
@@ -336,8 +371,7 @@ def radau_steps(K: np.ndarray, C: np.ndarray, h: float, a: np.ndarray = RADAU_A)
     L = np.empty((m, s, r, s, r))
     L[...] = blocks.transpose(2, 0, 3, 1, 4)
     L = L.reshape(m, s * r, s * r)
-    diag = np.arange(s * r)
-    L[:, diag, diag] += 1.0
+    L.reshape(m, -1)[:, ::s * r + 1] += 1.0
     rhs = np.zeros((m, s, r, 2 * r))
     rhs[..., :r] = ((-h * a) @ K.reshape(s, -1)).reshape(s, m, r, r).transpose(1, 0, 2, 3)
     idx = np.arange(r)
@@ -360,8 +394,11 @@ def radau_multipliers(system: PeriodicSystem, steps: int, stages: int = RADAU_ST
     c, a = _TABLEAUX[stages] if stages in _TABLEAUX else radau_tableau(stages)
     h = system.period / steps
     t = np.arange(steps) * h
-    stage = [system.coefficients(system.speed * (t + ci * h)) for ci in c]  # one uniform grid each (interpolated)
-    K, C = np.stack([co.stiffness for co in stage]), np.stack([co.damping for co in stage])
+    if isinstance(system.coefficients, InterpolatedCoefficients):  # the stages' uniform grids at once
+        K, C = system.coefficients.grids(system.speed * c * h, system.speed * h, steps)
+    else:
+        stage = [system.coefficients(system.speed * (t + ci * h)) for ci in c]  # one uniform grid each
+        K, C = np.stack([co.stiffness for co in stage]), np.stack([co.damping for co in stage])
     phi = _product(radau_steps(K, C, h, a))
     mu = np.linalg.eigvals(phi)
     return mu[np.argsort(-np.abs(mu))]
