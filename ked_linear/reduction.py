@@ -253,16 +253,16 @@ class InterpolatedCoefficients:
         flat = np.concatenate([K.reshape(K.shape[0], -1), C.reshape(C.shape[0], -1)], axis=1)
         self.interpolant = TrigInterpolant(flat)
         # the same interpolant, real form: sum_f Re(w_f A_f e^{i f theta}), f = 0 .. G/2 (w = 1 at 0 and at
-        # the Nyquist frequency, 2 between), A the rfft / G; frequencies whose terms are below SPECTRUM_CUT
+        # the Nyquist frequency, 2 between; A the FFT / G); frequencies whose terms are below SPECTRUM_CUT
         # of the largest everywhere are left out (they change no value by more than ~1e-11 of its field's peak,
         # against the 1e-8 of the interpolation itself)
-        G = flat.shape[0]
-        A = np.fft.rfft(flat, axis=0) / G
-        A[1:G // 2] *= 2.0
-        size = np.max(np.abs(A), axis=1)
+        half = flat.shape[0] // 2
+        A = self.interpolant.spectrum[:, half:] * 2.0  # frequencies 0 .. G/2 (the Nyquist term was halved)
+        A[:, 0] *= 0.5
+        size = np.max(np.abs(A), axis=0)
         kept = np.nonzero(size > SPECTRUM_CUT * size.max())[0]
         top = int(kept[-1]) + 1 if kept.size else 1
-        self.one_sided = np.ascontiguousarray(A[:top].T)  # (F, top)
+        self.one_sided = np.ascontiguousarray(A[:, :top])  # (F, top)
 
     def __call__(self, theta: np.ndarray) -> Coefficients:
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
