@@ -492,15 +492,16 @@ class _BasisFails(Exception):
     """Raised by a level probe of :func:`_levels`: the basis change alone exceeds what the rung may have."""
 
 
-def _levels(system: PeriodicSystem, levels: tuple[int, ...], resolved: float, tolerance: float,
+def _levels(propagate: Callable[[int], np.ndarray], levels: tuple[int, ...], resolved: float, tolerance: float,
             probe: Callable[[int, float], None] | None = None) -> tuple[list[float], int, float, np.ndarray] | None:
-    """Radau levels of ``system`` (``levels``) until, with at least ``resolved`` steps, the step error
-    estimate is below ``tolerance`` / 8: (max |mu| per level, steps, estimate, multipliers).
-    ``probe(steps, max |mu|)`` is called after each level (it may raise :class:`_BasisFails`)."""
+    """Radau levels (``levels``; ``propagate(steps)``: the multipliers) until, with at least ``resolved``
+    steps, the step error estimate is below ``tolerance`` / 8: (max |mu| per level, steps, estimate,
+    multipliers).  ``probe(steps, max |mu|)`` is called after each level (it may raise
+    :class:`_BasisFails`)."""
     tops: list[float] = []
     changes: list[float] = []
     for steps in levels:
-        mu = radau_multipliers(system, steps)
+        mu = propagate(steps)
         tops.append(float(np.abs(mu[0])))
         if probe is not None:
             probe(steps, tops[-1])
@@ -535,6 +536,14 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
     levels = tuple(n for n in RADAU_LEVELS if n >= 0.5 * resolved)  # from twice that step
     if not levels:
         return None
+    runs: dict[tuple[int, int], np.ndarray] = {}  # (rung, steps): multipliers (a failed rung's probe is the
+    # next rung's first level)
+
+    def propagate(i: int, steps: int) -> np.ndarray:
+        if (i, steps) not in runs:
+            runs[(i, steps)] = radau_multipliers(red.system(i), steps)  # type: ignore[arg-type]
+        return runs[(i, steps)]
+
     for i in range(len(BASES) - 1):
         small, rich = red.system(i), red.system(i + 1)
         if small is None or rich is None:
@@ -545,22 +554,21 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
         first = next((n for n in levels if n >= PROBE_AT * resolved), None)
         seen: dict[int, float] = {}
 
-        def probe(steps: int, top: float, rich: PeriodicSystem = rich, first: int | None = first,
-                  seen: dict[int, float] = seen) -> None:
+        def probe(steps: int, top: float, i: int = i, first: int | None = first, seen: dict[int, float] = seen) -> None:
             if steps == first:
-                seen[steps] = float(np.abs(radau_multipliers(rich, steps)[0]))
+                seen[steps] = float(np.abs(propagate(i + 1, steps)[0]))
                 if BASIS_FACTOR * abs(seen[steps] - top) > 0.5 * tolerance:
                     raise _BasisFails
 
         try:
-            done = _levels(small, levels, resolved, tolerance, probe)
+            done = _levels(lambda steps, i=i: propagate(i, steps), levels, resolved, tolerance, probe)
         except _BasisFails:
             continue
         if done is None:
             return None
         tops, steps, step_est, mu = done
         check = min(next(n for n in levels if n >= PROBE_AT * resolved), steps)
-        other = seen[check] if check in seen else float(np.abs(radau_multipliers(rich, check)[0]))
+        other = seen[check] if check in seen else float(np.abs(propagate(i + 1, check)[0]))
         basis_change = abs(other - tops[levels.index(check)])
         est = max(step_est + BASIS_FACTOR * basis_change, ESTIMATE_FLOOR)
         if not np.isfinite(tops[-1]) or tops[-1] + est >= FULL_NEAR_ONE:
