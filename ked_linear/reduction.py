@@ -35,11 +35,11 @@ the lowest frozen modes at 16 angles, compressed, gave max |mu| = 0 on the distr
 
 **Error estimate and fallback** (:func:`reduced_floquet`). A ladder of bases (:data:`BASES`: 2 frozen modes
 kept exact; 4, 6, 8 with their static corrections); the answer is a rung's, its error the estimate from its
-step levels plus :data:`BASIS_FACTOR` times the change to the next rung (at equal steps). When no rung vouches
-for half the Floquet tolerance, or the answer is within its error of :data:`FULL_NEAR_ONE` (a verdict near the
-stability boundary is decided on the full model), or anything cannot be built (undamped system; coefficients
-not interpolable: the tip model's stiffness spike, linkages near toggle), it returns None and the caller uses
-the full model.
+step levels plus twice the change to the next rung (at equal steps) plus :data:`BASIS_SHARED`. When no rung
+vouches for half the Floquet tolerance, or the answer is within its error of :data:`FULL_NEAR_ONE` (a verdict
+near the stability boundary is decided on the full model), or anything cannot be built (undamped system;
+coefficients not interpolable: the tip model's stiffness spike, linkages near toggle), it returns None and the
+caller uses the full model.
 
 Measured (thesis source linkage, 2 % damping, against the full SDIRK2 model at 4096 and 8192 steps,
 tests/test_floquet_reduction.py): distributed (40 coordinates; r = 14 checked against 22, above ~300 rpm
@@ -68,11 +68,14 @@ BASES = ((2, 1e-4, None), (4, 1e-6, 1e-5), (6, 1e-7, 1e-5), (8, 1e-7, 1e-5))
 static corrections or None: :func:`static_corrections`), each checked against the next
 (:func:`reduced_floquet`)."""
 
-BASIS_FACTOR = 3.0
-"""The basis error of a rung: this times its difference to the next rung.  Consecutive rungs share part of
-their error (both miss the same higher modes); measured against the unreduced model (thesis distributed at
-30-600 rpm, source and cognate, and 8 generated atlas linkages, extender and distributed at r = 0.05, 0.2,
-0.5: 80 reduced answers), the error was at most 1.14 times twice the difference (at 2.4e-5)."""
+BASIS_FACTOR = 2.0
+"""The basis error of a rung: this times its difference to the next rung, plus :data:`BASIS_SHARED`."""
+
+BASIS_SHARED = 1e-5
+"""The part of the basis error that consecutive rungs share (both miss the same higher modes), which their
+difference cannot show.  Measured against the unreduced model (thesis distributed at 30-600 rpm, source
+and cognate, and 8 generated atlas linkages, extender and distributed at r = 0.05, 0.2, 0.5): twice the
+difference alone was exceeded once, by 3e-6 (2.4e-5 against 2.1e-5)."""
 
 ESTIMATE_FLOOR = 1e-6
 """Least error reported for a reduced max |mu|: below it the step levels and the basis check no longer see
@@ -406,9 +409,10 @@ def radau_multipliers(system: PeriodicSystem, steps: int, stages: int = RADAU_ST
 
 @dataclass(frozen=True)
 class Reduction:
-    """A reduced Floquet analysis: ``result`` (the smaller basis; error = the step levels' estimate + 3 times
-    the change to the richer basis), the basis sizes (smaller, richer), the richer basis's max |mu| (at
-    fewer steps, see :func:`reduced_floquet`), the change and the step levels' estimate."""
+    """A reduced Floquet analysis: ``result`` (the smaller basis; error = the step levels' estimate + twice
+    the change to the richer basis + :data:`BASIS_SHARED`), the basis sizes (smaller, richer), the richer
+    basis's max |mu| (at fewer steps, see :func:`reduced_floquet`), the change and the step levels'
+    estimate."""
 
     result: FloquetResult
     sizes: tuple[int, int]
@@ -524,8 +528,8 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
     between levels (two levels: :data:`FIRST_CHANGE_RATIO`; more: as in the periodic solve,
     :func:`ked_linear.periodic.error_estimate`), and the levels stop once it is below ``tolerance`` / 8.
     The next rung is propagated once, at the first level with h omega <= 2 (:data:`PROBE_AT`), against
-    this one at the same steps (their discretization errors then nearly cancel); :data:`BASIS_FACTOR`
-    times their difference is the basis error. If the sum is not below ``tolerance`` / 2 the next rung is
+    this one at the same steps (their discretization errors then nearly cancel); twice their difference
+    plus :data:`BASIS_SHARED` is the basis error. If the sum is not below ``tolerance`` / 2 the next rung is
     tried against the one after it; the richer rung is propagated as soon as the smaller one reaches that
     level, and when the basis error alone exceeds ``tolerance`` / 2 the smaller rung stops there and the
     next is tried (its further levels could only add to its estimate)."""
@@ -557,7 +561,7 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
         def probe(steps: int, top: float, i: int = i, first: int | None = first, seen: dict[int, float] = seen) -> None:
             if steps == first:
                 seen[steps] = float(np.abs(propagate(i + 1, steps)[0]))
-                if BASIS_FACTOR * abs(seen[steps] - top) > 0.5 * tolerance:
+                if BASIS_FACTOR * abs(seen[steps] - top) + BASIS_SHARED > 0.5 * tolerance:
                     raise _BasisFails
 
         try:
@@ -570,7 +574,7 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
         check = min(next(n for n in levels if n >= PROBE_AT * resolved), steps)
         other = seen[check] if check in seen else float(np.abs(propagate(i + 1, check)[0]))
         basis_change = abs(other - tops[levels.index(check)])
-        est = max(step_est + BASIS_FACTOR * basis_change, ESTIMATE_FLOOR)
+        est = max(step_est + BASIS_FACTOR * basis_change + BASIS_SHARED, ESTIMATE_FLOOR)
         if not np.isfinite(tops[-1]) or tops[-1] + est >= FULL_NEAR_ONE:
             return None
         if est <= 0.5 * tolerance:
