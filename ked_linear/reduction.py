@@ -42,9 +42,9 @@ coefficients not interpolable: the tip model's stiffness spike, linkages near to
 caller uses the full model.
 
 Measured (thesis source linkage, 2 % damping, against the full SDIRK2 model at 4096 and 8192 steps,
-tests/test_floquet_reduction.py): distributed (40 coordinates; r = 14 checked against 22, above ~300 rpm
+tests/test_floquet_reduction.py): distributed (40 coordinates; r = 14 checked against 22, at 330-570 rpm
 r = 22-26 against 29-31) at 30-600 rpm, source and cognate, within 2e-4 of the full model's max |mu| and
-within the estimate; extender (10; r = 6 against 7) within 2e-5; generated atlas linkages (r = 0.05-0.5)
+within the estimate; extender (10; r = 6 against 10) within 2e-5; generated atlas linkages (r = 0.05-0.5)
 within the estimate.
 """
 
