@@ -475,3 +475,20 @@ def test_corotating_distributed_against_collocation_at_64_harmonics(rpm):
     res, err, _ = _corotating_against_collocation("distributed", rpm)
     assert res is not None and res.error_estimate < 1e-3
     assert err <= res.error_estimate + 1e-6
+
+
+def test_evaluation_shared_by_levels_equals_direct_formula():
+    # steady_state evaluates every level with one table of phases and one K^-1 at the angles; the answer
+    # equals the definition u = K^-1 (f - s C z' - s^2 M z''), z the solution's series (periodic.series),
+    # solved per angle by numpy's dense solve (independent of the shared tables)
+    from ked_linear.periodic import series, steady_state
+
+    system = _random_system(4, 13)
+    theta = np.arange(36) * (2 * np.pi / 36)
+    ss = steady_state(system, theta, tolerance=1e-12, max_harmonics=12)
+    co = system.coefficients(theta)
+    Z, s = ss.solution.kinematic, system.speed
+    rhs = co.load - s * np.einsum("mij,mj->mi", co.damping, series(Z, theta, 1)) \
+        - s**2 * system.mass * series(Z, theta, 2)
+    u = np.linalg.solve(co.stiffness, rhs[..., None])[..., 0]
+    np.testing.assert_allclose(ss.displacement, u, rtol=0, atol=1e-12 * np.abs(u).max())
