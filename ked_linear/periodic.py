@@ -224,6 +224,9 @@ def _first_guess(start: PeriodicSolution | None, shape: tuple[int, int]) -> np.n
 
 
 DENSE_LIMIT = 640
+SHARED_GRID = True
+"""The automatic levels of :func:`steady_state` share the collocation points of the largest when it is
+solved dense (see there); False: each level on its own :func:`collocation_points`."""
 """Correction systems with more unknowns ((2H + 1) n) are solved by preconditioned GMRES, matrix-free."""
 
 
@@ -416,14 +419,13 @@ def evaluate(solution: PeriodicSolution, theta: np.ndarray,
 
 class _Evaluator:
     """:func:`evaluate` at fixed angles for several solutions of one system (the levels of
-    :func:`steady_state`): the phases e^{i k theta} and K^-1 at the angles computed once."""
+    :func:`steady_state`): the phases e^{i k theta} at the angles computed once."""
 
     def __init__(self, system: PeriodicSystem, theta: np.ndarray, co: Coefficients, points: int = 0):
         """``points``: the most collocation points of the solutions to come (their phases made at once)."""
         self.system, self.co = system, co
         self.theta = np.asarray(theta, dtype=float)
         self._phase = np.empty((self.theta.size, 0), dtype=complex)
-        self._kinv: np.ndarray | None = None
         self.phase(points // 2 + 1)
 
     def phase(self, count: int) -> np.ndarray:
@@ -440,9 +442,7 @@ class _Evaluator:
         z12 = (self.phase(k.size) @ both).real
         z1, z2 = z12[:, :Z.shape[1]], z12[:, Z.shape[1]:]
         rhs = co.load - s * _apply(co.damping, z1) - s**2 * self.system.mass * z2
-        if self._kinv is None:
-            self._kinv = np.linalg.inv(co.stiffness)
-        u = _apply(self._kinv, rhs)
+        u = np.linalg.solve(co.stiffness, rhs[..., None])[..., 0]  # not K^-1 once: near toggle K is ill-conditioned
         return u, None if co.output is None else _apply(co.output, u)
 
 
@@ -486,7 +486,14 @@ def steady_state(system: PeriodicSystem, theta: np.ndarray, tolerance: float, ha
     """Steady state at ``theta`` with H = ``harmonics`` or, if None, the first H of
     :func:`harmonic_levels` (<= ``max_harmonics``) whose change from the previous level is below
     ``tolerance`` (relative to the peak, per column group of the output), judged by
-    :func:`error_estimate`; a fixed H is compared with the level below it."""
+    :func:`error_estimate`; a fixed H is compared with the level below it.
+
+    When the largest level is solved dense (:data:`DENSE_LIMIT`, :data:`SHARED_GRID`) every level uses its
+    collocation points: one :class:`_Collocation` (coefficients, K^-1, q, X, Y) for all, the operator of the
+    largest H built once from the first level reaching a third of it (the smaller ones are its leading
+    blocks).  The last level's answer is that of :func:`solve_periodic` at its H; a lower one differs from
+    its own on fewer points by their aliasing (3e-6 of the peak for the thesis models at 30 rpm, H = 8),
+    and the change between levels measures the truncation at H alone."""
     co = system.coefficients(theta)
     if harmonics is not None:
         below = [h for h in harmonic_levels(harmonics) if h < harmonics]
@@ -495,14 +502,16 @@ def steady_state(system: PeriodicSystem, theta: np.ndarray, tolerance: float, ha
         levels = harmonic_levels(max_harmonics)
     previous, changes, est, sol = None, [], float("nan"), None
     grids: dict[int, _Collocation] = {}  # the levels on the same collocation points share their setup
-    # every level's evaluation at theta shares its phases and K^-1
+    # every level's evaluation at theta shares its phases
     at = _Evaluator(system, theta, co, max(collocation_points(H) for H in levels))
     largest = {collocation_points(H): H for H in levels}
+    shared = SHARED_GRID and (2 * levels[-1] + 1) * system.mass.size <= DENSE_LIMIT
     for H in levels:
-        N = collocation_points(H)
+        N = collocation_points(levels[-1] if shared else H)
         if N not in grids:
             grids = {N: _Collocation(system, N)}  # a finer grid: the coarser one is not needed again
-        sol = _solve_on(grids[N], H, start=sol, largest=largest[N])
+        sol = _solve_on(grids[N], H, start=sol, largest=(levels[-1] if 3 * H >= levels[-1] else H) if shared
+                        else largest[N])
         u, y = at(sol)
         current = u if y is None else y
         if previous is not None:
