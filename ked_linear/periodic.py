@@ -492,7 +492,7 @@ def steady_state(system: PeriodicSystem, theta: np.ndarray, tolerance: float, ha
     collocation points: one :class:`_Collocation` (coefficients, K^-1, q, X, Y) for all, the operator of the
     largest H built once from the first level reaching a third of it (the smaller ones are its leading
     blocks).  The last level's answer is that of :func:`solve_periodic` at its H; a lower one differs from
-    its own on fewer points by their aliasing (3e-6 of the peak for the thesis models at 30 rpm, H = 8),
+    its own on fewer points by their aliasing (up to 5e-6 of the peak on the thesis grid at 30 rpm, H = 8),
     and the change between levels measures the truncation at H alone."""
     co = system.coefficients(theta)
     if harmonics is not None:
