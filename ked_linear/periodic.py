@@ -224,6 +224,9 @@ def _first_guess(start: PeriodicSolution | None, shape: tuple[int, int]) -> np.n
 
 
 DENSE_LIMIT = 640
+SHARED_GRID = True
+"""The automatic levels of :func:`steady_state` share the collocation points of the largest when it is
+solved dense (see there); False: each level on its own :func:`collocation_points`."""
 """Correction systems with more unknowns ((2H + 1) n) are solved by preconditioned GMRES, matrix-free."""
 
 
@@ -410,18 +413,37 @@ def evaluate(solution: PeriodicSolution, theta: np.ndarray,
              coefficients: Coefficients | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     """u (m, n) at the angles ``theta`` [rad] and the output (m, p) if the coefficients have an output
     map (else None); ``coefficients``: the system's coefficients at ``theta`` if already at hand."""
-    sys_ = solution.system
-    co = sys_.coefficients(theta) if coefficients is None else coefficients
-    s = sys_.speed
-    Z = solution.kinematic
-    k = np.arange(Z.shape[0])
-    # z' and z'' of the series (as :func:`series`) in one product: weights 2 i k and -2 k^2 (k > 0)
-    both = np.concatenate([(2j * k)[:, None] * Z, (-2.0 * k**2)[:, None] * Z], axis=1)
-    z12 = (np.exp(1j * np.outer(theta, k)) @ both).real
-    z1, z2 = z12[:, :Z.shape[1]], z12[:, Z.shape[1]:]
-    rhs = co.load - s * _apply(co.damping, z1) - s**2 * sys_.mass * z2
-    u = np.linalg.solve(co.stiffness, rhs[..., None])[..., 0]
-    return u, None if co.output is None else _apply(co.output, u)
+    co = solution.system.coefficients(theta) if coefficients is None else coefficients
+    return _Evaluator(solution.system, theta, co)(solution)
+
+
+class _Evaluator:
+    """:func:`evaluate` at fixed angles for several solutions of one system (the levels of
+    :func:`steady_state`): the phases e^{i k theta} at the angles computed once."""
+
+    def __init__(self, system: PeriodicSystem, theta: np.ndarray, co: Coefficients, points: int = 0):
+        """``points``: the most collocation points of the solutions to come (their phases made at once)."""
+        self.system, self.co = system, co
+        self.theta = np.asarray(theta, dtype=float)
+        self._phase = np.empty((self.theta.size, 0), dtype=complex)
+        self.phase(points // 2 + 1)
+
+    def phase(self, count: int) -> np.ndarray:
+        """e^{i k theta} (m, count), k = 0 .. count - 1 (the table grows to the largest asked for)."""
+        if self._phase.shape[1] < count:
+            self._phase = np.exp(1j * np.outer(self.theta, np.arange(count)))
+        return self._phase[:, :count]
+
+    def __call__(self, solution: PeriodicSolution) -> tuple[np.ndarray, np.ndarray | None]:
+        co, s, Z = self.co, self.system.speed, solution.kinematic
+        k = np.arange(Z.shape[0])
+        # z' and z'' of the series (as :func:`series`) in one product: weights 2 i k and -2 k^2 (k > 0)
+        both = np.concatenate([(2j * k)[:, None] * Z, (-2.0 * k**2)[:, None] * Z], axis=1)
+        z12 = (self.phase(k.size) @ both).real
+        z1, z2 = z12[:, :Z.shape[1]], z12[:, Z.shape[1]:]
+        rhs = co.load - s * _apply(co.damping, z1) - s**2 * self.system.mass * z2
+        u = np.linalg.solve(co.stiffness, rhs[..., None])[..., 0]  # not K^-1 once: near toggle K is ill-conditioned
+        return u, None if co.output is None else _apply(co.output, u)
 
 
 @dataclass(frozen=True)
@@ -464,7 +486,14 @@ def steady_state(system: PeriodicSystem, theta: np.ndarray, tolerance: float, ha
     """Steady state at ``theta`` with H = ``harmonics`` or, if None, the first H of
     :func:`harmonic_levels` (<= ``max_harmonics``) whose change from the previous level is below
     ``tolerance`` (relative to the peak, per column group of the output), judged by
-    :func:`error_estimate`; a fixed H is compared with the level below it."""
+    :func:`error_estimate`; a fixed H is compared with the level below it.
+
+    When the largest level is solved dense (:data:`DENSE_LIMIT`, :data:`SHARED_GRID`) every level uses its
+    collocation points: one :class:`_Collocation` (coefficients, K^-1, q, X, Y) for all, the operator of the
+    largest H built once from the first level reaching a third of it (the smaller ones are its leading
+    blocks).  The last level's answer is that of :func:`solve_periodic` at its H; a lower one differs from
+    its own on fewer points by their aliasing (up to 5e-6 of the peak on the thesis grid at 30 rpm, H = 8),
+    and the change between levels measures the truncation at H alone."""
     co = system.coefficients(theta)
     if harmonics is not None:
         below = [h for h in harmonic_levels(harmonics) if h < harmonics]
@@ -473,13 +502,17 @@ def steady_state(system: PeriodicSystem, theta: np.ndarray, tolerance: float, ha
         levels = harmonic_levels(max_harmonics)
     previous, changes, est, sol = None, [], float("nan"), None
     grids: dict[int, _Collocation] = {}  # the levels on the same collocation points share their setup
+    # every level's evaluation at theta shares its phases
+    at = _Evaluator(system, theta, co, max(collocation_points(H) for H in levels))
     largest = {collocation_points(H): H for H in levels}
+    shared = SHARED_GRID and (2 * levels[-1] + 1) * system.mass.size <= DENSE_LIMIT
     for H in levels:
-        N = collocation_points(H)
+        N = collocation_points(levels[-1] if shared else H)
         if N not in grids:
             grids = {N: _Collocation(system, N)}  # a finer grid: the coarser one is not needed again
-        sol = _solve_on(grids[N], H, start=sol, largest=largest[N])
-        u, y = evaluate(sol, theta, co)
+        sol = _solve_on(grids[N], H, start=sol, largest=(levels[-1] if 3 * H >= levels[-1] else H) if shared
+                        else largest[N])
+        u, y = at(sol)
         current = u if y is None else y
         if previous is not None:
             changes.append(relative_change(current, previous, groups))

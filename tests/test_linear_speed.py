@@ -475,3 +475,41 @@ def test_corotating_distributed_against_collocation_at_64_harmonics(rpm):
     res, err, _ = _corotating_against_collocation("distributed", rpm)
     assert res is not None and res.error_estimate < 1e-3
     assert err <= res.error_estimate + 1e-6
+
+
+def test_evaluation_shared_by_levels_equals_direct_formula():
+    # steady_state evaluates every level with one table of phases and one K^-1 at the angles; the answer
+    # equals the definition u = K^-1 (f - s C z' - s^2 M z''), z the solution's series (periodic.series),
+    # solved per angle by numpy's dense solve (independent of the shared tables)
+    from ked_linear.periodic import series, steady_state
+
+    system = _random_system(4, 13)
+    theta = np.arange(36) * (2 * np.pi / 36)
+    ss = steady_state(system, theta, tolerance=1e-12, max_harmonics=12)
+    co = system.coefficients(theta)
+    Z, s = ss.solution.kinematic, system.speed
+    rhs = co.load - s * np.einsum("mij,mj->mi", co.damping, series(Z, theta, 1)) \
+        - s**2 * system.mass * series(Z, theta, 2)
+    u = np.linalg.solve(co.stiffness, rhs[..., None])[..., 0]
+    np.testing.assert_allclose(ss.displacement, u, rtol=0, atol=1e-12 * np.abs(u).max())
+
+
+def test_levels_on_the_largest_levels_grid_equal_separate_solves(monkeypatch):
+    # with the largest level solved dense, steady_state's levels 4, 8, 12 all use the 48 collocation points
+    # of H = 12 (one setup, one operator whose leading blocks serve H = 4 and 8): each level equals
+    # solve_periodic at its H on those 48 points, set up on its own (a separate collocation and operator);
+    # the last level is the answer on its own points; without the sharing the lower levels are on their
+    # own grids (32 points) and the answer at H = 12 is the same
+    from ked_linear.periodic import error_estimate, evaluate, relative_change, steady_state
+
+    system = _random_system(4, 17)
+    theta = np.arange(36) * (2 * np.pi / 36)
+    ss = steady_state(system, theta, tolerance=1e-14, max_harmonics=12)
+    assert ss.solution.harmonics == 12 and ss.solution.points == 48
+    u = {H: evaluate(solve_periodic(system, H, points=48), theta)[0] for H in (4, 8, 12)}
+    np.testing.assert_allclose(ss.displacement, u[12], rtol=0, atol=1e-12 * np.abs(u[12]).max())
+    expected = error_estimate([relative_change(u[8], u[4]), relative_change(u[12], u[8])])
+    assert ss.error_estimate == pytest.approx(expected, rel=1e-9)
+    monkeypatch.setattr(periodic, "SHARED_GRID", False)
+    own = steady_state(system, theta, tolerance=1e-14, max_harmonics=12)
+    np.testing.assert_allclose(own.displacement, ss.displacement, rtol=0, atol=1e-12 * np.abs(u[12]).max())
