@@ -19,26 +19,33 @@ the lowest frozen modes at 16 angles, compressed, gave max |mu| = 0 on the distr
    eigenvalues (the ``modes`` lowest) by more than ``ritz_tolerance`` (relative), add that angle's frozen
    modes.  An amplitude-weighted compression (SVD of the modes of many angles) converges poorly: a low mode
    has tiny components along the links' stiff axial directions which carry much of its energy; the greedy
-   choice keeps the Ritz values exact to the tolerance on the whole grid.
+   choice keeps the Ritz values exact to the tolerance on the whole grid.  The richer bases add the
+   **static corrections** of their modes (:func:`static_corrections`): the frame terms apply forces
+   M J v to a mode (Coriolis 2 M phi' J v', M phi'' J v, C phi' J v), which the links' stiff directions
+   answer quasi-statically; frozen modes alone span that response only slowly (at high speed a basis of
+   4 modes, 24 columns, was 3e-4 off the full model at 500 rpm; with 2 correction columns 6e-5), which
+   is why without them the reduction did not vouch above ~450 rpm on the distributed model.
 3. **The reduced system** q'' + C_r q' + K_r q = 0 (r x r, unit mass; the projection is done without
    forming R^T K R, :func:`projection`), its coefficients sampled on 128-512 uniform angles (until the
    interpolant of the even samples matches the odd ones within :data:`INTERPOLATION_TOLERANCE` of the
    peak) and interpolated trigonometrically, propagated over one cycle by the three-stage **Radau IIA**
    method (order 5, L-stable and stiffly accurate: the reduced system keeps stiff, overdamped Ritz modes,
-   which it damps to ~0 like the SDIRK2 propagator of the full model; fifth order needs 256-1024 steps
-   where SDIRK2 needs 1024-4096).
+   which it damps to ~0 like the SDIRK2 propagator of the full model), from the level with
+   h omega <= 2 for the lowest frozen mode: 64-512 steps where SDIRK2 needs 1024-4096.
 
-**Error estimate and fallback** (:func:`reduced_floquet`).  A ladder of bases (:data:`BASES`: 2, 4, 6 frozen
-modes kept exact); the answer is a rung's, its error the estimate from its step levels plus twice the
-change to the next rung (at equal steps).  When no rung vouches for half the Floquet tolerance, or the
-answer is within its error of :data:`FULL_NEAR_ONE` (a verdict near the stability boundary is decided on
-the full model), or anything cannot be built (undamped system; coefficients not interpolable: the tip
-model's stiffness spike, linkages near toggle), it returns None and the caller uses the full model.
+**Error estimate and fallback** (:func:`reduced_floquet`). A ladder of bases (:data:`BASES`: 2 frozen modes
+kept exact; 4, 6, 8 with their static corrections); the answer is a rung's, its error the estimate from its
+step levels plus :data:`BASIS_FACTOR` times the change to the next rung (at equal steps). When no rung vouches
+for half the Floquet tolerance, or the answer is within its error of :data:`FULL_NEAR_ONE` (a verdict near the
+stability boundary is decided on the full model), or anything cannot be built (undamped system; coefficients
+not interpolable: the tip model's stiffness spike, linkages near toggle), it returns None and the caller uses
+the full model.
 
 Measured (thesis source linkage, 2 % damping, against the full SDIRK2 model at 4096 and 8192 steps,
-tests/test_floquet_reduction.py): distributed (40 coordinates; r = 14 checked against 20) at 30-300 rpm
-within 2e-4 of the full model's max |mu| and within the estimate; extender (10; r = 6 against 8) within
-2e-5; generated atlas linkages (r = 0.05-0.5) within the estimate.
+tests/test_floquet_reduction.py): distributed (40 coordinates; r = 14 checked against 22, above ~300 rpm
+r = 22-26 against 29-31) at 30-600 rpm, source and cognate, within 2e-4 of the full model's max |mu| and
+within the estimate; extender (10; r = 6 against 7) within 2e-5; generated atlas linkages (r = 0.05-0.5)
+within the estimate.
 """
 
 from __future__ import annotations
@@ -56,9 +63,16 @@ FULL_NEAR_ONE = 0.9
 """A reduced max |mu| + error at or above this goes to the full model (the weakly damped threshold of the
 result flags: a verdict near the stability boundary is decided on the unreduced system)."""
 
-BASES = ((2, 1e-4), (4, 1e-6), (6, 1e-7))
-"""The ladder of bases, each (frozen modes kept exact, relative Ritz-value tolerance), each checked against
-the next (:func:`reduced_floquet`)."""
+BASES = ((2, 1e-4, None), (4, 1e-6, 1e-5), (6, 1e-7, 1e-5), (8, 1e-7, 1e-5))
+"""The ladder of bases, each (frozen modes kept exact, relative Ritz-value tolerance, threshold of the
+static corrections or None: :func:`static_corrections`), each checked against the next
+(:func:`reduced_floquet`)."""
+
+BASIS_FACTOR = 3.0
+"""The basis error of a rung: this times its difference to the next rung.  Consecutive rungs share part of
+their error (both miss the same higher modes); measured against the unreduced model (thesis distributed at
+30-600 rpm, source and cognate, and 8 generated atlas linkages, extender and distributed at r = 0.05, 0.2,
+0.5: 80 reduced answers), the error was at most 1.14 times twice the difference (at 2.4e-5)."""
 
 ESTIMATE_FLOOR = 1e-6
 """Least error reported for a reduced max |mu|: below it the step levels and the basis check no longer see
@@ -68,8 +82,9 @@ linkage, distributed, r = 0.5: 1.9e-7 against the full model where the levels an
 TRAINING_ANGLES = 64
 """Uniform grid of crank angles on which the basis is built and checked."""
 
-RADAU_LEVELS = (64, 128, 256, 512, 1024, 2048, 4096)
-"""Step counts per cycle of the reduced propagator, tried in turn."""
+RADAU_LEVELS = (64, 128, 256, 512, 1024, 2048)
+"""Step counts per cycle of the reduced propagator, tried in turn from the first with h omega <= 4 for the
+lowest mode (:func:`reduced_floquet`)."""
 
 
 @dataclass(frozen=True)
@@ -185,6 +200,27 @@ def greedy_basis(Ks: np.ndarray, modes: int, ritz_tolerance: float, max_size: in
         j = int(np.argmax(err))
 
 
+def static_corrections(Ks: np.ndarray, eigen: tuple[np.ndarray, np.ndarray], W: np.ndarray, modes: int,
+                       threshold: float) -> np.ndarray:
+    """W (n, r) extended by the static responses to the Coriolis and frame forces of the ``modes`` lowest
+    frozen modes (the quasi-static correction vectors of modal truncation): lambda_k Ks^-1 J x_k at every
+    angle of ``Ks`` (m, n, n, mass-scaled; J x the per-lump turn by 90 degrees, which the frame terms
+    2 M phi' J v', M phi'' J v and C phi' J v apply to the modes: M is isotropic per lump, so in mass-scaled
+    coordinates the force direction is J x itself), orthogonalized against W and compressed by an SVD
+    keeping the directions whose RMS amplitude over the angles exceeds ``threshold`` (a mode itself has
+    amplitude 1).  A Galerkin basis of frozen modes alone converges slowly with their number at high speed
+    (measured, thesis distributed model at 500 rpm against the unreduced system: 14, 24, 28 columns of
+    frozen modes 7e-4, 3e-4, 3e-5 off; 14 modes + 5 corrections 2e-5): the links' stiff directions respond
+    quasi-statically to the gyroscopic forcing of the low modes, which no low frozen mode spans."""
+    lam, X = eigen
+    Z = lam[:, None, :modes] * np.linalg.solve(Ks, _turn(X[:, :, :modes]))
+    Z = np.concatenate(list(Z), axis=1)
+    Z -= W @ (W.T @ Z)
+    Z -= W @ (W.T @ Z)  # twice: orthogonal to round-off
+    U, S, _ = np.linalg.svd(Z, full_matrices=False)
+    return np.concatenate([W, U[:, S / np.sqrt(Z.shape[1]) > threshold]], axis=1)
+
+
 def projection(co: Coefficients, lumps: tuple[np.ndarray, np.ndarray, np.ndarray], mass: np.ndarray,
                V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(K_r, C_r) (m, r, r) at the angles of ``co`` (the full coefficients) and ``lumps`` (their frame
@@ -209,12 +245,24 @@ def projection(co: Coefficients, lumps: tuple[np.ndarray, np.ndarray, np.ndarray
 
 class InterpolatedCoefficients:
     """Reduced coefficients (K, C; no load) from samples on a uniform full-turn grid, trigonometric
-    interpolation (one inverse FFT per uniform grid asked for, direct summation elsewhere)."""
+    interpolation (one inverse FFT per uniform grid asked for, direct summation elsewhere; :meth:`grids`:
+    several uniform grids at once from the one-sided spectrum)."""
 
     def __init__(self, K: np.ndarray, C: np.ndarray):
         self.size = K.shape[1]
-        self.interpolant = TrigInterpolant(np.concatenate([K.reshape(K.shape[0], -1), C.reshape(C.shape[0], -1)],
-                                                          axis=1))
+        flat = np.concatenate([K.reshape(K.shape[0], -1), C.reshape(C.shape[0], -1)], axis=1)
+        self.interpolant = TrigInterpolant(flat)
+        # the same interpolant, real form: sum_f Re(w_f A_f e^{i f theta}), f = 0 .. G/2 (w = 1 at 0 and at
+        # the Nyquist frequency, 2 between; A the FFT / G); frequencies whose terms are below SPECTRUM_CUT
+        # of the largest everywhere are left out (they change no value by more than ~1e-11 of its field's peak,
+        # against the 1e-8 of the interpolation itself)
+        half = flat.shape[0] // 2
+        A = self.interpolant.spectrum[:, half:] * 2.0  # frequencies 0 .. G/2 (the Nyquist term was halved)
+        A[:, 0] *= 0.5
+        size = np.max(np.abs(A), axis=0)
+        kept = np.nonzero(size > SPECTRUM_CUT * size.max())[0]
+        top = int(kept[-1]) + 1 if kept.size else 1
+        self.one_sided = np.ascontiguousarray(A[:, :top])  # (F, top)
 
     def __call__(self, theta: np.ndarray) -> Coefficients:
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
@@ -222,6 +270,29 @@ class InterpolatedCoefficients:
         r = self.size
         return Coefficients(stiffness=flat[:, :r * r].reshape(-1, r, r), damping=flat[:, r * r:].reshape(-1, r, r),
                             load=np.zeros((theta.size, r)))
+
+    def grids(self, theta0: np.ndarray, step: float, m: int) -> tuple[np.ndarray, np.ndarray]:
+        """(K, C), each (g, m, r, r), at the g uniform full-turn grids theta0[i] + step * j, j = 0 .. m - 1
+        (step = +-2 pi / m): the spectrum folded modulo m, one inverse FFT of length m per field and grid."""
+        a = self.one_sided
+        f = np.arange(a.shape[1])
+        if abs(abs(step) * m - 2.0 * np.pi) > 1e-9:
+            raise ValueError("InterpolatedCoefficients.grids: step must be +-2 pi / m")
+        terms = a[None, :, :] * np.exp(1j * np.outer(np.asarray(theta0, dtype=float), f))[:, None, :]
+        if step < 0:
+            terms = np.conj(terms)  # Re sum_f t_f e^{-i f s} = Re sum_f conj(t_f) e^{i f s}
+        folded = np.zeros(terms.shape[:2] + (m,), dtype=complex)
+        for start in range(0, f.size, m):  # m consecutive frequencies have distinct residues
+            folded[..., f[start:start + m] % m] += terms[..., start:start + m]
+        values = np.fft.ifft(folded, axis=2).real * m  # (g, F, m)
+        r = self.size
+        out = np.swapaxes(values, 1, 2)
+        return out[..., :r * r].reshape(-1, m, r, r), out[..., r * r:].reshape(-1, m, r, r)
+
+
+SPECTRUM_CUT = 1e-13
+"""Relative size below which a frequency of the reduced coefficients' spectrum is left out of
+:meth:`InterpolatedCoefficients.grids`."""
 
 
 def interpolation_error(K: np.ndarray, C: np.ndarray) -> float:
@@ -238,63 +309,104 @@ def interpolation_error(K: np.ndarray, C: np.ndarray) -> float:
 
 
 # --------------------------------------------------------------------------------------------------
-# Radau IIA (three stages, order 5) for q'' + C(t) q' + K(t) q = 0 with unit mass
+# Radau IIA (s stages, order 2 s - 1) for q'' + C(t) q' + K(t) q = 0 with unit mass
 
-_S6 = np.sqrt(6.0)
-RADAU_C = np.array([(4.0 - _S6) / 10.0, (4.0 + _S6) / 10.0, 1.0])
-RADAU_A = np.array([[(88.0 - 7.0 * _S6) / 360.0, (296.0 - 169.0 * _S6) / 1800.0, (-2.0 + 3.0 * _S6) / 225.0],
-                    [(296.0 + 169.0 * _S6) / 1800.0, (88.0 + 7.0 * _S6) / 360.0, (-2.0 - 3.0 * _S6) / 225.0],
-                    [(16.0 - _S6) / 36.0, (16.0 + _S6) / 36.0, 1.0 / 9.0]])
-"""Butcher tableau of the three-stage Radau IIA method (weights = last row: stiffly accurate)."""
+def radau_tableau(stages: int) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes c (s,) and matrix A (s, s) of the s-stage Radau IIA method (collocation at the right Radau
+    points, the zeros of P_s(2x - 1) - P_{s-1}(2x - 1); weights = last row of A: stiffly accurate)."""
+    from numpy.polynomial import legendre, polynomial
+
+    series = np.zeros(stages + 1)
+    series[stages], series[stages - 1] = 1.0, -1.0
+    c = (np.sort(np.real(legendre.legroots(series))) + 1.0) / 2.0
+    c[-1] = 1.0
+    A = np.empty((stages, stages))
+    for j in range(stages):
+        others = np.delete(c, j)
+        integral = polynomial.polyint(polynomial.polyfromroots(others) / np.prod(c[j] - others))
+        A[:, j] = polynomial.polyval(c, integral) - polynomial.polyval(0.0, integral)
+    return c, A
 
 
-def radau_steps(K: np.ndarray, C: np.ndarray, h: float) -> np.ndarray:
-    """Step matrices (m, 2r, 2r) of x = (q, q') for K, C (3, m, r, r) at the three stage times of each step.
+RADAU_STAGES = 3
+"""Stages of the reduced propagator (order 2 s - 1 = 5).  More stages need fewer steps (five, order 9: per
+step an amplitude error on an undamped oscillation of 2e-6 at h omega = 2, three stages 7e-3), but a step
+costs ~ (s r)^3: measured on the thesis models at 100 and 300 rpm, five stages at a quarter of the steps
+were no faster, four about as fast as three."""
+
+RESOLVED_H_OMEGA = 1.0
+"""h omega of the lowest frozen mode (at its highest frequency over the cycle) from which a level counts
+as resolved: its step changes the amplitude of an undamped oscillation by 1.3e-4, the phase by 2e-5 (the
+three-stage stability function); coarser levels of a low-speed cycle damp the mode numerically and agree
+with each other near 0.  The levels start at twice this step (h omega <= 2)."""
+
+PROBE_AT = 0.5
+"""The richer rung is propagated at the first level with at least this fraction of the resolved steps
+(h omega <= 2), against the smaller one at the same steps: their discretization errors then nearly cancel."""
+
+FIRST_CHANGE_RATIO = 8.0
+"""With two levels (the coarser at h omega <= 2, the finer at <= 1), the finer one's error is estimated as
+their change / 8: it assumes the error falls 9-fold per halving, where the three-stage method's amplitude
+and phase errors per cycle fall 26 and 57-fold from h omega = 2 to 1 (order 5: 32-fold asymptotically).
+From three levels on, the estimate of :func:`ked_linear.periodic.error_estimate` (the last change, or
+the tail of a geometric series)."""
+
+_TABLEAUX = {RADAU_STAGES: radau_tableau(RADAU_STAGES)}
+RADAU_C, RADAU_A = radau_tableau(3)
+"""Butcher tableau of the three-stage Radau IIA method (order 5)."""
+
+
+def radau_steps(K: np.ndarray, C: np.ndarray, h: float, a: np.ndarray = RADAU_A) -> np.ndarray:
+    """Step matrices (m, 2r, 2r) of x = (q, q') for K, C (s, m, r, r) at the s stage times of each step of
+    the Radau IIA method with matrix ``a`` (s, s).
 
     Stage values Q_i = q + h sum_j a_ij P_j, P_i = p + h sum_j a_ij (-K_j Q_j - C_j P_j); eliminating Q:
-    [delta_ik I + h a_ik C_k + h^2 sum_j a_ij a_jk K_j] P_k = p - h sum_j a_ij K_j q, one 3r x 3r solve per
-    step; the new state is the last stage (Q_3, P_3)."""
-    _, m, r, _ = K.shape
-    a = RADAU_A
-    # blocks (i, k) = h^2 sum_j a_ij a_jk K_j + h a_ik C_k: one (9 x 3) product over the flattened K
-    blocks = ((np.einsum("ij,jk->ikj", a, a) * (h * h)).reshape(9, 3) @ K.reshape(3, -1)).reshape(3, 3, m, r, r)
-    for k in range(3):
+    [delta_ik I + h a_ik C_k + h^2 sum_j a_ij a_jk K_j] P_k = p - h sum_j a_ij K_j q, one s r x s r solve
+    per step; the new state is the last stage (Q_s, P_s)."""
+    s, m, r, _ = K.shape
+    # blocks (i, k) = h^2 sum_j a_ij a_jk K_j + h a_ik C_k: one (s^2 x s) product over the flattened K
+    blocks = ((np.einsum("ij,jk->ikj", a, a) * (h * h)).reshape(s * s, s) @ K.reshape(s, -1)).reshape(s, s, m, r, r)
+    for k in range(s):
         blocks[:, k] += (h * a[:, k])[:, None, None, None] * C[k]
-    L = np.empty((m, 3, r, 3, r))
+    L = np.empty((m, s, r, s, r))
     L[...] = blocks.transpose(2, 0, 3, 1, 4)
-    L = L.reshape(m, 3 * r, 3 * r)
-    diag = np.arange(3 * r)
-    L[:, diag, diag] += 1.0
-    rhs = np.zeros((m, 3, r, 2 * r))
-    rhs[..., :r] = ((-h * a) @ K.reshape(3, -1)).reshape(3, m, r, r).transpose(1, 0, 2, 3)
+    L = L.reshape(m, s * r, s * r)
+    L.reshape(m, -1)[:, ::s * r + 1] += 1.0
+    rhs = np.zeros((m, s, r, 2 * r))
+    rhs[..., :r] = ((-h * a) @ K.reshape(s, -1)).reshape(s, m, r, r).transpose(1, 0, 2, 3)
     idx = np.arange(r)
     rhs[:, :, idx, r + idx] = 1.0
-    P = np.linalg.solve(L, rhs.reshape(m, 3 * r, 2 * r)).reshape(m, 3, r, 2 * r)
+    P = np.linalg.solve(L, rhs.reshape(m, s * r, 2 * r)).reshape(m, s, r, 2 * r)
     S = np.empty((m, 2 * r, 2 * r))
-    S[:, r:] = P[:, 2]
-    np.multiply(P[:, 0], h * a[2, 0], out=S[:, :r])
-    S[:, :r] += (h * a[2, 1]) * P[:, 1]
-    S[:, :r] += (h * a[2, 2]) * P[:, 2]
+    S[:, r:] = P[:, -1]
+    np.multiply(P[:, 0], h * a[-1, 0], out=S[:, :r])
+    for j in range(1, s):
+        S[:, :r] += (h * a[-1, j]) * P[:, j]
     S[:, idx, idx] += 1.0
     return S
 
 
-def radau_multipliers(system: PeriodicSystem, steps: int) -> np.ndarray:
-    """Floquet multipliers (2r,) of a unit-mass system by Radau IIA with ``steps`` per cycle, largest first."""
+def radau_multipliers(system: PeriodicSystem, steps: int, stages: int = RADAU_STAGES) -> np.ndarray:
+    """Floquet multipliers (2r,) of a unit-mass system by the ``stages``-stage Radau IIA method with
+    ``steps`` per cycle, largest first."""
     if not np.allclose(system.mass, 1.0):
         raise ValueError("radau_multipliers: needs a unit-mass system (a reduced system)")
+    c, a = _TABLEAUX[stages] if stages in _TABLEAUX else radau_tableau(stages)
     h = system.period / steps
     t = np.arange(steps) * h
-    co = system.coefficients(system.speed * np.concatenate([t + c * h for c in RADAU_C]))
-    r = system.mass.size
-    phi = _product(radau_steps(co.stiffness.reshape(3, steps, r, r), co.damping.reshape(3, steps, r, r), h))
+    if isinstance(system.coefficients, InterpolatedCoefficients):  # the stages' uniform grids at once
+        K, C = system.coefficients.grids(system.speed * c * h, system.speed * h, steps)
+    else:
+        stage = [system.coefficients(system.speed * (t + ci * h)) for ci in c]  # one uniform grid each
+        K, C = np.stack([co.stiffness for co in stage]), np.stack([co.damping for co in stage])
+    phi = _product(radau_steps(K, C, h, a))
     mu = np.linalg.eigvals(phi)
     return mu[np.argsort(-np.abs(mu))]
 
 
 @dataclass(frozen=True)
 class Reduction:
-    """A reduced Floquet analysis: ``result`` (the smaller basis; error = the step levels' estimate + twice
+    """A reduced Floquet analysis: ``result`` (the smaller basis; error = the step levels' estimate + 3 times
     the change to the richer basis), the basis sizes (smaller, richer), the richer basis's max |mu| (at
     fewer steps, see :func:`reduced_floquet`), the change and the step levels' estimate."""
 
@@ -340,8 +452,10 @@ class Reductions:
 
     def basis(self, i: int) -> np.ndarray | None:
         """The M-orthonormal basis V (n, r) of rung ``i`` of :data:`BASES` in v (None: not smaller than n)."""
-        modes, tol = BASES[i]
+        modes, tol, correction = BASES[i]
         W = greedy_basis(self._Ks, modes, tol, self.full.mass.size, self._eigen)
+        if W is not None and correction is not None:
+            W = static_corrections(self._Ks, self._eigen, W, modes, correction)
         return None if W is None else W / np.sqrt(self.full.mass)[:, None]
 
     def _grid(self, G: int) -> tuple[Coefficients, tuple[np.ndarray, np.ndarray, np.ndarray]]:
@@ -378,22 +492,22 @@ class _BasisFails(Exception):
     """Raised by a level probe of :func:`_levels`: the basis change alone exceeds what the rung may have."""
 
 
-def _levels(system: PeriodicSystem, resolved: float, tolerance: float,
+def _levels(system: PeriodicSystem, levels: tuple[int, ...], resolved: float, tolerance: float,
             probe: Callable[[int, float], None] | None = None) -> tuple[list[float], int, float, np.ndarray] | None:
-    """Radau levels of ``system`` (:data:`RADAU_LEVELS`) until, with at least ``resolved`` steps, the step
-    error estimate is below ``tolerance`` / 8: (max |mu| per level, steps, estimate, multipliers).
+    """Radau levels of ``system`` (``levels``) until, with at least ``resolved`` steps, the step error
+    estimate is below ``tolerance`` / 8: (max |mu| per level, steps, estimate, multipliers).
     ``probe(steps, max |mu|)`` is called after each level (it may raise :class:`_BasisFails`)."""
     tops: list[float] = []
     changes: list[float] = []
-    for steps in RADAU_LEVELS:
+    for steps in levels:
         mu = radau_multipliers(system, steps)
         tops.append(float(np.abs(mu[0])))
         if probe is not None:
             probe(steps, tops[-1])
         if len(tops) >= 2:
             changes.append(abs(tops[-1] - tops[-2]))
-        if len(changes) >= 2 and steps >= resolved:
-            est = error_estimate(changes)
+        if changes and steps >= resolved:
+            est = error_estimate(changes) if len(changes) >= 2 else changes[0] / FIRST_CHANGE_RATIO
             if est < 0.125 * tolerance:
                 return tops, steps, est, mu
     return None
@@ -403,24 +517,24 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
     """max |mu| of ``system`` from its reductions (module docstring), or None when they cannot vouch for
     ``tolerance`` / 2 (or the answer is near instability, or the system is undamped): use the full model.
 
-    A rung of :data:`BASES` is propagated at 64, 128, ... steps; from the third level on, once the steps
-    resolve the lowest frozen mode (h omega <= 1 at its highest frequency over the cycle: coarser levels
-    of a low-speed cycle damp it numerically and agree with each other near 0), the error of the last
-    one is estimated from the changes between levels as in the periodic solve
-    (:func:`ked_linear.periodic.error_estimate`: the last change, or the tail of a geometric series when
-    the last two changes fall faster than 1/2), and the levels stop once it is below ``tolerance`` / 8.
-    The next rung is propagated once, at the first level with h omega <= 2 for the lowest mode, against
-    this one at the same steps (their discretization errors then nearly cancel: measured on the thesis
-    extender and distributed models at 30-300 rpm, the difference there is within 31 % of the one at 512
-    steps); twice their difference is the basis error.  If the sum is not below ``tolerance`` / 2 the next
-    rung is tried against the one after it; the richer rung is propagated as soon as the smaller one reaches
-    that level, and when twice their difference alone exceeds ``tolerance`` / 2 the smaller rung stops there
-    and the next is tried (its further levels could only add to its estimate: the same answer, at a fraction
-    of the cost, where the reduction fails at high speed)."""
+    A rung of :data:`BASES` is propagated at :data:`RADAU_LEVELS` steps from the first with h omega <= 2
+    for the lowest frozen mode (at its highest frequency over the cycle); once a level resolves it
+    (h omega <= 1, :data:`RESOLVED_H_OMEGA`) the error of the last level is estimated from the changes
+    between levels (two levels: :data:`FIRST_CHANGE_RATIO`; more: as in the periodic solve,
+    :func:`ked_linear.periodic.error_estimate`), and the levels stop once it is below ``tolerance`` / 8.
+    The next rung is propagated once, at the first level with h omega <= 2 (:data:`PROBE_AT`), against
+    this one at the same steps (their discretization errors then nearly cancel); :data:`BASIS_FACTOR`
+    times their difference is the basis error. If the sum is not below ``tolerance`` / 2 the next rung is
+    tried against the one after it; the richer rung is propagated as soon as the smaller one reaches that
+    level, and when the basis error alone exceeds ``tolerance`` / 2 the smaller rung stops there and the
+    next is tried (its further levels could only add to its estimate)."""
     red = Reductions(system, frames)
     if not red.usable:
         return None
-    resolved = red.omega_kept * system.period  # steps with h omega <= 1 for the lowest mode
+    resolved = red.omega_kept * system.period / RESOLVED_H_OMEGA  # steps resolving the lowest mode
+    levels = tuple(n for n in RADAU_LEVELS if n >= 0.5 * resolved)  # from twice that step
+    if not levels:
+        return None
     for i in range(len(BASES) - 1):
         small, rich = red.system(i), red.system(i + 1)
         if small is None or rich is None:
@@ -428,27 +542,27 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
         # the richer rung at the first level resolving the lowest mode within h omega <= 2, computed as soon as
         # the smaller one reaches it: a basis change alone above what this rung may have ends the rung there
         # (its remaining levels could only add to the estimate)
-        first = next((n for n in RADAU_LEVELS if n >= 0.5 * resolved), None)
+        first = next((n for n in levels if n >= PROBE_AT * resolved), None)
         seen: dict[int, float] = {}
 
         def probe(steps: int, top: float, rich: PeriodicSystem = rich, first: int | None = first,
                   seen: dict[int, float] = seen) -> None:
             if steps == first:
                 seen[steps] = float(np.abs(radau_multipliers(rich, steps)[0]))
-                if 2.0 * abs(seen[steps] - top) > 0.5 * tolerance:
+                if BASIS_FACTOR * abs(seen[steps] - top) > 0.5 * tolerance:
                     raise _BasisFails
 
         try:
-            levels = _levels(small, resolved, tolerance, probe)
+            done = _levels(small, levels, resolved, tolerance, probe)
         except _BasisFails:
             continue
-        if levels is None:
+        if done is None:
             return None
-        tops, steps, step_est, mu = levels
-        check = min(next(n for n in RADAU_LEVELS if n >= 0.5 * resolved), steps)
+        tops, steps, step_est, mu = done
+        check = min(next(n for n in levels if n >= PROBE_AT * resolved), steps)
         other = seen[check] if check in seen else float(np.abs(radau_multipliers(rich, check)[0]))
-        basis_change = abs(other - tops[RADAU_LEVELS.index(check)])
-        est = max(step_est + 2.0 * basis_change, ESTIMATE_FLOOR)
+        basis_change = abs(other - tops[levels.index(check)])
+        est = max(step_est + BASIS_FACTOR * basis_change, ESTIMATE_FLOOR)
         if not np.isfinite(tops[-1]) or tops[-1] + est >= FULL_NEAR_ONE:
             return None
         if est <= 0.5 * tolerance:
