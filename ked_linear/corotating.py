@@ -255,3 +255,21 @@ def corotating_steady_state(system: PeriodicSystem, angles: FrameAngles, bases: 
     return ReducedSteadyState(displacement=u, output=y, error_estimate=float(total), steps=steps,
                               sizes=(bases[0].shape[1], bases[1].shape[1]), step_error=float(est),
                               basis_change=float(change))
+
+
+def four_bar_steady_state(scene: object, system: PeriodicSystem, theta: np.ndarray, tolerance: float,
+                          groups: tuple[slice, ...] | None = None) -> ReducedSteadyState | None:
+    """:func:`corotating_steady_state` of a four-bar's linear model on its link frames
+    (:func:`ked_linear.reduction.link_frames`) with the first two bases of the reduced Floquet ladder
+    (:data:`ked_linear.reduction.BASES`: 2 frozen modes kept exact, and 4 with their static corrections);
+    None if the system is undamped, a basis cannot be built or the estimate does not reach ``tolerance``."""
+    from .reduction import Reductions, link_frames
+
+    frames = link_frames(scene)
+    red = Reductions(system, frames)
+    if not red.usable:
+        return None
+    small, rich = red.basis(0), red.basis(1)
+    if small is None or rich is None:
+        return None
+    return corotating_steady_state(system, frames.of_lumps, (small, rich), theta, tolerance, groups)

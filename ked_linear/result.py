@@ -146,7 +146,8 @@ def _message(status: str, mu: float, mu_err: float, est: float, tol: float, H: i
         return (f"unstable: max |Floquet multiplier| = {mu:.6g} (+- {mu_err:.2g}) not safely below 1, no stable "
                 "periodic steady state (parametric resonance, buckling, or no damping)")
     weak = "weakly damped, " if mu + mu_err >= WEAKLY_DAMPED else ""
-    text = f"{weak}stable (max |Floquet multiplier| = {mu:.4g} +- {mu_err:.2g}), {H} dynamic harmonics"
+    how = f"{H} dynamic harmonics" if H > 0 else "steady state on the co-rotating reduced basis"
+    text = f"{weak}stable (max |Floquet multiplier| = {mu:.4g} +- {mu_err:.2g}), {how}"
     if not est < tol:
         text += f"; estimated error {est:.2g} above tolerance {tol:g} at the largest harmonics tried"
     return text

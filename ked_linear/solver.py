@@ -15,6 +15,7 @@ import numpy as np
 from ked_quasi.scene import Scene
 from ked_quasi.solver import natural_frequencies
 
+from .corotating import four_bar_steady_state
 from .floquet import FloquetResult, floquet
 from .linkage import frequencies_of, linkage_system
 from .periodic import PeriodicSystem, steady_state
@@ -164,8 +165,15 @@ def _solve_linear(scene: Scene, settings: LinearSettings | None) -> LinearResult
     system_key = (scene, settings.damping_ratio, f_ref, settings.prestress)
     ls = _recall(("system", *system_key), lambda: linkage_system(scene, replace(settings, damping_reference_hz=f_ref)))
     theta = scene.crank_angles
-    ss = steady_state(ls.system, theta, settings.tolerance, settings.harmonics, settings.max_harmonics,
-                      OUTPUT_GROUPS)
+    co = None if settings.harmonics is not None or settings.damping_ratio <= 0.0 \
+        or ls.system.mass.size < REDUCE_FROM else \
+        four_bar_steady_state(scene, ls.system, theta, settings.tolerance, OUTPUT_GROUPS)  # co-rotating basis
+    if co is not None:  # no dynamic harmonics; the Radau steps per cycle in place of the collocation points
+        output, est, harmonics, points = co.output, co.error_estimate, 0, co.steps
+    else:
+        ss = steady_state(ls.system, theta, settings.tolerance, settings.harmonics, settings.max_harmonics,
+                          OUTPUT_GROUPS)
+        output, est, harmonics, points = ss.output, ss.error_estimate, ss.solution.harmonics, ss.solution.points
     fl = _recall(("floquet", *system_key, settings.floquet_tolerance, settings.floquet_steps),
                  lambda: stability(scene, ls.system, settings))
     # the uncertainty counts against stability: a multiplier within its error of 1 is no attracting orbit
@@ -174,13 +182,12 @@ def _solve_linear(scene: Scene, settings: LinearSettings | None) -> LinearResult
     # undamped: max |mu| >= 1 in theory (det Phi = 1, reciprocal pairs); = 1 within its error is marginal
     marginal = not stable and settings.damping_ratio == 0.0 and fl.max_abs - 1.0 <= err
     status = "ok" if stable else "marginal" if marginal else "unstable"
-    deflection = ss.output if stable else np.full_like(ss.output, np.nan)
+    deflection = output if stable else np.full_like(output, np.nan)
     return LinearResult(
         crank_angle=theta, deflection=deflection, status=status, stable=stable,
-        message=_message(status, fl.max_abs, fl.error_estimate, ss.error_estimate, settings.tolerance,
-                         ss.solution.harmonics),
+        message=_message(status, fl.max_abs, fl.error_estimate, est, settings.tolerance, harmonics),
         floquet_max_abs=fl.max_abs, floquet_error=fl.error_estimate, floquet_steps=fl.steps,
-        harmonics=ss.solution.harmonics, collocation_points=ss.solution.points, error_estimate=ss.error_estimate,
+        harmonics=harmonics, collocation_points=points, error_estimate=est,
         damping_reference_hz=ls.damping_reference_hz, damping_beta=ls.damping_beta,
         speed_ratio=float(scene.omega / (2.0 * np.pi * np.min(f1))),
         frozen_f1_hz=frequencies_of(ls.system.coefficients(theta).stiffness, ls.system.mass)[:, 0],
