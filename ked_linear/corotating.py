@@ -50,7 +50,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from .floquet import _product
-from .periodic import Coefficients, PeriodicSystem, _apply, error_estimate, relative_change, series, spectrum
+from .periodic import (
+    Coefficients,
+    PeriodicSystem,
+    _apply,
+    error_estimate,
+    relative_change,
+    series,
+    spectrum,
+    steady_state,
+)
 from .reduction import RADAU_A, RADAU_C, _turn, rotate_columns
 from .sampled import TrigInterpolant
 
@@ -291,3 +300,45 @@ def four_bar_steady_state(scene: object, system: PeriodicSystem, theta: np.ndarr
     if small is None or rich is None:
         return None
     return corotating_steady_state(system, frames.of_lumps, (small, rich), theta, tolerance, groups)
+
+
+FIRST_HARMONICS = 8
+"""Crank harmonics the collocation tries first (levels 4, 8) in :func:`periodic_steady_state`: where it
+converges there (low speeds: the thesis extender at 100 rpm, the distributed model at 30 rpm) it is the
+cheaper answer (measured, loaded machine: 1 ms extender, 7 ms distributed at 30 rpm; the co-rotating
+path 20 and 100 ms); its answer is then the one solve_linear gave before the co-rotating path existed."""
+
+
+@dataclass(frozen=True)
+class PeriodicAnswer:
+    """The periodic steady state solve_linear reports: ``output`` (m, p) at the scene's angles, its
+    ``error_estimate`` (fraction of the peak per output group), ``harmonics`` H and ``points`` N of the
+    collocation, or 0 and the Radau steps per cycle when the co-rotating basis answered."""
+
+    output: np.ndarray
+    error_estimate: float
+    harmonics: int
+    points: int
+
+
+def periodic_steady_state(scene: object, system: PeriodicSystem, theta: np.ndarray, tolerance: float,
+                          harmonics: int | None, max_harmonics: int, groups: tuple[slice, ...] | None,
+                          reduce: bool) -> PeriodicAnswer:
+    """A four-bar's periodic steady state: with a fixed ``harmonics`` or without ``reduce`` the collocation
+    (:func:`ked_linear.periodic.steady_state`); else the collocation up to :data:`FIRST_HARMONICS`, if that
+    does not reach ``tolerance`` the co-rotating basis (:func:`four_bar_steady_state`), and if that does not
+    vouch for it the collocation up to ``max_harmonics``."""
+    def collocation(top: int) -> PeriodicAnswer:
+        ss = steady_state(system, theta, tolerance, harmonics, top, groups)
+        return PeriodicAnswer(output=ss.output, error_estimate=ss.error_estimate, harmonics=ss.solution.harmonics,
+                              points=ss.solution.points)
+
+    if harmonics is not None or not reduce:
+        return collocation(max_harmonics)
+    first = collocation(min(FIRST_HARMONICS, max_harmonics))
+    if first.error_estimate < tolerance:
+        return first
+    co = four_bar_steady_state(scene, system, theta, tolerance, groups)
+    if co is not None:
+        return PeriodicAnswer(output=co.output, error_estimate=co.error_estimate, harmonics=0, points=co.steps)
+    return first if max_harmonics <= FIRST_HARMONICS else collocation(max_harmonics)

@@ -15,10 +15,10 @@ import numpy as np
 from ked_quasi.scene import Scene
 from ked_quasi.solver import natural_frequencies
 
-from .corotating import four_bar_steady_state
+from .corotating import periodic_steady_state
 from .floquet import FloquetResult, floquet
 from .linkage import frequencies_of, linkage_system
-from .periodic import PeriodicSystem, steady_state
+from .periodic import PeriodicSystem
 from .reduction import link_frames, reduced_floquet
 from .result import (  # noqa: F401  (the answer's type and flags, re-exported where they were defined)
     MARGINAL,
@@ -165,15 +165,9 @@ def _solve_linear(scene: Scene, settings: LinearSettings | None) -> LinearResult
     system_key = (scene, settings.damping_ratio, f_ref, settings.prestress)
     ls = _recall(("system", *system_key), lambda: linkage_system(scene, replace(settings, damping_reference_hz=f_ref)))
     theta = scene.crank_angles
-    co = None if settings.harmonics is not None or settings.damping_ratio <= 0.0 \
-        or ls.system.mass.size < REDUCE_FROM else \
-        four_bar_steady_state(scene, ls.system, theta, settings.tolerance, OUTPUT_GROUPS)  # co-rotating basis
-    if co is not None:  # no dynamic harmonics; the Radau steps per cycle in place of the collocation points
-        output, est, harmonics, points = co.output, co.error_estimate, 0, co.steps
-    else:
-        ss = steady_state(ls.system, theta, settings.tolerance, settings.harmonics, settings.max_harmonics,
-                          OUTPUT_GROUPS)
-        output, est, harmonics, points = ss.output, ss.error_estimate, ss.solution.harmonics, ss.solution.points
+    ss = periodic_steady_state(scene, ls.system, theta, settings.tolerance, settings.harmonics,
+                               settings.max_harmonics, OUTPUT_GROUPS,
+                               reduce=settings.damping_ratio > 0.0 and ls.system.mass.size >= REDUCE_FROM)
     fl = _recall(("floquet", *system_key, settings.floquet_tolerance, settings.floquet_steps),
                  lambda: stability(scene, ls.system, settings))
     # the uncertainty counts against stability: a multiplier within its error of 1 is no attracting orbit
@@ -182,12 +176,13 @@ def _solve_linear(scene: Scene, settings: LinearSettings | None) -> LinearResult
     # undamped: max |mu| >= 1 in theory (det Phi = 1, reciprocal pairs); = 1 within its error is marginal
     marginal = not stable and settings.damping_ratio == 0.0 and fl.max_abs - 1.0 <= err
     status = "ok" if stable else "marginal" if marginal else "unstable"
-    deflection = output if stable else np.full_like(output, np.nan)
+    deflection = ss.output if stable else np.full_like(ss.output, np.nan)
     return LinearResult(
         crank_angle=theta, deflection=deflection, status=status, stable=stable,
-        message=_message(status, fl.max_abs, fl.error_estimate, est, settings.tolerance, harmonics),
+        message=_message(status, fl.max_abs, fl.error_estimate, ss.error_estimate, settings.tolerance,
+                         ss.harmonics),
         floquet_max_abs=fl.max_abs, floquet_error=fl.error_estimate, floquet_steps=fl.steps,
-        harmonics=harmonics, collocation_points=points, error_estimate=est,
+        harmonics=ss.harmonics, collocation_points=ss.points, error_estimate=ss.error_estimate,
         damping_reference_hz=ls.damping_reference_hz, damping_beta=ls.damping_beta,
         speed_ratio=float(scene.omega / (2.0 * np.pi * np.min(f1))),
         frozen_f1_hz=frequencies_of(ls.system.coefficients(theta).stiffness, ls.system.mass)[:, 0],
