@@ -50,7 +50,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from .floquet import _product
-from .periodic import PeriodicSystem, _apply, error_estimate, relative_change, series, spectrum
+from .periodic import (
+    Coefficients,
+    PeriodicSystem,
+    _apply,
+    error_estimate,
+    relative_change,
+    series,
+    spectrum,
+    steady_state,
+)
 from .reduction import RADAU_A, RADAU_C, _turn, rotate_columns
 from .sampled import TrigInterpolant
 
@@ -61,9 +70,11 @@ each coordinate pair (x, y), its rate and acceleration at the system's speed."""
 STEP_LEVELS = (128, 256, 512)
 """Radau IIA steps per cycle, tried in turn (the richer basis is solved at the first)."""
 
-SAMPLES = 64
+SAMPLES = 128
 """Angles on which the reduced coefficients are sampled first (doubled up to :data:`MAX_SAMPLES` until the
-interpolant of the even samples matches the odd ones within :data:`INTERPOLATION_TOLERANCE`)."""
+interpolant of the even samples matches the odd ones within :data:`INTERPOLATION_TOLERANCE`; the full
+coefficients on this grid also give the frozen solution's spectrum).  Measured on the thesis extender and
+distributed models at 100 and 300 rpm: 64 samples never passed the check (1.3e-4 to 5.5e-4), 128 always."""
 
 MAX_SAMPLES = 256
 
@@ -104,11 +115,12 @@ def _frames(angles: FrameAngles, V: np.ndarray, theta: np.ndarray,
 class _Reduced:
     """The reduced equation a'' + Ce a' + Ke a = Fe (A2 divided out) of one basis, sampled and interpolated."""
 
-    def __init__(self, system: PeriodicSystem, angles: FrameAngles, V: np.ndarray, q_hat: np.ndarray):
+    def __init__(self, system: PeriodicSystem, angles: FrameAngles, V: np.ndarray, q_hat: np.ndarray,
+                 co_grid: Coefficients | None = None):
         self.system, self.angles, self.V, self.q_hat = system, angles, V, q_hat
         self.r = V.shape[1]
         G = SAMPLES
-        flat = self._flat(np.arange(G) * (2.0 * np.pi / G))
+        flat = self._flat(np.arange(G) * (2.0 * np.pi / G), co_grid)  # co_grid: the coefficients there, if known
         while _interpolation_error(flat, self._layout()) > INTERPOLATION_TOLERANCE:
             if 2 * G > MAX_SAMPLES:
                 raise ValueError("reduced coefficients not interpolable")
@@ -122,11 +134,11 @@ class _Reduced:
         r = self.r
         return slice(0, r * r), slice(r * r, 2 * r * r), slice(2 * r * r, 2 * r * r + r)
 
-    def _flat(self, theta: np.ndarray) -> np.ndarray:
-        """[Ke, Ce, Fe] flattened (m, 2 r^2 + r) at ``theta``."""
+    def _flat(self, theta: np.ndarray, co: Coefficients | None = None) -> np.ndarray:
+        """[Ke, Ce, Fe] flattened (m, 2 r^2 + r) at ``theta`` (``co``: the full coefficients there, if known)."""
         sys_ = self.system
         s, m, r = sys_.speed, sys_.mass, self.r
-        co = sys_.coefficients(theta)
+        co = sys_.coefficients(theta) if co is None else co
         W, W1, W2 = _frames(self.angles, self.V, theta, s)
         Zt = np.swapaxes(np.linalg.solve(np.swapaxes(co.stiffness, 1, 2), m[:, None] * W), 1, 2)  # W^T M K^-1
         ZtC, ZtM = Zt @ co.damping, Zt * m
@@ -149,7 +161,7 @@ class _Reduced:
         r = self.r
         sign = 1.0 if self.system.speed > 0 else -1.0  # march in the direction of time
         h = sign * 2.0 * np.pi / steps
-        stage = np.concatenate([self.interpolant.uniform(c * h, sign, steps) for c in RADAU_C])
+        stage = uniform_grids(self.interpolant, RADAU_C * h, sign, steps)
         K, C, F = self.fields(stage)
         S = radau_affine_steps(K.reshape(3, steps, r, r), C.reshape(3, steps, r, r), F.reshape(3, steps, r), h)
         Phi = _product(S)
@@ -175,6 +187,32 @@ class _Reduced:
         rhs = co.load - s * _apply(co.damping, z1) - s**2 * m * z2
         u = np.linalg.solve(co.stiffness, rhs[..., None])[..., 0]
         return u, None if co.output is None else _apply(co.output, u)
+
+
+def uniform_grids(interpolant: TrigInterpolant, theta0: np.ndarray, sign: float, m: int) -> np.ndarray:
+    """Values (g m, F) of ``interpolant`` (of real samples) on the g uniform full-turn grids
+    theta0[i] + sign 2 pi j / m (grid by grid): what g calls of :meth:`TrigInterpolant.uniform` give, from
+    the one-sided spectrum (the real form sum_f Re(c_f e^{i f theta}), f = 0 .. G/2) folded modulo m by
+    slices and one real inverse FFT."""
+    G = interpolant.points
+    half = G // 2
+    c = 2.0 * interpolant.spectrum[:, half:]  # f = 0 .. G/2 (the Nyquist term was halved at each end)
+    c[:, 0] *= 0.5
+    terms = c[None] * np.exp(1j * np.outer(np.asarray(theta0, dtype=float), np.arange(half + 1)))[:, None, :]
+    if sign < 0:
+        terms = np.conj(terms)  # Re sum_f t_f e^{-i f s} = Re sum_f conj(t_f) e^{i f s}
+    if m > G:  # no two frequencies share a residue, none reaches m/2: the Hermitian part, zero-padded by irfft
+        hermitian = 0.5 * terms
+        hermitian[..., 0] = terms[..., 0].real
+    else:
+        b = np.zeros(terms.shape[:2] + (m,), dtype=complex)
+        for start in range(0, half + 1, m):  # m consecutive frequencies have distinct residues
+            stop = min(start + m, half + 1)
+            b[..., :stop - start] += terms[..., start:stop]
+        # Re ifft(b) = irfft of the Hermitian part (b_k + conj(b_-k)) / 2, k = 0 .. m/2
+        hermitian = 0.5 * (b[..., :m // 2 + 1] + np.conj(b[..., (-np.arange(m // 2 + 1)) % m]))
+    out = np.fft.irfft(hermitian, n=m, axis=2) * m  # (g, F, m)
+    return np.swapaxes(out, 1, 2).reshape(-1, out.shape[1])
 
 
 def _interpolation_error(flat: np.ndarray, fields: tuple[slice, ...]) -> float:
@@ -227,13 +265,13 @@ def corotating_steady_state(system: PeriodicSystem, angles: FrameAngles, bases: 
     if np.any(system.mass <= 0.0):
         return None
     theta = np.atleast_1d(np.asarray(theta, dtype=float))
-    G = 2 * SAMPLES
+    G = SAMPLES
     grid = np.arange(G) * (2.0 * np.pi / G)
     co_grid = system.coefficients(grid)
     q_hat = spectrum(np.linalg.solve(co_grid.stiffness, co_grid.load[..., None])[..., 0])
     co = system.coefficients(theta)
     try:
-        small = _Reduced(system, angles, bases[0], q_hat)
+        small = _Reduced(system, angles, bases[0], q_hat, co_grid)
         outputs, changes, est = [], [], float("inf")
         for steps in STEP_LEVELS:
             u, y = small.evaluate(steps, theta, co)
@@ -245,7 +283,7 @@ def corotating_steady_state(system: PeriodicSystem, angles: FrameAngles, bases: 
                     break
         if not est < 0.5 * tolerance:
             return None
-        u_rich, y_rich = _Reduced(system, angles, bases[1], q_hat).evaluate(STEP_LEVELS[0], theta, co)
+        u_rich, y_rich = _Reduced(system, angles, bases[1], q_hat, co_grid).evaluate(STEP_LEVELS[0], theta, co)
     except (ValueError, np.linalg.LinAlgError):
         return None
     change = relative_change(u_rich if y_rich is None else y_rich, outputs[0], groups)
@@ -255,3 +293,63 @@ def corotating_steady_state(system: PeriodicSystem, angles: FrameAngles, bases: 
     return ReducedSteadyState(displacement=u, output=y, error_estimate=float(total), steps=steps,
                               sizes=(bases[0].shape[1], bases[1].shape[1]), step_error=float(est),
                               basis_change=float(change))
+
+
+def four_bar_steady_state(scene: object, system: PeriodicSystem, theta: np.ndarray, tolerance: float,
+                          groups: tuple[slice, ...] | None = None) -> ReducedSteadyState | None:
+    """:func:`corotating_steady_state` of a four-bar's linear model on its link frames
+    (:func:`ked_linear.reduction.link_frames`) with the first two bases of the reduced Floquet ladder
+    (:data:`ked_linear.reduction.BASES`: 2 frozen modes kept exact, and 4 with their static corrections);
+    None if the system is undamped, a basis cannot be built or the estimate does not reach ``tolerance``."""
+    from .reduction import Reductions, link_frames
+
+    frames = link_frames(scene)
+    red = Reductions(system, frames)
+    if not red.usable:
+        return None
+    small, rich = red.basis(0), red.basis(1)
+    if small is None or rich is None:
+        return None
+    return corotating_steady_state(system, frames.of_lumps, (small, rich), theta, tolerance, groups)
+
+
+FIRST_HARMONICS = 8
+"""Crank harmonics the collocation tries first (levels 4, 8) in :func:`periodic_steady_state`: where it
+converges there (low speeds: the thesis extender at 100 rpm, the distributed model at 30 rpm) it is the
+cheaper answer (measured, loaded machine: 1 ms extender, 7 ms distributed at 30 rpm; the co-rotating
+path 20 and 100 ms); its answer is then the one solve_linear gave before the co-rotating path existed."""
+
+
+@dataclass(frozen=True)
+class PeriodicAnswer:
+    """The periodic steady state solve_linear reports: ``output`` (m, p) at the scene's angles, its
+    ``error_estimate`` (fraction of the peak per output group), ``harmonics`` H and ``points`` N of the
+    collocation, or 0 and the Radau steps per cycle when the co-rotating basis answered."""
+
+    output: np.ndarray
+    error_estimate: float
+    harmonics: int
+    points: int
+
+
+def periodic_steady_state(scene: object, system: PeriodicSystem, theta: np.ndarray, tolerance: float,
+                          harmonics: int | None, max_harmonics: int, groups: tuple[slice, ...] | None,
+                          reduce: bool) -> PeriodicAnswer:
+    """A four-bar's periodic steady state: with a fixed ``harmonics`` or without ``reduce`` the collocation
+    (:func:`ked_linear.periodic.steady_state`); else the collocation up to :data:`FIRST_HARMONICS`, if that
+    does not reach ``tolerance`` the co-rotating basis (:func:`four_bar_steady_state`), and if that does not
+    vouch for it the collocation up to ``max_harmonics``."""
+    def collocation(top: int) -> PeriodicAnswer:
+        ss = steady_state(system, theta, tolerance, harmonics, top, groups)
+        return PeriodicAnswer(output=ss.output, error_estimate=ss.error_estimate, harmonics=ss.solution.harmonics,
+                              points=ss.solution.points)
+
+    if harmonics is not None or not reduce:
+        return collocation(max_harmonics)
+    first = collocation(min(FIRST_HARMONICS, max_harmonics))
+    if first.error_estimate < tolerance:
+        return first
+    co = four_bar_steady_state(scene, system, theta, tolerance, groups)
+    if co is not None:
+        return PeriodicAnswer(output=co.output, error_estimate=co.error_estimate, harmonics=0, points=co.steps)
+    return first if max_harmonics <= FIRST_HARMONICS else collocation(max_harmonics)

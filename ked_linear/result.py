@@ -28,7 +28,8 @@ class LinearResult:
         reduced system's Radau IIA propagator when the reduced Floquet analysis answered: damped extender
         and distributed models, ``ked_linear.reduction``; else of the full model's SDIRK2 or
         Gauss-Legendre propagator).
-    harmonics: crank harmonics H with a dynamic response; collocation_points: N;
+    harmonics: crank harmonics H with a dynamic response; collocation_points: N (when the steady state on
+        the co-rotating reduced basis answered, ``ked_linear.corotating``: harmonics 0 and its Radau steps);
         error_estimate: estimated relative error of the history (change from the level below, fraction of the peak).
     damping_reference_hz [Hz], damping_beta [s]: the stiffness-proportional damping used.
     speed_ratio: Omega / omega1_min, omega1_min = 2 pi min over the grid of the first unstressed frozen
@@ -146,7 +147,8 @@ def _message(status: str, mu: float, mu_err: float, est: float, tol: float, H: i
         return (f"unstable: max |Floquet multiplier| = {mu:.6g} (+- {mu_err:.2g}) not safely below 1, no stable "
                 "periodic steady state (parametric resonance, buckling, or no damping)")
     weak = "weakly damped, " if mu + mu_err >= WEAKLY_DAMPED else ""
-    text = f"{weak}stable (max |Floquet multiplier| = {mu:.4g} +- {mu_err:.2g}), {H} dynamic harmonics"
+    how = f"{H} dynamic harmonics" if H > 0 else "steady state on the co-rotating reduced basis"
+    text = f"{weak}stable (max |Floquet multiplier| = {mu:.4g} +- {mu_err:.2g}), {how}"
     if not est < tol:
         text += f"; estimated error {est:.2g} above tolerance {tol:g} at the largest harmonics tried"
     return text

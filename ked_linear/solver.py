@@ -15,9 +15,10 @@ import numpy as np
 from ked_quasi.scene import Scene
 from ked_quasi.solver import natural_frequencies
 
+from .corotating import periodic_steady_state
 from .floquet import FloquetResult, floquet
 from .linkage import frequencies_of, linkage_system
-from .periodic import PeriodicSystem, steady_state
+from .periodic import PeriodicSystem
 from .reduction import link_frames, reduced_floquet
 from .result import (  # noqa: F401  (the answer's type and flags, re-exported where they were defined)
     MARGINAL,
@@ -195,8 +196,9 @@ def _solve_linear(scene: Scene, settings: LinearSettings | None) -> LinearResult
     system_key = (scene, settings.damping_ratio, f_ref, settings.prestress)
     ls = _recall(("system", *system_key), lambda: linkage_system(scene, replace(settings, damping_reference_hz=f_ref)))
     theta = scene.crank_angles
-    ss = steady_state(ls.system, theta, settings.tolerance, settings.harmonics, settings.max_harmonics,
-                      OUTPUT_GROUPS)
+    ss = periodic_steady_state(scene, ls.system, theta, settings.tolerance, settings.harmonics,
+                               settings.max_harmonics, OUTPUT_GROUPS,
+                               reduce=settings.damping_ratio > 0.0 and ls.system.mass.size >= REDUCE_FROM)
     fl = _recall(("floquet", *system_key, settings.floquet_tolerance, settings.floquet_steps),
                  lambda: stability(scene, ls.system, settings))
     # the uncertainty counts against stability: a multiplier within its error of 1 is no attracting orbit
@@ -209,9 +211,9 @@ def _solve_linear(scene: Scene, settings: LinearSettings | None) -> LinearResult
     return LinearResult(
         crank_angle=theta, deflection=deflection, status=status, stable=stable,
         message=_message(status, fl.max_abs, fl.error_estimate, ss.error_estimate, settings.tolerance,
-                         ss.solution.harmonics),
+                         ss.harmonics),
         floquet_max_abs=fl.max_abs, floquet_error=fl.error_estimate, floquet_steps=fl.steps,
-        harmonics=ss.solution.harmonics, collocation_points=ss.solution.points, error_estimate=ss.error_estimate,
+        harmonics=ss.harmonics, collocation_points=ss.points, error_estimate=ss.error_estimate,
         damping_reference_hz=ls.damping_reference_hz, damping_beta=ls.damping_beta,
         speed_ratio=float(scene.omega / (2.0 * np.pi * np.min(f1))),
         frozen_f1_hz=frequencies_of(ls.system.coefficients(theta).stiffness, ls.system.mass)[:, 0],
