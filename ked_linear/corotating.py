@@ -60,7 +60,7 @@ from .periodic import (
     spectrum,
     steady_state,
 )
-from .reduction import RADAU_A, RADAU_C, _turn, rotate_columns
+from .reduction import RADAU_A, RADAU_C, TRAINING_ANGLES, Reductions, _turn, link_frames, rotate_columns
 from .sampled import TrigInterpolant
 
 FrameAngles = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
@@ -101,10 +101,11 @@ class ReducedSteadyState:
     basis_change: float
 
 
-def _frames(angles: FrameAngles, V: np.ndarray, theta: np.ndarray,
-            speed: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """W = R V and its theta-derivatives W', W'' (m, n, r) at ``theta``."""
-    phi, rate, acc = angles(theta)
+def _frames(angles: FrameAngles, V: np.ndarray, theta: np.ndarray, speed: float,
+            known: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """W = R V and its theta-derivatives W', W'' (m, n, r) at ``theta`` (``known``: angles(theta) if at hand)."""
+    phi, rate, acc = angles(theta) if known is None else known
     W = rotate_columns(V, phi)
     p1 = np.repeat(rate / speed, 2, axis=1)[:, :, None]  # dphi/dtheta
     p2 = np.repeat(acc / speed**2, 2, axis=1)[:, :, None]
@@ -116,11 +117,13 @@ class _Reduced:
     """The reduced equation a'' + Ce a' + Ke a = Fe (A2 divided out) of one basis, sampled and interpolated."""
 
     def __init__(self, system: PeriodicSystem, angles: FrameAngles, V: np.ndarray, q_hat: np.ndarray,
-                 co_grid: Coefficients | None = None):
+                 co_grid: Coefficients | None = None,
+                 angles_grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None):
         self.system, self.angles, self.V, self.q_hat = system, angles, V, q_hat
         self.r = V.shape[1]
         G = SAMPLES
-        flat = self._flat(np.arange(G) * (2.0 * np.pi / G), co_grid)  # co_grid: the coefficients there, if known
+        # co_grid, angles_grid: the coefficients and frame angles on the first grid, if known
+        flat = self._flat(np.arange(G) * (2.0 * np.pi / G), co_grid, angles_grid)
         while _interpolation_error(flat, self._layout()) > INTERPOLATION_TOLERANCE:
             if 2 * G > MAX_SAMPLES:
                 raise ValueError("reduced coefficients not interpolable")
@@ -134,12 +137,14 @@ class _Reduced:
         r = self.r
         return slice(0, r * r), slice(r * r, 2 * r * r), slice(2 * r * r, 2 * r * r + r)
 
-    def _flat(self, theta: np.ndarray, co: Coefficients | None = None) -> np.ndarray:
-        """[Ke, Ce, Fe] flattened (m, 2 r^2 + r) at ``theta`` (``co``: the full coefficients there, if known)."""
+    def _flat(self, theta: np.ndarray, co: Coefficients | None = None,
+              known: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+        """[Ke, Ce, Fe] flattened (m, 2 r^2 + r) at ``theta`` (``co``, ``known``: the full coefficients and
+        the frame angles there, if known)."""
         sys_ = self.system
         s, m, r = sys_.speed, sys_.mass, self.r
         co = sys_.coefficients(theta) if co is None else co
-        W, W1, W2 = _frames(self.angles, self.V, theta, s)
+        W, W1, W2 = _frames(self.angles, self.V, theta, s, known)
         Zt = np.swapaxes(np.linalg.solve(np.swapaxes(co.stiffness, 1, 2), m[:, None] * W), 1, 2)  # W^T M K^-1
         ZtC, ZtM = Zt @ co.damping, Zt * m
         A0 = s * (ZtC @ W1) + s**2 * (ZtM @ W2)
@@ -258,20 +263,23 @@ def radau_affine_steps(K: np.ndarray, C: np.ndarray, F: np.ndarray, h: float) ->
 
 def corotating_steady_state(system: PeriodicSystem, angles: FrameAngles, bases: tuple[np.ndarray, np.ndarray],
                             theta: np.ndarray, tolerance: float,
-                            groups: tuple[slice, ...] | None = None) -> ReducedSteadyState | None:
+                            groups: tuple[slice, ...] | None = None,
+                            on_grid: tuple[Coefficients, tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None,
+                            ) -> ReducedSteadyState | None:
     """Steady state at ``theta`` on the co-rotating bases (smaller, richer), each (n, r) with V^T M V = I, in
     the frames of ``angles``; None when the estimate does not reach ``tolerance`` (relative to the peak per
-    column group of the output) or the reduced system cannot be built (see the module docstring)."""
+    column group of the output) or the reduced system cannot be built (see the module docstring).
+    ``on_grid``: the full coefficients and ``angles`` on the :data:`SAMPLES` uniform angles from 0, if known."""
     if np.any(system.mass <= 0.0):
         return None
     theta = np.atleast_1d(np.asarray(theta, dtype=float))
     G = SAMPLES
     grid = np.arange(G) * (2.0 * np.pi / G)
-    co_grid = system.coefficients(grid)
+    co_grid, angles_grid = (system.coefficients(grid), None) if on_grid is None else on_grid
     q_hat = spectrum(np.linalg.solve(co_grid.stiffness, co_grid.load[..., None])[..., 0])
     co = system.coefficients(theta)
     try:
-        small = _Reduced(system, angles, bases[0], q_hat, co_grid)
+        small = _Reduced(system, angles, bases[0], q_hat, co_grid, angles_grid)
         outputs, changes, est = [], [], float("inf")
         for steps in STEP_LEVELS:
             u, y = small.evaluate(steps, theta, co)
@@ -283,7 +291,8 @@ def corotating_steady_state(system: PeriodicSystem, angles: FrameAngles, bases: 
                     break
         if not est < 0.5 * tolerance:
             return None
-        u_rich, y_rich = _Reduced(system, angles, bases[1], q_hat, co_grid).evaluate(STEP_LEVELS[0], theta, co)
+        u_rich, y_rich = _Reduced(system, angles, bases[1], q_hat, co_grid, angles_grid).evaluate(
+            STEP_LEVELS[0], theta, co)
     except (ValueError, np.linalg.LinAlgError):
         return None
     change = relative_change(u_rich if y_rich is None else y_rich, outputs[0], groups)
@@ -296,21 +305,22 @@ def corotating_steady_state(system: PeriodicSystem, angles: FrameAngles, bases: 
 
 
 def four_bar_steady_state(scene: object, system: PeriodicSystem, theta: np.ndarray, tolerance: float,
-                          groups: tuple[slice, ...] | None = None) -> ReducedSteadyState | None:
+                          groups: tuple[slice, ...] | None = None,
+                          reductions: Reductions | None = None) -> ReducedSteadyState | None:
     """:func:`corotating_steady_state` of a four-bar's linear model on its link frames
     (:func:`ked_linear.reduction.link_frames`) with the first two bases of the reduced Floquet ladder
     (:data:`ked_linear.reduction.BASES`: 2 frozen modes kept exact, and 4 with their static corrections);
-    None if the system is undamped, a basis cannot be built or the estimate does not reach ``tolerance``."""
-    from .reduction import Reductions, link_frames
-
-    frames = link_frames(scene)
-    red = Reductions(system, frames)
+    None if the system is undamped, a basis cannot be built or the estimate does not reach ``tolerance``.
+    ``reductions``: the :class:`ked_linear.reduction.Reductions` of ``system`` if already built (shared
+    with the reduced Floquet analysis: frames, frozen eigen-solves, bases, coefficients on the grid)."""
+    red = Reductions(system, link_frames(scene)) if reductions is None else reductions
     if not red.usable:
         return None
     small, rich = red.basis(0), red.basis(1)
     if small is None or rich is None:
         return None
-    return corotating_steady_state(system, frames.of_lumps, (small, rich), theta, tolerance, groups)
+    on_grid = (red.grid_coefficients, red.grid_lumps) if 2 * TRAINING_ANGLES == SAMPLES else None
+    return corotating_steady_state(system, red.frames.of_lumps, (small, rich), theta, tolerance, groups, on_grid)
 
 
 FIRST_HARMONICS = 8
@@ -334,11 +344,13 @@ class PeriodicAnswer:
 
 def periodic_steady_state(scene: object, system: PeriodicSystem, theta: np.ndarray, tolerance: float,
                           harmonics: int | None, max_harmonics: int, groups: tuple[slice, ...] | None,
-                          reduce: bool) -> PeriodicAnswer:
+                          reduce: bool, reductions: Callable[[], Reductions] | None = None) -> PeriodicAnswer:
     """A four-bar's periodic steady state: with a fixed ``harmonics`` or without ``reduce`` the collocation
     (:func:`ked_linear.periodic.steady_state`); else the collocation up to :data:`FIRST_HARMONICS`, if that
     does not reach ``tolerance`` the co-rotating basis (:func:`four_bar_steady_state`), and if that does not
-    vouch for it the collocation up to ``max_harmonics``."""
+    vouch for it the collocation up to ``max_harmonics``.  ``reductions``: gives the
+    :class:`ked_linear.reduction.Reductions` of ``system`` (called only when the co-rotating basis is
+    tried; the caller shares it with the reduced Floquet analysis)."""
     def collocation(top: int) -> PeriodicAnswer:
         ss = steady_state(system, theta, tolerance, harmonics, top, groups)
         return PeriodicAnswer(output=ss.output, error_estimate=ss.error_estimate, harmonics=ss.solution.harmonics,
@@ -349,7 +361,8 @@ def periodic_steady_state(scene: object, system: PeriodicSystem, theta: np.ndarr
     first = collocation(min(FIRST_HARMONICS, max_harmonics))
     if first.error_estimate < tolerance:
         return first
-    co = four_bar_steady_state(scene, system, theta, tolerance, groups)
+    co = four_bar_steady_state(scene, system, theta, tolerance, groups,
+                               None if reductions is None else reductions())
     if co is not None:
         return PeriodicAnswer(output=co.output, error_estimate=co.error_estimate, harmonics=0, points=co.steps)
     return first if max_harmonics <= FIRST_HARMONICS else collocation(max_harmonics)

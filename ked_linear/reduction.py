@@ -442,9 +442,15 @@ class Reductions:
         co = system.coefficients(theta)
         self.usable = bool(np.any(co.damping))
         self._systems: dict[int, PeriodicSystem | None] = {}
+        self._bases: dict[tuple, np.ndarray | None] = {}
+        self.grid_coefficients = co
+        """The full coefficients on the uniform grid of 2 :data:`TRAINING_ANGLES` angles from 0 (shared with
+        the periodic steady state, :func:`ked_linear.corotating.four_bar_steady_state`)."""
         if not self.usable:
             return
         lumps = frames.of_lumps(theta)
+        self.grid_lumps = lumps
+        """The frame angles, rates and accelerations per lump on that grid."""
         self._grids: dict[int, tuple[Coefficients, tuple[np.ndarray, np.ndarray, np.ndarray]]] = {G: (co, lumps)}
         train = slice(0, G, G // TRAINING_ANGLES)
         K = _in_frames(co.stiffness[train], lumps[0][train])  # R^T K R
@@ -455,12 +461,27 @@ class Reductions:
         self.omega_kept = float(np.sqrt(np.max(np.abs(self._eigen[0][:, 0]))))
 
     def basis(self, i: int) -> np.ndarray | None:
-        """The M-orthonormal basis V (n, r) of rung ``i`` of :data:`BASES` in v (None: not smaller than n)."""
-        modes, tol, correction = BASES[i]
-        W = greedy_basis(self._Ks, modes, tol, self.full.mass.size, self._eigen)
-        if W is not None and correction is not None:
-            W = static_corrections(self._Ks, self._eigen, W, modes, correction)
-        return None if W is None else W / np.sqrt(self.full.mass)[:, None]
+        """The M-orthonormal basis V (n, r) of rung ``i`` of :data:`BASES` in v (None: not smaller than n);
+        built once (the Floquet ladder and the periodic steady state ask for the same rungs)."""
+        return self.basis_of(*BASES[i])
+
+    def basis_of(self, modes: int, ritz_tolerance: float, correction: float | None) -> np.ndarray | None:
+        """The M-orthonormal basis V (n, r) keeping ``modes`` frozen modes within ``ritz_tolerance`` with their
+        static corrections above ``correction`` (None: none; :func:`static_corrections`), built once."""
+        key = (modes, ritz_tolerance, correction)
+        if key not in self._bases:
+            W = self._orthonormal(modes, ritz_tolerance)
+            if W is not None and correction is not None:
+                W = static_corrections(self._Ks, self._eigen, W, modes, correction)
+            self._bases[key] = None if W is None else W / np.sqrt(self.full.mass)[:, None]
+        return self._bases[key]
+
+    def _orthonormal(self, modes: int, ritz_tolerance: float) -> np.ndarray | None:
+        """The greedy basis (orthonormal in mass-scaled coordinates) before corrections, built once."""
+        key = (modes, ritz_tolerance, "greedy")
+        if key not in self._bases:
+            self._bases[key] = greedy_basis(self._Ks, modes, ritz_tolerance, self.full.mass.size, self._eigen)
+        return self._bases[key]
 
     def _grid(self, G: int) -> tuple[Coefficients, tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """The full coefficients and frame angles at the midpoints of the G / 2 grid (G > the first grid)."""
@@ -518,7 +539,8 @@ def _levels(propagate: Callable[[int], np.ndarray], levels: tuple[int, ...], res
     return None
 
 
-def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float) -> Reduction | None:
+def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float,
+                    reductions: Reductions | None = None) -> Reduction | None:
     """max |mu| of ``system`` from its reductions (module docstring), or None when they cannot vouch for
     ``tolerance`` / 2 (or the answer is near instability, or the system is undamped): use the full model.
 
@@ -532,8 +554,9 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
     plus :data:`BASIS_SHARED` is the basis error. If the sum is not below ``tolerance`` / 2 the next rung is
     tried against the one after it; the richer rung is propagated as soon as the smaller one reaches that
     level, and when the basis error alone exceeds ``tolerance`` / 2 the smaller rung stops there and the
-    next is tried (its further levels could only add to its estimate)."""
-    red = Reductions(system, frames)
+    next is tried (its further levels could only add to its estimate).  ``reductions``: the
+    :class:`Reductions` of ``system`` on ``frames`` if already built (the periodic steady state shares it)."""
+    red = Reductions(system, frames) if reductions is None else reductions
     if not red.usable:
         return None
     resolved = red.omega_kept * system.period / RESOLVED_H_OMEGA  # steps resolving the lowest mode

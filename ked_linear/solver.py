@@ -19,7 +19,7 @@ from .corotating import periodic_steady_state
 from .floquet import FloquetResult, floquet
 from .linkage import frequencies_of, linkage_system
 from .periodic import PeriodicSystem
-from .reduction import link_frames, reduced_floquet
+from .reduction import Reductions, link_frames, reduced_floquet
 from .result import (  # noqa: F401  (the answer's type and flags, re-exported where they were defined)
     MARGINAL,
     MAX_COORDINATES,
@@ -158,23 +158,27 @@ smaller ones (tip, joints: the full propagator is as fast), undamped ones and a 
 use the full propagator (:func:`ked_linear.floquet.floquet`)."""
 
 
-def reduced_stability(scene: Scene, system: PeriodicSystem, settings: LinearSettings) -> FloquetResult | None:
+def reduced_stability(scene: Scene, system: PeriodicSystem, settings: LinearSettings,
+                      reductions: Callable[[], Reductions] | None = None) -> FloquetResult | None:
     """The Floquet result of the reduced system in co-rotating link frames (:mod:`ked_linear.reduction`;
     ``steps``: its Radau IIA steps per cycle), or None where the full system must decide: a fixed
     ``floquet_steps``, no damping, fewer than :data:`REDUCE_FROM` coordinates, a slider-crank, or a
     reduction that does not vouch for half of ``floquet_tolerance`` (its estimate covering the step levels
-    and the basis)."""
+    and the basis).  ``reductions``: gives the system's :class:`ked_linear.reduction.Reductions` if shared."""
     if settings.floquet_steps is not None or settings.damping_ratio <= 0.0 or system.mass.size < REDUCE_FROM \
             or _is_slider(scene):
         return None
-    red = reduced_floquet(system, link_frames(scene), settings.floquet_tolerance)
+    built = None if reductions is None else reductions()
+    red = reduced_floquet(system, link_frames(scene) if built is None else built.frames,
+                          settings.floquet_tolerance, built)
     return None if red is None else red.result
 
 
-def stability(scene: Scene, system: PeriodicSystem, settings: LinearSettings) -> FloquetResult:
+def stability(scene: Scene, system: PeriodicSystem, settings: LinearSettings,
+              reductions: Callable[[], Reductions] | None = None) -> FloquetResult:
     """The Floquet result of the linear model of ``scene``: :func:`reduced_stability` where it answers, else
     the full system's (:func:`ked_linear.floquet.floquet`)."""
-    red = reduced_stability(scene, system, settings)
+    red = reduced_stability(scene, system, settings, reductions)
     return red if red is not None else floquet(system, settings.floquet_tolerance, settings.floquet_steps)
 
 
@@ -196,11 +200,16 @@ def _solve_linear(scene: Scene, settings: LinearSettings | None) -> LinearResult
     system_key = (scene, settings.damping_ratio, f_ref, settings.prestress)
     ls = _recall(("system", *system_key), lambda: linkage_system(scene, replace(settings, damping_reference_hz=f_ref)))
     theta = scene.crank_angles
+
+    def reductions() -> Reductions:  # the reduced systems' common parts, built once for both passes
+        return _recall(("reductions", *system_key), lambda: Reductions(ls.system, link_frames(scene)))
+
     ss = periodic_steady_state(scene, ls.system, theta, settings.tolerance, settings.harmonics,
                                settings.max_harmonics, OUTPUT_GROUPS,
-                               reduce=settings.damping_ratio > 0.0 and ls.system.mass.size >= REDUCE_FROM)
+                               reduce=settings.damping_ratio > 0.0 and ls.system.mass.size >= REDUCE_FROM,
+                               reductions=reductions)
     fl = _recall(("floquet", *system_key, settings.floquet_tolerance, settings.floquet_steps),
-                 lambda: stability(scene, ls.system, settings))
+                 lambda: stability(scene, ls.system, settings, reductions))
     # the uncertainty counts against stability: a multiplier within its error of 1 is no attracting orbit
     err = fl.error_estimate if np.isfinite(fl.error_estimate) else 0.0
     stable = bool(fl.max_abs + err < 1.0)
