@@ -60,7 +60,7 @@ from .periodic import (
     spectrum,
     steady_state,
 )
-from .reduction import RADAU_A, RADAU_C, TRAINING_ANGLES, Reductions, _turn, link_frames, rotate_columns
+from .reduction import BASES, RADAU_A, RADAU_C, TRAINING_ANGLES, Reductions, _turn, link_frames, rotate_columns
 from .sampled import TrigInterpolant
 
 FrameAngles = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
@@ -84,6 +84,15 @@ coefficients at the odd ones (a bound of the coarser interpolant: the one used, 
 closer; measured on the thesis distributed model: 1.5e-8 with 64 samples against 128, 3e-11 with 128)."""
 
 
+RICH_CORRECTION = 1e-5
+"""Threshold of the static corrections (:func:`ked_linear.reduction.static_corrections`) that make the richer
+basis of :func:`four_bar_steady_state` from the smaller one.  The smaller basis's error is mostly what
+its modes' quasi-static response to the frame forces leaves out, which these columns add: measured against
+the collocation at H = 64 (thesis distributed model; source 100 / 300 rpm, cognate 100 / 300 rpm), the
+change to the corrected basis (r = 14 -> 17-18) was 1.8e-5 / 4.2e-4 / 1.2e-5 / 2.7e-4 of the peak for a
+true error of 1.3e-5 / 4.3e-4 / 1.2e-5 / 2.7e-4, as the change to the ladder's second basis (r = 22-24:
+1.9e-5 / 4.3e-4 / 1.3e-5 / 2.6e-4), at ~60 % of its cost (a Radau step costs ~ r^3).  A threshold of 1e-4
+kept no column on the extender (a change of 0 says nothing): without a column the second basis is used."""
 
 @dataclass(frozen=True)
 class ReducedSteadyState:
@@ -308,16 +317,22 @@ def four_bar_steady_state(scene: object, system: PeriodicSystem, theta: np.ndarr
                           groups: tuple[slice, ...] | None = None,
                           reductions: Reductions | None = None) -> ReducedSteadyState | None:
     """:func:`corotating_steady_state` of a four-bar's linear model on its link frames
-    (:func:`ked_linear.reduction.link_frames`) with the first two bases of the reduced Floquet ladder
-    (:data:`ked_linear.reduction.BASES`: 2 frozen modes kept exact, and 4 with their static corrections);
+    (:func:`ked_linear.reduction.link_frames`) on the first basis of the reduced Floquet ladder
+    (:data:`ked_linear.reduction.BASES`: 2 frozen modes kept exact), checked against that basis with its
+    static corrections (:data:`RICH_CORRECTION`; if none is above it, against the ladder's second basis);
     None if the system is undamped, a basis cannot be built or the estimate does not reach ``tolerance``.
     ``reductions``: the :class:`ked_linear.reduction.Reductions` of ``system`` if already built (shared
     with the reduced Floquet analysis: frames, frozen eigen-solves, bases, coefficients on the grid)."""
     red = Reductions(system, link_frames(scene)) if reductions is None else reductions
     if not red.usable:
         return None
-    small, rich = red.basis(0), red.basis(1)
-    if small is None or rich is None:
+    small = red.basis(0)
+    if small is None:
+        return None
+    rich = red.basis_of(*BASES[0][:2], RICH_CORRECTION)
+    if rich is None or rich.shape[1] <= small.shape[1]:  # no correction above the threshold: the ladder's next
+        rich = red.basis(1)
+    if rich is None:
         return None
     on_grid = (red.grid_coefficients, red.grid_lumps) if 2 * TRAINING_ANGLES == SAMPLES else None
     return corotating_steady_state(system, red.frames.of_lumps, (small, rich), theta, tolerance, groups, on_grid)
