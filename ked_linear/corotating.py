@@ -122,6 +122,21 @@ def _frames(angles: FrameAngles, V: np.ndarray, theta: np.ndarray, speed: float,
     return W, p1 * JW, p2 * JW - p1**2 * W
 
 
+@dataclass(frozen=True)
+class _AtAngles:
+    """What :meth:`_Reduced.evaluate` needs at the output angles that depends on them alone: the frame
+    angles (``angles(theta)``) and the frozen solution's first two theta-derivatives q', q'' (m, n)."""
+
+    angles: tuple[np.ndarray, np.ndarray, np.ndarray]
+    q1: np.ndarray
+    q2: np.ndarray
+
+    @staticmethod
+    def of(reduced: _Reduced, theta: np.ndarray) -> _AtAngles:
+        return _AtAngles(angles=reduced.angles(theta), q1=series(reduced.q_hat, theta, 1),
+                         q2=series(reduced.q_hat, theta, 2))
+
+
 class _Reduced:
     """The reduced equation a'' + Ce a' + Ke a = Fe (A2 divided out) of one basis, sampled and interpolated."""
 
@@ -130,6 +145,7 @@ class _Reduced:
                  angles_grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None):
         self.system, self.angles, self.V, self.q_hat = system, angles, V, q_hat
         self.r = V.shape[1]
+        self._at: tuple | None = None  # (the _AtAngles, fields, frames) of the last evaluate
         G = SAMPLES
         # co_grid, angles_grid: the coefficients and frame angles on the first grid, if known
         flat = self._flat(np.arange(G) * (2.0 * np.pi / G), co_grid, angles_grid)
@@ -188,16 +204,22 @@ class _Reduced:
             X = np.concatenate([X[:1], X[:0:-1]])
         return TrigInterpolant(X)
 
-    def evaluate(self, steps: int, theta: np.ndarray, co) -> tuple[np.ndarray, np.ndarray | None]:
+    def evaluate(self, steps: int, theta: np.ndarray, co: Coefficients,
+                 at: _AtAngles | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+        """u (m, n) and the output (or None) at ``theta`` from the solution at ``steps`` Radau steps; ``co``:
+        the full coefficients at ``theta``; ``at``: the parts that depend on ``theta`` alone, if at hand."""
         sys_ = self.system
         s, m, r = sys_.speed, sys_.mass, self.r
+        at = _AtAngles.of(self, theta) if at is None else at
         x = self.periodic(steps).at(theta)
         a, a1 = x[:, :r], x[:, r:]
-        K, C, F = self.fields(self.interpolant.at(theta))
+        if self._at is None or self._at[0] is not at:  # this basis's fields and frames at theta: once per basis
+            K, C, F = self.fields(self.interpolant.at(theta))
+            self._at = (at, (K, C, F), _frames(self.angles, self.V, theta, s, at.angles))
+        _, (K, C, F), (W, W1, W2) = self._at
         a2 = F - _apply(K, a) - _apply(C, a1)
-        W, W1, W2 = _frames(self.angles, self.V, theta, s)
-        z1 = series(self.q_hat, theta, 1) + _apply(W1, a) + _apply(W, a1)
-        z2 = series(self.q_hat, theta, 2) + _apply(W2, a) + 2.0 * _apply(W1, a1) + _apply(W, a2)
+        z1 = at.q1 + _apply(W1, a) + _apply(W, a1)
+        z2 = at.q2 + _apply(W2, a) + 2.0 * _apply(W1, a1) + _apply(W, a2)
         rhs = co.load - s * _apply(co.damping, z1) - s**2 * m * z2
         u = np.linalg.solve(co.stiffness, rhs[..., None])[..., 0]
         return u, None if co.output is None else _apply(co.output, u)
@@ -289,9 +311,10 @@ def corotating_steady_state(system: PeriodicSystem, angles: FrameAngles, bases: 
     co = system.coefficients(theta)
     try:
         small = _Reduced(system, angles, bases[0], q_hat, co_grid, angles_grid)
+        at = _AtAngles.of(small, theta)
         outputs, changes, est = [], [], float("inf")
         for steps in STEP_LEVELS:
-            u, y = small.evaluate(steps, theta, co)
+            u, y = small.evaluate(steps, theta, co, at)
             outputs.append(u if y is None else y)
             if len(outputs) > 1:
                 changes.append(relative_change(outputs[-1], outputs[-2], groups))
@@ -301,7 +324,7 @@ def corotating_steady_state(system: PeriodicSystem, angles: FrameAngles, bases: 
         if not est < 0.5 * tolerance:
             return None
         u_rich, y_rich = _Reduced(system, angles, bases[1], q_hat, co_grid, angles_grid).evaluate(
-            STEP_LEVELS[0], theta, co)
+            STEP_LEVELS[0], theta, co, at)
     except (ValueError, np.linalg.LinAlgError):
         return None
     change = relative_change(u_rich if y_rich is None else y_rich, outputs[0], groups)
