@@ -4,6 +4,10 @@ Dask LocalCluster (2 worker processes) with the real quasi-static, linear and Ex
 from __future__ import annotations
 
 import math
+import os
+import platform
+import subprocess
+import sys
 
 import h5py
 import numpy as np
@@ -226,6 +230,33 @@ def test_run_on_a_running_scheduler(tmp_path):
                             echo=lambda s: None)
     assert summary.computed == 1
     assert set(atlas_store.read(path, "families")["status"]) == {"ok"}
+
+
+_FAULTS = """
+import resource, sys
+import numpy as np
+from compare.atlas.compute import keep_freed_memory
+if sys.argv[1] == "keep":
+    assert keep_freed_memory()
+np.ones(2**17).sum()  # numpy's own first-use allocations
+before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+for _ in range(100):
+    np.ones(2**17).sum()  # 1 MiB allocated, written and freed
+print(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or platform.libc_ver()[0] != "glibc",
+                    reason="glibc's allocator")
+def test_a_worker_keeps_freed_memory_under_the_dask_nanny_environment():
+    # A Dask nanny starts its workers with MALLOC_TRIM_THRESHOLD_=65536: glibc then maps every 1 MiB block
+    # afresh, and writing it faults in all its 256 pages of 4 KiB (about 25600 faults for 100 blocks);
+    # after keep_freed_memory() the block freed is reused, no fresh pages (a handful of faults).
+    env = dict(os.environ, MALLOC_TRIM_THRESHOLD_="65536")
+    faults = {mode: int(subprocess.run([sys.executable, "-c", _FAULTS, mode], env=env, capture_output=True, text=True,
+                                       check=True).stdout) for mode in ("nanny", "keep")}
+    assert faults["nanny"] > 100 * 256 // 2
+    assert faults["keep"] < 100 * 256 // 20
 
 
 # -- calibration at the threshold (pure) -------------------------------------------------------------------------
