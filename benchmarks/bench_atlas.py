@@ -1,13 +1,14 @@
 """Atlas throughput: scenes per second of the quasi-static + linear tier on 1 and 2 local Dask workers.
 
-Runs the atlas's own task (``compare.atlas.compute.compute_linkage``: every family of a linkage over the
-ratio sweep, one task per linkage as ``ked study atlas`` submits them) for the first ``--linkages``
-linkages of the sample on a fresh ``distributed.LocalCluster`` of 1, then 2 worker processes (one thread
-each; the nanny's environment as Dask sets it), ``--repeats`` times each.  A scene is one ratio of one
-family through both solvers (ratios skipped by the sweep's stop rule are not counted).  The workers have
-imported the harness before the clock starts (a long atlas run pays that once per worker); the clock
-runs from the first submission to the last result, so the rate includes the scheduling, the transfer of
-the records and the wait for the last task (with few linkages, one long linkage can leave a worker idle).
+Runs the atlas's own tasks (``compare.atlas.run.family_tasks``, ``compare.atlas.compute.compute_family``:
+one family of a linkage over the ratio sweep per task, as ``ked study atlas`` submits them) for the first
+``--linkages`` linkages of the sample on a fresh ``distributed.LocalCluster`` of 1, then 2 worker
+processes (one thread each; the nanny's environment as Dask sets it, as on ``ked study atlas --scheduler``;
+without a scheduler the atlas runs the same tasks on the harness's own process pool), ``--repeats``
+times each.  A scene is one ratio of one family through both solvers (ratios skipped by the sweep's stop
+rule are not counted).  The workers have imported the harness before the clock starts (a long atlas run
+pays that once per worker); the clock runs from the first submission to the last result, so the rate
+includes the scheduling, the transfer of the records and the wait for the last task.
 
 Printed per worker count: scenes, the median wall time and scenes/s, and the CPU seconds per scene spent
 inside the tasks (summed over the workers: the cost of a scene whatever else runs on the machine; the
@@ -30,27 +31,42 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parents[1]
 
 
-def _warm(tree: str) -> str:
-    """Import what the atlas's task needs from ``tree`` (on a worker, before the clock starts)."""
+def _warm(tree: str, n: int, seed: int) -> tuple[str, list[tuple[int, int | None]]]:
+    """On a worker, before the clock starts: import the harness from ``tree``; returns where it was found
+    and the atlas's tasks of that checkout, (linkage i, family j), or (i, None) for a task per linkage."""
     import sys
 
     sys.path.insert(0, tree)
     import compare.atlas.compute
+    import compare.atlas.run as run
     import compare.solvers.linear
     import compare.solvers.quasi_static  # noqa: F401
+    from compare.atlas.generate import generate
 
-    return compare.atlas.compute.__file__
+    linkages = generate(n, seed).linkages
+    if not hasattr(run, "family_tasks"):  # a checkout whose atlas task is a linkage
+        return compare.atlas.compute.__file__, [(i, None) for i in range(n)]
+    return compare.atlas.compute.__file__, [(i, j) for i, lk in enumerate(linkages)
+                                            for j in range(len(run.family_tasks([lk])))]
 
 
-def _task(n: int, seed: int, i: int) -> tuple[int, float]:
-    """(scenes, CPU s) of the atlas task of linkage ``i`` of ``generate(n, seed)``, on a worker: only
-    plain numbers travel back, so two checkouts' workers can be compared by one client."""
-    from compare.atlas.compute import NOT_COMPUTED, compute_linkage
+def _task(n: int, seed: int, i: int, j: int | None) -> tuple[int, float]:
+    """(scenes, CPU s) of task (i, j) of :func:`_warm`, on a worker: only plain numbers travel back, so two
+    checkouts' workers can be compared by one client."""
+    from compare.atlas.compute import NOT_COMPUTED
     from compare.atlas.generate import generate
 
     linkage = generate(n, seed).linkages[i]
     c0 = time.process_time()
-    records = compute_linkage(linkage)
+    if j is None:
+        from compare.atlas.compute import compute_linkage
+
+        records = compute_linkage(linkage)
+    else:
+        from compare.atlas.compute import compute_family
+        from compare.atlas.run import family_tasks
+
+        records = (compute_family(*family_tasks([linkage])[j]),)
     return sum(sum(c != NOT_COMPUTED for c in rec.code) for rec in records), time.process_time() - c0
 
 
@@ -60,12 +76,14 @@ def one_run(workers: int, n: int, seed: int, tree: Path) -> tuple[float, int, fl
     from distributed import Client, LocalCluster
 
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                         silence_logs=40) as cluster, Client(cluster) as client:
-        where = set(client.run(_warm, str(tree)).values())  # workers up, harness imported, before the clock starts
+                      silence_logs=40) as cluster, Client(cluster) as client:
+        warm = client.run(_warm, str(tree), n, seed)  # workers up, harness imported, before the clock starts
+        where = {w for w, _ in warm.values()}
         if where != {str(tree / "compare" / "atlas" / "compute.py")}:
             raise SystemExit(f"the workers imported the harness from {where}, not from {tree}")
+        tasks = next(iter(warm.values()))[1]
         t0 = time.perf_counter()
-        futures = [client.submit(_task, n, seed, i, pure=False) for i in range(n)]
+        futures = [client.submit(_task, n, seed, i, j, pure=False) for i, j in tasks]
         done = [f.result() for f in futures]
         return time.perf_counter() - t0, sum(s for s, _ in done), sum(c for _, c in done)
 

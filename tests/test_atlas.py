@@ -16,12 +16,12 @@ import pytest
 from compare import metrics
 from compare.atlas import analysis, calibration, findings, verdict_margins
 from compare.atlas import store as atlas_store
-from compare.atlas.compute import OK
+from compare.atlas.compute import OK, failed_record
 from compare.atlas.confirm import run_confirm
 from compare.atlas.generate import RANGES, candidate, generate
 from compare.atlas.report import FIGURES, write_report
 from compare.atlas.report import load as report_load
-from compare.atlas.run import run_atlas
+from compare.atlas.run import LinkageBuffer, family_tasks, run_atlas
 from compare.atlas.threshold import run_threshold, select_threshold
 from compare.limits import validity_limit
 from compare.sections import section_of
@@ -127,6 +127,28 @@ def test_run_stores_every_family_and_resumes(atlas):
     assert again.computed == 0 and again.skipped == 2
     assert run_confirm(path, n=1, seed=SEED, echo=lambda s: None)["computed"] == 0
     assert path.stat().st_size < 1_000_000
+
+
+def test_family_tasks_cover_every_family_and_linkages_are_committed_whole():
+    # one task per family (linkage x mechanism x mass model), the 5-lump distributed model first in each
+    # linkage; the buffer releases a linkage's records only when all of them are in, in the stored order
+    sample = generate(3, SEED).linkages
+    tasks = family_tasks(sample)
+    assert sorted((lk.index, mech, mm.name) for lk, mech, mm in tasks) == sorted(
+        (lk.index, mech, mm.name) for lk in sample for mech in lk.mechanisms for mm in lk.mass_models)
+    assert [lk.index for lk, _, _ in tasks] == sorted(lk.index for lk, _, _ in tasks)
+    assert tasks[0][2].name == "distributed"
+    buffer = LinkageBuffer(sample)
+    records = {(lk.index, mech, mm.name): failed_record(lk.index, mech, mm, "test", len(RATIOS))
+               for lk, mech, mm in tasks}
+    first, second = sample[0].index, sample[1].index
+    arrivals = [k for k in records if k[0] == second][:-1] + [k for k in records if k[0] == first]
+    released = buffer.add([records[k] for k in arrivals])
+    assert [(r.linkage, r.mechanism, r.mass_model) for r in released] == [
+        (first, mech, mm.name) for mech in sample[0].mechanisms for mm in sample[0].mass_models]
+    last = [k for k in records if k[0] == second][-1]
+    assert len(buffer.add([records[last]])) == len(sample[1].mechanisms) * 4
+    assert buffer.held == {}
 
 
 def test_the_atlas_file_is_refused_for_another_seed_and_a_foreign_file_is_refused(atlas, tmp_path):

@@ -21,7 +21,7 @@ import ctypes
 import math
 import time
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -124,9 +124,12 @@ def sweep(linkage: Linkage, mechanism: str, mm: MassModel, omega1_min: float, ra
     n, nan = len(ratios), math.nan
     s = _Sweep([nan] * n, [nan] * n, [nan] * n, [nan] * n, [0] * n, [NOT_COMPUTED] * n, "")
     reason = ""
+    # the family's scene is built once and set to each speed (a cognate's construction costs about as much
+    # as a quasi-static solve)
+    base = spec_of(linkage, mechanism, mm, ratios[0]).scene(1.0)
     for i, r in enumerate(ratios):
         spec = spec_of(linkage, mechanism, mm, r)
-        scene = spec.scene(resolve_rpm(spec, omega1_min))
+        scene = replace(base, rpm=resolve_rpm(spec, omega1_min))
         a, b = solve_one(qs, spec, scene), solve_one(lin, spec, scene)
         s.mu[i] = float(b.stats.get("floquet_max_abs", nan))
         s.est[i] = float(b.stats.get("error_estimate", nan))
@@ -193,7 +196,18 @@ def keep_freed_memory() -> bool:
     return _malloc_set[0]
 
 
-def compute_linkage(linkage: Linkage, ratios: tuple[float, ...] = RATIOS) -> tuple[FamilyRecord, ...]:
-    """Every family of one linkage (the atlas's task, on a worker: :func:`compare.atlas.run.run_records`)."""
+def families_of(linkage: Linkage) -> tuple[tuple[str, MassModel], ...]:
+    """(mechanism, mass model) of every family of a linkage, in the atlas's order."""
+    return tuple((mech, mm) for mech in linkage.mechanisms for mm in linkage.mass_models)
+
+
+def compute_family(linkage: Linkage, mechanism: str, mm: MassModel,
+                   ratios: tuple[float, ...] = RATIOS) -> FamilyRecord:
+    """One family (the atlas's task, on a worker: :func:`compare.atlas.run.run_atlas`)."""
     keep_freed_memory()
-    return tuple(family(linkage, mech, mm, ratios) for mech in linkage.mechanisms for mm in linkage.mass_models)
+    return family(linkage, mechanism, mm, ratios)
+
+
+def compute_linkage(linkage: Linkage, ratios: tuple[float, ...] = RATIOS) -> tuple[FamilyRecord, ...]:
+    """Every family of one linkage, in one process."""
+    return tuple(compute_family(linkage, mech, mm, ratios) for mech, mm in families_of(linkage))
