@@ -118,15 +118,17 @@ class _Sweep:
     reason: str
 
 
-def sweep(linkage: Linkage, mechanism: str, mm: MassModel, omega1_min: float, ratios: tuple[float, ...]) -> _Sweep:
-    """Quasi-static and linear solutions up the ratio grid (stops at :data:`STOP_ERROR`)."""
+def sweep(linkage: Linkage, mechanism: str, mm: MassModel, omega1_min: float, ratios: tuple[float, ...],
+          scene: object | None = None) -> _Sweep:
+    """Quasi-static and linear solutions up the ratio grid (stops at :data:`STOP_ERROR`); ``scene``: the
+    family's scene at any speed, if built already (it is set to each ratio's speed)."""
     qs, lin = registry.get("quasi_static"), registry.get("linear")
     n, nan = len(ratios), math.nan
     s = _Sweep([nan] * n, [nan] * n, [nan] * n, [nan] * n, [0] * n, [NOT_COMPUTED] * n, "")
     reason = ""
     # the family's scene is built once and set to each speed (a cognate's construction costs about as much
     # as a quasi-static solve)
-    base = spec_of(linkage, mechanism, mm, ratios[0]).scene(1.0)
+    base = scene if scene is not None else spec_of(linkage, mechanism, mm, ratios[0]).scene(1.0)
     for i, r in enumerate(ratios):
         spec = spec_of(linkage, mechanism, mm, r)
         scene = replace(base, rpm=resolve_rpm(spec, omega1_min))
@@ -151,7 +153,7 @@ def family(linkage: Linkage, mechanism: str, mm: MassModel, ratios: tuple[float,
     try:
         fr = frame(spec_of(linkage, mechanism, mm, ratios[0]))
         loads, shape, mu_min = _loads_and_shape(fr.scene)
-        s = sweep(linkage, mechanism, mm, fr.omega1_min, ratios)
+        s = sweep(linkage, mechanism, mm, fr.omega1_min, ratios, fr.scene)
     except Exception as exc:  # a scene that cannot be set up: kept with its reason
         return failed_record(linkage.index, mechanism, mm, f"{type(exc).__name__}: {exc}", len(ratios),
                              time.perf_counter() - t0)
