@@ -8,16 +8,16 @@ one (the dynamic part of the quasi-static error).  The sweep of a family walks u
 stops after the first ratio whose error reaches :data:`STOP_ERROR` (twice the largest tolerance: the
 limits are known by then); the ratios above are stored as not computed.  Only compact records travel back.
 
-A task first sets the worker process's C allocator to keep freed memory (:func:`keep_freed_memory`): a
-Dask nanny starts its workers with ``MALLOC_TRIM_THRESHOLD_=65536``, under which glibc gives every freed
-block above 64 KiB back to the operating system and maps it afresh (zeroed pages) at the next
-allocation; the linear model's many short-lived arrays of some 100 KiB then cost as much system time in
-page faults as the computation itself (twice the CPU time per scene, measured).
+A task first sets the worker process's C allocator to keep freed memory
+(:func:`ked_linear.solver.keep_freed_memory`, which ``solve_linear`` also calls): a Dask nanny starts its
+workers with ``MALLOC_TRIM_THRESHOLD_=65536``, under which glibc gives every freed block above 64 KiB
+back to the operating system and maps it afresh (zeroed pages) at the next allocation; the linear
+model's many short-lived arrays of some 100 KiB then cost as much system time in page faults as the
+computation itself (twice the CPU time per scene on a Dask worker, measured).
 """
 
 from __future__ import annotations
 
-import ctypes
 import math
 import time
 import warnings
@@ -173,31 +173,6 @@ def family(linkage: Linkage, mechanism: str, mm: MassModel, ratios: tuple[float,
     )
 
 
-MMAP_THRESHOLD_BYTES = 32 * 2**20
-"""Blocks up to this size come from the allocator's heap, not fresh mappings (glibc's largest dynamic
-mmap threshold on 64-bit systems)."""
-TRIM_THRESHOLD_BYTES = 64 * 2**20
-"""Free memory at the top of a heap kept by the process before it is given back (twice the mmap threshold,
-as glibc's own dynamic rule)."""
-_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3  # mallopt parameters of glibc's malloc.h
-_malloc_set: list[bool] = []
-
-
-def keep_freed_memory() -> bool:
-    """Set glibc's allocator of this process to reuse freed memory (:data:`MMAP_THRESHOLD_BYTES`,
-    :data:`TRIM_THRESHOLD_BYTES`) rather than unmap and fault it in again (see module docstring); once per
-    process.  Returns whether it is set (False where the C library is not glibc)."""
-    if not _malloc_set:
-        try:
-            libc = ctypes.CDLL("libc.so.6")
-            ok = bool(libc.mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES)) and bool(
-                libc.mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD_BYTES))
-        except (OSError, AttributeError):  # not glibc: its allocator is left as it is
-            ok = False
-        _malloc_set.append(ok)
-    return _malloc_set[0]
-
-
 def families_of(linkage: Linkage) -> tuple[tuple[str, MassModel], ...]:
     """(mechanism, mass model) of every family of a linkage, in the atlas's order."""
     return tuple((mech, mm) for mech in linkage.mechanisms for mm in linkage.mass_models)
@@ -206,6 +181,8 @@ def families_of(linkage: Linkage) -> tuple[tuple[str, MassModel], ...]:
 def compute_family(linkage: Linkage, mechanism: str, mm: MassModel,
                    ratios: tuple[float, ...] = RATIOS) -> FamilyRecord:
     """One family (the atlas's task, on a worker: :func:`compare.atlas.run.run_atlas`)."""
+    from ked_linear.solver import keep_freed_memory
+
     keep_freed_memory()
     return family(linkage, mechanism, mm, ratios)
 
