@@ -4,6 +4,10 @@ Dask LocalCluster (2 worker processes) with the real quasi-static, linear and Ex
 from __future__ import annotations
 
 import math
+import os
+import platform
+import subprocess
+import sys
 
 import h5py
 import numpy as np
@@ -12,12 +16,12 @@ import pytest
 from compare import metrics
 from compare.atlas import analysis, calibration, findings, verdict_margins
 from compare.atlas import store as atlas_store
-from compare.atlas.compute import OK
+from compare.atlas.compute import OK, failed_record
 from compare.atlas.confirm import run_confirm
 from compare.atlas.generate import RANGES, candidate, generate
 from compare.atlas.report import FIGURES, write_report
 from compare.atlas.report import load as report_load
-from compare.atlas.run import run_atlas
+from compare.atlas.run import LinkageBuffer, family_tasks, run_atlas
 from compare.atlas.threshold import run_threshold, select_threshold
 from compare.limits import validity_limit
 from compare.sections import section_of
@@ -125,6 +129,28 @@ def test_run_stores_every_family_and_resumes(atlas):
     assert path.stat().st_size < 1_000_000
 
 
+def test_family_tasks_cover_every_family_and_linkages_are_committed_whole():
+    # one task per family (linkage x mechanism x mass model), the 5-lump distributed model first in each
+    # linkage; the buffer releases a linkage's records only when all of them are in, in the stored order
+    sample = generate(3, SEED).linkages
+    tasks = family_tasks(sample)
+    assert sorted((lk.index, mech, mm.name) for lk, mech, mm in tasks) == sorted(
+        (lk.index, mech, mm.name) for lk in sample for mech in lk.mechanisms for mm in lk.mass_models)
+    assert [lk.index for lk, _, _ in tasks] == sorted(lk.index for lk, _, _ in tasks)
+    assert tasks[0][2].name == "distributed"
+    buffer = LinkageBuffer(sample)
+    records = {(lk.index, mech, mm.name): failed_record(lk.index, mech, mm, "test", len(RATIOS))
+               for lk, mech, mm in tasks}
+    first, second = sample[0].index, sample[1].index
+    arrivals = [k for k in records if k[0] == second][:-1] + [k for k in records if k[0] == first]
+    released = buffer.add([records[k] for k in arrivals])
+    assert [(r.linkage, r.mechanism, r.mass_model) for r in released] == [
+        (first, mech, mm.name) for mech in sample[0].mechanisms for mm in sample[0].mass_models]
+    last = [k for k in records if k[0] == second][-1]
+    assert len(buffer.add([records[last]])) == len(sample[1].mechanisms) * 4
+    assert buffer.held == {}
+
+
 def test_the_atlas_file_is_refused_for_another_seed_and_a_foreign_file_is_refused(atlas, tmp_path):
     with pytest.raises(atlas_store.AtlasFileError, match="seed"):
         run_atlas(atlas["path"], linkages=2, seed=SEED + 1, ratios=RATIOS, echo=lambda s: None)
@@ -226,6 +252,34 @@ def test_run_on_a_running_scheduler(tmp_path):
                             echo=lambda s: None)
     assert summary.computed == 1
     assert set(atlas_store.read(path, "families")["status"]) == {"ok"}
+
+
+_FAULTS = """
+import resource, sys
+import numpy as np
+from ked_linear.solver import keep_freed_memory
+if sys.argv[1] == "keep":
+    keep_freed_memory()
+np.ones(2**17).sum()  # numpy's own first-use allocations
+before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+for _ in range(100):
+    np.ones(2**17).sum()  # 1 MiB allocated, written and freed
+print(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or platform.libc_ver()[0] != "glibc",
+                    reason="glibc's allocator")
+def test_a_worker_keeps_freed_memory_under_the_dask_nanny_environment():
+    # A Dask nanny starts its workers with MALLOC_TRIM_THRESHOLD_=65536: glibc then maps every 1 MiB block
+    # afresh, and writing it faults in all its 256 pages of 4 KiB (about 25600 faults for 100 blocks);
+    # after keep_freed_memory() (which an atlas task and solve_linear call first) the block freed is
+    # reused, no fresh pages (a handful of faults).
+    env = dict(os.environ, MALLOC_TRIM_THRESHOLD_="65536")
+    faults = {mode: int(subprocess.run([sys.executable, "-c", _FAULTS, mode], env=env, capture_output=True, text=True,
+                                       check=True).stdout) for mode in ("nanny", "keep")}
+    assert faults["nanny"] > 100 * 256 // 2
+    assert faults["keep"] < 100 * 256 // 20
 
 
 # -- calibration at the threshold (pure) -------------------------------------------------------------------------

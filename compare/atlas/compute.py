@@ -7,6 +7,13 @@ campaign would use (:func:`compare.execute.solve_one`, :func:`compare.execute.se
 one (the dynamic part of the quasi-static error).  The sweep of a family walks up the ratio grid and
 stops after the first ratio whose error reaches :data:`STOP_ERROR` (twice the largest tolerance: the
 limits are known by then); the ratios above are stored as not computed.  Only compact records travel back.
+
+A task first sets the worker process's C allocator to keep freed memory
+(:func:`ked_linear.solver.keep_freed_memory`, which ``solve_linear`` also calls): a Dask nanny starts its
+workers with ``MALLOC_TRIM_THRESHOLD_=65536``, under which glibc gives every freed block above 64 KiB
+back to the operating system and maps it afresh (zeroed pages) at the next allocation; the linear
+model's many short-lived arrays of some 100 KiB then cost as much system time in page faults as the
+computation itself (twice the CPU time per scene on a Dask worker, measured).
 """
 
 from __future__ import annotations
@@ -14,7 +21,7 @@ from __future__ import annotations
 import math
 import time
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -111,15 +118,20 @@ class _Sweep:
     reason: str
 
 
-def sweep(linkage: Linkage, mechanism: str, mm: MassModel, omega1_min: float, ratios: tuple[float, ...]) -> _Sweep:
-    """Quasi-static and linear solutions up the ratio grid (stops at :data:`STOP_ERROR`)."""
+def sweep(linkage: Linkage, mechanism: str, mm: MassModel, omega1_min: float, ratios: tuple[float, ...],
+          scene: object | None = None) -> _Sweep:
+    """Quasi-static and linear solutions up the ratio grid (stops at :data:`STOP_ERROR`); ``scene``: the
+    family's scene at any speed, if built already (it is set to each ratio's speed)."""
     qs, lin = registry.get("quasi_static"), registry.get("linear")
     n, nan = len(ratios), math.nan
     s = _Sweep([nan] * n, [nan] * n, [nan] * n, [nan] * n, [0] * n, [NOT_COMPUTED] * n, "")
     reason = ""
+    # the family's scene is built once and set to each speed (a cognate's construction costs about as much
+    # as a quasi-static solve)
+    base = scene if scene is not None else spec_of(linkage, mechanism, mm, ratios[0]).scene(1.0)
     for i, r in enumerate(ratios):
         spec = spec_of(linkage, mechanism, mm, r)
-        scene = spec.scene(resolve_rpm(spec, omega1_min))
+        scene = replace(base, rpm=resolve_rpm(spec, omega1_min))
         a, b = solve_one(qs, spec, scene), solve_one(lin, spec, scene)
         s.mu[i] = float(b.stats.get("floquet_max_abs", nan))
         s.est[i] = float(b.stats.get("error_estimate", nan))
@@ -141,7 +153,7 @@ def family(linkage: Linkage, mechanism: str, mm: MassModel, ratios: tuple[float,
     try:
         fr = frame(spec_of(linkage, mechanism, mm, ratios[0]))
         loads, shape, mu_min = _loads_and_shape(fr.scene)
-        s = sweep(linkage, mechanism, mm, fr.omega1_min, ratios)
+        s = sweep(linkage, mechanism, mm, fr.omega1_min, ratios, fr.scene)
     except Exception as exc:  # a scene that cannot be set up: kept with its reason
         return failed_record(linkage.index, mechanism, mm, f"{type(exc).__name__}: {exc}", len(ratios),
                              time.perf_counter() - t0)
@@ -161,6 +173,20 @@ def family(linkage: Linkage, mechanism: str, mm: MassModel, ratios: tuple[float,
     )
 
 
+def families_of(linkage: Linkage) -> tuple[tuple[str, MassModel], ...]:
+    """(mechanism, mass model) of every family of a linkage, in the atlas's order."""
+    return tuple((mech, mm) for mech in linkage.mechanisms for mm in linkage.mass_models)
+
+
+def compute_family(linkage: Linkage, mechanism: str, mm: MassModel,
+                   ratios: tuple[float, ...] = RATIOS) -> FamilyRecord:
+    """One family (the atlas's task, on a worker: :func:`compare.atlas.run.run_atlas`)."""
+    from ked_linear.solver import keep_freed_memory
+
+    keep_freed_memory()
+    return family(linkage, mechanism, mm, ratios)
+
+
 def compute_linkage(linkage: Linkage, ratios: tuple[float, ...] = RATIOS) -> tuple[FamilyRecord, ...]:
-    """Every family of one linkage (the atlas's task, on a worker: :func:`compare.atlas.run.run_records`)."""
-    return tuple(family(linkage, mech, mm, ratios) for mech in linkage.mechanisms for mm in linkage.mass_models)
+    """Every family of one linkage, in one process."""
+    return tuple(compute_family(linkage, mech, mm, ratios) for mech, mm in families_of(linkage))

@@ -1,8 +1,11 @@
-"""Run (resume) the atlas: one task per linkage on the harness's executor, compact records committed in batches.
+"""Run (resume) the atlas: one task per family on the harness's executor, compact records committed in batches.
 
-The tasks run on :func:`compare.runner.run_tasks`: ``workers`` local processes, or the Dask cluster
-at ``scheduler`` (checked first with :func:`compare.runner.probe_scheduler`).  Only this process
-writes the atlas file; a linkage whose families are stored is skipped, so rerunning resumes.
+The tasks (:func:`family_tasks`: a linkage's families, the costliest mass models first) run on
+:func:`compare.runner.run_tasks`: ``workers`` local processes, or the Dask cluster at ``scheduler``
+(checked first with :func:`compare.runner.probe_scheduler`).  A family is the unit of work, so the
+workers stay busy to the end of a run however unequal the linkages are; a linkage is the unit of
+storage: its families are committed together once all are computed.  Only this process writes the
+atlas file; a linkage whose families are stored is skipped, so rerunning resumes.
 """
 
 from __future__ import annotations
@@ -24,11 +27,13 @@ from compare.atlas.compute import (
     STOP_ERROR,
     TOLERANCES,
     FamilyRecord,
-    compute_linkage,
+    compute_family,
     failed_record,
+    families_of,
 )
 from compare.atlas.generate import Linkage, Sample, generate, ranges_dict
 from compare.tables import columns
+from ked_quasi.massmodel import MASS_MODELS, MassModel
 
 COMMIT_EVERY_S = 10.0
 """Completed linkages are committed together at most this often (each commit copies the file)."""
@@ -86,9 +91,41 @@ def family_columns(records: Sequence[FamilyRecord]) -> dict[str, list[Any]]:
 
 
 def crashed(linkage: Linkage, reason: str, ratios: Sequence[float]) -> tuple[FamilyRecord, ...]:
-    """Records of a linkage whose task died (worker killed, ...): every family failed with the reason."""
-    return tuple(failed_record(linkage.index, mech, mm, reason, len(ratios))
-                 for mech in linkage.mechanisms for mm in linkage.mass_models)
+    """Records of a linkage whose tasks died (worker killed, ...): every family failed with the reason."""
+    return tuple(failed_record(linkage.index, mech, mm, reason, len(ratios)) for mech, mm in families_of(linkage))
+
+
+FamilyTask = tuple[Linkage, str, MassModel]
+"""(linkage, mechanism, mass model): one family to compute."""
+
+
+def family_tasks(linkages: Sequence[Linkage]) -> list[FamilyTask]:
+    """The atlas's tasks: the families of each linkage in turn, within a linkage the costliest mass models
+    (most lumps) first, so that a worker's last tasks are short ones."""
+    cost = {name: -i for i, name in enumerate(MASS_MODELS)}  # MASS_MODELS: tip, joints, extender, distributed
+    return [(lk, mech, mm) for lk in linkages
+            for mech, mm in sorted(families_of(lk), key=lambda f: cost.get(f[1].name, 0))]
+
+
+class LinkageBuffer:
+    """Family records held until every family of their linkage is in (then released together, in the
+    linkage's family order), so that a stored linkage is always complete."""
+
+    def __init__(self, linkages: Sequence[Linkage]):
+        self.expected = {lk.index: families_of(lk) for lk in linkages}
+        self.held: dict[int, dict[tuple[str, str], FamilyRecord]] = {}
+
+    def add(self, records: Sequence[FamilyRecord]) -> list[FamilyRecord]:
+        """Hold ``records``; returns the records of the linkages now complete."""
+        done: list[FamilyRecord] = []
+        for rec in records:
+            got = self.held.setdefault(rec.linkage, {})
+            got[(rec.mechanism, rec.mass_model)] = rec
+            order = [(mech, mm.name) for mech, mm in self.expected[rec.linkage]]
+            if set(order) <= set(got):
+                done += [got[k] for k in order]
+                del self.held[rec.linkage]
+        return done
 
 
 def stored_linkages(path: Path) -> set[int]:
@@ -166,8 +203,17 @@ def _compute(path: Path, todo: list[Linkage], info: dict[str, Any], *, workers: 
     where = f"the scheduler {scheduler}" if scheduler else f"{workers} local workers"
     echo(f"atlas: {len(todo)} linkage(s) to compute on {where}")
     t0 = time.perf_counter()
-    run_records(todo, compute_linkage,
-                lambda recs: atlas_store.write(path, info, appends={"families": family_columns(recs)}),
-                lambda lk, reason: crashed(lk, reason, ratios), args=lambda lk: (lk, ratios), workers=workers,
-                scheduler=scheduler, progress=progress)
+    buffer = LinkageBuffer(todo)
+
+    def commit(recs: list[FamilyRecord]) -> None:
+        complete = buffer.add(recs)
+        if complete:
+            atlas_store.write(path, info, appends={"families": family_columns(complete)})
+
+    def lost(task: FamilyTask, reason: str) -> tuple[FamilyRecord, ...]:
+        lk, mech, mm = task
+        return (failed_record(lk.index, mech, mm, reason, len(ratios)),)
+
+    run_records(family_tasks(todo), compute_family, commit, lost, args=lambda task: (*task, ratios),
+                workers=workers, scheduler=scheduler, progress=progress)
     echo(f"atlas: computed {len(todo)} linkage(s) in {time.perf_counter() - t0:.0f} s")
