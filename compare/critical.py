@@ -96,29 +96,15 @@ def prominences(y: np.ndarray, found: Sequence[int]) -> tuple[np.ndarray, list[i
     return np.asarray(prom, dtype=float), left, right
 
 
-def _golden(f: Callable[[float], float], a: float, b: float, c: float, fb: float, xtol: float) -> tuple[float, float]:
-    """Maximum of f on [a, c] bracketed by b (f(b) >= f(a), f(c)), golden-section search to ``xtol``."""
-    g = (3.0 - math.sqrt(5.0)) / 2.0
-    while c - a > xtol:
-        x = b + g * (c - b) if c - b > b - a else b - g * (b - a)
-        fx = f(x)
-        if not math.isfinite(fx):
-            break
-        if fx > fb:
-            a, c = (b, c) if x > b else (a, b)
-            b, fb = x, fx
-        else:
-            a, c = (a, x) if x > b else (x, c)
-    return b, fb
-
-
 def _refine(f: Callable[[float], float], a: float, b: float, c: float, fa: float, fb: float, fc: float,
             rtol: float) -> tuple[float, float]:
-    """Maximum of f on [a, c] bracketed by b (f(b) > f(a), f(c): the values given, not evaluated again):
-    Brent's method (:func:`brent`: parabolic steps, golden-section ones where they do not pay) until
-    the bracket is below ``rtol`` of the speed, the criterion of :func:`_golden`, which a bracket that is
-    not strict (a plateau) or a failed evaluation falls back to.  Measured on the Floquet sweeps: 4 to 8
-    evaluations per maximum where the golden section takes 6 to 9, and closer to the peak."""
+    """Maximum of f on [a, c] near b, located to ``rtol`` of the speed: Brent's method
+    (``scipy.optimize.minimize_scalar``) on the bracket (a, b, c) where f(b) > f(a), f(c), its bounded
+    variant on [a, c] where the bracket is not strict (a plateau); the best value seen is returned (a failed
+    evaluation ends the search).  ``f`` should remember its values (the sweep's does): the bracket's three
+    are then not computed again.  Measured on the Floquet sweeps: 4 to 8 evaluations per maximum."""
+    from scipy.optimize import minimize_scalar
+
     best = [b, fb]
 
     def negative(x: float) -> float:
@@ -129,72 +115,15 @@ def _refine(f: Callable[[float], float], a: float, b: float, c: float, fa: float
             best[:] = [x, y]
         return -y
 
-    if not (fb > fa and fb > fc):
-        return _golden(f, a, b, c, fb, rtol * b)
     try:
-        # Brent stops once its bracket is below 4 tol |x| (tol1 = tol |x|, |x - mid| <= 2 tol1 - half)
-        brent(negative, a, b, c, -fb, rtol / 4.0)
+        if fb > fa and fb > fc:
+            # Brent stops once its bracket is below 4 tol |x| (tol1 = tol |x|, |x - mid| <= 2 tol1 - half)
+            minimize_scalar(negative, bracket=(a, b, c), method="brent", options={"xtol": rtol / 4.0})
+        else:
+            minimize_scalar(negative, bounds=(a, c), method="bounded", options={"xatol": rtol * b})
     except ArithmeticError:
         pass
     return best[0], best[1]
-
-
-def brent(g: Callable[[float], float], a: float, x: float, b: float, gx: float, tol: float,
-          maxiter: int = 500) -> tuple[float, float]:
-    """(x, g(x)) at a minimum of g on [a, b] bracketed by x (g(x) below g(a), g(b); ``gx`` = g(x) given):
-    Brent's method, the loop of ``scipy.optimize.Brent`` (scipy 1.17, BSD licence) step for step, so
-    ``minimize_scalar(g, bracket=(a, x, b), method="brent", options={"xtol": tol})`` evaluates g at the
-    same speeds.  Here because importing ``scipy.optimize`` costs a ``ked check`` 0.1-0.2 s (measured on
-    this project's 2-core machine) for these 40 lines."""
-    mintol, cg = 1.0e-11, 0.3819660
-    w = v = x
-    fw = fv = fx = gx
-    deltax = rat = 0.0
-    for _ in range(maxiter):
-        tol1 = tol * abs(x) + mintol
-        tol2 = 2.0 * tol1
-        xmid = 0.5 * (a + b)
-        if abs(x - xmid) < tol2 - 0.5 * (b - a):
-            break
-        if abs(deltax) <= tol1:  # a golden-section step
-            deltax = a - x if x >= xmid else b - x
-            rat = cg * deltax
-        else:  # a parabolic step, if it lands inside and shrinks fast enough
-            tmp1 = (x - w) * (fx - fv)
-            tmp2 = (x - v) * (fx - fw)
-            p = (x - v) * tmp2 - (x - w) * tmp1
-            tmp2 = 2.0 * (tmp2 - tmp1)
-            if tmp2 > 0.0:
-                p = -p
-            tmp2 = abs(tmp2)
-            dx_temp, deltax = deltax, rat
-            if p > tmp2 * (a - x) and p < tmp2 * (b - x) and abs(p) < abs(0.5 * tmp2 * dx_temp):
-                rat = p * 1.0 / tmp2
-                u = x + rat
-                if (u - a) < tol2 or (b - u) < tol2:
-                    rat = tol1 if xmid - x >= 0 else -tol1
-            else:
-                deltax = a - x if x >= xmid else b - x
-                rat = cg * deltax
-        u = (x + tol1 if rat >= 0 else x - tol1) if abs(rat) < tol1 else x + rat
-        fu = g(u)
-        if fu > fx:
-            if u < x:
-                a = u
-            else:
-                b = u
-            if fu <= fw or w == x:
-                v, w, fv, fw = w, u, fw, fu
-            elif fu <= fv or v == x or v == w:
-                v, fv = u, fu
-        else:
-            if u >= x:
-                a = x
-            else:
-                b = x
-            v, w, x = w, x, u
-            fv, fw, fx = fw, fx, fu
-    return x, fx
 
 
 def fine_speeds(rpms: Sequence[float], fine: int = 4) -> np.ndarray:

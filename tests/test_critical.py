@@ -199,32 +199,6 @@ def test_peaks_and_prominences_as_scipy_signal():
                     assert local_maxima(range(n), y, m) == find_peaks(y, prominence=m)[0].tolist()
 
 
-def test_brent_as_scipy_optimize():
-    # the check's own Brent loop (scipy.optimize costs a check its import) against scipy's
-    # minimize_scalar(method="brent") with the same bracket: the same evaluations, the same minimum
-    from scipy.optimize import minimize_scalar
-
-    from compare.critical import brent
-
-    for g, bracket in ((lambda x: -_curve(x), (320.0, 330.0, 345.0)), (lambda x: (x - 1.3) ** 4 - x, (0.0, 1.0, 3.0)),
-                       (lambda x: np.cos(x), (2.0, 3.0, 5.5)), (lambda x: abs(x - 0.7), (0.0, 0.5, 1.0))):
-        for tol in (1e-2, 5e-4, 1.48e-8):
-            ours, theirs = [], []
-
-            def g_ours(x, g=g, log=ours):
-                log.append(x)
-                return g(x)
-
-            def g_theirs(x, g=g, log=theirs):
-                log.append(x)
-                return g(x)
-
-            a, x, b = bracket
-            xm, gm = brent(g_ours, a, x, b, g(x), tol)
-            res = minimize_scalar(g_theirs, bracket=bracket, method="brent", options={"xtol": tol})
-            assert theirs[3:] == ours and xm == res.x and gm == res.fun  # scipy evaluates the bracket first
-
-
 def test_a_row_at_the_sweep_steps_is_the_sweeps_own_value(thesis):
     # the check reuses a row's max |mu| as an exact sample only where its linear solve's Floquet analysis
     # ran the full model at the sweep's 2048 steps (thesis joints at 120 and 240 rpm: the automatic
