@@ -524,19 +524,76 @@ def _levels(propagate: Callable[[int], np.ndarray], levels: tuple[int, ...], res
     multipliers).  ``probe(steps, max |mu|)`` is called after each level (it may raise
     :class:`_BasisFails`)."""
     tops: list[float] = []
-    changes: list[float] = []
     for steps in levels:
         mu = propagate(steps)
         tops.append(float(np.abs(mu[0])))
         if probe is not None:
             probe(steps, tops[-1])
-        if len(tops) >= 2:
-            changes.append(abs(tops[-1] - tops[-2]))
-        if changes and steps >= resolved:
-            est = error_estimate(changes) if len(changes) >= 2 else changes[0] / FIRST_CHANGE_RATIO
-            if est < 0.125 * tolerance:
-                return tops, steps, est, mu
+        est = _step_estimate(tops, steps, resolved)
+        if est is not None and est < 0.125 * tolerance:
+            return tops, steps, est, mu
     return None
+
+
+def _step_estimate(tops: list[float], steps: int, resolved: float) -> float | None:
+    """The step error estimate of the last of the levels' max |mu| ``tops`` (the last at ``steps``), or None
+    before two levels or before the last resolves the lowest mode (``resolved`` steps): two levels
+    :data:`FIRST_CHANGE_RATIO`, more :func:`ked_linear.periodic.error_estimate` of their changes."""
+    if len(tops) < 2 or steps < resolved:
+        return None
+    changes = list(np.abs(np.diff(tops)))
+    return error_estimate(changes) if len(changes) >= 2 else changes[0] / FIRST_CHANGE_RATIO
+
+
+def _estimate(step_error: float, basis_change: float) -> float:
+    """The error of a reduced max |mu|: its step estimate + :data:`BASIS_FACTOR` times the change to the
+    richer basis + :data:`BASIS_SHARED`, at least :data:`ESTIMATE_FLOOR`."""
+    return max(step_error + BASIS_FACTOR * basis_change + BASIS_SHARED, ESTIMATE_FLOOR)
+
+
+def _near_one(top: float, est: float) -> bool:
+    """A reduced max |mu| the full model must decide: not finite, or within ``est`` of :data:`FULL_NEAR_ONE`."""
+    return not np.isfinite(top) or top + est >= FULL_NEAR_ONE
+
+
+def _levels_from(red: Reductions, period: float) -> tuple[float, tuple[int, ...]]:
+    """(steps resolving the lowest frozen mode, h omega <= :data:`RESOLVED_H_OMEGA`; the usable step counts
+    of :data:`RADAU_LEVELS`, from twice that step)."""
+    resolved = red.omega_kept * period / RESOLVED_H_OMEGA
+    return resolved, tuple(n for n in RADAU_LEVELS if n >= 0.5 * resolved)
+
+
+def shooting_floquet(red: Reductions, small: dict[int, np.ndarray], check: tuple[int, np.ndarray],
+                     sizes: tuple[int, int], tolerance: float) -> Reduction | None:
+    """The reduced Floquet result from the one-cycle maps of the periodic steady state's shooting
+    (:func:`ked_linear.corotating.corotating_steady_state`): ``small`` maps its step counts to the
+    multipliers of its smaller basis (largest first), ``check`` is (steps, multipliers) of its richer
+    basis, ``sizes`` the two bases' sizes.  The rules of :func:`reduced_floquet`: only levels from
+    h omega <= 2 for the lowest frozen mode count; the last must resolve it and its step estimate be below
+    ``tolerance`` / 8; the bases are compared at the richer one's steps, which must be a counted level with
+    at least :data:`PROBE_AT` of the resolved steps; the error (:func:`_estimate`) must be at most
+    ``tolerance`` / 2 and the answer not near one (:data:`FULL_NEAR_ONE`).  None otherwise: the caller runs
+    :func:`reduced_floquet`."""
+    if not red.usable:
+        return None
+    resolved, usable = _levels_from(red, red.full.period)
+    counted = sorted(n for n in small if n in usable)
+    check_steps, check_mu = check
+    if len(counted) < 2 or check_steps not in counted or check_steps < PROBE_AT * resolved:
+        return None
+    tops = [float(np.abs(small[n][0])) for n in counted]
+    steps = counted[-1]
+    step_est = _step_estimate(tops, steps, resolved)
+    if step_est is None or not step_est < 0.125 * tolerance:
+        return None
+    other = float(np.abs(check_mu[0]))
+    basis_change = abs(other - tops[counted.index(check_steps)])
+    est = _estimate(step_est, basis_change)
+    if _near_one(tops[-1], est) or not est <= 0.5 * tolerance:
+        return None
+    result = FloquetResult(max_abs=tops[-1], error_estimate=est, steps=steps, multipliers=small[steps])
+    return Reduction(result=result, sizes=sizes, richer_max_abs=other, basis_change=basis_change,
+                     step_error=step_est)
 
 
 def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float,
@@ -559,8 +616,7 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
     red = Reductions(system, frames) if reductions is None else reductions
     if not red.usable:
         return None
-    resolved = red.omega_kept * system.period / RESOLVED_H_OMEGA  # steps resolving the lowest mode
-    levels = tuple(n for n in RADAU_LEVELS if n >= 0.5 * resolved)  # from twice that step
+    resolved, levels = _levels_from(red, system.period)  # steps resolving the lowest mode; from twice that step
     if not levels:
         return None
     runs: dict[tuple[int, int], np.ndarray] = {}  # (rung, steps): multipliers (a failed rung's probe is the
@@ -597,8 +653,8 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
         check = min(next(n for n in levels if n >= PROBE_AT * resolved), steps)
         other = seen[check] if check in seen else float(np.abs(propagate(i + 1, check)[0]))
         basis_change = abs(other - tops[levels.index(check)])
-        est = max(step_est + BASIS_FACTOR * basis_change + BASIS_SHARED, ESTIMATE_FLOOR)
-        if not np.isfinite(tops[-1]) or tops[-1] + est >= FULL_NEAR_ONE:
+        est = _estimate(step_est, basis_change)
+        if _near_one(tops[-1], est):
             return None
         if est <= 0.5 * tolerance:
             result = FloquetResult(max_abs=tops[-1], error_estimate=est, steps=steps, multipliers=mu)
