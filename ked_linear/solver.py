@@ -173,13 +173,14 @@ def reduced_stability(scene: Scene, system: PeriodicSystem, settings: LinearSett
             or _is_slider(scene):
         return None
     built = None if reductions is None else reductions()
+    runs: dict[tuple[int, int], np.ndarray] = {}  # the ladder's propagations, shared by both
     if maps is not None:
         built = Reductions(system, link_frames(scene)) if built is None else built
-        shot = shooting_floquet(built, maps.small, maps.check, maps.sizes, settings.floquet_tolerance)
+        shot = shooting_floquet(built, maps.small, maps.check, maps.sizes, settings.floquet_tolerance, runs)
         if shot is not None:
             return shot.result
     red = reduced_floquet(system, link_frames(scene) if built is None else built.frames,
-                          settings.floquet_tolerance, built)
+                          settings.floquet_tolerance, built, runs)
     return None if red is None else red.result
 
 
