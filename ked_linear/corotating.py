@@ -38,6 +38,11 @@ basis's at the last level, its error the step estimate plus the change between t
 None when that does not reach the tolerance or anything cannot be built (A2 singular, coefficients not
 interpolable): the caller then uses the Fourier collocation.
 
+**Floquet multipliers.**  The homogeneous part of each Phi is the one-cycle map of the reduced equation:
+its eigenvalues (:class:`ShootingMaps`) are the system's Floquet multipliers as the basis spans everything.
+:func:`ked_linear.reduction.shooting_floquet` judges them by the rules of the reduced Floquet ladder, so
+that solve_linear need not propagate that ladder again where they vouch.
+
 This module is generic (no linkage): the caller supplies the bases and the frame angles
 (:func:`ked_linear.reduction.link_frames` and :func:`ked_linear.reduction.greedy_basis` for a four-bar).
 """

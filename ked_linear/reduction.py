@@ -39,7 +39,10 @@ step levels plus twice the change to the next rung (at equal steps) plus :data:`
 vouches for half the Floquet tolerance, or the answer is within its error of :data:`FULL_NEAR_ONE` (a verdict
 near the stability boundary is decided on the full model), or anything cannot be built (undamped system;
 coefficients not interpolable: the tip model's stiffness spike, linkages near toggle), it returns None and the
-caller uses the full model.
+caller uses the full model.  Where the periodic steady state was solved on the co-rotating basis
+(:mod:`ked_linear.corotating`), its shooting maps already hold the first rung's multipliers at its step
+levels: :func:`shooting_floquet` takes them by the same rules, checked against that rung with its static
+corrections and against the next rung (propagated once), and the ladder runs only where they do not vouch.
 
 Measured (thesis source linkage, 2 % damping, against the full SDIRK2 model at 4096 and 8192 steps,
 tests/test_floquet_reduction.py): distributed (40 coordinates; r = 14 checked against 22, at 330-570 rpm
