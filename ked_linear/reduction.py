@@ -577,12 +577,14 @@ def shooting_floquet(red: Reductions, small: dict[int, np.ndarray], check: tuple
     The rules of :func:`reduced_floquet`: only levels from h omega <= 2 for the lowest frozen mode count; the
     last must resolve it and its step estimate be below ``tolerance`` / 8; the bases are compared at the
     richer one's steps, which must be a counted level with at least :data:`PROBE_AT` of the resolved steps,
-    against the richer basis and against the ladder's next rung (its reduced system propagated there once:
-    the static corrections alone do not show what the next frozen modes change; measured on a generated
-    atlas linkage, distributed, r = 0.2: 10 columns 4.3e-4 off the full model, 1.2e-4 from its corrected
-    basis, 4.2e-4 from the next rung), the larger change counting; the error (:func:`_estimate`) must be at
+    against the richer basis, and against the ladder's next rung at the ladder's probe level (its reduced
+    system propagated there once, compared with the shooting's map at those steps, or with the ladder's
+    first rung where the shooting has no such level: the static corrections alone do not show what the
+    next frozen modes change; measured on a generated atlas linkage, distributed, r = 0.2: 10 columns
+    4.3e-4 off the full model, 1.2e-4 from its corrected basis, 4.2e-4 from the next rung), the larger
+    change counting; the error (:func:`_estimate`) must be at
     most ``tolerance`` / 2 and the answer not near one (:data:`FULL_NEAR_ONE`).  None otherwise: the caller
-    runs :func:`reduced_floquet` (``runs``: filled with the next rung's multipliers, keyed (rung, steps) as
+    runs :func:`reduced_floquet` (``runs``: filled with the propagations made here, keyed (rung, steps) as
     it takes them)."""
     if not red.usable:
         return None
@@ -601,13 +603,19 @@ def shooting_floquet(red: Reductions, small: dict[int, np.ndarray], check: tuple
     basis_change = abs(other - at_check)
     if _estimate(step_est, basis_change) > 0.5 * tolerance:
         return None
-    rung = red.system(1)
-    if rung is None:
-        return None
+    # the next rung at the ladder's probe level (the first with PROBE_AT of the resolved steps), against this
+    # rung there: the shooting's own map if it has that level, else the ladder's (its propagations are the
+    # ones reduced_floquet takes first, kept in ``runs``)
+    first = next(n for n in usable if n >= PROBE_AT * resolved)
     runs = {} if runs is None else runs
-    if (1, check_steps) not in runs:
-        runs[(1, check_steps)] = radau_multipliers(rung, check_steps)
-    basis_change = max(basis_change, abs(float(np.abs(runs[(1, check_steps)][0])) - at_check))
+    for i in (1,) if first in small else (1, 0):
+        if (i, first) not in runs:
+            rung = red.system(i)
+            if rung is None:
+                return None
+            runs[(i, first)] = radau_multipliers(rung, first)
+    mine = float(np.abs((small[first] if first in small else runs[(0, first)])[0]))
+    basis_change = max(basis_change, abs(float(np.abs(runs[(1, first)][0])) - mine))
     est = _estimate(step_est, basis_change)
     if _near_one(tops[-1], est) or not est <= 0.5 * tolerance:
         return None
