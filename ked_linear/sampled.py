@@ -302,13 +302,9 @@ def _to_form(form: str, co: Coefficients) -> Coefficients:
 
 
 def _from_form(form: str, co: Coefficients) -> Coefficients:
-    """The coefficients from the quantities of ``form`` (inverse of :func:`_to_form`)."""
-    if form == "stiffness":
-        return co
-    K = inverse(co.stiffness)
-    K = 0.5 * (K + np.swapaxes(K, 1, 2))
-    return Coefficients(stiffness=K, damping=K @ co.damping @ K, load=_apply(K, co.load),
-                        output=None if co.output is None else co.output @ K)
+    """The coefficients from the quantities of ``form``: the same map (its own inverse: K = F^-1, K (F C F) K = C,
+    K (F f) = f, (output F) K = output)."""
+    return _to_form(form, co)
 
 
 def _symmetric(co: Coefficients) -> tuple[bool, ...]:
