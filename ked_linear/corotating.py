@@ -38,11 +38,6 @@ basis's at the last level, its error the step estimate plus the change between t
 None when that does not reach the tolerance or anything cannot be built (A2 singular, coefficients not
 interpolable): the caller then uses the Fourier collocation.
 
-**Floquet multipliers.**  The homogeneous part of each Phi is the one-cycle map of the reduced equation:
-its eigenvalues (:class:`ShootingMaps`) are the system's Floquet multipliers as the basis spans everything.
-:func:`ked_linear.reduction.shooting_floquet` judges them by the rules of the reduced Floquet ladder, so
-that solve_linear need not propagate that ladder again where they vouch.
-
 This module is generic (no linkage): the caller supplies the bases and the frame angles
 (:func:`ked_linear.reduction.link_frames` and :func:`ked_linear.reduction.greedy_basis` for a four-bar).
 """
@@ -101,25 +96,11 @@ richer reduced system and its 128 steps 9 + 12 ms against 11 + 19).  A threshold
 kept no column on the extender (a change of 0 says nothing): without a column the second basis is used."""
 
 @dataclass(frozen=True)
-class ShootingMaps:
-    """The Floquet multipliers the shooting computes anyway: those of the homogeneous part of the one-cycle
-    map Phi of each basis's reduced system (largest first; the full system's multipliers as its basis spans
-    everything): ``small`` maps each step count of the smaller basis to them, ``check`` is (steps,
-    multipliers) of the richer basis, ``sizes`` the two bases' sizes.  Judged by
-    :func:`ked_linear.reduction.shooting_floquet`."""
-
-    small: dict[int, np.ndarray]
-    check: tuple[int, np.ndarray]
-    sizes: tuple[int, int]
-
-
-@dataclass(frozen=True)
 class ReducedSteadyState:
     """Output of :func:`corotating_steady_state`: u (m, n) and output y (m, p) (or None) at the requested
     angles; ``error_estimate``: the step levels' estimate plus the change between the bases (fraction of
     the peak, per output group); ``steps``: Radau steps per cycle; ``sizes``: (smaller, richer) basis sizes;
-    ``step_error`` and ``basis_change``: the two parts of the estimate; ``maps``: the multipliers of the
-    shooting's one-cycle maps (:class:`ShootingMaps`)."""
+    ``step_error`` and ``basis_change``: the two parts of the estimate."""
 
     displacement: np.ndarray
     output: np.ndarray | None
@@ -128,7 +109,6 @@ class ReducedSteadyState:
     sizes: tuple[int, int]
     step_error: float
     basis_change: float
-    maps: ShootingMaps | None = None
 
 
 def _frames(angles: FrameAngles, V: np.ndarray, theta: np.ndarray, speed: float,
@@ -167,7 +147,6 @@ class _Reduced:
         self.system, self.angles, self.V, self.q_hat = system, angles, V, q_hat
         self.r = V.shape[1]
         self._at: tuple | None = None  # (the _AtAngles, fields, frames) of the last evaluate
-        self.multipliers: dict[int, np.ndarray] = {}  # steps: those of the homogeneous one-cycle map
         G = SAMPLES
         # co_grid, angles_grid: the coefficients and frame angles on the first grid, if known
         flat = self._flat(np.arange(G) * (2.0 * np.pi / G), co_grid, angles_grid)
@@ -217,8 +196,6 @@ class _Reduced:
         K, C, F = self.fields(stage)
         S = radau_affine_steps(K.reshape(3, steps, r, r), C.reshape(3, steps, r, r), F.reshape(3, steps, r), h)
         Phi = _product(S)
-        mu = np.linalg.eigvals(Phi[:2 * r, :2 * r])
-        self.multipliers[steps] = mu[np.argsort(-np.abs(mu))]
         x0 = np.linalg.solve(np.eye(2 * r) - Phi[:2 * r, :2 * r], Phi[:2 * r, 2 * r])
         X = np.empty((steps, 2 * r))
         X[0] = x0
@@ -347,8 +324,8 @@ def corotating_steady_state(system: PeriodicSystem, angles: FrameAngles, bases: 
                     break
         if not est < 0.5 * tolerance:
             return None
-        rich = _Reduced(system, angles, bases[1], q_hat, co_grid, angles_grid)
-        u_rich, y_rich = rich.evaluate(STEP_LEVELS[0], theta, co, at)
+        u_rich, y_rich = _Reduced(system, angles, bases[1], q_hat, co_grid, angles_grid).evaluate(
+            STEP_LEVELS[0], theta, co, at)
     except (ValueError, np.linalg.LinAlgError):
         return None
     change = relative_change(u_rich if y_rich is None else y_rich, outputs[0], groups)
@@ -357,10 +334,7 @@ def corotating_steady_state(system: PeriodicSystem, angles: FrameAngles, bases: 
         return None
     return ReducedSteadyState(displacement=u, output=y, error_estimate=float(total), steps=steps,
                               sizes=(bases[0].shape[1], bases[1].shape[1]), step_error=float(est),
-                              basis_change=float(change),
-                              maps=ShootingMaps(small=dict(small.multipliers),
-                                                check=(STEP_LEVELS[0], rich.multipliers[STEP_LEVELS[0]]),
-                                                sizes=(small.r, rich.r)))
+                              basis_change=float(change))
 
 
 def four_bar_steady_state(scene: object, system: PeriodicSystem, theta: np.ndarray, tolerance: float,
@@ -399,14 +373,12 @@ path 20 and 100 ms); its answer is then the one solve_linear gave before the co-
 class PeriodicAnswer:
     """The periodic steady state solve_linear reports: ``output`` (m, p) at the scene's angles, its
     ``error_estimate`` (fraction of the peak per output group), ``harmonics`` H and ``points`` N of the
-    collocation, or 0 and the Radau steps per cycle when the co-rotating basis answered; ``maps``: then the
-    multipliers of its shooting maps (:class:`ShootingMaps`, for the Floquet analysis), else None."""
+    collocation, or 0 and the Radau steps per cycle when the co-rotating basis answered."""
 
     output: np.ndarray
     error_estimate: float
     harmonics: int
     points: int
-    maps: ShootingMaps | None = None
 
 
 def periodic_steady_state(scene: object, system: PeriodicSystem, theta: np.ndarray, tolerance: float,
@@ -431,6 +403,5 @@ def periodic_steady_state(scene: object, system: PeriodicSystem, theta: np.ndarr
     co = four_bar_steady_state(scene, system, theta, tolerance, groups,
                                None if reductions is None else reductions())
     if co is not None:
-        return PeriodicAnswer(output=co.output, error_estimate=co.error_estimate, harmonics=0, points=co.steps,
-                              maps=co.maps)
+        return PeriodicAnswer(output=co.output, error_estimate=co.error_estimate, harmonics=0, points=co.steps)
     return first if max_harmonics <= FIRST_HARMONICS else collocation(max_harmonics)

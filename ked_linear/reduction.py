@@ -39,10 +39,7 @@ step levels plus twice the change to the next rung (at equal steps) plus :data:`
 vouches for half the Floquet tolerance, or the answer is within its error of :data:`FULL_NEAR_ONE` (a verdict
 near the stability boundary is decided on the full model), or anything cannot be built (undamped system;
 coefficients not interpolable: the tip model's stiffness spike, linkages near toggle), it returns None and the
-caller uses the full model.  Where the periodic steady state was solved on the co-rotating basis
-(:mod:`ked_linear.corotating`), its shooting maps already hold the first rung's multipliers at its step
-levels: :func:`shooting_floquet` takes them by the same rules, checked against that rung with its static
-corrections and against the next rung (propagated once), and the ladder runs only where they do not vouch.
+caller uses the full model.
 
 Measured (thesis source linkage, 2 % damping, against the full SDIRK2 model at 4096 and 8192 steps,
 tests/test_floquet_reduction.py): distributed (40 coordinates; r = 14 checked against 22, at 330-570 rpm
@@ -527,106 +524,23 @@ def _levels(propagate: Callable[[int], np.ndarray], levels: tuple[int, ...], res
     multipliers).  ``probe(steps, max |mu|)`` is called after each level (it may raise
     :class:`_BasisFails`)."""
     tops: list[float] = []
+    changes: list[float] = []
     for steps in levels:
         mu = propagate(steps)
         tops.append(float(np.abs(mu[0])))
         if probe is not None:
             probe(steps, tops[-1])
-        est = _step_estimate(tops, steps, resolved)
-        if est is not None and est < 0.125 * tolerance:
-            return tops, steps, est, mu
+        if len(tops) >= 2:
+            changes.append(abs(tops[-1] - tops[-2]))
+        if changes and steps >= resolved:
+            est = error_estimate(changes) if len(changes) >= 2 else changes[0] / FIRST_CHANGE_RATIO
+            if est < 0.125 * tolerance:
+                return tops, steps, est, mu
     return None
 
 
-def _step_estimate(tops: list[float], steps: int, resolved: float) -> float | None:
-    """The step error estimate of the last of the levels' max |mu| ``tops`` (the last at ``steps``), or None
-    before two levels or before the last resolves the lowest mode (``resolved`` steps): two levels
-    :data:`FIRST_CHANGE_RATIO`, more :func:`ked_linear.periodic.error_estimate` of their changes."""
-    if len(tops) < 2 or steps < resolved:
-        return None
-    changes = list(np.abs(np.diff(tops)))
-    return error_estimate(changes) if len(changes) >= 2 else changes[0] / FIRST_CHANGE_RATIO
-
-
-def _estimate(step_error: float, basis_change: float) -> float:
-    """The error of a reduced max |mu|: its step estimate + :data:`BASIS_FACTOR` times the change to the
-    richer basis + :data:`BASIS_SHARED`, at least :data:`ESTIMATE_FLOOR`."""
-    return max(step_error + BASIS_FACTOR * basis_change + BASIS_SHARED, ESTIMATE_FLOOR)
-
-
-def _near_one(top: float, est: float) -> bool:
-    """A reduced max |mu| the full model must decide: not finite, or within ``est`` of :data:`FULL_NEAR_ONE`."""
-    return not np.isfinite(top) or top + est >= FULL_NEAR_ONE
-
-
-def _levels_from(red: Reductions, period: float) -> tuple[float, tuple[int, ...]]:
-    """(steps resolving the lowest frozen mode, h omega <= :data:`RESOLVED_H_OMEGA`; the usable step counts
-    of :data:`RADAU_LEVELS`, from twice that step)."""
-    resolved = red.omega_kept * period / RESOLVED_H_OMEGA
-    return resolved, tuple(n for n in RADAU_LEVELS if n >= 0.5 * resolved)
-
-
-def shooting_floquet(red: Reductions, small: dict[int, np.ndarray], check: tuple[int, np.ndarray],
-                     sizes: tuple[int, int], tolerance: float,
-                     runs: dict[tuple[int, int], np.ndarray] | None = None) -> Reduction | None:
-    """The reduced Floquet result from the one-cycle maps of the periodic steady state's shooting
-    (:func:`ked_linear.corotating.corotating_steady_state`): ``small`` maps its step counts to the
-    multipliers of its smaller basis (largest first; the ladder's first rung), ``check`` is (steps,
-    multipliers) of its richer basis (that rung with its static corrections), ``sizes`` the two bases' sizes.
-
-    The rules of :func:`reduced_floquet`: only levels from h omega <= 2 for the lowest frozen mode count; the
-    last must resolve it and its step estimate be below ``tolerance`` / 8; the bases are compared at the
-    richer one's steps, which must be a counted level with at least :data:`PROBE_AT` of the resolved steps,
-    against the richer basis, and against the ladder's next rung at the ladder's probe level (its reduced
-    system propagated there once, compared with the shooting's map at those steps, or with the ladder's
-    first rung where the shooting has no such level: the static corrections alone do not show what the
-    next frozen modes change; measured on a generated atlas linkage, distributed, r = 0.2: 10 columns
-    4.3e-4 off the full model, 1.2e-4 from its corrected basis, 4.2e-4 from the next rung), the larger
-    change counting; the error (:func:`_estimate`) must be at
-    most ``tolerance`` / 2 and the answer not near one (:data:`FULL_NEAR_ONE`).  None otherwise: the caller
-    runs :func:`reduced_floquet` (``runs``: filled with the propagations made here, keyed (rung, steps) as
-    it takes them)."""
-    if not red.usable:
-        return None
-    resolved, usable = _levels_from(red, red.full.period)
-    counted = sorted(n for n in small if n in usable)
-    check_steps, check_mu = check
-    if len(counted) < 2 or check_steps not in counted or check_steps < PROBE_AT * resolved:
-        return None
-    tops = [float(np.abs(small[n][0])) for n in counted]
-    steps = counted[-1]
-    step_est = _step_estimate(tops, steps, resolved)
-    if step_est is None or not step_est < 0.125 * tolerance:
-        return None
-    at_check = tops[counted.index(check_steps)]
-    other = float(np.abs(check_mu[0]))
-    basis_change = abs(other - at_check)
-    if _estimate(step_est, basis_change) > 0.5 * tolerance:
-        return None
-    # the next rung at the ladder's probe level (the first with PROBE_AT of the resolved steps), against this
-    # rung there: the shooting's own map if it has that level, else the ladder's (its propagations are the
-    # ones reduced_floquet takes first, kept in ``runs``)
-    first = next(n for n in usable if n >= PROBE_AT * resolved)
-    runs = {} if runs is None else runs
-    for i in (1,) if first in small else (1, 0):
-        if (i, first) not in runs:
-            rung = red.system(i)
-            if rung is None:
-                return None
-            runs[(i, first)] = radau_multipliers(rung, first)
-    mine = float(np.abs((small[first] if first in small else runs[(0, first)])[0]))
-    basis_change = max(basis_change, abs(float(np.abs(runs[(1, first)][0])) - mine))
-    est = _estimate(step_est, basis_change)
-    if _near_one(tops[-1], est) or not est <= 0.5 * tolerance:
-        return None
-    result = FloquetResult(max_abs=tops[-1], error_estimate=est, steps=steps, multipliers=small[steps])
-    return Reduction(result=result, sizes=sizes, richer_max_abs=other, basis_change=basis_change,
-                     step_error=step_est)
-
-
 def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float,
-                    reductions: Reductions | None = None,
-                    runs: dict[tuple[int, int], np.ndarray] | None = None) -> Reduction | None:
+                    reductions: Reductions | None = None) -> Reduction | None:
     """max |mu| of ``system`` from its reductions (module docstring), or None when they cannot vouch for
     ``tolerance`` / 2 (or the answer is near instability, or the system is undamped): use the full model.
 
@@ -641,16 +555,16 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
     tried against the one after it; the richer rung is propagated as soon as the smaller one reaches that
     level, and when the basis error alone exceeds ``tolerance`` / 2 the smaller rung stops there and the
     next is tried (its further levels could only add to its estimate).  ``reductions``: the
-    :class:`Reductions` of ``system`` on ``frames`` if already built (the periodic steady state shares it);
-    ``runs``: multipliers already propagated, keyed (rung, steps) (:func:`shooting_floquet` leaves one)."""
+    :class:`Reductions` of ``system`` on ``frames`` if already built (the periodic steady state shares it)."""
     red = Reductions(system, frames) if reductions is None else reductions
     if not red.usable:
         return None
-    resolved, levels = _levels_from(red, system.period)  # steps resolving the lowest mode; from twice that step
+    resolved = red.omega_kept * system.period / RESOLVED_H_OMEGA  # steps resolving the lowest mode
+    levels = tuple(n for n in RADAU_LEVELS if n >= 0.5 * resolved)  # from twice that step
     if not levels:
         return None
-    runs = {} if runs is None else runs  # (rung, steps): multipliers (a failed rung's probe is the next rung's
-    # first level)
+    runs: dict[tuple[int, int], np.ndarray] = {}  # (rung, steps): multipliers (a failed rung's probe is the
+    # next rung's first level)
 
     def propagate(i: int, steps: int) -> np.ndarray:
         if (i, steps) not in runs:
@@ -683,8 +597,8 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
         check = min(next(n for n in levels if n >= PROBE_AT * resolved), steps)
         other = seen[check] if check in seen else float(np.abs(propagate(i + 1, check)[0]))
         basis_change = abs(other - tops[levels.index(check)])
-        est = _estimate(step_est, basis_change)
-        if _near_one(tops[-1], est):
+        est = max(step_est + BASIS_FACTOR * basis_change + BASIS_SHARED, ESTIMATE_FLOOR)
+        if not np.isfinite(tops[-1]) or tops[-1] + est >= FULL_NEAR_ONE:
             return None
         if est <= 0.5 * tolerance:
             result = FloquetResult(max_abs=tops[-1], error_estimate=est, steps=steps, multipliers=mu)

@@ -15,11 +15,11 @@ import numpy as np
 from ked_quasi.scene import Scene
 from ked_quasi.solver import natural_frequencies
 
-from .corotating import ShootingMaps, periodic_steady_state
+from .corotating import periodic_steady_state
 from .floquet import FloquetResult, floquet
 from .linkage import frequencies_of, linkage_system
 from .periodic import PeriodicSystem
-from .reduction import Reductions, link_frames, reduced_floquet, shooting_floquet
+from .reduction import Reductions, link_frames, reduced_floquet
 from .result import (  # noqa: F401  (the answer's type and flags, re-exported where they were defined)
     MARGINAL,
     MAX_COORDINATES,
@@ -159,37 +159,26 @@ use the full propagator (:func:`ked_linear.floquet.floquet`)."""
 
 
 def reduced_stability(scene: Scene, system: PeriodicSystem, settings: LinearSettings,
-                      reductions: Callable[[], Reductions] | None = None,
-                      maps: ShootingMaps | None = None) -> FloquetResult | None:
+                      reductions: Callable[[], Reductions] | None = None) -> FloquetResult | None:
     """The Floquet result of the reduced system in co-rotating link frames (:mod:`ked_linear.reduction`;
     ``steps``: its Radau IIA steps per cycle), or None where the full system must decide: a fixed
     ``floquet_steps``, no damping, fewer than :data:`REDUCE_FROM` coordinates, a slider-crank, or a
     reduction that does not vouch for half of ``floquet_tolerance`` (its estimate covering the step levels
-    and the basis).  ``reductions``: gives the system's :class:`ked_linear.reduction.Reductions` if shared.
-    ``maps``: the multipliers of the periodic steady state's shooting maps on the co-rotating basis, if it
-    answered: their result where they vouch (:func:`ked_linear.reduction.shooting_floquet`, the same rules),
-    else the reduced Floquet ladder (:func:`ked_linear.reduction.reduced_floquet`)."""
+    and the basis).  ``reductions``: gives the system's :class:`ked_linear.reduction.Reductions` if shared."""
     if settings.floquet_steps is not None or settings.damping_ratio <= 0.0 or system.mass.size < REDUCE_FROM \
             or _is_slider(scene):
         return None
     built = None if reductions is None else reductions()
-    runs: dict[tuple[int, int], np.ndarray] = {}  # the ladder's propagations, shared by both
-    if maps is not None:
-        built = Reductions(system, link_frames(scene)) if built is None else built
-        shot = shooting_floquet(built, maps.small, maps.check, maps.sizes, settings.floquet_tolerance, runs)
-        if shot is not None:
-            return shot.result
     red = reduced_floquet(system, link_frames(scene) if built is None else built.frames,
-                          settings.floquet_tolerance, built, runs)
+                          settings.floquet_tolerance, built)
     return None if red is None else red.result
 
 
 def stability(scene: Scene, system: PeriodicSystem, settings: LinearSettings,
-              reductions: Callable[[], Reductions] | None = None,
-              maps: ShootingMaps | None = None) -> FloquetResult:
+              reductions: Callable[[], Reductions] | None = None) -> FloquetResult:
     """The Floquet result of the linear model of ``scene``: :func:`reduced_stability` where it answers, else
     the full system's (:func:`ked_linear.floquet.floquet`)."""
-    red = reduced_stability(scene, system, settings, reductions, maps)
+    red = reduced_stability(scene, system, settings, reductions)
     return red if red is not None else floquet(system, settings.floquet_tolerance, settings.floquet_steps)
 
 
@@ -220,7 +209,7 @@ def _solve_linear(scene: Scene, settings: LinearSettings | None) -> LinearResult
                                reduce=settings.damping_ratio > 0.0 and ls.system.mass.size >= REDUCE_FROM,
                                reductions=reductions)
     fl = _recall(("floquet", *system_key, settings.floquet_tolerance, settings.floquet_steps),
-                 lambda: stability(scene, ls.system, settings, reductions, ss.maps))
+                 lambda: stability(scene, ls.system, settings, reductions))
     # the uncertainty counts against stability: a multiplier within its error of 1 is no attracting orbit
     err = fl.error_estimate if np.isfinite(fl.error_estimate) else 0.0
     stable = bool(fl.max_abs + err < 1.0)

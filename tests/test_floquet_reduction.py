@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from ked_linear.corotating import four_bar_steady_state
 from ked_linear.floquet import floquet, multipliers
 from ked_linear.linkage import linkage_system
 from ked_linear.periodic import Coefficients, PeriodicSystem
@@ -23,11 +22,10 @@ from ked_linear.reduction import (
     radau_multipliers,
     radau_tableau,
     reduced_floquet,
-    shooting_floquet,
     static_corrections,
 )
 from ked_linear.settings import LinearSettings
-from ked_linear.solver import OUTPUT_GROUPS, reduced_stability, single_threaded_blas, solve_linear, stability
+from ked_linear.solver import single_threaded_blas, stability
 from ked_quasi.presets import make_scene
 from ked_quasi.solver import natural_frequencies
 
@@ -260,154 +258,3 @@ def test_greedy_basis_gives_up_when_a_spanned_angle_stays_off():
     instead of retrying the same angle for ever."""
     Ks = np.broadcast_to(np.diag([0.0, 1.0, 2.0]), (4, 3, 3)).copy()
     assert greedy_basis(Ks, modes=1, ritz_tolerance=1e-6, max_size=3) is None
-
-
-# ---- the Floquet result from the periodic steady state's shooting maps (shooting_floquet) ----
-
-# the full SDIRK2 model (as FULL_SDIRK2) at 4096 and 8192 steps: thesis cognate, distributed, default settings
-FULL_SDIRK2_COGNATE = {
-    ("distributed", 200): (0.07148740934046537, 0.07148053087537057),
-    ("distributed", 300): (0.13283098967766951, 0.13282255378537422),
-}
-
-# the same on generated atlas linkages (compare.atlas.generate.generate(5), seed 0; linkage index, source
-# mechanism, distributed mass model, 2 % damping, speed ratio r = Omega / omega1_min; regenerate with
-# _atlas_system and ked_linear.floquet.multipliers).  Linkages 1 and 4 at r = 0.2: the smaller basis is
-# 4.3e-4 / 7e-5 off, and its richer (statically corrected) basis is only 1.2e-4 / 2.7e-5 from it; the
-# ladder's next rung shows the truncation.
-FULL_SDIRK2_ATLAS = {
-    (1, 0.2): (0.5002994801042704, 0.5003005326878596),
-    (4, 0.2): (0.5320094307732571, 0.5320078896547729),
-    (5, 0.5): (0.7245167558600117, 0.7245161962898429),
-}
-
-
-def _atlas_system(index: int, ratio: float, mechanism: str = "source", mass_model: str = "distributed"):
-    from compare.atlas.compute import spec_of
-    from compare.atlas.generate import generate
-
-    linkage = next(lk for lk in generate(index + 1).linkages if lk.index == index)
-    mm = next(m for m in linkage.mass_models if m.name == mass_model)
-    base = spec_of(linkage, mechanism, mm, ratio).scene(1.0)
-    scene = replace(base, rpm=ratio * float(np.min(natural_frequencies(base, n_modes=1)[:, 0])) * 60.0)
-    settings = LinearSettings(damping_ratio=0.02)
-    f_ref = float(np.mean(natural_frequencies(scene, n_modes=1)[:, 0]))
-    return scene, linkage_system(scene, replace(settings, damping_reference_hz=f_ref)).system, settings
-
-
-def _shot(scene, system, settings):
-    """The periodic steady state on the co-rotating basis, the Reductions and the shooting's Floquet result."""
-    built = Reductions(system, link_frames(scene))
-    ss = four_bar_steady_state(scene, system, scene.crank_angles, settings.tolerance, OUTPUT_GROUPS, built)
-    assert ss is not None and ss.maps is not None
-    m = ss.maps
-    return ss, built, shooting_floquet(built, m.small, m.check, m.sizes, settings.floquet_tolerance)
-
-
-def _honest(result, reference, tolerance):
-    coarse, fine = reference
-    err = abs(result.max_abs - fine)
-    assert result.error_estimate <= 0.5 * tolerance
-    assert err < tolerance
-    # the estimate covers the difference to the full model, up to the reference's own last change
-    assert err <= result.error_estimate + abs(fine - coarse)
-
-
-@pytest.mark.parametrize("key", [("distributed", 100), ("distributed", 200), ("extender", 200),
-                                 ("extender", 300), ("extender", 450)])
-def test_shooting_floquet_against_the_full_model(key):
-    with single_threaded_blas():
-        scene, system, settings = _system(*key)
-        ss, built, shot = _shot(scene, system, settings)
-        assert shot is not None  # measured: it vouches at these speeds (est 4e-5 to 1.6e-4)
-        _honest(shot.result, FULL_SDIRK2[key], settings.floquet_tolerance)
-        assert shot.result.steps == ss.steps and shot.sizes == ss.sizes
-        # the solver's rule takes it when given the maps, and today's ladder without them
-        got = reduced_stability(scene, system, settings, lambda: built, ss.maps)
-        assert (got.max_abs, got.error_estimate, got.steps) == (shot.result.max_abs, shot.result.error_estimate,
-                                                                shot.result.steps)
-        ladder = reduced_floquet(system, built.frames, settings.floquet_tolerance, built)
-        assert reduced_stability(scene, system, settings, lambda: built).max_abs == ladder.result.max_abs
-
-
-@pytest.mark.parametrize("rpm", [200, 300])
-def test_shooting_floquet_cognate_against_the_full_model(rpm):
-    with single_threaded_blas():
-        scene, system, settings = _system("distributed", rpm, "cognate")
-        _, _, shot = _shot(scene, system, settings)
-    assert shot is not None
-    _honest(shot.result, FULL_SDIRK2_COGNATE[("distributed", rpm)], settings.floquet_tolerance)
-
-
-@pytest.mark.parametrize("index,ratio", sorted(FULL_SDIRK2_ATLAS))
-def test_shooting_floquet_on_atlas_linkages_is_honest(index, ratio):
-    with single_threaded_blas():
-        scene, system, settings = _atlas_system(index, ratio)
-        _, _, shot = _shot(scene, system, settings)
-        # where the shooting declines, the solver's answer (the ladder's, or the full model's) must be honest
-        got = shot.result if shot is not None else stability(scene, system, settings)
-    if shot is not None:
-        _honest(shot.result, FULL_SDIRK2_ATLAS[(index, ratio)], settings.floquet_tolerance)
-    coarse, fine = FULL_SDIRK2_ATLAS[(index, ratio)]
-    assert abs(got.max_abs - fine) <= got.error_estimate + abs(fine - coarse)
-
-
-def test_shooting_floquet_declines_where_the_steps_do_not_vouch():
-    # thesis cognate, distributed, 100 rpm: the shooting's 128 -> 256 step change is 1.6e-3, its estimate /8
-    # above tolerance / 8: the ladder decides (its own levels reach 512 steps)
-    with single_threaded_blas():
-        scene, system, settings = _system("distributed", 100, "cognate")
-        ss, built, shot = _shot(scene, system, settings)
-        assert shot is None
-        got = reduced_stability(scene, system, settings, lambda: built, ss.maps)
-        ladder = reduced_floquet(system, built.frames, settings.floquet_tolerance, built)
-    assert got is not None and got.max_abs == ladder.result.max_abs and got.steps == ladder.result.steps
-
-
-def test_solver_takes_the_shooting_result_and_recalls_it():
-    from ked_linear import solver
-
-    scene = make_scene(mechanism_name="source", mass_model="distributed", rpm=200.0)
-    solver._RECALL.clear()
-    first = solve_linear(scene)
-    assert first.harmonics == 0  # the co-rotating steady state answered
-    with single_threaded_blas():
-        _, system, settings = _system("distributed", 200)
-        _, _, shot = _shot(scene, system, settings)
-    assert first.floquet_max_abs == shot.result.max_abs and first.floquet_steps == shot.result.steps
-    # solved again with more harmonics (ked check): the collocation answers, the Floquet result is recalled
-    again = solve_linear(scene, LinearSettings(harmonics=48))
-    assert again.harmonics == 48 and again.floquet_max_abs == first.floquet_max_abs
-    # a Floquet-only evaluation (compare/critical.py) keeps the ladder: stability without the maps
-    assert stability(scene, system, settings).max_abs == reduced_floquet(
-        system, link_frames(scene), settings.floquet_tolerance).result.max_abs
-
-
-@pytest.mark.slow
-def test_shooting_floquet_sweep_against_the_full_model():
-    # thesis extender and distributed, source and cognate, 30-600 rpm, and generated atlas linkages (the first
-    # five, extender and distributed, r = 0.05, 0.2, 0.5): wherever the shooting vouches, the full SDIRK2 model
-    # at 4096 and 8192 steps (computed here) is within its estimate (up to the reference's last change)
-    cases = [(mm, mech, rpm) for mm in ("extender", "distributed") for mech in ("source", "cognate")
-             for rpm in (30, 100, 150, 200, 250, 300, 350, 400, 450, 500, 550, 600)]
-    cases += [("atlas", (lk, mm, mech), r) for lk in (1, 3, 4, 5) for mm in ("extender", "distributed")
-              for mech in ("source", "cognate") for r in (0.05, 0.2, 0.5)]
-    vouched = 0
-    with single_threaded_blas():
-        for a, b, c in cases:
-            if a == "atlas":
-                scene, system, settings = _atlas_system(b[0], c, b[2], b[1])
-            else:
-                scene, system, settings = _system(a, c, b)
-            built = Reductions(system, link_frames(scene))
-            ss = four_bar_steady_state(scene, system, scene.crank_angles, settings.tolerance, OUTPUT_GROUPS, built)
-            if ss is None or ss.maps is None:
-                continue
-            m = ss.maps
-            shot = shooting_floquet(built, m.small, m.check, m.sizes, settings.floquet_tolerance)
-            if shot is None:
-                continue
-            vouched += 1
-            ref = tuple(float(np.abs(multipliers(system, n)[0])) for n in (4096, 8192))
-            _honest(shot.result, ref, settings.floquet_tolerance)
-    assert vouched >= 20
