@@ -383,8 +383,10 @@ def _check_one(source: FourBar, mechanism: str, mass_model: MassModel, rpm: floa
         r = _run(replace(spec, solvers=(*spec.solvers, "dynamic")))
     row = check_row(r, rng, tolerance, margins)
     if spec.extra_settings:
-        row = replace(row, verdict=f"{row.verdict} [linear model solved with {row.linear_harmonics} crank "
-                                   "harmonics: the default at most 32 did not converge]")
+        how = (f"with {row.linear_harmonics} crank harmonics" if row.linear_harmonics > 0
+               else "on the co-rotating reduced basis")
+        row = replace(row, verdict=f"{row.verdict} [linear model solved {how}: the default at most 32 "
+                                   "harmonics did not converge]")
     return row
 
 

@@ -85,7 +85,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     linear_vs_quasi_static, quasi_static_error_estimate, floquet_max_abs, tier
     ("quasi-static", "borderline", "linear" or "nonlinear"), verdict, rpm, flags,
     confirmed (quasi_static_vs_dynamic, linear_vs_dynamic: measured errors), key,
-    linear_harmonics (crank harmonics the linear solve used),
+    linear_harmonics (crank harmonics the linear solve used; 0: the co-rotating reduced basis),
     linear_limit_speed_ratio (the linear model's limit used: atlas lower band),
     holds_below_error, fails_above_error (predicted-error bounds of the borderline
     band), margins_source (where those margins come from), decided_by

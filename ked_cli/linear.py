@@ -29,7 +29,9 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
     steady state solved directly, Floquet stability (docs/linear_model.md).
 
     JSON keys: crank_angle_deg, dx_m, dy_m, rotation_rad (elastic deflection of P, as ked quasi; null
-    without a stable steady state), floquet_max_abs, stable, wall_s, harmonics, error_estimate,
+    without a stable steady state), floquet_max_abs, stable, wall_s, harmonics (crank harmonics of the
+    collocation; 0 when the steady state on the co-rotating reduced basis answered), radau_steps (that
+    basis's steps per cycle; 0 otherwise), error_estimate,
     speed_ratio, damping_reference_hz, flags, valid, message, status ("ok", "marginal": undamped, every
     multiplier on the unit circle, or "unstable"), floquet_error.  Flag "weakly_damped": max |Floquet
     multiplier| >= 0.9, the periodic answer is not valid there.  Exit status 1 when there is no
@@ -66,7 +68,8 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
         "dx_m": d[:, 0].tolist() if res.stable else None, "dy_m": d[:, 1].tolist() if res.stable else None,
         "rotation_rad": d[:, 2].tolist() if res.stable else None,
         "floquet_max_abs": res.floquet_max_abs, "stable": res.stable, "wall_s": res.wall_s,
-        "harmonics": res.harmonics, "error_estimate": res.error_estimate, "speed_ratio": res.speed_ratio,
+        "harmonics": res.harmonics, "radau_steps": res.radau_steps,
+        "error_estimate": res.error_estimate, "speed_ratio": res.speed_ratio,
         "damping_reference_hz": res.damping_reference_hz, "flags": list(flags), "valid": res.stable and not flags,
         "message": res.message, "status": res.status, "floquet_error": res.floquet_error,
     }

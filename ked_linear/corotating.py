@@ -373,12 +373,14 @@ path 20 and 100 ms); its answer is then the one solve_linear gave before the co-
 class PeriodicAnswer:
     """The periodic steady state solve_linear reports: ``output`` (m, p) at the scene's angles, its
     ``error_estimate`` (fraction of the peak per output group), ``harmonics`` H and ``points`` N of the
-    collocation, or 0 and the Radau steps per cycle when the co-rotating basis answered."""
+    collocation (both 0 when the co-rotating basis answered), ``radau_steps`` the co-rotating basis's Radau
+    IIA steps per cycle (0 when the collocation answered)."""
 
     output: np.ndarray
     error_estimate: float
     harmonics: int
     points: int
+    radau_steps: int = 0
 
 
 def periodic_steady_state(scene: object, system: PeriodicSystem, theta: np.ndarray, tolerance: float,
@@ -403,5 +405,6 @@ def periodic_steady_state(scene: object, system: PeriodicSystem, theta: np.ndarr
     co = four_bar_steady_state(scene, system, theta, tolerance, groups,
                                None if reductions is None else reductions())
     if co is not None:
-        return PeriodicAnswer(output=co.output, error_estimate=co.error_estimate, harmonics=0, points=co.steps)
+        return PeriodicAnswer(output=co.output, error_estimate=co.error_estimate, harmonics=0, points=0,
+                              radau_steps=co.steps)
     return first if max_harmonics <= FIRST_HARMONICS else collocation(max_harmonics)

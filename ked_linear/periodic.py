@@ -224,10 +224,11 @@ def _first_guess(start: PeriodicSolution | None, shape: tuple[int, int]) -> np.n
 
 
 DENSE_LIMIT = 640
+"""Correction systems with more unknowns ((2H + 1) n) are solved by preconditioned GMRES, matrix-free."""
+
 SHARED_GRID = True
 """The automatic levels of :func:`steady_state` share the collocation points of the largest when it is
 solved dense (see there); False: each level on its own :func:`collocation_points`."""
-"""Correction systems with more unknowns ((2H + 1) n) are solved by preconditioned GMRES, matrix-free."""
 
 
 def _solve_dense(s, E, E1, E2, weight, X, Y, c0) -> np.ndarray:

@@ -86,7 +86,7 @@ TRAINING_ANGLES = 64
 """Uniform grid of crank angles on which the basis is built and checked."""
 
 RADAU_LEVELS = (64, 128, 256, 512, 1024, 2048)
-"""Step counts per cycle of the reduced propagator, tried in turn from the first with h omega <= 4 for the
+"""Step counts per cycle of the reduced propagator, tried in turn from the first with h omega <= 2 for the
 lowest mode (:func:`reduced_floquet`)."""
 
 

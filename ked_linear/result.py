@@ -28,8 +28,9 @@ class LinearResult:
         reduced system's Radau IIA propagator when the reduced Floquet analysis answered: damped extender
         and distributed models, ``ked_linear.reduction``; else of the full model's SDIRK2 or
         Gauss-Legendre propagator).
-    harmonics: crank harmonics H with a dynamic response; collocation_points: N (when the steady state on
-        the co-rotating reduced basis answered, ``ked_linear.corotating``: harmonics 0 and its Radau steps);
+    harmonics: crank harmonics H with a dynamic response; collocation_points: N (both 0 when the steady
+        state on the co-rotating reduced basis answered, ``ked_linear.corotating``); radau_steps: that
+        basis's Radau IIA steps per cycle (0 when the collocation answered);
         error_estimate: estimated relative error of the history (change from the level below, fraction of the peak).
     damping_reference_hz [Hz], damping_beta [s]: the stiffness-proportional damping used.
     speed_ratio: Omega / omega1_min, omega1_min = 2 pi min over the grid of the first unstressed frozen
@@ -56,6 +57,7 @@ class LinearResult:
     frozen_f1_hz: np.ndarray
     settings: LinearSettings
     wall_s: float
+    radau_steps: int = 0
 
 
 MAX_COORDINATES = 240
@@ -123,8 +125,9 @@ def describe_flags(found: tuple[str, ...], res: LinearResult, fourbar: object) -
     parts = [limits.describe(tuple(f for f in found if f not in RESULT_FLAGS), res.deflection, fourbar)]
     if "unresolved" in found:
         way_out = "raise max_harmonics" if res.settings.max_harmonics < HARMONICS.hi else "use the Exudyn model"
-        parts.append(f"periodic solve not converged: estimated error {res.error_estimate:.2g} of the peak at "
-                     f"{res.harmonics} harmonics (not <= {UNRESOLVED_ESTIMATE:g}); {way_out}")
+        where = f"{res.harmonics} harmonics" if res.harmonics > 0 else "the co-rotating reduced basis"
+        parts.append(f"periodic solve not converged: estimated error {res.error_estimate:.2g} of the peak on "
+                     f"{where} (not <= {UNRESOLVED_ESTIMATE:g}); {way_out}")
     if "weakly_damped" in found:
         n = cycles_to_settle(res.floquet_max_abs)
         mu = res.floquet_max_abs

@@ -32,6 +32,8 @@ def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Sol
     |Floquet multiplier| >= 1: "unstable", or undamped with every multiplier on the unit circle:
     "marginal") a failed solution of class "physical" (error type "Unstable" or "Marginal") with the
     multiplier as evidence; a weakly damped stable one carries the flag "weakly_damped".  The statistic
+    ``radau_steps`` is ``LinearResult.radau_steps`` (steps of the co-rotating steady state; 0 when the
+    collocation answered, whose ``harmonics`` and ``collocation_points`` are then the statistics).
     ``floquet_steps`` is ``LinearResult.floquet_steps``: Radau IIA steps of the reduced system where the
     reduced Floquet analysis answered (damped extender and distributed models), else the full model's
     propagator steps (docs/linear_model.md)."""
@@ -41,6 +43,7 @@ def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Sol
     stats = {"wall_s": float(res.wall_s), "floquet_max_abs": float(res.floquet_max_abs),
              "floquet_error": float(res.floquet_error), "floquet_steps": int(res.floquet_steps),
              "harmonics": int(res.harmonics), "collocation_points": int(res.collocation_points),
+             "radau_steps": int(res.radau_steps),
              "error_estimate": float(res.error_estimate), "damping_reference_hz": float(res.damping_reference_hz),
              "speed_ratio": float(res.speed_ratio)}
     if not res.stable:
