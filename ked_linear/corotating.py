@@ -71,7 +71,7 @@ from .reduction import (
     link_frames,
     rotate_columns,
 )
-from .sampled import TrigInterpolant
+from .sampled import TrigInterpolant, midpoint_error
 
 FrameAngles = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
 """theta (m,) [rad] -> (phi [rad], phi_dot [rad/s], phi_ddot [rad/s^2]), each (m, n/2): the frame angle of
@@ -160,7 +160,7 @@ class _Reduced:
         G = SAMPLES
         # co_grid, angles_grid: the coefficients and frame angles on the first grid, if known
         flat = self._flat(np.arange(G) * (2.0 * np.pi / G), co_grid, angles_grid)
-        while _interpolation_error(flat, self._layout()) > INTERPOLATION_TOLERANCE:
+        while midpoint_error(flat, self._layout()) > INTERPOLATION_TOLERANCE:
             if 2 * G > MAX_SAMPLES:
                 raise ValueError("reduced coefficients not interpolable")
             mid = self._flat((np.arange(G) + 0.5) * (2.0 * np.pi / G))
@@ -260,18 +260,6 @@ def uniform_grids(interpolant: TrigInterpolant, theta0: np.ndarray, sign: float,
         hermitian = 0.5 * (b[..., :m // 2 + 1] + np.conj(b[..., (-np.arange(m // 2 + 1)) % m]))
     out = np.fft.irfft(hermitian, n=m, axis=2) * m  # (g, F, m)
     return np.swapaxes(out, 1, 2).reshape(-1, out.shape[1])
-
-
-def _interpolation_error(flat: np.ndarray, fields: tuple[slice, ...]) -> float:
-    """Largest error, relative to each field's peak, of the interpolant of the even samples at the odd ones."""
-    G = flat.shape[0]
-    half = TrigInterpolant(flat[0::2]).uniform(2.0 * np.pi / G, 1.0, G // 2)
-    err = 0.0
-    for f in fields:
-        peak = np.max(np.abs(flat[:, f]))
-        if peak > 0.0:
-            err = max(err, float(np.max(np.abs(half[:, f] - flat[1::2, f])) / peak))
-    return err if np.isfinite(err) else float("inf")
 
 
 def radau_affine_steps(K: np.ndarray, C: np.ndarray, F: np.ndarray, h: float) -> np.ndarray:

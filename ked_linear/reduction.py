@@ -57,7 +57,7 @@ import numpy as np
 
 from .floquet import FloquetResult, _product
 from .periodic import Coefficients, PeriodicSystem, error_estimate
-from .sampled import TrigInterpolant, interleave
+from .sampled import TrigInterpolant, interleave, midpoint_error
 
 FULL_NEAR_ONE = 0.9
 """A reduced max |mu| + error at or above this goes to the full model (the weakly damped threshold of the
@@ -301,14 +301,8 @@ SPECTRUM_CUT = 1e-13
 def interpolation_error(K: np.ndarray, C: np.ndarray) -> float:
     """Largest error, relative to each field's peak, of the interpolant of the even samples at the odd ones:
     an upper bound of the error of the interpolant of all samples (the series converging geometrically)."""
-    err = 0.0
-    for F in (K, C):
-        flat = F.reshape(F.shape[0], -1)
-        half = TrigInterpolant(flat[0::2]).uniform(np.pi * 2.0 / F.shape[0], 1.0, F.shape[0] // 2)
-        peak = np.max(np.abs(flat))
-        if peak > 0.0:
-            err = max(err, float(np.max(np.abs(half - flat[1::2])) / peak))
-    return err if np.isfinite(err) else float("inf")
+    k, c = K.reshape(K.shape[0], -1), C.reshape(C.shape[0], -1)
+    return midpoint_error(np.concatenate([k, c], axis=1), (slice(0, k.shape[1]), slice(k.shape[1], None)))
 
 
 # --------------------------------------------------------------------------------------------------

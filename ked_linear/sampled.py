@@ -64,6 +64,20 @@ class TrigInterpolant:
         return out
 
 
+def midpoint_error(flat: np.ndarray, fields: tuple[slice, ...]) -> float:
+    """Largest error, relative to each field's peak (``fields``: column slices of ``flat`` (G, F)), of the
+    trigonometric interpolant of the even samples at the odd ones: an upper bound of the error of the
+    interpolant of all samples (the series converging geometrically)."""
+    G = flat.shape[0]
+    half = TrigInterpolant(flat[0::2]).uniform(2.0 * np.pi / G, 1.0, G // 2)
+    err = 0.0
+    for f in fields:
+        peak = np.max(np.abs(flat[:, f]))
+        if peak > 0.0:
+            err = max(err, float(np.max(np.abs(half[:, f] - flat[1::2, f])) / peak))
+    return err if np.isfinite(err) else float("inf")
+
+
 def uniform_grids(theta: np.ndarray, most: int = 4) -> np.ndarray | None:
     """If ``theta`` (m,) consists of r <= ``most`` uniform full-turn grids (theta0 + sign 2 pi j / (m/r),
     j = 0 .. m/r - 1), one after another or interleaved (the angles of a multi-stage time stepper), the
