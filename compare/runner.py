@@ -37,6 +37,7 @@ from compare.execute import run_scene
 from compare.results import STATUS_FAILED, STATUS_OK, RunStats, SceneResult
 from compare.scenes import SceneSpec, canonical_json
 from compare.solvers import Solution
+from compare.stopping import POLL_S, raise_if_stopped
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -368,8 +369,10 @@ class _LocalBackend:
         """Completed futures, grouped: everything finished by the time the previous group is handled."""
         pending = set(futures)
         while pending:
-            done, pending = cf.wait(pending, return_when=cf.FIRST_COMPLETED)
-            yield list(done)
+            done, pending = cf.wait(pending, timeout=POLL_S, return_when=cf.FIRST_COMPLETED)
+            raise_if_stopped()
+            if done:
+                yield list(done)
 
     def result(self, fut: Any) -> Any:
         """The task's result; :data:`_LOST` if the pool broke (a worker died: the task is not attributable)."""
@@ -447,6 +450,7 @@ def _drain(backend: Any, futures: dict[Any, Any], deliver: Callable[[list[tuple[
     """Deliver results as they complete; returns the tasks lost to a broken local pool."""
     lost: list[Any] = []
     for done in backend.batches(futures):
+        raise_if_stopped()  # a stop whose KeyboardInterrupt was lost (see compare.stopping)
         batch = []
         for fut in done:
             if fut.cancelled():

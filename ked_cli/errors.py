@@ -20,6 +20,8 @@ from typing import Any
 
 import click
 
+from compare.stopping import STOP, raise_if_stopped, request_stop
+
 EXIT_FAILURE = 1
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
@@ -77,6 +79,7 @@ def _terminate(signum: int, frame: object) -> None:
     workers, releasing the lock) and leave the command hanging or printing a traceback."""
     for s in _STOP_SIGNALS:
         signal.signal(s, signal.SIG_IGN)
+    request_stop()  # kept even where Python drops the exception below (see compare.stopping)
     raise KeyboardInterrupt
 
 
@@ -86,9 +89,12 @@ def _from_h5py(tb: Any) -> bool:
 
 def _quiet_unraisable(unraisable: Any) -> None:
     """HDF5 objects released after a failed write (a full disk) each report the failed flush again as
-    an "Exception ignored" traceback; the failure itself was already reported in its one line."""
+    an "Exception ignored" traceback; the failure itself was already reported in its one line.  A stop
+    whose interrupt Python dropped the same way is not reported either: the command still stops."""
     if _from_h5py(unraisable.exc_traceback) or "h5py" in repr(unraisable.object):
         return
+    if unraisable.exc_type is KeyboardInterrupt and STOP.is_set():
+        return  # a stop raised inside a weakref callback or destructor: the loops still see STOP
     sys.__unraisablehook__(unraisable)
 
 
@@ -133,6 +139,7 @@ def run_guarded(command: Callable[..., object]) -> None:
 def _run(command: Callable[..., object]) -> None:
     try:
         command.main(standalone_mode=False, prog_name="ked")
+        raise_if_stopped()  # the command ended although a stop was asked for: its interrupt was lost
     except click.exceptions.Exit as exc:
         sys.exit(exc.exit_code)
     except click.Abort:

@@ -370,3 +370,47 @@ def test_signals_leave_no_orphan_workers(tmp_path, sig):
     done = len(store.read_scenes(out))
     summary = run_campaign(parse_config(SLOW), out, workers=2, progress=False)
     assert summary.skipped == done and done + summary.ok + summary.failed == 20
+
+
+LOST_INTERRUPT = """
+import os, signal, time, weakref
+import click
+from compare.runner import run_tasks
+from ked_cli.errors import run_guarded
+
+
+class Held:
+    pass
+
+
+def signal_inside_callback(_ref):
+    os.kill(os.getpid(), signal.SIGTERM)  # the handler runs, and raises, inside this callback
+    time.sleep(0.2)
+
+
+@click.command()
+def cmd():
+    held = Held()
+    ref = weakref.ref(held, signal_inside_callback)
+    del held  # Python reports the KeyboardInterrupt raised in the callback and drops it
+    click.echo("carried on")
+    run_tasks([60.0, 60.0], time.sleep, workers=2, on_result=lambda batch: None, crashed=lambda t, e: None)
+    click.echo("tasks finished")
+
+
+if __name__ == "__main__":
+    run_guarded(cmd)
+"""
+
+
+def test_a_stop_dropped_by_python_still_stops(tmp_path):
+    """A signal whose KeyboardInterrupt is raised inside a weakref callback is dropped by Python (it can
+    only report it); the stop must still end the tasks (they would sleep 60 s) with status 130 and one line,
+    never a traceback.  Seen on a campaign: SIGTERM during a commit, the run went on and exited 0."""
+    script = tmp_path / "lost.py"
+    script.write_text(LOST_INTERRUPT)
+    proc = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120,
+                          cwd=Path(__file__).resolve().parents[1])
+    assert "carried on" in proc.stdout and "tasks finished" not in proc.stdout
+    assert proc.returncode == 130 and proc.stderr.strip().splitlines()[-1].startswith("ked: interrupted")
+    assert "Traceback" not in proc.stderr
