@@ -276,7 +276,7 @@ def _split(parts: FrameParts, geometric: np.ndarray, out_dofs: list[int]) -> _Sp
     """The :class:`_Split` of ``parts`` with the reference geometric stiffness ``geometric``, or None if
     the elastic slave block is not positive definite at every angle."""
     E, G, master = parts.elastic, geometric, parts.master
-    slave = np.setdiff1d(np.arange(E.shape[-1]), master)
+    slave = _complement(E.shape[-1], master)
     try:
         L = np.linalg.cholesky(E[:, slave[:, None], slave])
     except np.linalg.LinAlgError:
@@ -299,9 +299,17 @@ def _split(parts: FrameParts, geometric: np.ndarray, out_dofs: list[int]) -> _Sp
                   out_unit=out_unit, out_t=out_t)
 
 
+def _complement(n: int, master: np.ndarray) -> np.ndarray:
+    """The dofs 0 .. n - 1 not in ``master``, ascending (``np.setdiff1d(np.arange(n), master)``, without the
+    import of ``numpy.ma`` that its first call costs a fresh process, ~10 ms)."""
+    keep = np.ones(n, dtype=bool)
+    keep[master] = False
+    return np.flatnonzero(keep)
+
+
 def _static_modes(K: np.ndarray, master: np.ndarray) -> np.ndarray:
     """Psi (n, n_dofs, k): all dofs per unit master displacement, the slaves carrying no load."""
-    slave = np.setdiff1d(np.arange(K.shape[-1]), master)
+    slave = _complement(K.shape[-1], master)
     psi = np.zeros((K.shape[0], K.shape[-1], master.size))
     psi[:, master, np.arange(master.size)] = 1.0
     psi[:, slave] = -np.linalg.solve(K[:, slave[:, None], slave], K[:, slave[:, None], master])

@@ -1,0 +1,36 @@
+"""A fresh ``ked check`` process loads only what one check needs.
+
+``scipy.linalg`` clones numpy's whole namespace for the array API when imported (it touches every lazy
+numpy submodule: numpy.testing, numpy.f2py, ...): about 0.1 s of a 0.6 s distributed-model check, for one
+triangular solve in the periodic solve's GMRES.  ``numpy.ma`` came with the first ``np.setdiff1d``.  The
+check's path must reach neither (a module's presence, not a time, is asserted: the machine's load does not
+matter).
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+PROBE = """
+import json, sys
+from ked_cli.main import cli
+try:
+    cli(["check", "--mass-model", sys.argv[1], "--rpm", "100"], standalone_mode=False)
+finally:
+    print(json.dumps(sorted(m for m in ("scipy", "scipy.linalg", "scipy.sparse", "numpy.ma") if m in sys.modules)))
+"""
+
+
+@pytest.mark.parametrize("mass_model", ["distributed", "joints"])
+def test_check_imports_no_scipy(mass_model: str) -> None:
+    # distributed: the periodic solve goes through GMRES (its coordinates x harmonics exceed the dense
+    # limit), joints: the dense collocation and the full Floquet propagator
+    out = subprocess.run([sys.executable, "-c", PROBE, mass_model], capture_output=True, text=True, cwd=ROOT,
+                         check=True).stdout
+    assert json.loads(out.strip().splitlines()[-1]) == []
