@@ -220,12 +220,32 @@ def _stage_fields(system: PeriodicSystem, series: _Series | None, steps: int, fi
     if series is None:
         co = _stage_coefficients(system, steps, first, count, damped)
         return co.stiffness.reshape(2, count, n, n), co.damping.reshape(2, count, n, n)
-    step = np.sign(system.speed) * 2.0 * np.pi / steps
-    j = first + np.arange(count)
     c = _stage_offsets(damped, system.period / steps)
-    E = series.basis(system.speed * c, step, steps, j)  # the first stages' rows, then the second's
-    fields = np.take(E @ series.rows, series.expand, axis=1).reshape(2, count, 2, n, n)
+    if first == 0 and count == steps and 2 * series.harmonics < steps:
+        values = _whole_turn_values(series, system.speed * c, np.sign(system.speed), steps)
+    else:
+        step = np.sign(system.speed) * 2.0 * np.pi / steps
+        E = series.basis(system.speed * c, step, steps, first + np.arange(count))  # first stages, then second
+        values = E @ series.rows
+    fields = np.take(values, series.expand, axis=1).reshape(2, count, 2, n, n)
     return fields[:, :, 0], fields[:, :, 1]
+
+
+def _whole_turn_values(series: _Series, offsets: np.ndarray, sign: float, steps: int) -> np.ndarray:
+    """The series' rows' values (r steps, columns) on the r whole-turn grids offsets[i] + sign 2 pi j /
+    steps, j = 0 .. steps - 1, one grid after the other (as ``series.basis(...) @ series.rows``), by one
+    inverse real FFT per column: O(steps log steps) against the basis product's O(steps H) per column
+    (needs 2 H < steps: no harmonic folds onto another on the grid)."""
+    H, rows = series.harmonics, series.rows
+    k = np.arange(H + 1)
+    a = np.empty((H + 1, rows.shape[1]), dtype=complex)  # the e^{ik theta} amplitudes: rows = 2 Re, -2 Im
+    a[0] = rows[0]
+    a[1:].real, a[1:].imag = 0.5 * rows[1::2], -0.5 * rows[2::2]
+    b = np.zeros((offsets.size, steps // 2 + 1, rows.shape[1]), dtype=complex)
+    b[:, :H + 1] = a[None] * np.exp(1j * np.outer(offsets, k))[:, :, None]
+    if sign < 0:  # sum_k Re(b_k e^{-ik t}) = sum_k Re(conj(b_k) e^{ik t})
+        np.conjugate(b, out=b)
+    return (np.fft.irfft(b, n=steps, axis=1) * steps).reshape(offsets.size * steps, -1)
 
 
 def step_matrices(system: PeriodicSystem, steps: int, first: int = 0, count: int | None = None) -> np.ndarray:
@@ -401,13 +421,14 @@ full-turn grids (interpolated, see ``sampled.SampledCoefficients``), beyond it c
 turns: the direct frame condensation)."""
 
 
-def monodromy(system: PeriodicSystem, steps: int) -> np.ndarray:
-    """Phi = S_{steps-1} ... S_1 S_0 (2n, 2n), by pairwise products (balanced tree)."""
+def monodromy(system: PeriodicSystem, steps: int, damped: bool | None = None) -> np.ndarray:
+    """Phi = S_{steps-1} ... S_1 S_0 (2n, 2n), by pairwise products (balanced tree); ``damped``: whether
+    the system has damping (:func:`undamped`) if already known."""
     if np.any(system.mass <= 0.0):
         raise ValueError("Floquet analysis needs every mass > 0 (a massless coordinate has no dynamics)")
     n = system.mass.size
     chunk = max(8, int(CHUNK_BYTES / (8.0 * (4 * n) ** 2)))
-    damped = not undamped(system)
+    damped = not undamped(system) if damped is None else damped
     source = _step_source(system, steps, damped)
     phi = np.eye(2 * n)
     for first in range(0, steps, chunk):
@@ -429,9 +450,9 @@ def _whole_turn_fields(system: PeriodicSystem, series: _Series | None, steps: in
     return lambda first, count: (K[:, first:first + count], C[:, first:first + count])
 
 
-def multipliers(system: PeriodicSystem, steps: int) -> np.ndarray:
-    """Floquet multipliers (2n,) complex, largest modulus first."""
-    mu = np.linalg.eigvals(monodromy(system, steps))
+def multipliers(system: PeriodicSystem, steps: int, damped: bool | None = None) -> np.ndarray:
+    """Floquet multipliers (2n,) complex, largest modulus first (``damped``: as :func:`monodromy`)."""
+    mu = np.linalg.eigvals(monodromy(system, steps, damped))
     return mu[np.argsort(-np.abs(mu))]
 
 
@@ -481,8 +502,9 @@ def floquet(system: PeriodicSystem, tolerance: float, steps: int | None = None,
     tops: list[float] = []
     changes: list[float] = []
     est, mu, n = float("nan"), np.array([np.nan]), plan[0]
+    damped = not undamped(system)  # probed once for every level
     for n in plan:
-        mu = multipliers(system, n)
+        mu = multipliers(system, n, damped)
         tops.append(float(np.abs(mu[0])))
         if len(tops) < 2:
             continue

@@ -251,17 +251,31 @@ def _dense_operator(s: float, X: np.ndarray, Y: np.ndarray, H: int,
     Xh, Yh = (np.fft.fft(X, axis=0) / N, np.fft.fft(Y, axis=0) / N) if dft is None else dft
     k, l = np.arange(H + 1)[:, None], np.arange(1, H + 1)[None, :]
 
-    def blocks(lv: np.ndarray) -> np.ndarray:  # G^[k, lv], (H + 1, H, n, n)
+    def blocks(lv: np.ndarray) -> np.ndarray:  # G^[k, lv], (H + 1, H, n, n), in place (few large temporaries)
         d = (k - lv) % N
-        return (1j * s * lv)[..., None, None] * Xh[d] - ((s * lv) ** 2)[..., None, None] * Yh[d]
+        out = Xh[d]
+        out *= (1j * s * lv)[..., None, None]
+        y = Yh[d]
+        y *= ((s * lv) ** 2)[..., None, None]
+        out -= y
+        return out
 
     plus, minus = blocks(l), blocks(-l)
-    by_cos, by_sin = 0.5 * (plus + minus), -0.5j * (plus - minus)  # (k, l, i, j)
-    G = np.zeros((2 * H + 1, n, 2 * H + 1, n))
-    for col, B in ((slice(1, None, 2), by_cos), (slice(2, None, 2), by_sin)):
-        G[0, :, col, :] = B[0].real.transpose(1, 0, 2)
-        G[1::2, :, col, :] = 2.0 * B[1:].real.transpose(0, 2, 1, 3)
-        G[2::2, :, col, :] = -2.0 * B[1:].imag.transpose(0, 2, 1, 3)
+    # by cos l: (plus + minus) / 2, by sin l: -i (plus - minus) / 2, read out as 2 Re, -2 Im (Re for the
+    # mean): written straight from the sum's and difference's real and imaginary parts (the factors are
+    # powers of 2, so the entries are those of the halved and doubled forms to the bit)
+    Q = plus - minus
+    P = plus
+    P += minus  # (k, l, i, j)
+    G = np.empty((2 * H + 1, n, 2 * H + 1, n))
+    G[:, :, 0, :] = 0.0  # the mean of the input has no dynamic term
+    cos, sin = slice(1, None, 2), slice(2, None, 2)
+    G[0, :, cos, :] = 0.5 * P[0].real.transpose(1, 0, 2)
+    G[0, :, sin, :] = 0.5 * Q[0].imag.transpose(1, 0, 2)
+    G[1::2, :, cos, :] = P[1:].real.transpose(0, 2, 1, 3)
+    np.negative(P[1:].imag.transpose(0, 2, 1, 3), out=G[2::2, :, cos, :])
+    G[1::2, :, sin, :] = Q[1:].imag.transpose(0, 2, 1, 3)
+    G[2::2, :, sin, :] = Q[1:].real.transpose(0, 2, 1, 3)
     return G
 
 
