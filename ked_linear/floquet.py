@@ -409,8 +409,10 @@ small, so that a chunk's work stays in the cache (measured on 1 MB of L2 per cor
 def _product(S: np.ndarray) -> np.ndarray:
     """S[-1] ... S[1] S[0] by pairwise products (balanced tree)."""
     while S.shape[0] > 1:
-        odd = S[-1:] if S.shape[0] % 2 else S[:0]
-        S = np.concatenate([S[1:S.shape[0] - odd.shape[0]:2] @ S[0:S.shape[0] - odd.shape[0]:2], odd])
+        if S.shape[0] % 2:  # the last one waits for the next round
+            S = np.concatenate([S[1:-1:2] @ S[0:-1:2], S[-1:]])
+        else:
+            S = S[1::2] @ S[0::2]
     return S[0]
 
 

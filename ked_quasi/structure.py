@@ -18,6 +18,7 @@ System coordinates: x, y of every node (global frame) and the rotation of P.  Un
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -81,8 +82,33 @@ class Topology:
         raise KeyError(f"no node at {link} s={s}")
 
 
+_TOPOLOGIES: dict[tuple, Topology] = {}
+_TOPOLOGIES_LOCK = threading.Lock()
+TOPOLOGIES_KEPT = 64
+"""Topologies remembered (by the lumps' links and positions: nothing else enters), the oldest forgotten first."""
+
+
 def topology(lumps: Lumps) -> Topology:
-    """Build the structure's topology with a node at every lump."""
+    """Build the structure's topology with a node at every lump (remembered per lump layout: a solve asks
+    for it several times, ~40 us each; the remembered arrays are read-only)."""
+    key = (tuple(lumps.link), np.asarray(lumps.s, dtype=float).tobytes())
+    with _TOPOLOGIES_LOCK:
+        topo = _TOPOLOGIES.get(key)
+    if topo is None:
+        topo = _topology(lumps)
+        for value in vars(topo).values():
+            if isinstance(value, np.ndarray):
+                value.flags.writeable = False
+        for chain in topo.chain.values():
+            chain.flags.writeable = False
+        with _TOPOLOGIES_LOCK:
+            if len(_TOPOLOGIES) >= TOPOLOGIES_KEPT:
+                _TOPOLOGIES.pop(next(iter(_TOPOLOGIES)))
+            topo = _TOPOLOGIES.setdefault(key, topo)
+    return topo
+
+
+def _topology(lumps: Lumps) -> Topology:
     labels = ["A", "B", "P"]
     links = ["coupler", "coupler", "extender"]
     ss = [0.0, 1.0, 1.0]
