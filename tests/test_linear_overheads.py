@@ -53,3 +53,19 @@ def test_dense_operator_equals_its_definition():
                      * Y[:, None])
     got = pe._dense_operator(s, X, Y, H)
     assert np.abs(got - want).max() <= 1e-12 * np.abs(want).max()
+
+
+def test_floquet_levels_built_together_equal_level_by_level(thesis):
+    # the first three step levels of the automatic Floquet plan built in one vectorized pass (a step length
+    # per step) against each level's own monodromy: the same arithmetic per step, so equal to round-off
+    scene = Scene(thesis, MASS_MODEL_CASES["joints"], 300.0, 10.0)
+    system = linkage_system(scene, LinearSettings(damping_ratio=0.02)).system
+    levels = [64, 128, 256]
+    batch = fq._level_batch(system, levels, True)
+    assert sorted(batch) == levels  # the batched path is the one tested
+    for steps in levels:
+        alone = fq.multipliers(system, steps, True)
+        assert np.abs(batch[steps] - alone).max() <= 1e-12 * np.abs(alone).max()
+    # undamped systems and levels beyond one chunk are not batched
+    assert fq._level_batch(system, levels, False) == {}
+    assert fq._level_batch(system, [64, 128, 10**6], True) == {}
