@@ -69,3 +69,15 @@ def test_floquet_levels_built_together_equal_level_by_level(thesis):
     # undamped systems and levels beyond one chunk are not batched
     assert fq._level_batch(system, levels, False) == {}
     assert fq._level_batch(system, [64, 128, 10**6], True) == {}
+
+
+@pytest.mark.parametrize("mass_model", ["tip", "joints"])
+def test_undamped_read_from_the_samples_equals_the_probe(thesis, mass_model):
+    # whether C = 0, read off the sampled interpolant's spectrum (tip: the flexibility form, joints: the
+    # stiffness form), against the coefficients evaluated at 8 angles over the cycle
+    for zeta in (0.0, 0.02):
+        scene = Scene(thesis, MASS_MODEL_CASES[mass_model], 300.0, 10.0)
+        system = linkage_system(scene, LinearSettings(damping_ratio=zeta)).system
+        probe = not np.any(system.coefficients(np.linspace(0.0, 2.0 * np.pi, 8, endpoint=False)).damping)
+        assert system.coefficients.interpolant is not None  # the spectrum is what is read
+        assert fq.undamped(system) == probe == (zeta == 0.0)
