@@ -28,8 +28,10 @@ The step matrices are built vectorized over the steps, in chunks small enough to
 (:data:`CHUNK_BYTES`); SDIRK2's by blocks, never forming the 2n x 2n resolvents, from the inverses of
 the n x n stage matrices Z (by Cholesky when they are positive definite, both stages in one call).  The
 stage coefficients of sampled coefficients come straight from their trigonometric series (one matrix
-product per chunk, Z itself being linear in K and C); others are evaluated on two whole-turn grids per
-level (:data:`COEFFICIENT_BYTES`).  The chunks' matrices are multiplied in a balanced tree.
+product per chunk, or inverse real FFTs when a whole turn is one chunk; Z itself being linear in K and C);
+others are evaluated on two whole-turn grids per level (:data:`COEFFICIENT_BYTES`).  The chunks' matrices
+are multiplied in a balanced tree.  The first three levels of the automatic plan are built together where
+they fit in one chunk (:func:`_level_batch`).
 The eigenvalues of Phi are the multipliers; the periodic steady state is asymptotically stable iff all
 |mu| < 1.
 """
