@@ -68,10 +68,12 @@ from .reduction import (
     TRAINING_ANGLES,
     Reductions,
     _turn,
+    ladder_levels,
     link_frames,
     rotate_columns,
 )
-from .sampled import TrigInterpolant, midpoint_error
+from .reduction import INTERPOLATION_TOLERANCE as REDUCED_TOLERANCE
+from .sampled import TrigInterpolant, interleave, midpoint_error
 
 FrameAngles = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
 """theta (m,) [rad] -> (phi [rad], phi_dot [rad/s], phi_ddot [rad/s^2]), each (m, n/2): the frame angle of
@@ -86,12 +88,16 @@ interpolant of the even samples matches the odd ones within :data:`INTERPOLATION
 coefficients on this grid also give the frozen solution's spectrum).  Measured on the thesis extender and
 distributed models at 100 and 300 rpm: 64 samples never passed the check (1.3e-4 to 5.5e-4), 128 always."""
 
-MAX_SAMPLES = 256
+MAX_SAMPLES = 512
 
 INTERPOLATION_TOLERANCE = 1e-6
-"""Largest error, relative to each field's peak, of the interpolant of the even samples of the reduced
-coefficients at the odd ones (a bound of the coarser interpolant: the one used, of all samples, is far
-closer; measured on the thesis distributed model: 1.5e-8 with 64 samples against 128, 3e-11 with 128)."""
+"""Largest error, relative to its peak, of the interpolant of the even samples of the reduced load Fe at the
+odd ones (a bound of the coarser interpolant: the one used, of all samples, is far closer; measured on the
+thesis distributed model: 1.5e-8 with 64 samples against 128, 3e-11 with 128)."""
+
+COEFFICIENT_TOLERANCE = REDUCED_TOLERANCE
+"""The same for Ke and Ce: the reduced Floquet analysis's (:data:`ked_linear.reduction.INTERPOLATION_TOLERANCE`),
+whose multipliers come from the same system."""
 
 
 RICH_CORRECTION = 1e-5
@@ -134,6 +140,16 @@ def _frames(angles: FrameAngles, V: np.ndarray, theta: np.ndarray, speed: float,
 
 
 @dataclass(frozen=True)
+class Propagation:
+    """One Radau IIA pass of a reduced system (:meth:`_Reduced.propagate`): ``multipliers`` (2r,) of its
+    homogeneous one-cycle map, largest first; ``states`` (steps, 2r): the periodic solution x = (a, a') at
+    theta_j = 2 pi j / steps, or None if not asked for."""
+
+    multipliers: np.ndarray
+    states: np.ndarray | None
+
+
+@dataclass(frozen=True)
 class _AtAngles:
     """What :meth:`_Reduced.evaluate` needs at the output angles that depends on them alone: the frame
     angles (``angles(theta)``) and the frozen solution's first two theta-derivatives q', q'' (m, n)."""
@@ -149,24 +165,31 @@ class _AtAngles:
 
 
 class _Reduced:
-    """The reduced equation a'' + Ce a' + Ke a = Fe (A2 divided out) of one basis, sampled and interpolated."""
+    """The reduced equation a'' + Ce a' + Ke a = Fe (A2 divided out) of one basis, sampled and interpolated:
+    the one reduced system of that basis for both the periodic steady state and the Floquet multipliers
+    (:meth:`propagate`: one Radau IIA pass of affine step maps gives both; :class:`Propagation`)."""
 
     def __init__(self, system: PeriodicSystem, angles: FrameAngles, V: np.ndarray, q_hat: np.ndarray,
                  co_grid: Coefficients | None = None,
-                 angles_grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None):
+                 angles_grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                 midpoints: Callable[[int], tuple[Coefficients, tuple[np.ndarray, np.ndarray, np.ndarray]]]
+                 | None = None):
         self.system, self.angles, self.V, self.q_hat = system, angles, V, q_hat
         self.r = V.shape[1]
         self._at: tuple | None = None  # (the _AtAngles, fields, frames) of the last evaluate
+        self._runs: dict[int, Propagation] = {}
         G = SAMPLES
-        # co_grid, angles_grid: the coefficients and frame angles on the first grid, if known
+        # co_grid, angles_grid: the coefficients and frame angles on the first grid, if known; midpoints(G):
+        # those at the midpoints of the G / 2 grid, if known
         flat = self._flat(np.arange(G) * (2.0 * np.pi / G), co_grid, angles_grid)
-        while midpoint_error(flat, self._layout()) > INTERPOLATION_TOLERANCE:
+        k, c, f = self._layout()
+        while midpoint_error(flat, (k, c)) > COEFFICIENT_TOLERANCE or midpoint_error(flat, (f,)) > \
+                INTERPOLATION_TOLERANCE:
             if 2 * G > MAX_SAMPLES:
                 raise ValueError("reduced coefficients not interpolable")
-            mid = self._flat((np.arange(G) + 0.5) * (2.0 * np.pi / G))
-            both = np.empty((2 * G, flat.shape[1]))
-            both[0::2], both[1::2] = flat, mid
-            flat, G = both, 2 * G
+            mid = (np.arange(G) + 0.5) * (2.0 * np.pi / G)
+            flat = interleave(flat, self._flat(mid) if midpoints is None else self._flat(mid, *midpoints(2 * G)))
+            G *= 2
         self.interpolant = TrigInterpolant(flat)
 
     def _layout(self) -> tuple[slice, slice, slice]:
@@ -197,8 +220,14 @@ class _Reduced:
         k, c, f = self._layout()
         return flat[:, k].reshape(-1, r, r), flat[:, c].reshape(-1, r, r), flat[:, f]
 
-    def periodic(self, steps: int) -> TrigInterpolant:
-        """The periodic solution: the interpolant of x = (a, a') at theta_j = sign 2 pi j / steps."""
+    def propagate(self, steps: int, states: bool = False) -> Propagation:
+        """One Radau IIA pass over the cycle at ``steps`` steps (in the direction of time), remembered: the
+        Floquet multipliers of the homogeneous part of its one-cycle map and, with ``states``, the periodic
+        solution x = (a, a') at theta_j = sign 2 pi j / steps (the step maps are not kept: a pass asked for
+        its states after one without them is marched again)."""
+        known = self._runs.get(steps)
+        if known is not None and (known.states is not None or not states):
+            return known
         r = self.r
         sign = 1.0 if self.system.speed > 0 else -1.0  # march in the direction of time
         h = sign * 2.0 * np.pi / steps
@@ -206,14 +235,23 @@ class _Reduced:
         K, C, F = self.fields(stage)
         S = radau_affine_steps(K.reshape(3, steps, r, r), C.reshape(3, steps, r, r), F.reshape(3, steps, r), h)
         Phi = _product(S)
-        x0 = np.linalg.solve(np.eye(2 * r) - Phi[:2 * r, :2 * r], Phi[:2 * r, 2 * r])
-        X = np.empty((steps, 2 * r))
-        X[0] = x0
-        for j in range(steps - 1):
-            X[j + 1] = S[j, :2 * r, :2 * r] @ X[j] + S[j, :2 * r, 2 * r]
-        if sign < 0:  # samples at -2 pi j / steps: reorder to the increasing grid the interpolant expects
-            X = np.concatenate([X[:1], X[:0:-1]])
-        return TrigInterpolant(X)
+        mu = np.linalg.eigvals(Phi[:2 * r, :2 * r])  # the same in t and theta: a Runge-Kutta step commutes
+        # with rescaling time, which only scales a'
+        mu = mu[np.argsort(-np.abs(mu))]
+        X = None
+        if states:
+            X = np.empty((steps, 2 * r))
+            X[0] = np.linalg.solve(np.eye(2 * r) - Phi[:2 * r, :2 * r], Phi[:2 * r, 2 * r])
+            for j in range(steps - 1):
+                X[j + 1] = S[j, :2 * r, :2 * r] @ X[j] + S[j, :2 * r, 2 * r]
+            if sign < 0:  # samples at -2 pi j / steps: reorder to the increasing grid the interpolant expects
+                X = np.concatenate([X[:1], X[:0:-1]])
+        self._runs[steps] = Propagation(multipliers=mu, states=X)
+        return self._runs[steps]
+
+    def periodic(self, steps: int) -> TrigInterpolant:
+        """The periodic solution: the interpolant of x = (a, a') at theta_j = 2 pi j / steps."""
+        return TrigInterpolant(self.propagate(steps, states=True).states)
 
     def evaluate(self, steps: int, theta: np.ndarray, co: Coefficients,
                  at: _AtAngles | None = None) -> tuple[np.ndarray, np.ndarray | None]:
@@ -302,31 +340,49 @@ def corotating_steady_state(system: PeriodicSystem, angles: FrameAngles, bases: 
     ``on_grid``: the full coefficients and ``angles`` on the :data:`SAMPLES` uniform angles from 0, if known."""
     if np.any(system.mass <= 0.0):
         return None
-    theta = np.atleast_1d(np.asarray(theta, dtype=float))
     G = SAMPLES
     grid = np.arange(G) * (2.0 * np.pi / G)
     co_grid, angles_grid = (system.coefficients(grid), None) if on_grid is None else on_grid
     q_hat = spectrum(np.linalg.solve(co_grid.stiffness, co_grid.load[..., None])[..., 0])
-    co = system.coefficients(theta)
     try:
         small = _Reduced(system, angles, bases[0], q_hat, co_grid, angles_grid)
+        rich = _Reduced(system, angles, bases[1], q_hat, co_grid, angles_grid)
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    return steady_state_on(small, rich, theta, tolerance, groups)
+
+
+def steady_state_on(small: _Reduced, rich: _Reduced, theta: np.ndarray, tolerance: float,
+                    groups: tuple[slice, ...] | None = None, check: int = STEP_LEVELS[0],
+                    steps_failed: Callable[[], None] | None = None) -> ReducedSteadyState | None:
+    """:func:`corotating_steady_state` on two built reduced systems of one system (smaller, richer): the
+    smaller at :data:`STEP_LEVELS`, the basis change between the two at ``check`` steps (their
+    discretization errors nearly cancel at equal steps).  ``steps_failed``: called (and its value
+    returned) when the step levels alone do not vouch."""
+    system = small.system
+    if np.any(system.mass <= 0.0):
+        return None
+    theta = np.atleast_1d(np.asarray(theta, dtype=float))
+    co = system.coefficients(theta)
+    try:
         at = _AtAngles.of(small, theta)
-        outputs, changes, est = [], [], float("inf")
-        for steps in STEP_LEVELS:
+        outputs: dict[int, tuple[np.ndarray, np.ndarray | None]] = {}
+        changes, est = [], float("inf")
+        for level, steps in enumerate(STEP_LEVELS):
             u, y = small.evaluate(steps, theta, co, at)
-            outputs.append(u if y is None else y)
-            if len(outputs) > 1:
-                changes.append(relative_change(outputs[-1], outputs[-2], groups))
+            outputs[steps] = (u, y)
+            if level:
+                changes.append(relative_change(_out(u, y), _out(*outputs[STEP_LEVELS[level - 1]]), groups))
                 est = error_estimate(changes)
                 if est < 0.5 * tolerance:
                     break
         if not est < 0.5 * tolerance:
-            return None
-        u_rich, y_rich = _Reduced(system, angles, bases[1], q_hat, co_grid, angles_grid).evaluate(
-            STEP_LEVELS[0], theta, co, at)
+            return None if steps_failed is None else steps_failed()
+        base = outputs[check] if check in outputs else small.evaluate(check, theta, co, at)
+        u_rich, y_rich = rich.evaluate(check, theta, co, at)
     except (ValueError, np.linalg.LinAlgError):
         return None
-    change = relative_change(u_rich if y_rich is None else y_rich, outputs[0], groups)
+    change = relative_change(_out(u_rich, y_rich), _out(*base), groups)
     # the basis error as twice the change to the richer basis, as the reduced Floquet analysis counts it:
     # the change alone fell short of the true error by up to 1.97x (68 scenes of 8 generated atlas
     # linkages, extender and distributed at r = 0.1-0.3, against the 64-harmonic collocation)
@@ -334,33 +390,50 @@ def corotating_steady_state(system: PeriodicSystem, angles: FrameAngles, bases: 
     if not (np.isfinite(total) and total < tolerance):
         return None
     return ReducedSteadyState(displacement=u, output=y, error_estimate=float(total), steps=steps,
-                              sizes=(bases[0].shape[1], bases[1].shape[1]), step_error=float(est),
+                              sizes=(small.r, rich.r), step_error=float(est),
                               basis_change=float(change))
+
+
+def _out(u: np.ndarray, y: np.ndarray | None) -> np.ndarray:
+    return u if y is None else y
+
+
+class _StepsFail(Exception):
+    """The step levels of a rung do not vouch: a richer rung would not either (the step error is the
+    dynamics', not the basis's)."""
+
+
+def _raise_steps_fail() -> None:
+    raise _StepsFail
 
 
 def four_bar_steady_state(scene: object, system: PeriodicSystem, theta: np.ndarray, tolerance: float,
                           groups: tuple[slice, ...] | None = None,
                           reductions: Reductions | None = None) -> ReducedSteadyState | None:
-    """:func:`corotating_steady_state` of a four-bar's linear model on its link frames
-    (:func:`ked_linear.reduction.link_frames`) on the first basis of the reduced Floquet ladder
-    (:data:`ked_linear.reduction.BASES`: 2 frozen modes kept exact), checked against that basis with its
-    static corrections (:data:`RICH_CORRECTION`; if none is above it, against the ladder's second basis);
-    None if the system is undamped, a basis cannot be built or the estimate does not reach ``tolerance``.
-    ``reductions``: the :class:`ked_linear.reduction.Reductions` of ``system`` if already built (shared
-    with the reduced Floquet analysis: frames, frozen eigen-solves, bases, coefficients on the grid)."""
+    """:func:`steady_state_on` of a four-bar's linear model on its link frames
+    (:func:`ked_linear.reduction.link_frames`) on the rungs of the reduced Floquet ladder
+    (:data:`ked_linear.reduction.BASES`), their reduced systems and Radau passes shared with it: a rung
+    checked against the next at the ladder's probe level (:func:`ked_linear.reduction.ladder_levels`),
+    where the ladder propagates both rungs too; where that does not vouch, the next pair of rungs (as the
+    ladder does).  None if the system is undamped, a basis cannot be built or no pair vouches for
+    ``tolerance``.  ``reductions``: the :class:`ked_linear.reduction.Reductions` of ``system`` if already
+    built (shared with the reduced Floquet analysis)."""
     red = Reductions(system, link_frames(scene)) if reductions is None else reductions
-    if not red.usable:
+    if not red.usable or 2 * TRAINING_ANGLES != SAMPLES:
         return None
-    small = red.basis(0)
-    if small is None:
-        return None
-    rich = red.basis_of(*BASES[0][:2], RICH_CORRECTION)
-    if rich is None or rich.shape[1] <= small.shape[1]:  # no correction above the threshold: the ladder's next
-        rich = red.basis(1)
-    if rich is None:
-        return None
-    on_grid = (red.grid_coefficients, red.grid_lumps) if 2 * TRAINING_ANGLES == SAMPLES else None
-    return corotating_steady_state(system, red.frames.of_lumps, (small, rich), theta, tolerance, groups, on_grid)
+    probe = ladder_levels(red)[2]
+    check = STEP_LEVELS[0] if probe is None else probe
+    for i in range(len(BASES) - 1):
+        small, rich = red.reduced(i), red.reduced(i + 1)
+        if small is None or rich is None:
+            return None
+        try:
+            got = steady_state_on(small, rich, theta, tolerance, groups, check, _raise_steps_fail)
+        except _StepsFail:
+            return None
+        if got is not None:
+            return got
+    return None
 
 
 FIRST_HARMONICS = 8

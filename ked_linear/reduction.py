@@ -52,12 +52,16 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .floquet import FloquetResult, _product
-from .periodic import Coefficients, PeriodicSystem, error_estimate
-from .sampled import TrigInterpolant, interleave, midpoint_error
+from .periodic import Coefficients, PeriodicSystem, error_estimate, spectrum
+from .sampled import TrigInterpolant, midpoint_error
+
+if TYPE_CHECKING:
+    from .corotating import _Reduced
 
 FULL_NEAR_ONE = 0.9
 """A reduced max |mu| + error at or above this goes to the full model (the weakly damped threshold of the
@@ -341,6 +345,13 @@ PROBE_AT = 0.5
 """The richer rung is propagated at the first level with at least this fraction of the resolved steps
 (h omega <= 2), against the smaller one at the same steps: their discretization errors then nearly cancel."""
 
+PROBE_FROM = 128
+"""Least steps of the level at which the richer rung is propagated (:data:`PROBE_AT`): the periodic steady
+state (:func:`ked_linear.corotating.four_bar_steady_state`) checks its basis on the same two reduced
+systems at that level and shares both passes, and its forced response needs them: at 64 steps the change
+between the rungs' steady states was 3.9e-4 / 6.0e-3 of the peak (thesis extender 300 rpm / distributed
+100 rpm) against 2.9e-6 / 1.9e-5 at 128 and 256 steps alike."""
+
 FIRST_CHANGE_RATIO = 8.0
 """With two levels (the coarser at h omega <= 2, the finer at <= 1), the finer one's error is estimated as
 their change / 8: it assumes the error falls 9-fold per halving, where the three-stage method's amplitude
@@ -435,7 +446,8 @@ class Reductions:
         theta = np.arange(G) * (2.0 * np.pi / G)
         co = system.coefficients(theta)
         self.usable = bool(np.any(co.damping))
-        self._systems: dict[int, PeriodicSystem | None] = {}
+        self._systems: dict[int, _Reduced | None] = {}
+        self._q_hat: np.ndarray | None = None
         self._bases: dict[tuple, np.ndarray | None] = {}
         self.grid_coefficients = co
         """The full coefficients on the uniform grid of 2 :data:`TRAINING_ANGLES` angles from 0 (shared with
@@ -484,27 +496,39 @@ class Reductions:
             self._grids[G] = (self.full.coefficients(mid), self.frames.of_lumps(mid))
         return self._grids[G]
 
-    def system(self, i: int) -> PeriodicSystem | None:
-        """The reduced system of rung ``i`` (unit mass, interpolated coefficients), or None if its basis or an
-        interpolation within :data:`INTERPOLATION_TOLERANCE` on at most 512 angles cannot be had."""
+    def reduced(self, i: int) -> _Reduced | None:
+        """The reduced system of rung ``i`` (:class:`ked_linear.corotating._Reduced`: the modal-acceleration
+        (Petrov-Galerkin) projection, interpolated), or None if its basis or an interpolation within
+        :data:`INTERPOLATION_TOLERANCE` on at most 512 angles cannot be had.  The one reduced system of that
+        basis: its Radau passes (remembered by step count) give the Floquet ladder its multipliers and the
+        periodic steady state its solution."""
         if i not in self._systems:
             self._systems[i] = self._build(i)
         return self._systems[i]
 
-    def _build(self, i: int) -> PeriodicSystem | None:
+    def _build(self, i: int) -> _Reduced | None:
+        from .corotating import _Reduced
+
         V = self.basis(i)
         if V is None:
             return None
-        G = 2 * TRAINING_ANGLES
-        K, C = projection(*self._grid(G), self.full.mass, V)
-        while interpolation_error(K, C) > INTERPOLATION_TOLERANCE:
-            if 2 * G > 512:
-                return None
-            G *= 2
-            Km, Cm = projection(*self._grid(G), self.full.mass, V)
-            K, C = interleave(K, Km), interleave(C, Cm)
-        return PeriodicSystem(mass=np.ones(V.shape[1]), speed=self.full.speed,
-                              coefficients=InterpolatedCoefficients(K, C))
+        if self._q_hat is None:  # the frozen solution K^-1 f on the grid, as a spectrum
+            co = self.grid_coefficients
+            self._q_hat = spectrum(np.linalg.solve(co.stiffness, co.load[..., None])[..., 0])
+        try:
+            return _Reduced(self.full, self.frames.of_lumps, V, self._q_hat, self.grid_coefficients, self.grid_lumps,
+                            self._grid)
+        except (ValueError, np.linalg.LinAlgError):  # not interpolable, or the reduced mass singular
+            return None
+
+
+def ladder_levels(red: Reductions) -> tuple[tuple[int, ...], float, int | None]:
+    """The Radau levels of the reduced Floquet ladder on ``red`` (:data:`RADAU_LEVELS` from the first with
+    h omega <= 2 for the lowest frozen mode), the steps resolving that mode (h omega = 1) and the level at
+    which a rung is checked against the next (:data:`PROBE_AT`; None if no level qualifies)."""
+    resolved = red.omega_kept * red.full.period / RESOLVED_H_OMEGA
+    levels = tuple(n for n in RADAU_LEVELS if n >= 0.5 * resolved)
+    return levels, resolved, next((n for n in levels if n >= max(PROBE_AT * resolved, PROBE_FROM)), None)
 
 
 class _BasisFails(Exception):
@@ -553,8 +577,7 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
     red = Reductions(system, frames) if reductions is None else reductions
     if not red.usable:
         return None
-    resolved = red.omega_kept * system.period / RESOLVED_H_OMEGA  # steps resolving the lowest mode
-    levels = tuple(n for n in RADAU_LEVELS if n >= 0.5 * resolved)  # from twice that step
+    levels, resolved, first = ladder_levels(red)  # from twice the step resolving the lowest mode
     if not levels:
         return None
     runs: dict[tuple[int, int], np.ndarray] = {}  # (rung, steps): multipliers (a failed rung's probe is the
@@ -562,17 +585,16 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
 
     def propagate(i: int, steps: int) -> np.ndarray:
         if (i, steps) not in runs:
-            runs[(i, steps)] = radau_multipliers(red.system(i), steps)  # type: ignore[arg-type]
+            runs[(i, steps)] = red.reduced(i).propagate(steps).multipliers  # type: ignore[union-attr]
         return runs[(i, steps)]
 
     for i in range(len(BASES) - 1):
-        small, rich = red.system(i), red.system(i + 1)
+        small, rich = red.reduced(i), red.reduced(i + 1)
         if small is None or rich is None:
             return None
         # the richer rung at the first level resolving the lowest mode within h omega <= 2, computed as soon as
         # the smaller one reaches it: a basis change alone above what this rung may have ends the rung there
         # (its remaining levels could only add to the estimate)
-        first = next((n for n in levels if n >= PROBE_AT * resolved), None)
         seen: dict[int, float] = {}
 
         def probe(steps: int, top: float, i: int = i, first: int | None = first, seen: dict[int, float] = seen) -> None:
@@ -588,7 +610,7 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
         if done is None:
             return None
         tops, steps, step_est, mu = done
-        check = min(next(n for n in levels if n >= PROBE_AT * resolved), steps)
+        check = min(first, steps) if first is not None else steps
         other = seen[check] if check in seen else float(np.abs(propagate(i + 1, check)[0]))
         basis_change = abs(other - tops[levels.index(check)])
         est = max(step_est + BASIS_FACTOR * basis_change + BASIS_SHARED, ESTIMATE_FLOOR)
@@ -596,6 +618,6 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
             return None
         if est <= 0.5 * tolerance:
             result = FloquetResult(max_abs=tops[-1], error_estimate=est, steps=steps, multipliers=mu)
-            return Reduction(result=result, sizes=(small.mass.size, rich.mass.size), richer_max_abs=other,
+            return Reduction(result=result, sizes=(small.r, rich.r), richer_max_abs=other,
                              basis_change=basis_change, step_error=step_est)
     return None
