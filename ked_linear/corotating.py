@@ -164,6 +164,27 @@ class _AtAngles:
                          q2=series(reduced.q_hat, theta, 2))
 
 
+class _Forcing:
+    """What the reduced systems of every basis of one system need at given angles, remembered per angle
+    array (the rungs of a ladder share one): B q (m, n) of the frozen solution q (spectrum ``q_hat``) and
+    M K^-1 (m, n, n) (K symmetric)."""
+
+    def __init__(self, system: PeriodicSystem, q_hat: np.ndarray):
+        self.system, self.q_hat = system, q_hat
+        self._known: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+
+    def at(self, theta: np.ndarray, co: Coefficients) -> tuple[np.ndarray, np.ndarray]:
+        key = theta.tobytes()
+        if key not in self._known:
+            s, m = self.system.speed, self.system.mass
+            Bq = s * _apply(co.damping, series(self.q_hat, theta, 1)) + s**2 * m * series(self.q_hat, theta, 2)
+            # (K^-T M)^T = M K^-1: the rows of the test functions' transpose
+            self._known[key] = (Bq, np.swapaxes(np.linalg.solve(np.swapaxes(co.stiffness, 1, 2),
+                                                                np.broadcast_to(np.diag(m), co.stiffness.shape)),
+                                                1, 2))
+        return self._known[key]
+
+
 class _Reduced:
     """The reduced equation a'' + Ce a' + Ke a = Fe (A2 divided out) of one basis, sampled and interpolated:
     the one reduced system of that basis for both the periodic steady state and the Floquet multipliers
@@ -173,14 +194,15 @@ class _Reduced:
                  co_grid: Coefficients | None = None,
                  angles_grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
                  midpoints: Callable[[int], tuple[Coefficients, tuple[np.ndarray, np.ndarray, np.ndarray]]]
-                 | None = None):
+                 | None = None, forcing: _Forcing | None = None):
         self.system, self.angles, self.V, self.q_hat = system, angles, V, q_hat
+        self._forcing = _Forcing(system, q_hat) if forcing is None else forcing
         self.r = V.shape[1]
         self._at: tuple | None = None  # (the _AtAngles, fields, frames) of the last evaluate
         self._runs: dict[int, Propagation] = {}
         G = SAMPLES
         # co_grid, angles_grid: the coefficients and frame angles on the first grid, if known; midpoints(G):
-        # those at the midpoints of the G / 2 grid, if known
+        # those at the midpoints of the G / 2 grid, if known; forcing: B q of the frozen solution, if shared
         flat = self._flat(np.arange(G) * (2.0 * np.pi / G), co_grid, angles_grid)
         k, c, f = self._layout()
         while midpoint_error(flat, (k, c)) > COEFFICIENT_TOLERANCE or midpoint_error(flat, (f,)) > \
@@ -204,12 +226,12 @@ class _Reduced:
         s, m, r = sys_.speed, sys_.mass, self.r
         co = sys_.coefficients(theta) if co is None else co
         W, W1, W2 = _frames(self.angles, self.V, theta, s, known)
-        Zt = np.swapaxes(np.linalg.solve(np.swapaxes(co.stiffness, 1, 2), m[:, None] * W), 1, 2)  # W^T M K^-1
+        Bq, MKinv = self._forcing.at(theta, co)
+        Zt = np.swapaxes(W, 1, 2) @ MKinv  # W^T M K^-1
         ZtC, ZtM = Zt @ co.damping, Zt * m
         A0 = s * (ZtC @ W1) + s**2 * (ZtM @ W2)
         A1 = s * (ZtC @ W) + 2.0 * s**2 * (ZtM @ W1)
         A2 = s**2 * (ZtM @ W)
-        Bq = s * _apply(co.damping, series(self.q_hat, theta, 1)) + s**2 * m * series(self.q_hat, theta, 2)
         rhs = np.concatenate([A0 + np.eye(r), A1, -_apply(Zt, Bq)[..., None]], axis=2)
         X = np.linalg.solve(A2, rhs)
         return np.concatenate([X[..., :r].reshape(-1, r * r), X[..., r:2 * r].reshape(-1, r * r), X[..., 2 * r]],
@@ -345,8 +367,9 @@ def corotating_steady_state(system: PeriodicSystem, angles: FrameAngles, bases: 
     co_grid, angles_grid = (system.coefficients(grid), None) if on_grid is None else on_grid
     q_hat = spectrum(np.linalg.solve(co_grid.stiffness, co_grid.load[..., None])[..., 0])
     try:
-        small = _Reduced(system, angles, bases[0], q_hat, co_grid, angles_grid)
-        rich = _Reduced(system, angles, bases[1], q_hat, co_grid, angles_grid)
+        forcing = _Forcing(system, q_hat)
+        small = _Reduced(system, angles, bases[0], q_hat, co_grid, angles_grid, forcing=forcing)
+        rich = _Reduced(system, angles, bases[1], q_hat, co_grid, angles_grid, forcing=forcing)
     except (ValueError, np.linalg.LinAlgError):
         return None
     return steady_state_on(small, rich, theta, tolerance, groups)

@@ -61,7 +61,7 @@ from .periodic import Coefficients, PeriodicSystem, error_estimate, spectrum
 from .sampled import TrigInterpolant, midpoint_error
 
 if TYPE_CHECKING:
-    from .corotating import _Reduced
+    from .corotating import _Forcing, _Reduced
 
 FULL_NEAR_ONE = 0.9
 """A reduced max |mu| + error at or above this goes to the full model (the weakly damped threshold of the
@@ -447,7 +447,7 @@ class Reductions:
         co = system.coefficients(theta)
         self.usable = bool(np.any(co.damping))
         self._systems: dict[int, _Reduced | None] = {}
-        self._q_hat: np.ndarray | None = None
+        self._forcing: _Forcing | None = None
         self._bases: dict[tuple, np.ndarray | None] = {}
         self.grid_coefficients = co
         """The full coefficients on the uniform grid of 2 :data:`TRAINING_ANGLES` angles from 0 (shared with
@@ -507,17 +507,17 @@ class Reductions:
         return self._systems[i]
 
     def _build(self, i: int) -> _Reduced | None:
-        from .corotating import _Reduced
+        from .corotating import _Forcing, _Reduced
 
         V = self.basis(i)
         if V is None:
             return None
-        if self._q_hat is None:  # the frozen solution K^-1 f on the grid, as a spectrum
+        if self._forcing is None:  # the frozen solution K^-1 f on the grid, as a spectrum: B q shared by the rungs
             co = self.grid_coefficients
-            self._q_hat = spectrum(np.linalg.solve(co.stiffness, co.load[..., None])[..., 0])
+            self._forcing = _Forcing(self.full, spectrum(np.linalg.solve(co.stiffness, co.load[..., None])[..., 0]))
         try:
-            return _Reduced(self.full, self.frames.of_lumps, V, self._q_hat, self.grid_coefficients, self.grid_lumps,
-                            self._grid)
+            return _Reduced(self.full, self.frames.of_lumps, V, self._forcing.q_hat, self.grid_coefficients,
+                            self.grid_lumps, self._grid, self._forcing)
         except (ValueError, np.linalg.LinAlgError):  # not interpolable, or the reduced mass singular
             return None
 
