@@ -33,10 +33,26 @@ d^2/dtheta^2 (as in :mod:`ked_linear.periodic`), q = K^-1 f the frozen solution:
 
 **Error estimate.**  Step levels :data:`STEP_LEVELS` on the smaller basis until the change of the history
 (relative to its peak, per output group) gives an estimate (:func:`ked_linear.periodic.error_estimate`)
-below half the tolerance; the richer basis is solved at the first level: the answer is the smaller
-basis's at the last level, its error the step estimate plus the change between the bases at the first.
-None when that does not reach the tolerance or anything cannot be built (A2 singular, coefficients not
-interpolable): the caller then uses the Fourier collocation.
+below half the tolerance; the richer basis is solved at one level (``check``; for a four-bar the reduced
+Floquet ladder's probe level, at least 128 steps), the smaller one there too: the answer is the smaller
+basis's at the last level, its error the step estimate plus twice the change between the bases at
+``check``.  None when that does not reach the tolerance or anything cannot be built (A2 singular,
+coefficients not interpolable): the caller then uses the Fourier collocation.
+
+**One reduced system per basis, one pass per level.**  The homogeneous part of each one-cycle map Phi is
+the reduced system's monodromy: its eigenvalues are Floquet multipliers, which the reduced Floquet ladder
+(:func:`ked_linear.reduction.reduced_floquet`) takes from the same reduced systems
+(:meth:`ked_linear.reduction.Reductions.reduced`, :meth:`_Reduced.propagate`): a four-bar's steady state and
+its Floquet analysis share the systems of the ladder's rungs and every Radau pass they both need.  The
+projection is this module's (W^T M K^-1, modal acceleration: a Petrov-Galerkin projection of the equation
+of motion), for both: for the steady state the plain Galerkin projection W^T was far less accurate on
+the ladder's first basis (thesis distributed, 300 rpm: 1.2e-2 of the peak against 4.3e-4; 3.2e-4 on 20
+coordinates), and for the multipliers this one is as good (max |mu| at 1024 steps against the full SDIRK2
+model, first / second rung, Galerkin -> this: thesis distributed 200 rpm 1.2e-4 -> 4.9e-5 / 1.3e-5 ->
+4.8e-6, 300 rpm 1.6e-4 -> 2.4e-4 / 2.5e-5 -> 4e-7, 500 rpm 7.1e-4 -> 8.0e-4 / 6.2e-5 -> 2.6e-5, cognate
+450 rpm 5.9e-4 -> 4.0e-4 / 2.7e-5 -> 1.1e-5; extender 300 rpm 1.2e-5 -> 7.8e-6; generated atlas linkage
+1, distributed, r = 0.2: 2.6e-3 -> 4.3e-4 / 2.7e-5 -> 1.3e-5), and twice the change between consecutive
+rungs covered the first rung's error in each of these.
 
 This module is generic (no linkage): the caller supplies the bases and the frame angles
 (:func:`ked_linear.reduction.link_frames` and :func:`ked_linear.reduction.greedy_basis` for a four-bar).
@@ -99,17 +115,6 @@ COEFFICIENT_TOLERANCE = REDUCED_TOLERANCE
 """The same for Ke and Ce: the reduced Floquet analysis's (:data:`ked_linear.reduction.INTERPOLATION_TOLERANCE`),
 whose multipliers come from the same system."""
 
-
-RICH_CORRECTION = 1e-5
-"""Threshold of the static corrections (:func:`ked_linear.reduction.static_corrections`) that make the richer
-basis of :func:`four_bar_steady_state` from the smaller one.  The smaller basis's error is mostly what
-its modes' quasi-static response to the frame forces leaves out, which these columns add: measured against
-the collocation at H = 64 (thesis distributed model; source 100 / 300 rpm, cognate 100 / 300 rpm), the
-change to the corrected basis (r = 14 -> 17-18) was 1.8e-5 / 4.2e-4 / 1.2e-5 / 2.7e-4 of the peak for a
-true error of 1.3e-5 / 4.3e-4 / 1.2e-5 / 2.7e-4, as the change to the ladder's second basis (r = 22-24:
-1.9e-5 / 4.3e-4 / 1.3e-5 / 2.6e-4), at less cost (distributed, 100 rpm, in-process: building the
-richer reduced system and its 128 steps 9 + 12 ms against 11 + 19).  A threshold of 1e-4
-kept no column on the extender (a change of 0 says nothing): without a column the second basis is used."""
 
 @dataclass(frozen=True)
 class ReducedSteadyState:
@@ -440,7 +445,14 @@ def four_bar_steady_state(scene: object, system: PeriodicSystem, theta: np.ndarr
     where the ladder propagates both rungs too; where that does not vouch, the next pair of rungs (as the
     ladder does).  None if the system is undamped, a basis cannot be built or no pair vouches for
     ``tolerance``.  ``reductions``: the :class:`ked_linear.reduction.Reductions` of ``system`` if already
-    built (shared with the reduced Floquet analysis)."""
+    built (shared with the reduced Floquet analysis).
+
+    The richer basis was the smaller one with its static corrections (r = 14 -> 17-18 on the thesis
+    distributed model) before the two analyses shared their systems; on generated atlas linkage 1
+    (distributed, r = 0.2, source) its change covered the error only by a thin margin (estimate 9.46e-4 for
+    a true error of 9.38e-4 against the 64-harmonic collocation), where the ladder's second rung shows
+    9.1e-4 (estimate 1.85e-3: the pair declines) and the next pair (r = 23 against 26) vouches with 1.8e-4
+    for a true 2.5e-5 (cognate: 6.1e-4 / 1.16e-3 / 3.5e-4 for a true 6.1e-4, 6.1e-4, 1.5e-4)."""
     red = Reductions(system, link_frames(scene)) if reductions is None else reductions
     if not red.usable or 2 * TRAINING_ANGLES != SAMPLES:
         return None

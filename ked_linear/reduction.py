@@ -25,13 +25,18 @@ the lowest frozen modes at 16 angles, compressed, gave max |mu| = 0 on the distr
    answer quasi-statically; frozen modes alone span that response only slowly (at high speed a basis of
    4 modes, 24 columns, was 3e-4 off the full model at 500 rpm; with 2 correction columns 6e-5), which
    is why without them the reduction did not vouch above ~450 rpm on the distributed model.
-3. **The reduced system** q'' + C_r q' + K_r q = 0 (r x r, unit mass; the projection is done without
-   forming R^T K R, :func:`projection`), its coefficients sampled on 128-512 uniform angles (until the
-   interpolant of the even samples matches the odd ones within :data:`INTERPOLATION_TOLERANCE` of the
+3. **The reduced system** of each basis is the periodic steady state's (:class:`ked_linear.corotating._Reduced`,
+   :meth:`Reductions.reduced`): the modal-acceleration (Petrov-Galerkin, test functions K^-1 M W) projection,
+   with unit reduced mass after dividing out A2; its coefficients sampled on 128-512 uniform angles (until
+   the interpolant of the even samples matches the odd ones within :data:`INTERPOLATION_TOLERANCE` of the
    peak) and interpolated trigonometrically, propagated over one cycle by the three-stage **Radau IIA**
    method (order 5, L-stable and stiffly accurate: the reduced system keeps stiff, overdamped Ritz modes,
    which it damps to ~0 like the SDIRK2 propagator of the full model), from the level with
-   h omega <= 2 for the lowest frozen mode: 64-512 steps where SDIRK2 needs 1024-4096.
+   h omega <= 2 for the lowest frozen mode: 64-512 steps where SDIRK2 needs 1024-4096.  One pass of affine
+   step maps per rung and level (:meth:`ked_linear.corotating._Reduced.propagate`, remembered) gives the
+   multipliers here and the periodic state to the steady state.  The plain Galerkin projection
+   (:func:`projection`, :func:`radau_multipliers`: the reference form, kept for the tests) gave the same
+   multipliers as well or worse (module docstring of :mod:`ked_linear.corotating`).
 
 **Error estimate and fallback** (:func:`reduced_floquet`). A ladder of bases (:data:`BASES`: 2 frozen modes
 kept exact; 4, 6, 8 with their static corrections); the answer is a rung's, its error the estimate from its
@@ -42,10 +47,11 @@ coefficients not interpolable: the tip model's stiffness spike, linkages near to
 caller uses the full model.
 
 Measured (thesis source linkage, 2 % damping, against the full SDIRK2 model at 4096 and 8192 steps,
-tests/test_floquet_reduction.py): distributed (40 coordinates; r = 14 checked against 22, at 330-570 rpm
-r = 22-26 against 29-31) at 30-600 rpm, source and cognate, within 2e-4 of the full model's max |mu| and
-within the estimate; extender (10; r = 6 against 10) within 2e-5; generated atlas linkages (r = 0.05-0.5)
-within the estimate.
+tests/test_floquet_reduction.py; the modal-acceleration systems): distributed (40 coordinates; r = 14
+checked against 22, at 500-600 rpm r = 24-26 against 30-32) at 30-600 rpm, source and cognate, within
+2.4e-4 of the full model's max |mu| (source 300 rpm; estimate 4.9e-4) and within the estimate; extender
+(10; r = 6 against 10) within 9e-6; generated atlas linkages 1, 4, 5 (distributed, r = 0.2, 0.2, 0.5)
+within the estimate (2.1e-4 at most).
 """
 
 from __future__ import annotations
