@@ -34,7 +34,7 @@ d^2/dtheta^2 (as in :mod:`ked_linear.periodic`), q = K^-1 f the frozen solution:
 **Error estimate.**  Step levels :data:`STEP_LEVELS` on the smaller basis until the change of the history
 (relative to its peak, per output group) gives an estimate (:func:`ked_linear.periodic.error_estimate`)
 below half the tolerance; the richer basis is solved at one level (``check``; for a four-bar the reduced
-Floquet ladder's probe level, at least 128 steps), the smaller one there too: the answer is the smaller
+Floquet ladder's probe level, at least :data:`CHECK_FROM` steps), the smaller one there too: the answer is the smaller
 basis's at the last level, its error the step estimate plus twice the change between the bases at
 ``check``.  None when that does not reach the tolerance or anything cannot be built (A2 singular,
 coefficients not interpolable): the caller then uses the Fourier collocation.
@@ -426,6 +426,14 @@ def _out(u: np.ndarray, y: np.ndarray | None) -> np.ndarray:
     return u if y is None else y
 
 
+CHECK_FROM = 128
+"""Least steps at which :func:`four_bar_steady_state` compares two rungs' steady states (the ladder's probe
+level where that is finer, sharing its passes).  The forced response needs it: at 64 steps the change
+between the first two rungs' steady states was 3.9e-4 / 6.0e-3 of the peak (thesis extender 300 rpm /
+distributed 100 rpm) against 2.9e-6 / 1.9e-5 at 128 and 256 steps alike.  The ladder itself keeps its
+probe level (64 steps at high speed), so a Floquet-only evaluation does not pay the finer pass."""
+
+
 class _StepsFail(Exception):
     """The step levels of a rung do not vouch: a richer rung would not either (the step error is the
     dynamics', not the basis's)."""
@@ -442,10 +450,11 @@ def four_bar_steady_state(scene: object, system: PeriodicSystem, theta: np.ndarr
     (:func:`ked_linear.reduction.link_frames`) on the rungs of the reduced Floquet ladder
     (:data:`ked_linear.reduction.BASES`), their reduced systems and Radau passes shared with it: a rung
     checked against the next at the ladder's probe level (:func:`ked_linear.reduction.ladder_levels`),
-    where the ladder propagates both rungs too; where that does not vouch, the next pair of rungs (as the
-    ladder does).  None if the system is undamped, a basis cannot be built or no pair vouches for
-    ``tolerance``.  ``reductions``: the :class:`ked_linear.reduction.Reductions` of ``system`` if already
-    built (shared with the reduced Floquet analysis).
+    where the ladder propagates both rungs too, or at :data:`CHECK_FROM` steps if that is finer; where
+    that does not vouch, the next pair of rungs (as the ladder does).  None if the system is undamped, a
+    basis cannot be built or no pair vouches for ``tolerance``.  ``reductions``: the
+    :class:`ked_linear.reduction.Reductions` of ``system`` if already built (shared with the reduced Floquet
+    analysis).
 
     The richer basis was the smaller one with its static corrections (r = 14 -> 17-18 on the thesis
     distributed model) before the two analyses shared their systems; on generated atlas linkage 1
@@ -457,7 +466,7 @@ def four_bar_steady_state(scene: object, system: PeriodicSystem, theta: np.ndarr
     if not red.usable or 2 * TRAINING_ANGLES != SAMPLES:
         return None
     probe = ladder_levels(red)[2]
-    check = STEP_LEVELS[0] if probe is None else probe
+    check = STEP_LEVELS[0] if probe is None else max(probe, CHECK_FROM)
     for i in range(len(BASES) - 1):
         small, rich = red.reduced(i), red.reduced(i + 1)
         if small is None or rich is None:

@@ -351,13 +351,6 @@ PROBE_AT = 0.5
 """The richer rung is propagated at the first level with at least this fraction of the resolved steps
 (h omega <= 2), against the smaller one at the same steps: their discretization errors then nearly cancel."""
 
-PROBE_FROM = 128
-"""Least steps of the level at which the richer rung is propagated (:data:`PROBE_AT`): the periodic steady
-state (:func:`ked_linear.corotating.four_bar_steady_state`) checks its basis on the same two reduced
-systems at that level and shares both passes, and its forced response needs them: at 64 steps the change
-between the rungs' steady states was 3.9e-4 / 6.0e-3 of the peak (thesis extender 300 rpm / distributed
-100 rpm) against 2.9e-6 / 1.9e-5 at 128 and 256 steps alike."""
-
 FIRST_CHANGE_RATIO = 8.0
 """With two levels (the coarser at h omega <= 2, the finer at <= 1), the finer one's error is estimated as
 their change / 8: it assumes the error falls 9-fold per halving, where the three-stage method's amplitude
@@ -534,7 +527,7 @@ def ladder_levels(red: Reductions) -> tuple[tuple[int, ...], float, int | None]:
     which a rung is checked against the next (:data:`PROBE_AT`; None if no level qualifies)."""
     resolved = red.omega_kept * red.full.period / RESOLVED_H_OMEGA
     levels = tuple(n for n in RADAU_LEVELS if n >= 0.5 * resolved)
-    return levels, resolved, next((n for n in levels if n >= max(PROBE_AT * resolved, PROBE_FROM)), None)
+    return levels, resolved, next((n for n in levels if n >= PROBE_AT * resolved), None)
 
 
 class _BasisFails(Exception):
