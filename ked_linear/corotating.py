@@ -33,10 +33,26 @@ d^2/dtheta^2 (as in :mod:`ked_linear.periodic`), q = K^-1 f the frozen solution:
 
 **Error estimate.**  Step levels :data:`STEP_LEVELS` on the smaller basis until the change of the history
 (relative to its peak, per output group) gives an estimate (:func:`ked_linear.periodic.error_estimate`)
-below half the tolerance; the richer basis is solved at the first level: the answer is the smaller
-basis's at the last level, its error the step estimate plus the change between the bases at the first.
-None when that does not reach the tolerance or anything cannot be built (A2 singular, coefficients not
-interpolable): the caller then uses the Fourier collocation.
+below half the tolerance; the richer basis is solved at one level (``check``; for a four-bar the reduced
+Floquet ladder's probe level, at least :data:`CHECK_FROM` steps), the smaller one there too: the answer is the smaller
+basis's at the last level, its error the step estimate plus twice the change between the bases at
+``check``.  None when that does not reach the tolerance or anything cannot be built (A2 singular,
+coefficients not interpolable): the caller then uses the Fourier collocation.
+
+**One reduced system per basis, one pass per level.**  The homogeneous part of each one-cycle map Phi is
+the reduced system's monodromy: its eigenvalues are Floquet multipliers, which the reduced Floquet ladder
+(:func:`ked_linear.reduction.reduced_floquet`) takes from the same reduced systems
+(:meth:`ked_linear.reduction.Reductions.reduced`, :meth:`_Reduced.propagate`): a four-bar's steady state and
+its Floquet analysis share the systems of the ladder's rungs and every Radau pass they both need.  The
+projection is this module's (W^T M K^-1, modal acceleration: a Petrov-Galerkin projection of the equation
+of motion), for both: for the steady state the plain Galerkin projection W^T was far less accurate on
+the ladder's first basis (thesis distributed, 300 rpm: 1.2e-2 of the peak against 4.3e-4; 3.2e-4 on 20
+coordinates), and for the multipliers this one is as good (max |mu| at 1024 steps against the full SDIRK2
+model, first / second rung, Galerkin -> this: thesis distributed 200 rpm 1.2e-4 -> 4.9e-5 / 1.3e-5 ->
+4.8e-6, 300 rpm 1.6e-4 -> 2.4e-4 / 2.5e-5 -> 4e-7, 500 rpm 7.1e-4 -> 8.0e-4 / 6.2e-5 -> 2.6e-5, cognate
+450 rpm 5.9e-4 -> 4.0e-4 / 2.7e-5 -> 1.1e-5; extender 300 rpm 1.2e-5 -> 7.8e-6; generated atlas linkage
+1, distributed, r = 0.2: 2.6e-3 -> 4.3e-4 / 2.7e-5 -> 1.3e-5), and twice the change between consecutive
+rungs covered the first rung's error in each of these.
 
 This module is generic (no linkage): the caller supplies the bases and the frame angles
 (:func:`ked_linear.reduction.link_frames` and :func:`ked_linear.reduction.greedy_basis` for a four-bar).
@@ -68,10 +84,12 @@ from .reduction import (
     TRAINING_ANGLES,
     Reductions,
     _turn,
+    ladder_levels,
     link_frames,
     rotate_columns,
 )
-from .sampled import TrigInterpolant, midpoint_error
+from .reduction import INTERPOLATION_TOLERANCE as REDUCED_TOLERANCE
+from .sampled import TrigInterpolant, interleave, midpoint_error
 
 FrameAngles = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
 """theta (m,) [rad] -> (phi [rad], phi_dot [rad/s], phi_ddot [rad/s^2]), each (m, n/2): the frame angle of
@@ -86,24 +104,17 @@ interpolant of the even samples matches the odd ones within :data:`INTERPOLATION
 coefficients on this grid also give the frozen solution's spectrum).  Measured on the thesis extender and
 distributed models at 100 and 300 rpm: 64 samples never passed the check (1.3e-4 to 5.5e-4), 128 always."""
 
-MAX_SAMPLES = 256
+MAX_SAMPLES = 512
 
 INTERPOLATION_TOLERANCE = 1e-6
-"""Largest error, relative to each field's peak, of the interpolant of the even samples of the reduced
-coefficients at the odd ones (a bound of the coarser interpolant: the one used, of all samples, is far
-closer; measured on the thesis distributed model: 1.5e-8 with 64 samples against 128, 3e-11 with 128)."""
+"""Largest error, relative to its peak, of the interpolant of the even samples of the reduced load Fe at the
+odd ones (a bound of the coarser interpolant: the one used, of all samples, is far closer; measured on the
+thesis distributed model: 1.5e-8 with 64 samples against 128, 3e-11 with 128)."""
 
+COEFFICIENT_TOLERANCE = REDUCED_TOLERANCE
+"""The same for Ke and Ce: the reduced Floquet analysis's (:data:`ked_linear.reduction.INTERPOLATION_TOLERANCE`),
+whose multipliers come from the same system."""
 
-RICH_CORRECTION = 1e-5
-"""Threshold of the static corrections (:func:`ked_linear.reduction.static_corrections`) that make the richer
-basis of :func:`four_bar_steady_state` from the smaller one.  The smaller basis's error is mostly what
-its modes' quasi-static response to the frame forces leaves out, which these columns add: measured against
-the collocation at H = 64 (thesis distributed model; source 100 / 300 rpm, cognate 100 / 300 rpm), the
-change to the corrected basis (r = 14 -> 17-18) was 1.8e-5 / 4.2e-4 / 1.2e-5 / 2.7e-4 of the peak for a
-true error of 1.3e-5 / 4.3e-4 / 1.2e-5 / 2.7e-4, as the change to the ladder's second basis (r = 22-24:
-1.9e-5 / 4.3e-4 / 1.3e-5 / 2.6e-4), at less cost (distributed, 100 rpm, in-process: building the
-richer reduced system and its 128 steps 9 + 12 ms against 11 + 19).  A threshold of 1e-4
-kept no column on the extender (a change of 0 says nothing): without a column the second basis is used."""
 
 @dataclass(frozen=True)
 class ReducedSteadyState:
@@ -134,6 +145,16 @@ def _frames(angles: FrameAngles, V: np.ndarray, theta: np.ndarray, speed: float,
 
 
 @dataclass(frozen=True)
+class Propagation:
+    """One Radau IIA pass of a reduced system (:meth:`_Reduced.propagate`): ``multipliers`` (2r,) of its
+    homogeneous one-cycle map, largest first; ``states`` (steps, 2r): the periodic solution x = (a, a') at
+    theta_j = 2 pi j / steps, or None if not asked for."""
+
+    multipliers: np.ndarray
+    states: np.ndarray | None
+
+
+@dataclass(frozen=True)
 class _AtAngles:
     """What :meth:`_Reduced.evaluate` needs at the output angles that depends on them alone: the frame
     angles (``angles(theta)``) and the frozen solution's first two theta-derivatives q', q'' (m, n)."""
@@ -148,25 +169,54 @@ class _AtAngles:
                          q2=series(reduced.q_hat, theta, 2))
 
 
+class _Forcing:
+    """What the reduced systems of every basis of one system need at given angles, remembered per angle
+    array (the rungs of a ladder share one): B q (m, n) of the frozen solution q (spectrum ``q_hat``) and
+    M K^-1 (m, n, n) (K symmetric)."""
+
+    def __init__(self, system: PeriodicSystem, q_hat: np.ndarray):
+        self.system, self.q_hat = system, q_hat
+        self._known: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+
+    def at(self, theta: np.ndarray, co: Coefficients) -> tuple[np.ndarray, np.ndarray]:
+        key = theta.tobytes()
+        if key not in self._known:
+            s, m = self.system.speed, self.system.mass
+            Bq = s * _apply(co.damping, series(self.q_hat, theta, 1)) + s**2 * m * series(self.q_hat, theta, 2)
+            # (K^-T M)^T = M K^-1: the rows of the test functions' transpose
+            self._known[key] = (Bq, np.swapaxes(np.linalg.solve(np.swapaxes(co.stiffness, 1, 2),
+                                                                np.broadcast_to(np.diag(m), co.stiffness.shape)),
+                                                1, 2))
+        return self._known[key]
+
+
 class _Reduced:
-    """The reduced equation a'' + Ce a' + Ke a = Fe (A2 divided out) of one basis, sampled and interpolated."""
+    """The reduced equation a'' + Ce a' + Ke a = Fe (A2 divided out) of one basis, sampled and interpolated:
+    the one reduced system of that basis for both the periodic steady state and the Floquet multipliers
+    (:meth:`propagate`: one Radau IIA pass of affine step maps gives both; :class:`Propagation`)."""
 
     def __init__(self, system: PeriodicSystem, angles: FrameAngles, V: np.ndarray, q_hat: np.ndarray,
                  co_grid: Coefficients | None = None,
-                 angles_grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None):
+                 angles_grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                 midpoints: Callable[[int], tuple[Coefficients, tuple[np.ndarray, np.ndarray, np.ndarray]]]
+                 | None = None, forcing: _Forcing | None = None):
         self.system, self.angles, self.V, self.q_hat = system, angles, V, q_hat
+        self._forcing = _Forcing(system, q_hat) if forcing is None else forcing
         self.r = V.shape[1]
         self._at: tuple | None = None  # (the _AtAngles, fields, frames) of the last evaluate
+        self._runs: dict[int, Propagation] = {}
         G = SAMPLES
-        # co_grid, angles_grid: the coefficients and frame angles on the first grid, if known
+        # co_grid, angles_grid: the coefficients and frame angles on the first grid, if known; midpoints(G):
+        # those at the midpoints of the G / 2 grid, if known; forcing: B q of the frozen solution, if shared
         flat = self._flat(np.arange(G) * (2.0 * np.pi / G), co_grid, angles_grid)
-        while midpoint_error(flat, self._layout()) > INTERPOLATION_TOLERANCE:
+        k, c, f = self._layout()
+        while midpoint_error(flat, (k, c)) > COEFFICIENT_TOLERANCE or midpoint_error(flat, (f,)) > \
+                INTERPOLATION_TOLERANCE:
             if 2 * G > MAX_SAMPLES:
                 raise ValueError("reduced coefficients not interpolable")
-            mid = self._flat((np.arange(G) + 0.5) * (2.0 * np.pi / G))
-            both = np.empty((2 * G, flat.shape[1]))
-            both[0::2], both[1::2] = flat, mid
-            flat, G = both, 2 * G
+            mid = (np.arange(G) + 0.5) * (2.0 * np.pi / G)
+            flat = interleave(flat, self._flat(mid) if midpoints is None else self._flat(mid, *midpoints(2 * G)))
+            G *= 2
         self.interpolant = TrigInterpolant(flat)
 
     def _layout(self) -> tuple[slice, slice, slice]:
@@ -181,14 +231,15 @@ class _Reduced:
         s, m, r = sys_.speed, sys_.mass, self.r
         co = sys_.coefficients(theta) if co is None else co
         W, W1, W2 = _frames(self.angles, self.V, theta, s, known)
-        Zt = np.swapaxes(np.linalg.solve(np.swapaxes(co.stiffness, 1, 2), m[:, None] * W), 1, 2)  # W^T M K^-1
+        Bq, MKinv = self._forcing.at(theta, co)
+        Zt = np.swapaxes(W, 1, 2) @ MKinv  # W^T M K^-1
         ZtC, ZtM = Zt @ co.damping, Zt * m
         A0 = s * (ZtC @ W1) + s**2 * (ZtM @ W2)
         A1 = s * (ZtC @ W) + 2.0 * s**2 * (ZtM @ W1)
         A2 = s**2 * (ZtM @ W)
-        Bq = s * _apply(co.damping, series(self.q_hat, theta, 1)) + s**2 * m * series(self.q_hat, theta, 2)
         rhs = np.concatenate([A0 + np.eye(r), A1, -_apply(Zt, Bq)[..., None]], axis=2)
-        X = np.linalg.solve(A2, rhs)
+        X = np.linalg.inv(A2) @ rhs  # A2 symmetric positive definite, condition <= 7e5 measured (rungs 0-2 of
+        # the thesis extender and distributed models): as accurate as a solve here, and a third cheaper
         return np.concatenate([X[..., :r].reshape(-1, r * r), X[..., r:2 * r].reshape(-1, r * r), X[..., 2 * r]],
                               axis=1)
 
@@ -197,8 +248,14 @@ class _Reduced:
         k, c, f = self._layout()
         return flat[:, k].reshape(-1, r, r), flat[:, c].reshape(-1, r, r), flat[:, f]
 
-    def periodic(self, steps: int) -> TrigInterpolant:
-        """The periodic solution: the interpolant of x = (a, a') at theta_j = sign 2 pi j / steps."""
+    def propagate(self, steps: int, states: bool = False) -> Propagation:
+        """One Radau IIA pass over the cycle at ``steps`` steps (in the direction of time), remembered: the
+        Floquet multipliers of the homogeneous part of its one-cycle map and, with ``states``, the periodic
+        solution x = (a, a') at theta_j = sign 2 pi j / steps (the step maps are not kept: a pass asked for
+        its states after one without them is marched again)."""
+        known = self._runs.get(steps)
+        if known is not None and (known.states is not None or not states):
+            return known
         r = self.r
         sign = 1.0 if self.system.speed > 0 else -1.0  # march in the direction of time
         h = sign * 2.0 * np.pi / steps
@@ -206,14 +263,23 @@ class _Reduced:
         K, C, F = self.fields(stage)
         S = radau_affine_steps(K.reshape(3, steps, r, r), C.reshape(3, steps, r, r), F.reshape(3, steps, r), h)
         Phi = _product(S)
-        x0 = np.linalg.solve(np.eye(2 * r) - Phi[:2 * r, :2 * r], Phi[:2 * r, 2 * r])
-        X = np.empty((steps, 2 * r))
-        X[0] = x0
-        for j in range(steps - 1):
-            X[j + 1] = S[j, :2 * r, :2 * r] @ X[j] + S[j, :2 * r, 2 * r]
-        if sign < 0:  # samples at -2 pi j / steps: reorder to the increasing grid the interpolant expects
-            X = np.concatenate([X[:1], X[:0:-1]])
-        return TrigInterpolant(X)
+        mu = np.linalg.eigvals(Phi[:2 * r, :2 * r])  # the same in t and theta: a Runge-Kutta step commutes
+        # with rescaling time, which only scales a'
+        mu = mu[np.argsort(-np.abs(mu))]
+        X = None
+        if states:
+            X = np.empty((steps, 2 * r))
+            X[0] = np.linalg.solve(np.eye(2 * r) - Phi[:2 * r, :2 * r], Phi[:2 * r, 2 * r])
+            for j in range(steps - 1):
+                X[j + 1] = S[j, :2 * r, :2 * r] @ X[j] + S[j, :2 * r, 2 * r]
+            if sign < 0:  # samples at -2 pi j / steps: reorder to the increasing grid the interpolant expects
+                X = np.concatenate([X[:1], X[:0:-1]])
+        self._runs[steps] = Propagation(multipliers=mu, states=X)
+        return self._runs[steps]
+
+    def periodic(self, steps: int) -> TrigInterpolant:
+        """The periodic solution: the interpolant of x = (a, a') at theta_j = 2 pi j / steps."""
+        return TrigInterpolant(self.propagate(steps, states=True).states)
 
     def evaluate(self, steps: int, theta: np.ndarray, co: Coefficients,
                  at: _AtAngles | None = None) -> tuple[np.ndarray, np.ndarray | None]:
@@ -302,31 +368,50 @@ def corotating_steady_state(system: PeriodicSystem, angles: FrameAngles, bases: 
     ``on_grid``: the full coefficients and ``angles`` on the :data:`SAMPLES` uniform angles from 0, if known."""
     if np.any(system.mass <= 0.0):
         return None
-    theta = np.atleast_1d(np.asarray(theta, dtype=float))
     G = SAMPLES
     grid = np.arange(G) * (2.0 * np.pi / G)
     co_grid, angles_grid = (system.coefficients(grid), None) if on_grid is None else on_grid
     q_hat = spectrum(np.linalg.solve(co_grid.stiffness, co_grid.load[..., None])[..., 0])
+    try:
+        forcing = _Forcing(system, q_hat)
+        small = _Reduced(system, angles, bases[0], q_hat, co_grid, angles_grid, forcing=forcing)
+        rich = _Reduced(system, angles, bases[1], q_hat, co_grid, angles_grid, forcing=forcing)
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    return steady_state_on(small, rich, theta, tolerance, groups)
+
+
+def steady_state_on(small: _Reduced, rich: _Reduced, theta: np.ndarray, tolerance: float,
+                    groups: tuple[slice, ...] | None = None, check: int = STEP_LEVELS[0],
+                    steps_failed: Callable[[], None] | None = None) -> ReducedSteadyState | None:
+    """:func:`corotating_steady_state` on two built reduced systems of one system (smaller, richer): the
+    smaller at :data:`STEP_LEVELS`, the basis change between the two at ``check`` steps (their
+    discretization errors nearly cancel at equal steps).  ``steps_failed``: called (and its value
+    returned) when the step levels alone do not vouch."""
+    system = small.system
+    if np.any(system.mass <= 0.0):
+        return None
+    theta = np.atleast_1d(np.asarray(theta, dtype=float))
     co = system.coefficients(theta)
     try:
-        small = _Reduced(system, angles, bases[0], q_hat, co_grid, angles_grid)
         at = _AtAngles.of(small, theta)
-        outputs, changes, est = [], [], float("inf")
-        for steps in STEP_LEVELS:
+        outputs: dict[int, tuple[np.ndarray, np.ndarray | None]] = {}
+        changes, est = [], float("inf")
+        for level, steps in enumerate(STEP_LEVELS):
             u, y = small.evaluate(steps, theta, co, at)
-            outputs.append(u if y is None else y)
-            if len(outputs) > 1:
-                changes.append(relative_change(outputs[-1], outputs[-2], groups))
+            outputs[steps] = (u, y)
+            if level:
+                changes.append(relative_change(_out(u, y), _out(*outputs[STEP_LEVELS[level - 1]]), groups))
                 est = error_estimate(changes)
                 if est < 0.5 * tolerance:
                     break
         if not est < 0.5 * tolerance:
-            return None
-        u_rich, y_rich = _Reduced(system, angles, bases[1], q_hat, co_grid, angles_grid).evaluate(
-            STEP_LEVELS[0], theta, co, at)
+            return None if steps_failed is None else steps_failed()
+        base = outputs[check] if check in outputs else small.evaluate(check, theta, co, at)
+        u_rich, y_rich = rich.evaluate(check, theta, co, at)
     except (ValueError, np.linalg.LinAlgError):
         return None
-    change = relative_change(u_rich if y_rich is None else y_rich, outputs[0], groups)
+    change = relative_change(_out(u_rich, y_rich), _out(*base), groups)
     # the basis error as twice the change to the richer basis, as the reduced Floquet analysis counts it:
     # the change alone fell short of the true error by up to 1.97x (68 scenes of 8 generated atlas
     # linkages, extender and distributed at r = 0.1-0.3, against the 64-harmonic collocation)
@@ -334,33 +419,66 @@ def corotating_steady_state(system: PeriodicSystem, angles: FrameAngles, bases: 
     if not (np.isfinite(total) and total < tolerance):
         return None
     return ReducedSteadyState(displacement=u, output=y, error_estimate=float(total), steps=steps,
-                              sizes=(bases[0].shape[1], bases[1].shape[1]), step_error=float(est),
+                              sizes=(small.r, rich.r), step_error=float(est),
                               basis_change=float(change))
+
+
+def _out(u: np.ndarray, y: np.ndarray | None) -> np.ndarray:
+    return u if y is None else y
+
+
+CHECK_FROM = 128
+"""Least steps at which :func:`four_bar_steady_state` compares two rungs' steady states (the ladder's probe
+level where that is finer, sharing its passes).  The forced response needs it: at 64 steps the change
+between the first two rungs' steady states was 3.9e-4 / 6.0e-3 of the peak (thesis extender 300 rpm /
+distributed 100 rpm) against 2.9e-6 / 1.9e-5 at 128 and 256 steps alike.  The ladder itself keeps its
+probe level (64 steps at high speed), so a Floquet-only evaluation does not pay the finer pass."""
+
+
+class _StepsFail(Exception):
+    """The step levels of a rung do not vouch: a richer rung would not either (the step error is the
+    dynamics', not the basis's)."""
+
+
+def _raise_steps_fail() -> None:
+    raise _StepsFail
 
 
 def four_bar_steady_state(scene: object, system: PeriodicSystem, theta: np.ndarray, tolerance: float,
                           groups: tuple[slice, ...] | None = None,
                           reductions: Reductions | None = None) -> ReducedSteadyState | None:
-    """:func:`corotating_steady_state` of a four-bar's linear model on its link frames
-    (:func:`ked_linear.reduction.link_frames`) on the first basis of the reduced Floquet ladder
-    (:data:`ked_linear.reduction.BASES`: 2 frozen modes kept exact), checked against that basis with its
-    static corrections (:data:`RICH_CORRECTION`; if none is above it, against the ladder's second basis);
-    None if the system is undamped, a basis cannot be built or the estimate does not reach ``tolerance``.
-    ``reductions``: the :class:`ked_linear.reduction.Reductions` of ``system`` if already built (shared
-    with the reduced Floquet analysis: frames, frozen eigen-solves, bases, coefficients on the grid)."""
+    """:func:`steady_state_on` of a four-bar's linear model on its link frames
+    (:func:`ked_linear.reduction.link_frames`) on the rungs of the reduced Floquet ladder
+    (:data:`ked_linear.reduction.BASES`), their reduced systems and Radau passes shared with it: a rung
+    checked against the next at the ladder's probe level (:func:`ked_linear.reduction.ladder_levels`),
+    where the ladder propagates both rungs too, or at :data:`CHECK_FROM` steps if that is finer; where
+    that does not vouch, the next pair of rungs (as the ladder does).  None if the system is undamped, a
+    basis cannot be built or no pair vouches for ``tolerance``.  ``reductions``: the
+    :class:`ked_linear.reduction.Reductions` of ``system`` if already built (shared with the reduced Floquet
+    analysis).
+
+    The richer basis was the smaller one with its static corrections (r = 14 -> 17-18 on the thesis
+    distributed model) before the two analyses shared their systems; on generated atlas linkage 1
+    (distributed, r = 0.2, source) its change covered the error only by a thin margin (estimate 9.46e-4 for
+    a true error of 9.38e-4 against the 64-harmonic collocation), where the ladder's second rung shows
+    9.1e-4 (estimate 1.85e-3: the pair declines) and the next pair (r = 23 against 26) vouches with 1.8e-4
+    for a true 2.5e-5 (cognate: 6.1e-4 / 1.16e-3 / 3.5e-4 for a true 6.1e-4, 6.1e-4, 1.5e-4)."""
     red = Reductions(system, link_frames(scene)) if reductions is None else reductions
-    if not red.usable:
+    if not red.usable or 2 * TRAINING_ANGLES != SAMPLES:
         return None
-    small = red.basis(0)
-    if small is None:
-        return None
-    rich = red.basis_of(*BASES[0][:2], RICH_CORRECTION)
-    if rich is None or rich.shape[1] <= small.shape[1]:  # no correction above the threshold: the ladder's next
-        rich = red.basis(1)
-    if rich is None:
-        return None
-    on_grid = (red.grid_coefficients, red.grid_lumps) if 2 * TRAINING_ANGLES == SAMPLES else None
-    return corotating_steady_state(system, red.frames.of_lumps, (small, rich), theta, tolerance, groups, on_grid)
+    probe = ladder_levels(red)[2]
+    check = STEP_LEVELS[0] if probe is None else max(probe, CHECK_FROM)
+    for i in range(len(BASES) - 1):
+        small, rich = red.reduced(i), red.reduced(i + 1)
+        if small is None or rich is None:
+            return None
+        try:
+            got = steady_state_on(small, rich, theta, tolerance, groups, check, _raise_steps_fail)
+        except _StepsFail:
+            return None
+        if got is not None:
+            return got
+    return None
 
 
 FIRST_HARMONICS = 8

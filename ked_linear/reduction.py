@@ -25,13 +25,18 @@ the lowest frozen modes at 16 angles, compressed, gave max |mu| = 0 on the distr
    answer quasi-statically; frozen modes alone span that response only slowly (at high speed a basis of
    4 modes, 24 columns, was 3e-4 off the full model at 500 rpm; with 2 correction columns 6e-5), which
    is why without them the reduction did not vouch above ~450 rpm on the distributed model.
-3. **The reduced system** q'' + C_r q' + K_r q = 0 (r x r, unit mass; the projection is done without
-   forming R^T K R, :func:`projection`), its coefficients sampled on 128-512 uniform angles (until the
-   interpolant of the even samples matches the odd ones within :data:`INTERPOLATION_TOLERANCE` of the
+3. **The reduced system** of each basis is the periodic steady state's (:class:`ked_linear.corotating._Reduced`,
+   :meth:`Reductions.reduced`): the modal-acceleration (Petrov-Galerkin, test functions K^-1 M W) projection,
+   with unit reduced mass after dividing out A2; its coefficients sampled on 128-512 uniform angles (until
+   the interpolant of the even samples matches the odd ones within :data:`INTERPOLATION_TOLERANCE` of the
    peak) and interpolated trigonometrically, propagated over one cycle by the three-stage **Radau IIA**
    method (order 5, L-stable and stiffly accurate: the reduced system keeps stiff, overdamped Ritz modes,
    which it damps to ~0 like the SDIRK2 propagator of the full model), from the level with
-   h omega <= 2 for the lowest frozen mode: 64-512 steps where SDIRK2 needs 1024-4096.
+   h omega <= 2 for the lowest frozen mode: 64-512 steps where SDIRK2 needs 1024-4096.  One pass of affine
+   step maps per rung and level (:meth:`ked_linear.corotating._Reduced.propagate`, remembered) gives the
+   multipliers here and the periodic state to the steady state.  The plain Galerkin projection
+   (:func:`projection`, :func:`radau_multipliers`: the reference form, kept for the tests) gave the same
+   multipliers as well or worse (module docstring of :mod:`ked_linear.corotating`).
 
 **Error estimate and fallback** (:func:`reduced_floquet`). A ladder of bases (:data:`BASES`: 2 frozen modes
 kept exact; 4, 6, 8 with their static corrections); the answer is a rung's, its error the estimate from its
@@ -42,22 +47,27 @@ coefficients not interpolable: the tip model's stiffness spike, linkages near to
 caller uses the full model.
 
 Measured (thesis source linkage, 2 % damping, against the full SDIRK2 model at 4096 and 8192 steps,
-tests/test_floquet_reduction.py): distributed (40 coordinates; r = 14 checked against 22, at 330-570 rpm
-r = 22-26 against 29-31) at 30-600 rpm, source and cognate, within 2e-4 of the full model's max |mu| and
-within the estimate; extender (10; r = 6 against 10) within 2e-5; generated atlas linkages (r = 0.05-0.5)
-within the estimate.
+tests/test_floquet_reduction.py; the modal-acceleration systems): distributed (40 coordinates; r = 14
+checked against 22, at 500-600 rpm r = 24-26 against 30-32) at 30-600 rpm, source and cognate, within
+2.4e-4 of the full model's max |mu| (source 300 rpm; estimate 4.9e-4) and within the estimate; extender
+(10; r = 6 against 10) within 9e-6; generated atlas linkages 1, 4, 5 (distributed, r = 0.2, 0.2, 0.5)
+within the estimate (2.1e-4 at most).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .floquet import FloquetResult, _product
-from .periodic import Coefficients, PeriodicSystem, error_estimate
-from .sampled import TrigInterpolant, interleave, midpoint_error
+from .periodic import Coefficients, PeriodicSystem, error_estimate, spectrum
+from .sampled import TrigInterpolant, midpoint_error
+
+if TYPE_CHECKING:
+    from .corotating import _Forcing, _Reduced
 
 FULL_NEAR_ONE = 0.9
 """A reduced max |mu| + error at or above this goes to the full model (the weakly damped threshold of the
@@ -435,7 +445,8 @@ class Reductions:
         theta = np.arange(G) * (2.0 * np.pi / G)
         co = system.coefficients(theta)
         self.usable = bool(np.any(co.damping))
-        self._systems: dict[int, PeriodicSystem | None] = {}
+        self._systems: dict[int, _Reduced | None] = {}
+        self._forcing: _Forcing | None = None
         self._bases: dict[tuple, np.ndarray | None] = {}
         self.grid_coefficients = co
         """The full coefficients on the uniform grid of 2 :data:`TRAINING_ANGLES` angles from 0 (shared with
@@ -484,27 +495,39 @@ class Reductions:
             self._grids[G] = (self.full.coefficients(mid), self.frames.of_lumps(mid))
         return self._grids[G]
 
-    def system(self, i: int) -> PeriodicSystem | None:
-        """The reduced system of rung ``i`` (unit mass, interpolated coefficients), or None if its basis or an
-        interpolation within :data:`INTERPOLATION_TOLERANCE` on at most 512 angles cannot be had."""
+    def reduced(self, i: int) -> _Reduced | None:
+        """The reduced system of rung ``i`` (:class:`ked_linear.corotating._Reduced`: the modal-acceleration
+        (Petrov-Galerkin) projection, interpolated), or None if its basis or an interpolation within
+        :data:`INTERPOLATION_TOLERANCE` on at most 512 angles cannot be had.  The one reduced system of that
+        basis: its Radau passes (remembered by step count) give the Floquet ladder its multipliers and the
+        periodic steady state its solution."""
         if i not in self._systems:
             self._systems[i] = self._build(i)
         return self._systems[i]
 
-    def _build(self, i: int) -> PeriodicSystem | None:
+    def _build(self, i: int) -> _Reduced | None:
+        from .corotating import _Forcing, _Reduced
+
         V = self.basis(i)
         if V is None:
             return None
-        G = 2 * TRAINING_ANGLES
-        K, C = projection(*self._grid(G), self.full.mass, V)
-        while interpolation_error(K, C) > INTERPOLATION_TOLERANCE:
-            if 2 * G > 512:
-                return None
-            G *= 2
-            Km, Cm = projection(*self._grid(G), self.full.mass, V)
-            K, C = interleave(K, Km), interleave(C, Cm)
-        return PeriodicSystem(mass=np.ones(V.shape[1]), speed=self.full.speed,
-                              coefficients=InterpolatedCoefficients(K, C))
+        if self._forcing is None:  # the frozen solution K^-1 f on the grid, as a spectrum: B q shared by the rungs
+            co = self.grid_coefficients
+            self._forcing = _Forcing(self.full, spectrum(np.linalg.solve(co.stiffness, co.load[..., None])[..., 0]))
+        try:
+            return _Reduced(self.full, self.frames.of_lumps, V, self._forcing.q_hat, self.grid_coefficients,
+                            self.grid_lumps, self._grid, self._forcing)
+        except (ValueError, np.linalg.LinAlgError):  # not interpolable, or the reduced mass singular
+            return None
+
+
+def ladder_levels(red: Reductions) -> tuple[tuple[int, ...], float, int | None]:
+    """The Radau levels of the reduced Floquet ladder on ``red`` (:data:`RADAU_LEVELS` from the first with
+    h omega <= 2 for the lowest frozen mode), the steps resolving that mode (h omega = 1) and the level at
+    which a rung is checked against the next (:data:`PROBE_AT`; None if no level qualifies)."""
+    resolved = red.omega_kept * red.full.period / RESOLVED_H_OMEGA
+    levels = tuple(n for n in RADAU_LEVELS if n >= 0.5 * resolved)
+    return levels, resolved, next((n for n in levels if n >= PROBE_AT * resolved), None)
 
 
 class _BasisFails(Exception):
@@ -553,8 +576,7 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
     red = Reductions(system, frames) if reductions is None else reductions
     if not red.usable:
         return None
-    resolved = red.omega_kept * system.period / RESOLVED_H_OMEGA  # steps resolving the lowest mode
-    levels = tuple(n for n in RADAU_LEVELS if n >= 0.5 * resolved)  # from twice that step
+    levels, resolved, first = ladder_levels(red)  # from twice the step resolving the lowest mode
     if not levels:
         return None
     runs: dict[tuple[int, int], np.ndarray] = {}  # (rung, steps): multipliers (a failed rung's probe is the
@@ -562,17 +584,16 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
 
     def propagate(i: int, steps: int) -> np.ndarray:
         if (i, steps) not in runs:
-            runs[(i, steps)] = radau_multipliers(red.system(i), steps)  # type: ignore[arg-type]
+            runs[(i, steps)] = red.reduced(i).propagate(steps).multipliers  # type: ignore[union-attr]
         return runs[(i, steps)]
 
     for i in range(len(BASES) - 1):
-        small, rich = red.system(i), red.system(i + 1)
+        small, rich = red.reduced(i), red.reduced(i + 1)
         if small is None or rich is None:
             return None
         # the richer rung at the first level resolving the lowest mode within h omega <= 2, computed as soon as
         # the smaller one reaches it: a basis change alone above what this rung may have ends the rung there
         # (its remaining levels could only add to the estimate)
-        first = next((n for n in levels if n >= PROBE_AT * resolved), None)
         seen: dict[int, float] = {}
 
         def probe(steps: int, top: float, i: int = i, first: int | None = first, seen: dict[int, float] = seen) -> None:
@@ -588,7 +609,7 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
         if done is None:
             return None
         tops, steps, step_est, mu = done
-        check = min(next(n for n in levels if n >= PROBE_AT * resolved), steps)
+        check = min(first, steps) if first is not None else steps
         other = seen[check] if check in seen else float(np.abs(propagate(i + 1, check)[0]))
         basis_change = abs(other - tops[levels.index(check)])
         est = max(step_est + BASIS_FACTOR * basis_change + BASIS_SHARED, ESTIMATE_FLOOR)
@@ -596,6 +617,6 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
             return None
         if est <= 0.5 * tolerance:
             result = FloquetResult(max_abs=tops[-1], error_estimate=est, steps=steps, multipliers=mu)
-            return Reduction(result=result, sizes=(small.mass.size, rich.mass.size), richer_max_abs=other,
+            return Reduction(result=result, sizes=(small.r, rich.r), richer_max_abs=other,
                              basis_change=basis_change, step_error=step_est)
     return None
