@@ -91,6 +91,23 @@ class Outcome:
     new_radau_steps: int
     message: str
     wall_s: float
+    feeds: str = ""
+
+
+def feeds_of(file: str, spec: SceneSpec) -> str:
+    """Which published numbers a stored linear solution of ``file`` enters (results/README.md, docs/)."""
+    from compare.studies import validity
+
+    name = Path(file).name
+    if name == "linear_acceptance.h5":
+        return ("docs/linear_model.md 'Against a fine Exudyn reference' (table, r <= 0.1; paragraph above r = 0.1); "
+                "docs/exudyn_models.md uses only its Exudyn runs")
+    if name in {Path(c).stem + ".h5" for c in validity.CONFIGS}:
+        if spec.damping_ratio == validity.REFERENCE_DAMPING and spec.direction == validity.REFERENCE_DIRECTION:
+            return "results/README.md tiers section (limits table, per-mass-model spans, Exudyn-failure |mu| table)"
+        return "none (the validity section's damping/direction table is quasi-static vs Exudyn)"
+    return "none (refinement scenes: the validity section uses their Exudyn runs only)" \
+        if name == validity.REFINE_FILE else "none known"
 
 
 def _vector(history: dict[str, np.ndarray]) -> np.ndarray | None:
@@ -128,7 +145,7 @@ def recompute(task: Task) -> tuple[Outcome, registry.Solution | None]:
     fields = solver.setting_fields()
     base = dict(file=task.file, key=task.key, label=task.label, solver=task.solver,
                 mass_model=task.spec.mass_model.name, stored_status=task.stored_status, mu_stored=task.stored_mu,
-                error_vs_dynamic_stored=_error(task.stored, task.dynamic))
+                error_vs_dynamic_stored=_error(task.stored, task.dynamic), feeds=feeds_of(task.file, task.spec))
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -161,7 +178,8 @@ def recompute(task: Task) -> tuple[Outcome, registry.Solution | None]:
 def _crashed(task: Task, exc: BaseException | None) -> tuple[Outcome, None]:
     return Outcome(task.file, task.key, task.label, task.solver, task.spec.mass_model.name, math.nan,
                    task.stored_rpm, task.stored_status, "crashed", math.inf, task.stored_mu, math.nan, math.nan,
-                   math.nan, math.nan, False, math.nan, 0, 0, f"worker lost: {exc}", 0.0), None
+                   math.nan, math.nan, False, math.nan, 0, 0, f"worker lost: {exc}", 0.0,
+                   feeds_of(task.file, task.spec)), None
 
 
 Solutions = dict[tuple[str, str], registry.Solution]
@@ -405,8 +423,8 @@ def main() -> None:
         for b in s["beyond"]:
             print(f"    {b['label']:<45} {b['solver']:<15} r={b['ratio']:.3f} change {b['change']:.2e} "
                   f"{b['stored_status']}->{b['new_status']} vs dyn {b['error_vs_dynamic_stored']:.4f}->"
-                  f"{b['error_vs_dynamic_new']:.4f}", flush=True)
-    if args.files:
+                  f"{b['error_vs_dynamic_new']:.4f}; feeds: {b['feeds']}", flush=True)
+    if any(f.name != "work_precision.h5" for f in args.files):
         t = tiers_change(list(args.files), solutions)
         report["tiers"] = t
         print(f"tiers section ({t['scenes']} scenes of {len(t['files'])} files): {t['lines_changed']} lines change",
