@@ -25,15 +25,16 @@ the lowest frozen modes at 16 angles, compressed, gave max |mu| = 0 on the distr
    answer quasi-statically; frozen modes alone span that response only slowly (at high speed a basis of
    4 modes, 24 columns, was 3e-4 off the full model at 500 rpm; with 2 correction columns 6e-5), which
    is why without them the reduction did not vouch above ~450 rpm on the distributed model.
-3. **The reduced system** of each basis is the periodic steady state's (:class:`ked_linear.corotating._Reduced`,
-   :meth:`Reductions.reduced`): the modal-acceleration (Petrov-Galerkin, test functions K^-1 M W) projection,
+3. **The reduced system** of each basis is the periodic steady state's
+   (:class:`ked_linear.reducedsystem._Reduced`, :meth:`Reductions.reduced`):
+   the modal-acceleration (Petrov-Galerkin, test functions K^-1 M W) projection,
    with unit reduced mass after dividing out A2; its coefficients sampled on 128-512 uniform angles (until
    the interpolant of the even samples matches the odd ones within :data:`INTERPOLATION_TOLERANCE` of the
    peak) and interpolated trigonometrically, propagated over one cycle by the three-stage **Radau IIA**
    method (order 5, L-stable and stiffly accurate: the reduced system keeps stiff, overdamped Ritz modes,
    which it damps to ~0 like the SDIRK2 propagator of the full model), from the level with
    h omega <= 2 for the lowest frozen mode: 64-512 steps where SDIRK2 needs 1024-4096.  One pass of affine
-   step maps per rung and level (:meth:`ked_linear.corotating._Reduced.propagate`, remembered) gives the
+   step maps per rung and level (:meth:`ked_linear.reducedsystem._Reduced.propagate`, remembered) gives the
    multipliers here and the periodic state to the steady state.  The plain Galerkin projection
    (:func:`projection`, :func:`radau_multipliers`: the reference form, kept for the tests) gave the same
    multipliers as well or worse (module docstring of :mod:`ked_linear.corotating`).
@@ -58,16 +59,31 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .floquet import FloquetResult, _product
+from .linkframes import (  # noqa: F401  (link_frames re-exported where it was defined)
+    LinkFrames,
+    _in_frames,
+    _turn,
+    link_frames,
+    rotate_columns,
+)
 from .periodic import Coefficients, PeriodicSystem, error_estimate, spectrum
+from .radau import (  # noqa: F401  (RADAU_A, RADAU_C, radau_tableau re-exported where they were defined)
+    RADAU_A,
+    RADAU_C,
+    RADAU_STAGES,
+    radau_steps,
+    radau_tableau,
+    tableau,
+)
+from .reducedsystem import (  # noqa: F401  (INTERPOLATION_TOLERANCE re-exported where it was defined)
+    COEFFICIENT_TOLERANCE as INTERPOLATION_TOLERANCE,
+)
+from .reducedsystem import _Forcing, _Reduced
 from .sampled import TrigInterpolant, midpoint_error
-
-if TYPE_CHECKING:
-    from .corotating import _Forcing, _Reduced
 
 FULL_NEAR_ONE = 0.9
 """A reduced max |mu| + error at or above this goes to the full model (the weakly damped threshold of the
@@ -100,64 +116,6 @@ RADAU_LEVELS = (64, 128, 256, 512, 1024, 2048)
 lowest mode (:func:`reduced_floquet`)."""
 
 
-@dataclass(frozen=True)
-class LinkFrames:
-    """The co-rotating frame of each coordinate pair (x, y of one lump).
-
-    link (N,): for lump j (coordinates 2 j, 2 j + 1), the column of ``angles`` it turns with;
-    angles: theta (m,) [rad] -> (phi, phi_dot, phi_ddot), each (m, L): the frame angles [rad], their rates
-    [rad/s] and accelerations [rad/s^2] at those crank angles (at the system's speed)."""
-
-    link: np.ndarray
-    angles: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
-
-    def of_lumps(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(phi, phi_dot, phi_ddot) per lump, each (m, N)."""
-        return tuple(a[:, self.link] for a in self.angles(theta))  # type: ignore[return-value]
-
-
-def link_frames(scene: object) -> LinkFrames:
-    """The frames of a four-bar scene's mass coordinates (:func:`ked_quasi.frame.condensed_structure` order):
-    lumps on the crank turn with the crank, the coupler body's (coupler, extender, A, B, P) with the
-    coupler, the follower's with the follower."""
-    from ked_quasi.frame import condensed_structure
-    from ked_quasi.kinematics import kinematics
-    from ked_quasi.massmodel import lumps
-    from ked_quasi.structure import topology
-
-    topo = topology(lumps(scene.fourbar, scene.mass_model))
-    nodes = condensed_structure(scene, np.zeros(1)).mass_node
-    column = {"crank": 0, "coupler": 1, "extender": 1, "follower": 2}
-    link = np.array([column[topo.node_link[k]] for k in nodes], dtype=int)
-    fourbar, rpm = scene.fourbar, scene.rpm
-
-    def angles(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        kin = kinematics(fourbar, theta, rpm)
-        zero = np.zeros_like(theta)
-        phi = np.stack([fourbar.ground_angle + theta, kin.coupler_angle, kin.follower_angle], axis=1)
-        rate = np.stack([zero + kin.omega, kin.omega_coupler, kin.omega_follower], axis=1)
-        acc = np.stack([zero, kin.alpha_coupler, kin.alpha_follower], axis=1)
-        return phi, rate, acc
-
-    return LinkFrames(link=link, angles=angles)
-
-
-def rotate_columns(X: np.ndarray, phi: np.ndarray) -> np.ndarray:
-    """R(phi) X for X (..., n, k) (n = 2 N) and lump angles phi (m, N): (m, n, k)."""
-    c, s = np.cos(phi)[:, :, None], np.sin(phi)[:, :, None]
-    x, y = X[..., 0::2, :], X[..., 1::2, :]
-    out = np.empty(np.broadcast_shapes(X.shape, (phi.shape[0], 2 * phi.shape[1], X.shape[-1])))
-    out[:, 0::2], out[:, 1::2] = c * x - s * y, s * x + c * y
-    return out
-
-
-def _turn(X: np.ndarray) -> np.ndarray:
-    """J X per lump (J = [[0, -1], [1, 0]]), X (..., n, k)."""
-    out = np.empty_like(X)
-    out[..., 0::2, :], out[..., 1::2, :] = -X[..., 1::2, :], X[..., 0::2, :]
-    return out
-
-
 def corotated(system: PeriodicSystem, frames: LinkFrames, theta: np.ndarray) -> Coefficients:
     """The coefficients of the exact co-rotating system in v (u = R v) at ``theta``: (m, n, n) each (the
     reference form; :func:`reduced_system` projects without forming them)."""
@@ -178,12 +136,6 @@ def corotated(system: PeriodicSystem, frames: LinkFrames, theta: np.ndarray) -> 
 def frozen_stiffness(system: PeriodicSystem, frames: LinkFrames, theta: np.ndarray) -> np.ndarray:
     """R^T K R at ``theta`` (m, n, n): the frozen structure in the link frames."""
     return _in_frames(system.coefficients(theta).stiffness, frames.of_lumps(theta)[0])
-
-
-def _in_frames(K: np.ndarray, phi: np.ndarray) -> np.ndarray:
-    """R^T K R (m, n, n) for K (m, n, n) and the lump angles phi (m, N)."""
-    RtK = rotate_columns(K, -phi)  # R^T K (R(-phi) = R(phi)^T)
-    return np.swapaxes(rotate_columns(np.swapaxes(RtK, 1, 2), -phi), 1, 2)  # (R^T (R^T K)^T)^T = R^T K R
 
 
 def greedy_basis(Ks: np.ndarray, modes: int, ritz_tolerance: float, max_size: int,
@@ -316,30 +268,7 @@ def interpolation_error(K: np.ndarray, C: np.ndarray) -> float:
 
 
 # --------------------------------------------------------------------------------------------------
-# Radau IIA (s stages, order 2 s - 1) for q'' + C(t) q' + K(t) q = 0 with unit mass
-
-def radau_tableau(stages: int) -> tuple[np.ndarray, np.ndarray]:
-    """Nodes c (s,) and matrix A (s, s) of the s-stage Radau IIA method (collocation at the right Radau
-    points, the zeros of P_s(2x - 1) - P_{s-1}(2x - 1); weights = last row of A: stiffly accurate)."""
-    from numpy.polynomial import legendre, polynomial
-
-    series = np.zeros(stages + 1)
-    series[stages], series[stages - 1] = 1.0, -1.0
-    c = (np.sort(np.real(legendre.legroots(series))) + 1.0) / 2.0
-    c[-1] = 1.0
-    A = np.empty((stages, stages))
-    for j in range(stages):
-        others = np.delete(c, j)
-        integral = polynomial.polyint(polynomial.polyfromroots(others) / np.prod(c[j] - others))
-        A[:, j] = polynomial.polyval(c, integral) - polynomial.polyval(0.0, integral)
-    return c, A
-
-
-RADAU_STAGES = 3
-"""Stages of the reduced propagator (order 2 s - 1 = 5).  More stages need fewer steps (five, order 9: per
-step an amplitude error on an undamped oscillation of 2e-6 at h omega = 2, three stages 7e-3), but a step
-costs ~ (s r)^3: measured on the thesis models at 100 and 300 rpm, five stages at a quarter of the steps
-were no faster, four about as fast as three."""
+# The ladder's Radau levels (the method: ked_linear.radau)
 
 RESOLVED_H_OMEGA = 1.0
 """h omega of the lowest frozen mode (at its highest frequency over the cycle) from which a level counts
@@ -358,47 +287,12 @@ and phase errors per cycle fall 26 and 57-fold from h omega = 2 to 1 (order 5: 3
 From three levels on, the estimate of :func:`ked_linear.periodic.error_estimate` (the last change, or
 the tail of a geometric series)."""
 
-_TABLEAUX = {RADAU_STAGES: radau_tableau(RADAU_STAGES)}
-RADAU_C, RADAU_A = radau_tableau(3)
-"""Butcher tableau of the three-stage Radau IIA method (order 5)."""
-
-
-def radau_steps(K: np.ndarray, C: np.ndarray, h: float, a: np.ndarray = RADAU_A) -> np.ndarray:
-    """Step matrices (m, 2r, 2r) of x = (q, q') for K, C (s, m, r, r) at the s stage times of each step of
-    the Radau IIA method with matrix ``a`` (s, s).
-
-    Stage values Q_i = q + h sum_j a_ij P_j, P_i = p + h sum_j a_ij (-K_j Q_j - C_j P_j); eliminating Q:
-    [delta_ik I + h a_ik C_k + h^2 sum_j a_ij a_jk K_j] P_k = p - h sum_j a_ij K_j q, one s r x s r solve
-    per step; the new state is the last stage (Q_s, P_s)."""
-    s, m, r, _ = K.shape
-    # blocks (i, k) = h^2 sum_j a_ij a_jk K_j + h a_ik C_k: one (s^2 x s) product over the flattened K
-    blocks = ((np.einsum("ij,jk->ikj", a, a) * (h * h)).reshape(s * s, s) @ K.reshape(s, -1)).reshape(s, s, m, r, r)
-    for k in range(s):
-        blocks[:, k] += (h * a[:, k])[:, None, None, None] * C[k]
-    L = np.empty((m, s, r, s, r))
-    L[...] = blocks.transpose(2, 0, 3, 1, 4)
-    L = L.reshape(m, s * r, s * r)
-    L.reshape(m, -1)[:, ::s * r + 1] += 1.0
-    rhs = np.zeros((m, s, r, 2 * r))
-    rhs[..., :r] = ((-h * a) @ K.reshape(s, -1)).reshape(s, m, r, r).transpose(1, 0, 2, 3)
-    idx = np.arange(r)
-    rhs[:, :, idx, r + idx] = 1.0
-    P = np.linalg.solve(L, rhs.reshape(m, s * r, 2 * r)).reshape(m, s, r, 2 * r)
-    S = np.empty((m, 2 * r, 2 * r))
-    S[:, r:] = P[:, -1]
-    np.multiply(P[:, 0], h * a[-1, 0], out=S[:, :r])
-    for j in range(1, s):
-        S[:, :r] += (h * a[-1, j]) * P[:, j]
-    S[:, idx, idx] += 1.0
-    return S
-
-
 def radau_multipliers(system: PeriodicSystem, steps: int, stages: int = RADAU_STAGES) -> np.ndarray:
     """Floquet multipliers (2r,) of a unit-mass system by the ``stages``-stage Radau IIA method with
     ``steps`` per cycle, largest first."""
     if not np.allclose(system.mass, 1.0):
         raise ValueError("radau_multipliers: needs a unit-mass system (a reduced system)")
-    c, a = _TABLEAUX[stages] if stages in _TABLEAUX else radau_tableau(stages)
+    c, a = tableau(stages)
     h = system.period / steps
     t = np.arange(steps) * h
     if isinstance(system.coefficients, InterpolatedCoefficients):  # the stages' uniform grids at once
@@ -423,11 +317,6 @@ class Reduction:
     richer_max_abs: float
     basis_change: float
     step_error: float
-
-
-INTERPOLATION_TOLERANCE = 1e-8
-"""Largest interpolation error of the reduced coefficients (fraction of each field's peak, even samples
-against odd ones); their grid doubles from :data:`TRAINING_ANGLES` x 2 up to 512 angles until it holds."""
 
 
 class Reductions:
@@ -496,7 +385,7 @@ class Reductions:
         return self._grids[G]
 
     def reduced(self, i: int) -> _Reduced | None:
-        """The reduced system of rung ``i`` (:class:`ked_linear.corotating._Reduced`: the modal-acceleration
+        """The reduced system of rung ``i`` (:class:`ked_linear.reducedsystem._Reduced`: the modal-acceleration
         (Petrov-Galerkin) projection, interpolated), or None if its basis or an interpolation within
         :data:`INTERPOLATION_TOLERANCE` on at most 512 angles cannot be had.  The one reduced system of that
         basis: its Radau passes (remembered by step count) give the Floquet ladder its multipliers and the
@@ -506,8 +395,6 @@ class Reductions:
         return self._systems[i]
 
     def _build(self, i: int) -> _Reduced | None:
-        from .corotating import _Forcing, _Reduced
-
         V = self.basis(i)
         if V is None:
             return None
