@@ -52,7 +52,9 @@ def forget() -> None:
     repeated solve of the same scene would otherwise time the recalled part as free."""
     import sys
 
-    getattr(sys.modules.get("ked_linear.solver"), "_RECALL", {}).clear()
+    solver = sys.modules.get("ked_linear.solver")
+    forget_recalled = getattr(solver, "forget_recalled", None)  # older checkouts: clear the map itself
+    forget_recalled() if forget_recalled is not None else getattr(solver, "_RECALL", {}).clear()
 
 
 def timed(fn, runs: int, *fn_args):

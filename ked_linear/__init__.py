@@ -15,11 +15,12 @@ from .floquet import FloquetResult, floquet, monodromy, multipliers
 from .linkage import LinkageSystem, frozen_frequencies, linkage_system
 from .periodic import Coefficients, PeriodicSolution, PeriodicSystem, SteadyState, solve_periodic, steady_state
 from .settings import LinearSettings
-from .solver import UNRESOLVED_ESTIMATE, LinearResult, describe_flags, result_flags, solve_linear
+from .solver import UNRESOLVED_ESTIMATE, LinearResult, describe_flags, forget_recalled, result_flags, solve_linear
 
 __all__ = [
     "UNRESOLVED_ESTIMATE", "Coefficients", "FloquetResult",
     "LinearResult", "LinearSettings", "LinkageSystem", "PeriodicSolution",
     "PeriodicSystem", "SteadyState", "floquet", "frozen_frequencies", "linkage_system", "monodromy",
-    "multipliers", "describe_flags", "result_flags", "solve_linear", "solve_periodic", "steady_state",
+    "multipliers", "describe_flags", "forget_recalled", "result_flags", "solve_linear", "solve_periodic",
+    "steady_state",
 ]

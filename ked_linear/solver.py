@@ -85,6 +85,13 @@ def _recall(key: tuple, compute: Callable[[], T]) -> T:
         return _RECALL[key]  # type: ignore[return-value]
 
 
+def forget_recalled() -> None:
+    """Empty the recall of recent linear systems and Floquet results: a timing of repeated solves of one
+    scene must call this before each, or it times the recalled parts as free."""
+    with _RECALL_LOCK:
+        _RECALL.clear()
+
+
 def single_threaded_blas() -> contextlib.AbstractContextManager:
     """A context in which BLAS/LAPACK run on one thread (``threadpoolctl``; a no-op without it).
 

@@ -391,6 +391,21 @@ def test_recalled_system_and_multipliers_give_the_fresh_answer(monkeypatch):
     np.testing.assert_allclose(again.deflection, fresh.deflection, rtol=0, atol=1e-12 * np.abs(fresh.deflection).max())
 
 
+
+def test_forget_recalled_makes_the_next_solve_compute_afresh(monkeypatch):
+    # timings of repeated solves (the work-precision study, bench_linear) empty the recall before each solve:
+    # afterwards nothing is recalled, and the next solve stores its system and multipliers again
+    from ked_linear import forget_recalled, solver
+    from ked_quasi.presets import make_scene
+
+    monkeypatch.setattr(solver, "_RECALL", {})
+    solve_linear(make_scene(mass_model="joints", rpm=150.0))
+    assert len(solver._RECALL) == 2
+    forget_recalled()
+    assert solver._RECALL == {}
+    solve_linear(make_scene(mass_model="joints", rpm=150.0))
+    assert len(solver._RECALL) == 2
+
 # --- the steady state on a co-rotating reduced basis (ked_linear/corotating.py) ----------------------------
 
 def _constant_system(speed: float) -> tuple[PeriodicSystem, np.ndarray, np.ndarray]:
