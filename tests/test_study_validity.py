@@ -167,7 +167,9 @@ def test_committed_validity_answer():
     files = [studies / (Path(c).stem + ".h5") for c in CONFIGS]
     _, summaries = load_study(files, studies / REFINE_FILE)
     found = answer([fs for fams in reference(summaries).values() for fs in fams])
-    assert len(found.shifts) == 64 and max(found.shifts) < 0.1 * 0.01
+    # 63 bracketing pairs rerun refined (regression pin of the committed files: slender source joints at 10 %,
+    # refined errors 0.063 and 0.100, is the one crossing whose refined pair does not bracket the tolerance)
+    assert len(found.shifts) == 63 and max(found.shifts) < 0.1 * 0.01
     # regression pins (committed files)
     assert found.complete and all(rg.families == 16 for rg in found.ranges.values())
     assert found.ranges["history", 0.10].low.limits["history", 0.10].r_limit == pytest.approx(0.07)
