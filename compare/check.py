@@ -39,7 +39,7 @@ import math
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from compare import metrics, verdict_rule
 from compare.config import default_dynamic
@@ -53,6 +53,9 @@ from ked_quasi.harmonics import one_mode_dynamic_estimate
 from ked_quasi.linkage import FourBar
 from ked_quasi.massmodel import MassModel
 from ked_quasi.slidercrank import SliderCrank
+
+if TYPE_CHECKING:
+    from compare.checkwork import CheckWorkers
 
 TIERS = ("quasi-static", "borderline", "linear", "nonlinear")
 DEFAULT_DYNAMIC = default_dynamic()
@@ -301,20 +304,37 @@ def linear_range(mass_model: str) -> LinearRange:
 
 def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, rpms: Sequence[float], *,
           stiffness_scale: float = 1.0, damping_ratio: float = 0.02, direction: str = "ccw", step_deg: float = 10.0,
-          tolerance: float = 0.10, confirm: bool = False, bar: Any = None) -> list[CheckRow]:
+          tolerance: float = 0.10, confirm: bool = False, bar: Any = None,
+          workers: CheckWorkers | None = None) -> list[CheckRow]:
     """The design check of one linkage at each of ``rpms`` [rev/min] (see the module docstring).  A
     slider-crank (``source`` a ``SliderCrank``) has no atlas: neither the linear model's limit nor calibrated
     margins (the four-bar atlas's do not apply), so only a measurement (``confirm``) grants a tier below
-    nonlinear.  ``bar``: a progress bar (:func:`progress`) advanced per speed; default: one of its own."""
+    nonlinear.  ``bar``: a progress bar (:func:`progress`) advanced per speed; default: one of its own.
+    ``workers``: where the speeds after the first go when their estimated work is worth worker processes
+    (:class:`compare.checkwork.CheckWorkers`; the rows are the same)."""
     slider = isinstance(source, SliderCrank)
     rng = LinearRange() if slider else linear_range(mass_model.name)
     margins = VerdictMargins() if slider else verdict_margins(tolerance)
-    rows = []
+    specs = [spec_for(source, mechanism, mass_model, rpm, stiffness_scale=stiffness_scale, damping_ratio=damping_ratio,
+                      direction=direction, step_deg=step_deg, tolerance=tolerance) for rpm in rpms]
+    rows: list[CheckRow] = []
     with progress(len(rpms)) if bar is None else contextlib.nullcontext(bar) as bar:
-        for rpm in rpms:
-            rows.append(_check_one(source, mechanism, mass_model, rpm, rng, margins, bar,
-                                   stiffness_scale=stiffness_scale, damping_ratio=damping_ratio,
-                                   direction=direction, step_deg=step_deg, tolerance=tolerance, confirm=confirm))
+        for i, spec in enumerate(specs):
+            if workers is not None and i > 0 and workers.worth(len(specs) - i):
+                from compare.checkwork import row_task
+
+                def each(j: int, row: CheckRow) -> None:
+                    bar.set_postfix_str(f"{row.rpm:g} rpm")
+                    advance(bar)
+
+                rows += workers.map(row_task, [(s, rng, margins, confirm) for s in specs[i:]], on_each=each,
+                                    cost=[s.speed.value for s in specs[i:]])  # faster: more harmonics, richer bases
+                break
+
+            def one(spec: SceneSpec = spec) -> CheckRow:
+                return check_speed(spec, rng, margins, confirm, bar)
+
+            rows.append(one() if workers is None else workers.timed(one))
             advance(bar)
     return rows
 
@@ -366,13 +386,12 @@ def advance(bar: Any) -> None:
     bar.update(1)
 
 
-def _check_one(source: FourBar, mechanism: str, mass_model: MassModel, rpm: float, rng: LinearRange,
-               margins: VerdictMargins, bar, *, stiffness_scale: float, damping_ratio: float, direction: str,
-               step_deg: float, tolerance: float, confirm: bool) -> CheckRow:
-    """The check at one speed (the progress bar says which stage runs)."""
+def check_speed(spec: SceneSpec, rng: LinearRange, margins: VerdictMargins, confirm: bool = False,
+                bar: Any = None) -> CheckRow:
+    """The check of one speed's scene (:func:`spec_for`); ``bar``: a progress bar that says which stage runs."""
+    bar = _NoBar() if bar is None else bar
+    rpm = spec.speed.value
     bar.set_postfix_str(f"{rpm:g} rpm")
-    spec = spec_for(source, mechanism, mass_model, rpm, stiffness_scale=stiffness_scale,
-                    damping_ratio=damping_ratio, direction=direction, step_deg=step_deg, tolerance=tolerance)
     r = _run(spec)
     if _unresolved(r):
         bar.set_postfix_str(f"{rpm:g} rpm, {MAX_HARMONICS} harmonics")
@@ -381,7 +400,7 @@ def _check_one(source: FourBar, mechanism: str, mass_model: MassModel, rpm: floa
     if confirm:
         bar.set_postfix_str(f"{rpm:g} rpm, Exudyn")
         r = _run(replace(spec, solvers=(*spec.solvers, "dynamic")))
-    row = check_row(r, rng, tolerance, margins)
+    row = check_row(r, rng, spec.tolerance, margins)
     if spec.extra_settings:
         how = (f"with {row.linear_harmonics} crank harmonics" if row.linear_harmonics > 0
                else "on the co-rotating reduced basis")

@@ -163,8 +163,8 @@ class _Sweep:
     interval sampled finely.  Every evaluation of ``floquet`` is kept: none is made twice."""
 
     def __init__(self, rpms: np.ndarray, values: np.ndarray, exact: np.ndarray, floquet: Callable[[float], float],
-                 fine: int):
-        self.f, self.fine = floquet, fine
+                 fine: int, batch: Callable[[list[float]], Sequence[float]] | None = None):
+        self.f, self.fine, self.batch = floquet, fine, batch
         self.coarse = rpms
         self.exact = {float(r): float(v) for r, v, e in zip(rpms, values, exact) if e}
         self.approx = {float(r): float(v) for r, v, e in zip(rpms, values, exact) if not e}
@@ -179,14 +179,26 @@ class _Sweep:
             self.evaluations += 1
         return self.exact[rpm]
 
-    def refine_interval(self, k: int) -> None:
-        """Coarse interval ``k`` (between coarse speeds k and k + 1) sampled finely (its ends are samples
-        already: evaluated when they decide, :meth:`needs`)."""
-        if k in self.intervals or not 0 <= k < self.coarse.size - 1:
+    def values(self, rpms: Sequence[float]) -> None:
+        """max |mu| at each of ``rpms`` not evaluated yet, by ``batch`` (the speeds at once: they are
+        independent) or one by one."""
+        todo = list(dict.fromkeys(float(r) for r in rpms if float(r) not in self.exact))
+        if self.batch is None or len(todo) < 2:
+            for r in todo:
+                self.value(r)
             return
+        for r, v in zip(todo, self.batch(todo)):
+            self.exact[r] = float(v)
+        self.evaluations += len(todo)
+
+    def refine_interval(self, k: int) -> list[float]:
+        """Coarse interval ``k`` (between coarse speeds k and k + 1) marked as sampled finely: the speeds to
+        evaluate (none if it was marked before; its ends are samples already: evaluated when they decide,
+        :meth:`needs`)."""
+        if k in self.intervals or not 0 <= k < self.coarse.size - 1:
+            return []
         self.intervals.add(k)
-        for r in np.linspace(self.coarse[k], self.coarse[k + 1], self.fine + 1)[1:-1]:
-            self.value(float(r))
+        return [float(r) for r in np.linspace(self.coarse[k], self.coarse[k + 1], self.fine + 1)[1:-1]]
 
     def points(self) -> tuple[np.ndarray, np.ndarray]:
         """The speeds sampled so far for the maxima (coarse and finely sampled intervals; not the refinement's
@@ -243,10 +255,17 @@ class _Sweep:
                 [r for r in dict.fromkeys(exact) if r not in self.exact])
 
 
+Bracket = tuple[float, float, float, float, float, float]
+"""A local maximum to refine: speeds a < b < c [rev/min] and their max |mu| (fb above fa and fc, or a plateau)."""
+
+
 def critical_speeds(rpms: Sequence[float], max_abs: Sequence[float],
                     floquet: Callable[[float], float] | None = None, fine: int = 4,
                     rpm_tol: float = 2e-3, prominence: float = PROMINENCE,
-                    exact: bool | Sequence[bool] = True) -> tuple[CriticalSpeed, ...]:
+                    exact: bool | Sequence[bool] = True,
+                    batch: Callable[[list[float]], Sequence[float]] | None = None,
+                    refine: Callable[[list[Bracket], float], list[tuple[float, float]] | None] | None = None,
+                    ) -> tuple[CriticalSpeed, ...]:
     """The critical speeds (local maxima of max |mu|) of the samples ``rpms`` [rev/min] (any order) and
     their ``max_abs``.  A maximum at either end of the range is no critical speed (its peak may lie outside).
 
@@ -271,7 +290,12 @@ def critical_speeds(rpms: Sequence[float], max_abs: Sequence[float],
     samples of step 1 (one narrower than their spacing) is not found: the samples set the resolution.
     ``exact``: whether ``max_abs`` are values of ``floquet`` (one bool, or one per sample); an approximate
     one (the linear solve's own |mu|, at its own step count) finds the maxima, and ``floquet`` is
-    evaluated there before it decides one."""
+    evaluated there before it decides one.
+
+    ``batch`` (speeds -> their max |mu|, as ``floquet`` gives them) evaluates the speeds of one round of the
+    sweep at once and ``refine`` (brackets, ``rpm_tol`` -> [(rpm, max |mu|)] per bracket, as
+    :func:`refine_maximum`, or None) refines the maxima at once: both on worker processes in ``ked check``
+    (:mod:`compare.checkwork`); the speeds evaluated and the answer are those of the one-by-one sweep."""
     order = np.argsort(np.asarray(rpms, dtype=float))
     x = np.asarray(rpms, dtype=float)[order]
     y = np.asarray(max_abs, dtype=float)[order]
@@ -288,24 +312,36 @@ def critical_speeds(rpms: Sequence[float], max_abs: Sequence[float],
     # the filled intervals are sampled finely by fewer speeds: the same fine grid as the given samples'
     # (with 4: 2 in each half of an interval cut in two, none in the quarters of one cut in four)
     parts = max(round((x.size - 1) / max(x.size - 1 - fill.size, 1)), 1)
-    sweep = _Sweep(x, y, known, floquet, max(math.ceil(max(int(fine), 1) / parts), 1))
-    for r in fill:
-        sweep.value(float(r))
+    sweep = _Sweep(x, y, known, floquet, max(math.ceil(max(int(fine), 1) / parts), 1), batch)
+    sweep.values(fill)
     while True:
         intervals, points = sweep.needs(prominence)
         if not intervals and not points:
             break
-        for k in intervals:
-            sweep.refine_interval(k)
-        for r in points:
-            sweep.value(r)
+        sweep.values([r for k in intervals for r in sweep.refine_interval(k)] + points)
     x, y = sweep.points()
-    found = []
-    for i in local_maxima(x, y, prominence):
-        a, b, c = (float(v) for v in x[i - 1:i + 2])
-        r, m = _refine(sweep.value, a, b, c, sweep.value(a), sweep.value(b), sweep.value(c), rpm_tol)
-        found.append(CriticalSpeed(rpm=r, max_abs=m))
-    return tuple(found)
+    triples = [tuple(float(v) for v in x[i - 1:i + 2]) for i in local_maxima(x, y, prominence)]
+    sweep.values([v for t in triples for v in t])
+    brackets: list[Bracket] = [(a, b, c, sweep.value(a), sweep.value(b), sweep.value(c)) for a, b, c in triples]
+    refined = refine(brackets, rpm_tol) if refine is not None and brackets else None
+    if refined is None:
+        refined = [_refine(sweep.value, *br, rpm_tol) for br in brackets]
+    return tuple(CriticalSpeed(rpm=r, max_abs=m) for r, m in refined)
+
+
+def refine_maximum(floquet: Callable[[float], float], bracket: Bracket, rtol: float) -> tuple[float, float, int]:
+    """One maximum of a sweep refined by :func:`_refine` with ``floquet`` alone (remembering its values):
+    (rpm, max |mu|, evaluations of ``floquet``), as :func:`critical_speeds` refines it."""
+    seen: dict[float, float] = dict(zip(bracket[:3], bracket[3:]))
+    before = len(seen)
+
+    def f(rpm: float) -> float:
+        if rpm not in seen:
+            seen[rpm] = float(floquet(rpm))
+        return seen[rpm]
+
+    r, m = _refine(f, *bracket, rtol)
+    return r, m, len(seen) - before
 
 
 def amplification_peaks(rpms: Sequence[float], amplification: Sequence[float]) -> tuple[float, ...]:
@@ -370,11 +406,14 @@ def mark_near(rows: Sequence[object], speeds: Sequence[CriticalSpeed]) -> list[o
 
 
 def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_model: object, bar: Any = None,
+                   workers: Any = None,
                    **spec_kw: object) -> tuple[tuple[CriticalSpeed, ...], tuple[float, ...], list[object]]:
     """For the rows of a design check (:func:`compare.check.check`, same linkage and keywords of
     :func:`compare.check.spec_for`): its critical speeds (refined with the Floquet part alone), the
     amplification peaks, and the rows with the verdicts near a critical speed annotated.  ``bar``: a
-    progress bar (``compare.check.progress``) advanced per Floquet evaluation.
+    progress bar (``compare.check.progress``) advanced per Floquet evaluation.  ``workers``: a
+    :class:`compare.checkwork.CheckWorkers` that takes a round of evaluations, or the refinements of the
+    maxima, when it finds them worth its worker processes (the same evaluations, the same answer).
 
     The rows' own max |mu| (their linear solves') are the sweep's samples: exact where the solve's Floquet
     analysis is the sweep's (:func:`sweep_exact`), else approximate (within their Floquet error: they find
@@ -394,10 +433,34 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
             advance(bar)
         return value
 
+    def tick(text: str, steps: int = 1) -> None:
+        if bar is not None:
+            bar.set_postfix_str(text)
+            for _ in range(steps):
+                advance(bar)
+
+    def batch(speeds: list[float]) -> list[float]:
+        if workers is None or not workers.worth(len(speeds)):
+            return [f(r) for r in speeds]
+        from compare.checkwork import floquet_task
+
+        return workers.map(floquet_task, [(spec, r) for r in speeds],
+                           on_each=lambda i, v: tick(f"critical speeds, {speeds[i]:.4g} rpm"), cost=speeds)
+
+    def refine(brackets: list[Bracket], rtol: float) -> list[tuple[float, float]] | None:
+        if workers is None or len(brackets) < 2 or not workers.worth(len(brackets) * REFINE_EVALUATIONS):
+            return None
+        from compare.checkwork import refine_task
+
+        done = workers.map(refine_task, [(spec, b, rtol) for b in brackets],
+                           on_each=lambda i, res: tick(f"critical speed near {brackets[i][1]:.4g} rpm", res[2]))
+        return [(r, m) for r, m, _ in done]
+
     # one BLAS thread, as in solve_linear: the evaluations are small batched calls where threads only cost
     # (measured on the loaded 2-core machine: the sweep 3-8x slower with threads)
     with single_threaded_blas():
-        crit = critical_speeds(rpms, [r.floquet_max_abs for r in rows], f, exact=[sweep_exact(r) for r in rows])
+        crit = critical_speeds(rpms, [r.floquet_max_abs for r in rows], f, exact=[sweep_exact(r) for r in rows],
+                               batch=batch, refine=refine)
     if bar is not None and bar.total is not None and bar.n < bar.total:  # fewer evaluations than estimated
         bar.total = bar.n
         bar.refresh()

@@ -63,9 +63,13 @@ def _rpm_range(text: str | None) -> list[float]:
               help="Relative history error accepted.")
 @click.option("--confirm", is_flag=True, help="Also run the Exudyn model and report the three errors it measures.")
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON list, one object per speed.")
+@click.option("--workers", type=click.IntRange(min=1), default=None,
+              help="Local worker processes for the speeds and the critical-speed sweep, used when the work "
+                   "left after the first speed is estimated above 2 s (1: all in this process) [default: "
+                   "available CPUs].")
 def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...], rpm_range: str | None,
           lumps: int, payload_kg: float | None, stiffness_scale: float, direction: str, damping_ratio: float,
-          tolerance: float, confirm: bool, as_json: bool) -> None:
+          tolerance: float, confirm: bool, as_json: bool, workers: int | None) -> None:
     """Design check: per speed, r = Omega/omega1_min, the quasi-static and linear peaks, how far the
     quasi-static answer is from the linear model, Floquet max |mu|, the one-mode estimate of the
     quasi-static error, the tier needed (quasi-static / borderline / linear / nonlinear) and a verdict.
@@ -98,6 +102,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     """
     from compare.check import check as run_check
     from compare.check import progress
+    from compare.checkwork import CheckWorkers
     from ked_cli.quasi import slider_source
     from ked_quasi.massmodel import MassModel, default_payload
     from ked_quasi.scene import variant
@@ -119,17 +124,18 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
             refuse_fast_slider(spec_for(slider, mechanism, mm, speeds[0], stiffness_scale=stiffness_scale,
                                         direction=direction).scene(speeds[0]), speeds, "--rpm")
         sweep = len(speeds) >= 3 and slider is None  # critical speeds: local maxima over the range (compare.critical)
-        with progress(len(speeds)) as bar:  # one bar over the speeds and then the critical-speed sweep
+        # one bar over the speeds and then the critical-speed sweep; worker processes once the work is worth them
+        with progress(len(speeds)) as bar, CheckWorkers(workers) as pool:
             rows = run_check(source, mechanism, mm, speeds, stiffness_scale=stiffness_scale,
                              damping_ratio=damping_ratio, direction=direction, tolerance=tolerance, confirm=confirm,
-                             bar=bar)
+                             bar=bar, workers=pool)
             crit, amp = (), ()
             if sweep:
                 from compare.critical import check_critical, sweep_evaluations
 
                 bar.total = bar.n + sweep_evaluations(rows)
                 bar.refresh()
-                crit, amp, rows = check_critical(rows, load_source(linkage), mechanism, mm, bar=bar,
+                crit, amp, rows = check_critical(rows, load_source(linkage), mechanism, mm, bar=bar, workers=pool,
                                                  stiffness_scale=stiffness_scale, damping_ratio=damping_ratio,
                                                  direction=direction, tolerance=tolerance)
     except ValueError as exc:

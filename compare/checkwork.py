@@ -1,0 +1,137 @@
+"""Where a design check's solves run: in this process, or on local worker processes once the work is
+worth their start (:class:`CheckWorkers`).
+
+A check over several speeds (``ked check --rpm-range``) is a list of independent scenes, then a
+critical-speed sweep whose rounds of Floquet evaluations are independent too (:mod:`compare.critical`).
+Worker processes cost a start-up (~0.8 s for 2 on this project's 2-core machine: an interpreter and the
+harness's imports each), so they are started only when the work still to do, estimated from the first
+speed solved here, exceeds :data:`PARALLEL_FROM_S`; a check of a light model (a tip mass: some 0.02 s a
+speed) stays in this process.  They run on :func:`compare.runner.run_tasks` (one :class:`LocalPool`,
+kept from the speeds to the sweep).  Each task computes what the sequential check computes, with the
+same code: the rows, the critical speeds and every number printed are the same (a test compares them).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from compare.runner import LocalPool
+
+PARALLEL_FROM_S = 2.0
+"""Estimated sequential seconds of the work left above which it goes to the worker processes: above
+twice their start-up, and where ``ked check`` shows its progress bar."""
+
+
+@dataclass(frozen=True)
+class _Failed:
+    """A task's failure kept as data: the check raises it in this process as the sequential check would."""
+
+    message: str
+    crashed: bool = False
+
+
+class CheckWorkers:
+    """Worker processes for one check (a context manager): ``workers`` of them at most (1: none; None: the
+    available CPUs), started when :meth:`worth` says so, stopped at the end of the ``with`` block.
+    ``seconds_per_solve``: the wall time of one speed's solve measured in this process (:meth:`timed`),
+    the basis of the estimate."""
+
+    def __init__(self, workers: int | None = None):
+        if workers is not None and workers < 1:
+            raise ValueError(f"workers: at least 1; got {workers}")
+        self._workers = workers
+        self.seconds_per_solve = math.nan
+        self._pool: LocalPool | None = None
+
+    @property
+    def workers(self) -> int:
+        """How many worker processes at most (the available CPUs unless given)."""
+        if self._workers is None:
+            from compare.runner import default_workers  # only once workers are considered: it imports h5py
+
+            self._workers = default_workers()
+        return self._workers
+
+    def __enter__(self) -> CheckWorkers:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, *exc: object) -> None:
+        if self._pool is not None:
+            self._pool.__exit__(kind)
+            self._pool = None
+
+    def timed(self, compute: Callable[[], Any]) -> Any:
+        """compute(), its wall time kept as :attr:`seconds_per_solve` (the first measurement only)."""
+        t0 = time.perf_counter()
+        out = compute()
+        if not math.isfinite(self.seconds_per_solve):
+            self.seconds_per_solve = time.perf_counter() - t0
+        return out
+
+    def worth(self, solves: int) -> bool:
+        """Whether ``solves`` more solves go to the workers: there are workers, more than one solve, and
+        the workers run already or the estimate (``solves`` x :attr:`seconds_per_solve`) exceeds
+        :data:`PARALLEL_FROM_S`."""
+        if solves < 2:
+            return False
+        if self._pool is not None:
+            return True
+        return solves * self.seconds_per_solve > PARALLEL_FROM_S and self.workers >= 2
+
+    def map(self, fn: Callable[..., Any], calls: Sequence[tuple[Any, ...]],
+            on_each: Callable[[int, Any], None] | None = None, cost: Sequence[float] | None = None) -> list[Any]:
+        """[fn(*c) for c in calls] on the workers (started now if need be), in the order of ``calls``;
+        ``on_each(i, result)`` as each finishes; ``cost``: a guess of each call's relative cost (the
+        costliest are given out first, so that no worker is left with a long one at the end).  A task's
+        :class:`_Failed` result is raised here: a ``ValueError`` with its message as the sequential check
+        would raise it, a ``RuntimeError`` where its worker process died."""
+        from compare.runner import LocalPool, crash_reason, run_tasks
+
+        if self._pool is None:
+            self._pool = LocalPool(min(self.workers, max(len(calls), 2)))
+        out: list[Any] = [None] * len(calls)
+
+        def deliver(batch: list[tuple[int, Any]]) -> None:
+            for i, r in batch:
+                out[i] = r
+                if on_each is not None and not isinstance(r, _Failed):
+                    on_each(i, r)
+
+        order = sorted(range(len(calls)), key=lambda i: -cost[i]) if cost is not None else list(range(len(calls)))
+        run_tasks(order, fn, args=lambda i: calls[i], workers=self._pool.workers,
+                  pool=self._pool, on_result=deliver,
+                  crashed=lambda i, exc: _Failed(crash_reason(exc), crashed=True))
+        for r in out:
+            if isinstance(r, _Failed):
+                raise (RuntimeError if r.crashed else ValueError)(r.message)
+        return out
+
+
+def row_task(*args: Any) -> Any:
+    """One speed of a check on a worker (:func:`compare.check.check_speed`); a ``ValueError`` as data."""
+    from compare.check import check_speed
+
+    try:
+        return check_speed(*args)
+    except ValueError as exc:
+        return _Failed(str(exc))
+
+
+def floquet_task(spec: object, rpm: float) -> float:
+    """The critical-speed sweep's max |Floquet multiplier| at ``rpm`` (:func:`compare.critical.floquet_max_abs`)."""
+    from compare.critical import floquet_max_abs
+
+    return floquet_max_abs(spec)(rpm)
+
+
+def refine_task(spec: object, bracket: tuple[float, ...], rtol: float) -> tuple[float, float, int]:
+    """One local maximum of the sweep refined on a worker (:func:`compare.critical.refine_maximum`):
+    (rpm, max |mu|, evaluations made)."""
+    from compare.critical import floquet_max_abs, refine_maximum
+
+    return refine_maximum(floquet_max_abs(spec), bracket, rtol)
