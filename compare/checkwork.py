@@ -41,12 +41,18 @@ class CheckWorkers:
     ``seconds_per_solve``: the wall time of one speed's solve measured in this process (:meth:`timed`),
     the basis of the estimate."""
 
-    def __init__(self, workers: int | None = None):
+    def __init__(self, workers: int | None = None, parallel_from_s: float = PARALLEL_FROM_S):
         if workers is not None and workers < 1:
             raise ValueError(f"workers: at least 1; got {workers}")
         self._workers = workers
+        self.parallel_from_s = parallel_from_s
         self.seconds_per_solve = math.nan
         self._pool: LocalPool | None = None
+
+    @property
+    def started(self) -> bool:
+        """True once worker processes were started for this check."""
+        return self._pool is not None
 
     @property
     def workers(self) -> int:
@@ -76,12 +82,12 @@ class CheckWorkers:
     def worth(self, solves: int) -> bool:
         """Whether ``solves`` more solves go to the workers: there are workers, more than one solve, and
         the workers run already or the estimate (``solves`` x :attr:`seconds_per_solve`) exceeds
-        :data:`PARALLEL_FROM_S`."""
+        ``parallel_from_s`` (default :data:`PARALLEL_FROM_S`)."""
         if solves < 2:
             return False
         if self._pool is not None:
             return True
-        return solves * self.seconds_per_solve > PARALLEL_FROM_S and self.workers >= 2
+        return solves * self.seconds_per_solve > self.parallel_from_s and self.workers >= 2
 
     def map(self, fn: Callable[..., Any], calls: Sequence[tuple[Any, ...]],
             on_each: Callable[[int, Any], None] | None = None, cost: Sequence[float] | None = None) -> list[Any]:

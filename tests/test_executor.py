@@ -10,7 +10,7 @@ import pytest
 
 from compare import h5layout, store
 from compare.config import parse_config
-from compare.runner import WorkerError, run_campaign, run_tasks
+from compare.runner import LocalPool, WorkerError, run_campaign, run_tasks
 
 from .test_edges import QS
 
@@ -60,6 +60,27 @@ def test_a_task_that_kills_its_worker_becomes_a_crash_record_and_the_rest_comple
 def test_a_task_raising_in_a_local_worker_fails_the_run():
     with pytest.raises(WorkerError, match="ArithmeticError"):
         _collect([1, 2, 3], _square_or_raise, workers=1)
+
+
+def _pid(x: int) -> int:
+    return os.getpid()
+
+
+def test_a_kept_pool_serves_several_runs_with_the_same_workers_and_survives_a_crash():
+    # one start-up for several calls (the design check's speeds, then its sweep): the same worker
+    # processes answer both runs; a run whose worker dies drops the broken pool and the next call starts
+    # a fresh one; the pool's workers are gone after the with block
+    with LocalPool(2) as pool:
+        first, _ = _collect(list(range(6)), _pid, workers=2, pool=pool)
+        second, _ = _collect(list(range(6)), _pid, workers=2, pool=pool)
+        assert set(second.values()) <= set(first.values()) and os.getpid() not in first.values()
+        got, left = _collect(list(range(6)), _square_or_die, workers=2, pool=pool)
+        assert left == 0 and got.pop(3) == ("crashed", 3, None) and got == {x: x * x for x in range(6) if x != 3}
+        assert not pool.started  # the broken pool was dropped
+        third, _ = _collect(list(range(4)), _pid, workers=2, pool=pool)
+        assert not set(third.values()) & set(first.values())
+        procs = list(pool.backend().pool._processes.values())
+    assert not pool.started and procs and not any(p.is_alive() for p in procs)
 
 
 def test_on_result_asking_to_stop_cancels_the_tasks_not_started():
