@@ -171,7 +171,9 @@ def coefficient_cost(args) -> None:
 
 def check_timing(args: argparse.Namespace) -> None:
     """``ked check`` end to end in a fresh process (start-up, atlas limits, quasi-static + linear
-    solves), one speed per mass model, median of --runs runs; the target is under one second."""
+    solves), one speed per mass model, median of --runs runs; the target is under one second.  Then the
+    distributed model over 30-600 rpm in 20 speeds with its critical-speed sweep, in one process and on
+    the default worker processes, in turn."""
     import subprocess
     import sys
 
@@ -184,6 +186,16 @@ def check_timing(args: argparse.Namespace) -> None:
                            check=True, capture_output=True)
             walls.append(time.perf_counter() - t0)
         print(f"  {mm:12s} {statistics.median(walls):6.2f}")
+    print("\nked check --mass-model distributed --rpm-range 30:600:20 (fresh process, median wall s): "
+          "in one process (--workers 1) and by default (worker processes)")
+    for extra in (["--workers", "1"], []):
+        walls = []
+        for _ in range(args.runs):
+            t0 = time.perf_counter()
+            subprocess.run([sys.executable, "-m", "ked_cli", "check", "--mass-model", "distributed", "--rpm-range",
+                            "30:600:20", *extra], check=True, capture_output=True)
+            walls.append(time.perf_counter() - t0)
+        print(f"  {' '.join(extra) or 'default':12s} {statistics.median(walls):6.2f}")
 
 
 
