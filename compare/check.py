@@ -310,7 +310,7 @@ def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, 
     slider-crank (``source`` a ``SliderCrank``) has no atlas: neither the linear model's limit nor calibrated
     margins (the four-bar atlas's do not apply), so only a measurement (``confirm``) grants a tier below
     nonlinear.  ``bar``: a progress bar (:func:`progress`) advanced per speed; default: one of its own.
-    ``workers``: where the speeds after the first go when their estimated work is worth worker processes
+    ``workers``: where the speeds after the first two go when their estimated work is worth worker processes
     (:class:`compare.checkwork.CheckWorkers`; the rows are the same)."""
     slider = isinstance(source, SliderCrank)
     rng = LinearRange() if slider else linear_range(mass_model.name)
@@ -320,7 +320,7 @@ def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, 
     rows: list[CheckRow] = []
     with progress(len(rpms)) if bar is None else contextlib.nullcontext(bar) as bar:
         for i, spec in enumerate(specs):
-            if workers is not None and i > 0 and workers.worth(len(specs) - i):
+            if workers is not None and workers.worth(workers.speeds, len(specs) - i):
                 from compare.checkwork import row_task
 
                 def each(j: int, row: CheckRow) -> None:
@@ -334,7 +334,7 @@ def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, 
             def one(spec: SceneSpec = spec) -> CheckRow:
                 return check_speed(spec, rng, margins, confirm, bar)
 
-            rows.append(one() if workers is None else workers.timed(one))
+            rows.append(one() if workers is None else workers.speeds.timed(one))
             advance(bar)
     return rows
 

@@ -3,12 +3,16 @@ worth their start (:class:`CheckWorkers`).
 
 A check over several speeds (``ked check --rpm-range``) is a list of independent scenes, then a
 critical-speed sweep whose rounds of Floquet evaluations are independent too (:mod:`compare.critical`).
-Worker processes cost a start-up (~0.8 s for 2 on this project's 2-core machine: an interpreter and the
-harness's imports each), so they are started only when the work still to do, estimated from the first
-speed solved here, exceeds :data:`PARALLEL_FROM_S`; a check of a light model (a tip mass: some 0.02 s a
-speed) stays in this process.  They run on :func:`compare.runner.run_tasks` (one :class:`LocalPool`,
-kept from the speeds to the sweep).  Each task computes what the sequential check computes, with the
-same code: the rows, the critical speeds and every number printed are the same (a test compares them).
+Worker processes cost a start-up: ~0.8 s for 2 on this project's 2-core machine (an interpreter and the
+harness's imports each), plus each worker's first task, which pays what the first task here paid on top of
+the next (caches of the linkage; Exudyn's import, ~1 s, in a confirmed check).  So the first two tasks of
+each kind (a speed, a sweep evaluation) are timed here, and the rest goes to the workers only where the
+time it saves, (tasks) x (the second's time) x (1 - 1 / workers), exceeds :data:`POOL_START_S` plus the
+first task's extra time: a check of a light model (a tip mass: some 0.02 s a speed) stays in this process,
+and so does a confirmed check of three speeds.  The workers run on :func:`compare.runner.run_tasks` (one
+:class:`LocalPool`, kept from the speeds to the sweep).  Each task computes what the sequential check
+computes, with the same code: the rows, the critical speeds and every number printed are the same (a
+test compares them).
 """
 
 from __future__ import annotations
@@ -22,9 +26,9 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from compare.runner import LocalPool
 
-PARALLEL_FROM_S = 2.0
-"""Estimated sequential seconds of the work left above which it goes to the worker processes: above
-twice their start-up, and where ``ked check`` shows its progress bar."""
+POOL_START_S = 1.0
+"""What starting the pool of workers costs a check [s]: 0.8 s measured for two on this project's 2-core
+machine (their first tasks' extra cost is measured per check, see the module docstring)."""
 
 
 @dataclass(frozen=True)
@@ -35,18 +39,40 @@ class _Failed:
     crashed: bool = False
 
 
+@dataclass
+class Work:
+    """One kind of task of a check (a speed, a sweep evaluation): the wall times [s] of the first two,
+    computed in this process (NaN until then)."""
+
+    first: float = math.nan
+    second: float = math.nan
+
+    @property
+    def timed_enough(self) -> bool:
+        return math.isfinite(self.second)
+
+    def timed(self, compute: Callable[[], Any]) -> Any:
+        """compute(), timed if it is one of the first two."""
+        t0 = time.perf_counter()
+        out = compute()
+        if not self.timed_enough:
+            seconds = time.perf_counter() - t0
+            self.first, self.second = (seconds, math.nan) if not math.isfinite(self.first) else (self.first, seconds)
+        return out
+
+
 class CheckWorkers:
     """Worker processes for one check (a context manager): ``workers`` of them at most (1: none; None: the
     available CPUs), started when :meth:`worth` says so, stopped at the end of the ``with`` block.
-    ``seconds_per_solve``: the wall time of one speed's solve measured in this process (:meth:`timed`),
-    the basis of the estimate."""
+    ``speeds``, ``evaluations``: the two kinds of work (:class:`Work`), each timed on its first two tasks
+    here."""
 
-    def __init__(self, workers: int | None = None, parallel_from_s: float = PARALLEL_FROM_S):
+    def __init__(self, workers: int | None = None, start_s: float = POOL_START_S):
         if workers is not None and workers < 1:
             raise ValueError(f"workers: at least 1; got {workers}")
         self._workers = workers
-        self.parallel_from_s = parallel_from_s
-        self.seconds_per_solve = math.nan
+        self.start_s = start_s
+        self.speeds, self.evaluations = Work(), Work()
         self._pool: LocalPool | None = None
 
     @property
@@ -71,23 +97,21 @@ class CheckWorkers:
             self._pool.__exit__(kind)
             self._pool = None
 
-    def timed(self, compute: Callable[[], Any]) -> Any:
-        """compute(), its wall time kept as :attr:`seconds_per_solve` (the first measurement only)."""
-        t0 = time.perf_counter()
-        out = compute()
-        if not math.isfinite(self.seconds_per_solve):
-            self.seconds_per_solve = time.perf_counter() - t0
-        return out
-
-    def worth(self, solves: int) -> bool:
-        """Whether ``solves`` more solves go to the workers: there are workers, more than one solve, and
-        the workers run already or the estimate (``solves`` x :attr:`seconds_per_solve`) exceeds
-        ``parallel_from_s`` (default :data:`PARALLEL_FROM_S`)."""
-        if solves < 2:
+    def worth(self, work: Work, tasks: int) -> bool:
+        """Whether ``tasks`` more tasks of ``work`` go to the workers: more than one, and the workers run
+        already, or its first two were timed and the time the workers would save, ``tasks`` x the second's
+        time x (1 - 1 / workers), exceeds ``start_s`` (default :data:`POOL_START_S`) plus the first's extra
+        time (each worker's first task pays it too)."""
+        if tasks < 2:
             return False
         if self._pool is not None:
             return True
-        return solves * self.seconds_per_solve > self.parallel_from_s and self.workers >= 2
+        if not work.timed_enough:
+            return False
+        saved, cost = tasks * work.second, self.start_s + max(work.first - work.second, 0.0)
+        if saved <= cost:  # not even with unlimited workers (and the CPUs are not looked up)
+            return False
+        return self.workers >= 2 and saved * (1.0 - 1.0 / self.workers) > cost
 
     def map(self, fn: Callable[..., Any], calls: Sequence[tuple[Any, ...]],
             on_each: Callable[[int, Any], None] | None = None, cost: Sequence[float] | None = None) -> list[Any]:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -440,15 +441,24 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
                 advance(bar)
 
     def batch(speeds: list[float]) -> list[float]:
-        if workers is None or not workers.worth(len(speeds)):
+        if workers is None:
             return [f(r) for r in speeds]
+        done: list[float] = []
+        for r in speeds:  # the first two evaluations of the check are timed here
+            if workers.started or workers.evaluations.timed_enough:
+                break
+            done.append(workers.evaluations.timed(partial(f, r)))
+        rest = speeds[len(done):]
+        if not workers.worth(workers.evaluations, len(rest)):
+            return done + [f(r) for r in rest]
         from compare.checkwork import floquet_task
 
-        return workers.map(floquet_task, [(spec, r) for r in speeds],
-                           on_each=lambda i, v: tick(f"critical speeds, {speeds[i]:.4g} rpm"), cost=speeds)
+        return done + workers.map(floquet_task, [(spec, r) for r in rest],
+                                  on_each=lambda i, v: tick(f"critical speeds, {rest[i]:.4g} rpm"), cost=rest)
 
     def refine(brackets: list[Bracket], rtol: float) -> list[tuple[float, float]] | None:
-        if workers is None or len(brackets) < 2 or not workers.worth(len(brackets) * REFINE_EVALUATIONS):
+        if workers is None or len(brackets) < 2 or \
+                not workers.worth(workers.evaluations, len(brackets) * REFINE_EVALUATIONS):
             return None
         from compare.checkwork import refine_task
 

@@ -64,9 +64,9 @@ def _rpm_range(text: str | None) -> list[float]:
 @click.option("--confirm", is_flag=True, help="Also run the Exudyn model and report the three errors it measures.")
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON list, one object per speed.")
 @click.option("--workers", type=click.IntRange(min=1), default=None,
-              help="Local worker processes for the speeds and the critical-speed sweep, used when the work "
-                   "left after the first speed is estimated above 2 s (1: all in this process) [default: "
-                   "available CPUs].")
+              help="Local worker processes for the speeds and the critical-speed sweep, used where the time "
+                   "they save (estimated from the first two speeds, solved here) exceeds their start-up (1: all "
+                   "in this process) [default: available CPUs].")
 def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...], rpm_range: str | None,
           lumps: int, payload_kg: float | None, stiffness_scale: float, direction: str, damping_ratio: float,
           tolerance: float, confirm: bool, as_json: bool, workers: int | None) -> None:

@@ -22,11 +22,11 @@ def _check(thesis, mm, rpms, workers):
 
 
 def test_worker_processes_give_the_rows_and_critical_speeds_of_one_process(thesis):
-    # joints model over a range with a critical speed (202 rpm): forced onto 2 workers (threshold 0 s),
-    # the rows after the first, the sweep's rounds and the refinement of its maxima run there
+    # joints model over a range with a critical speed (202 rpm): forced onto 2 workers (start cost 0 s),
+    # the rows after the first two, the sweep's rounds and the refinement of its maxima run there
     mm, rpms = MassModel("joints", payload=0.0), [150.0, 200.0, 250.0, 300.0, 350.0]
     alone = _check(thesis, mm, rpms, None)
-    with CheckWorkers(2, parallel_from_s=0.0) as workers:
+    with CheckWorkers(2, start_s=0.0) as workers:
         spread = _check(thesis, mm, rpms, workers)
         assert workers.started
     assert spread == alone
@@ -37,7 +37,7 @@ def test_a_light_check_stays_in_this_process(thesis):
     # the tip model solves a speed in some 0.02 s: three speeds and their sweep are far below 2 s
     with CheckWorkers(2) as workers:
         _check(thesis, MassModel("tip", payload=default_payload("tip")), [100.0, 150.0, 200.0], workers)
-        assert not workers.started and workers.seconds_per_solve < 1.0
+        assert not workers.started and workers.speeds.second < 1.0
 
 
 def test_workers_are_validated():
