@@ -327,12 +327,14 @@ def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, 
                     bar.set_postfix_str(f"{row.rpm:g} rpm")
                     advance(bar)
 
-                rows += workers.map(row_task, [(s, rng, margins, confirm) for s in specs[i:]], on_each=each,
-                                    cost=[s.speed.value for s in specs[i:]])  # faster: more harmonics, richer bases
+                rest = specs[i:]
+                rows += workers.map(row_task, [(s, rng, margins, confirm) for s in rest],
+                                    [f"the check at {s.speed.value:g} rpm" for s in rest], on_each=each,
+                                    cost=[s.speed.value for s in rest])  # faster: more harmonics, richer bases
                 break
 
             def one(spec: SceneSpec = spec) -> CheckRow:
-                return check_speed(spec, rng, margins, confirm, bar)
+                return check_spec(spec, rng, margins, confirm, bar)
 
             rows.append(one() if workers is None else workers.speeds.timed(one))
             advance(bar)
@@ -386,7 +388,7 @@ def advance(bar: Any) -> None:
     bar.update(1)
 
 
-def check_speed(spec: SceneSpec, rng: LinearRange, margins: VerdictMargins, confirm: bool = False,
+def check_spec(spec: SceneSpec, rng: LinearRange, margins: VerdictMargins, confirm: bool = False,
                 bar: Any = None) -> CheckRow:
     """The check of one speed's scene (:func:`spec_for`); ``bar``: a progress bar that says which stage runs."""
     bar = _NoBar() if bar is None else bar

@@ -31,12 +31,17 @@ POOL_START_S = 1.0
 machine (their first tasks' extra cost is measured per check, see the module docstring)."""
 
 
+class CheckWorkerError(RuntimeError):
+    """A worker process of a check died while computing (a crash in a solver): the message names what."""
+
+
 @dataclass(frozen=True)
 class _Failed:
-    """A task's failure kept as data: the check raises it in this process as the sequential check would."""
+    """A task's failure kept as data (``kind``: the exception's type name, or "crashed" where the worker
+    process died): the check raises it in this process as the sequential check would."""
 
     message: str
-    crashed: bool = False
+    kind: str = "ValueError"
 
 
 @dataclass
@@ -70,6 +75,8 @@ class CheckWorkers:
     def __init__(self, workers: int | None = None, start_s: float = POOL_START_S):
         if workers is not None and workers < 1:
             raise ValueError(f"workers: at least 1; got {workers}")
+        if not start_s >= 0.0:
+            raise ValueError(f"start_s: a time >= 0 [s]; got {start_s}")
         self._workers = workers
         self.start_s = start_s
         self.speeds, self.evaluations = Work(), Work()
@@ -97,33 +104,34 @@ class CheckWorkers:
             self._pool.__exit__(kind)
             self._pool = None
 
-    def worth(self, work: Work, tasks: int) -> bool:
-        """Whether ``tasks`` more tasks of ``work`` go to the workers: more than one, and the workers run
-        already, or its first two were timed and the time the workers would save, ``tasks`` x the second's
-        time x (1 - 1 / workers), exceeds ``start_s`` (default :data:`POOL_START_S`) plus the first's extra
-        time (each worker's first task pays it too)."""
+    def worth(self, work: Work, tasks: int, per_task: float = 1.0) -> bool:
+        """Whether ``tasks`` more tasks go to the workers, each ``per_task`` tasks of ``work`` long: more
+        than one, and the workers run already, or the first two of ``work`` were timed and the time the
+        workers would save, ``tasks`` x ``per_task`` x the second's time x (1 - 1 / w), w = min(workers,
+        ``tasks``), exceeds ``start_s`` (default :data:`POOL_START_S`) plus the first's extra time (each
+        worker's first task pays it too)."""
         if tasks < 2:
             return False
         if self._pool is not None:
             return True
         if not work.timed_enough:
             return False
-        saved, cost = tasks * work.second, self.start_s + max(work.first - work.second, 0.0)
+        saved, cost = tasks * per_task * work.second, self.start_s + max(work.first - work.second, 0.0)
         if saved <= cost:  # not even with unlimited workers (and the CPUs are not looked up)
             return False
-        return self.workers >= 2 and saved * (1.0 - 1.0 / self.workers) > cost
+        w = min(self.workers, tasks)
+        return w >= 2 and saved * (1.0 - 1.0 / w) > cost
 
-    def map(self, fn: Callable[..., Any], calls: Sequence[tuple[Any, ...]],
+    def map(self, fn: Callable[..., Any], calls: Sequence[tuple[Any, ...]], names: Sequence[str],
             on_each: Callable[[int, Any], None] | None = None, cost: Sequence[float] | None = None) -> list[Any]:
-        """[fn(*c) for c in calls] on the workers (started now if need be), in the order of ``calls``;
-        ``on_each(i, result)`` as each finishes; ``cost``: a guess of each call's relative cost (the
-        costliest are given out first, so that no worker is left with a long one at the end).  A task's
-        :class:`_Failed` result is raised here: a ``ValueError`` with its message as the sequential check
-        would raise it, a ``RuntimeError`` where its worker process died."""
-        from compare.runner import LocalPool, crash_reason, run_tasks
+        """[fn(*c) for c in calls] on the workers (started now if need be; where they cannot start, here),
+        in the order of ``calls``; ``names``: what each call computes (for a message); ``on_each(i,
+        result)`` as each finishes; ``cost``: a guess of each call's relative cost (the costliest are given
+        out first, so that no worker is left with a long one at the end).  A task's failure is raised here
+        as the sequential check would raise it (``ValueError``, ``MemoryError``), a worker that died as
+        :class:`CheckWorkerError` naming the call."""
+        from compare.runner import LocalPool, WorkerStartError, crash_reason, run_tasks
 
-        if self._pool is None:
-            self._pool = LocalPool(min(self.workers, max(len(calls), 2)))
         out: list[Any] = [None] * len(calls)
 
         def deliver(batch: list[tuple[int, Any]]) -> None:
@@ -132,36 +140,55 @@ class CheckWorkers:
                 if on_each is not None and not isinstance(r, _Failed):
                     on_each(i, r)
 
-        order = sorted(range(len(calls)), key=lambda i: -cost[i]) if cost is not None else list(range(len(calls)))
-        run_tasks(order, fn, args=lambda i: calls[i], workers=self._pool.workers,
-                  pool=self._pool, on_result=deliver,
-                  crashed=lambda i, exc: _Failed(crash_reason(exc), crashed=True))
-        for r in out:
+        if self._pool is None:
+            self._pool = LocalPool(min(self.workers, max(len(calls), 2)))
+        try:
+            self._pool.backend()  # started now: where worker processes cannot start, the check runs here
+        except (WorkerStartError, OSError):
+            self._pool, self._workers = None, 1
+            deliver([(i, fn(*c)) for i, c in enumerate(calls)])
+        else:
+            order = sorted(range(len(calls)), key=lambda i: -cost[i]) if cost is not None else list(range(len(calls)))
+            run_tasks(order, fn, args=lambda i: calls[i], workers=self._pool.workers, pool=self._pool,
+                      on_result=deliver, crashed=lambda i, exc: _Failed(crash_reason(exc), "crashed"))
+        for i, r in enumerate(out):
             if isinstance(r, _Failed):
-                raise (RuntimeError if r.crashed else ValueError)(r.message)
+                if r.kind == "crashed":
+                    raise CheckWorkerError(f"{names[i]}: {r.message}; rerun with --workers 1 to compute it in "
+                                           "one process")
+                raise (MemoryError if r.kind == "MemoryError" else ValueError)(r.message)
         return out
 
 
-def row_task(*args: Any) -> Any:
-    """One speed of a check on a worker (:func:`compare.check.check_speed`); a ``ValueError`` as data."""
-    from compare.check import check_speed
+def _kept(compute: Callable[[], Any]) -> Any:
+    """compute() on a worker as in the sequential check (one BLAS thread), its ``ValueError`` or
+    ``MemoryError`` kept as data (:class:`_Failed`) for :meth:`CheckWorkers.map` to raise."""
+    from ked_linear.solver import single_threaded_blas
 
     try:
-        return check_speed(*args)
-    except ValueError as exc:
-        return _Failed(str(exc))
+        with single_threaded_blas():
+            return compute()
+    except (ValueError, MemoryError) as exc:
+        return _Failed(str(exc), type(exc).__name__)
 
 
-def floquet_task(spec: object, rpm: float) -> float:
+def row_task(*args: Any) -> Any:
+    """One speed of a check on a worker (:func:`compare.check.check_spec`)."""
+    from compare.check import check_spec
+
+    return _kept(lambda: check_spec(*args))
+
+
+def floquet_task(spec: object, rpm: float) -> Any:
     """The critical-speed sweep's max |Floquet multiplier| at ``rpm`` (:func:`compare.critical.floquet_max_abs`)."""
     from compare.critical import floquet_max_abs
 
-    return floquet_max_abs(spec)(rpm)
+    return _kept(lambda: floquet_max_abs(spec)(rpm))
 
 
-def refine_task(spec: object, bracket: tuple[float, ...], rtol: float) -> tuple[float, float, int]:
+def refine_task(spec: object, bracket: tuple[float, ...], rtol: float) -> Any:
     """One local maximum of the sweep refined on a worker (:func:`compare.critical.refine_maximum`):
     (rpm, max |mu|, evaluations made)."""
     from compare.critical import floquet_max_abs, refine_maximum
 
-    return refine_maximum(floquet_max_abs(spec), bracket, rtol)
+    return _kept(lambda: refine_maximum(floquet_max_abs(spec), bracket, rtol))

@@ -18,9 +18,12 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import partial
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from compare.checkwork import CheckWorkers
 
 NEAR = 0.05
 """A speed within this fraction of a critical speed is "near" it (the verdict says so)."""
@@ -337,6 +340,7 @@ def refine_maximum(floquet: Callable[[float], float], bracket: Bracket, rtol: fl
     before = len(seen)
 
     def f(rpm: float) -> float:
+        rpm = float(rpm)  # Brent's bounded method gives numpy floats; the sweep asks with Python floats
         if rpm not in seen:
             seen[rpm] = float(floquet(rpm))
         return seen[rpm]
@@ -407,7 +411,7 @@ def mark_near(rows: Sequence[object], speeds: Sequence[CriticalSpeed]) -> list[o
 
 
 def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_model: object, bar: Any = None,
-                   workers: Any = None,
+                   workers: CheckWorkers | None = None,
                    **spec_kw: object) -> tuple[tuple[CriticalSpeed, ...], tuple[float, ...], list[object]]:
     """For the rows of a design check (:func:`compare.check.check`, same linkage and keywords of
     :func:`compare.check.spec_for`): its critical speeds (refined with the Floquet part alone), the
@@ -454,15 +458,16 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
         from compare.checkwork import floquet_task
 
         return done + workers.map(floquet_task, [(spec, r) for r in rest],
+                                  [f"the critical-speed sweep at {r:.4g} rpm" for r in rest],
                                   on_each=lambda i, v: tick(f"critical speeds, {rest[i]:.4g} rpm"), cost=rest)
 
     def refine(brackets: list[Bracket], rtol: float) -> list[tuple[float, float]] | None:
-        if workers is None or len(brackets) < 2 or \
-                not workers.worth(workers.evaluations, len(brackets) * REFINE_EVALUATIONS):
+        if workers is None or not workers.worth(workers.evaluations, len(brackets), REFINE_EVALUATIONS):
             return None
         from compare.checkwork import refine_task
 
         done = workers.map(refine_task, [(spec, b, rtol) for b in brackets],
+                           [f"the critical speed near {b[1]:.4g} rpm" for b in brackets],
                            on_each=lambda i, res: tick(f"critical speed near {brackets[i][1]:.4g} rpm", res[2]))
         return [(r, m) for r, m, _ in done]
 

@@ -512,12 +512,15 @@ class LocalPool:
         return self._backend is not None
 
     def backend(self) -> _LocalBackend:
-        """The running workers (started now if none are)."""
+        """The running workers (started now if none are, or if a worker died since the last call)."""
+        if self._backend is not None and getattr(self._backend.pool, "_broken", False):
+            self.drop()
         if self._backend is None:
             self._backend = _LocalBackend(self.workers)
         return self._backend
 
     def backend_if_started(self) -> _LocalBackend | None:
+        """The running workers, or None (nothing is started)."""
         return self._backend
 
     def drop(self, abort: bool = False) -> None:

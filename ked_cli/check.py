@@ -65,8 +65,8 @@ def _rpm_range(text: str | None) -> list[float]:
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON list, one object per speed.")
 @click.option("--workers", type=click.IntRange(min=1), default=None,
               help="Local worker processes for the speeds and the critical-speed sweep, used where the time "
-                   "they save (estimated from the first two speeds, solved here) exceeds their start-up (1: all "
-                   "in this process) [default: available CPUs].")
+                   "they save (estimated from the first two speeds, or sweep evaluations, timed here) exceeds "
+                   "their start-up (1: all in this process) [default: available CPUs].")
 def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...], rpm_range: str | None,
           lumps: int, payload_kg: float | None, stiffness_scale: float, direction: str, damping_ratio: float,
           tolerance: float, confirm: bool, as_json: bool, workers: int | None) -> None:
@@ -102,7 +102,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     """
     from compare.check import check as run_check
     from compare.check import progress
-    from compare.checkwork import CheckWorkers
+    from compare.checkwork import CheckWorkerError, CheckWorkers
     from ked_cli.quasi import slider_source
     from ked_quasi.massmodel import MassModel, default_payload
     from ked_quasi.scene import variant
@@ -140,6 +140,8 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
                                                  direction=direction, tolerance=tolerance)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
+    except CheckWorkerError as exc:
+        raise click.ClickException(str(exc)) from None
     if as_json:
         extra = {"critical_speeds_rpm": [c.rpm for c in crit], "amplification_peaks_rpm": list(amp)}
         click.echo(json_text([{**asdict(r), **extra} for r in rows]))
