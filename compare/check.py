@@ -37,6 +37,7 @@ from __future__ import annotations
 import contextlib
 import math
 import sys
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
@@ -324,7 +325,7 @@ def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, 
                 from compare.checkwork import row_task
 
                 def each(j: int, row: CheckRow) -> None:
-                    bar.set_postfix_str(f"{row.rpm:g} rpm")
+                    status(bar, f"{row.rpm:g} rpm")
                     advance(bar)
 
                 rest = specs[i:]
@@ -363,7 +364,7 @@ class _NoBar:
     def refresh(self) -> None:
         return None
 
-    def set_postfix_str(self, text: str) -> None:
+    def set_postfix_str(self, text: str, refresh: bool = True) -> None:
         return None
 
 
@@ -379,12 +380,30 @@ def progress(total: int) -> Any:
     return tqdm(total=total, desc="ked check", unit="step", delay=PROGRESS_DELAY_S, leave=False, file=sys.stderr)
 
 
+def _due(bar: Any) -> bool:
+    """True once ``bar`` has run its delay (:data:`PROGRESS_DELAY_S`): tqdm draws a bar at once on a
+    refresh, so a short check would flash one."""
+    start = getattr(bar, "start_t", None)
+    return start is None or time.time() - start >= getattr(bar, "delay", 0.0)
+
+
+def status(bar: Any, text: str) -> None:
+    """Say on ``bar`` which stage runs (drawn once its delay has passed)."""
+    bar.set_postfix_str(text, refresh=_due(bar))
+
+
+def redraw(bar: Any) -> None:
+    """Draw ``bar`` again (after its total changed) once its delay has passed."""
+    if _due(bar):
+        bar.refresh()
+
+
 def advance(bar: Any) -> None:
     """One more step done on ``bar``, its total raised when the work outgrows it (the refinement of the
     critical speeds takes as many Floquet evaluations as their peaks need)."""
     if bar.total is not None and bar.n + 1 > bar.total:
         bar.total = bar.n + 1
-        bar.refresh()
+        redraw(bar)
     bar.update(1)
 
 
@@ -393,14 +412,14 @@ def check_spec(spec: SceneSpec, rng: LinearRange, margins: VerdictMargins, confi
     """The check of one speed's scene (:func:`spec_for`); ``bar``: a progress bar that says which stage runs."""
     bar = _NoBar() if bar is None else bar
     rpm = spec.speed.value
-    bar.set_postfix_str(f"{rpm:g} rpm")
+    status(bar, f"{rpm:g} rpm")
     r = _run(spec)
     if _unresolved(r):
-        bar.set_postfix_str(f"{rpm:g} rpm, {MAX_HARMONICS} harmonics")
+        status(bar, f"{rpm:g} rpm, {MAX_HARMONICS} harmonics")
         spec = with_more_harmonics(spec)
         r = _run(spec)
     if confirm:
-        bar.set_postfix_str(f"{rpm:g} rpm, Exudyn")
+        status(bar, f"{rpm:g} rpm, Exudyn")
         r = _run(replace(spec, solvers=(*spec.solvers, "dynamic")))
     row = check_row(r, rng, spec.tolerance, margins)
     if spec.extra_settings:

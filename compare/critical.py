@@ -423,7 +423,7 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
     The rows' own max |mu| (their linear solves') are the sweep's samples: exact where the solve's Floquet
     analysis is the sweep's (:func:`sweep_exact`), else approximate (within their Floquet error: they find
     the maxima, and the sweep evaluates its own value where one is decided)."""
-    from compare.check import advance, spec_for
+    from compare.check import advance, redraw, spec_for, status
     from ked_linear.solver import single_threaded_blas
 
     spec = spec_for(source, mechanism, mass_model, rows[0].rpm, **spec_kw)
@@ -432,7 +432,7 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
 
     def f(rpm: float) -> float:
         if bar is not None:
-            bar.set_postfix_str(f"critical speeds, {rpm:.4g} rpm")
+            status(bar, f"critical speeds, {rpm:.4g} rpm")
         value = sweep(rpm)
         if bar is not None:
             advance(bar)
@@ -440,7 +440,7 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
 
     def tick(text: str, steps: int = 1) -> None:
         if bar is not None:
-            bar.set_postfix_str(text)
+            status(bar, text)
             for _ in range(steps):
                 advance(bar)
 
@@ -478,7 +478,7 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
                                batch=batch, refine=refine)
     if bar is not None and bar.total is not None and bar.n < bar.total:  # fewer evaluations than estimated
         bar.total = bar.n
-        bar.refresh()
+        redraw(bar)
     amp = amplification_peaks(rpms, [r.linear_peak_m / r.quasi_static_peak_m if r.quasi_static_peak_m > 0
                                      else math.nan for r in rows])
     return crit, amp, mark_near(rows, crit)

@@ -101,7 +101,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     floquet_max_abs).
     """
     from compare.check import check as run_check
-    from compare.check import progress
+    from compare.check import progress, redraw
     from compare.checkwork import CheckWorkerError, CheckWorkers
     from ked_cli.quasi import slider_source
     from ked_quasi.massmodel import MassModel, default_payload
@@ -134,7 +134,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
                 from compare.critical import check_critical, sweep_evaluations
 
                 bar.total = bar.n + sweep_evaluations(rows)
-                bar.refresh()
+                redraw(bar)
                 crit, amp, rows = check_critical(rows, load_source(linkage), mechanism, mm, bar=bar, workers=pool,
                                                  stiffness_scale=stiffness_scale, damping_ratio=damping_ratio,
                                                  direction=direction, tolerance=tolerance)
