@@ -1,29 +1,32 @@
-"""ked check's critical-speed sweep: its progress bar."""
+"""ked check's progress bar: over the critical-speed sweep, and never for a check shorter than its delay."""
 
 from __future__ import annotations
+
+import sys
+
+
+class Terminal:
+    """stderr of a terminal, recording what is written."""
+
+    def __init__(self):
+        self.parts = []
+
+    def isatty(self):
+        return True
+
+    def write(self, text):
+        self.parts.append(text)
+        return len(text)
+
+    def flush(self):
+        return None
 
 
 def test_the_progress_bar_covers_the_critical_speed_sweep(monkeypatch):
     # `ked check --rpm-range` on a terminal: one bar over the speeds and then the sweep's Floquet
     # evaluations (here shown at once: delay 0), which it names; it ends complete (n = total)
-    import sys
-
     from compare import check as chk
     from ked_cli.check import check as command
-
-    class Terminal:
-        def __init__(self):
-            self.parts = []
-
-        def isatty(self):
-            return True
-
-        def write(self, text):
-            self.parts.append(text)
-            return len(text)
-
-        def flush(self):
-            return None
 
     bars = []
     original = chk.progress
@@ -47,24 +50,8 @@ def test_the_progress_bar_covers_the_critical_speed_sweep(monkeypatch):
 def test_a_check_shorter_than_the_delay_draws_no_bar(monkeypatch):
     # the bar is for checks that run long: before its delay nothing is drawn, not even the stage names
     # (tqdm draws a bar at once on a refresh, which a stage name asks for)
-    import sys
-
     from compare import check as chk
     from ked_cli.check import check as command
-
-    class Terminal:
-        def __init__(self):
-            self.parts = []
-
-        def isatty(self):
-            return True
-
-        def write(self, text):
-            self.parts.append(text)
-            return len(text)
-
-        def flush(self):
-            return None
 
     err = Terminal()
     monkeypatch.setattr(sys, "stderr", err)
