@@ -32,9 +32,13 @@ class UserError(click.ClickException):
 
 
 LOW_MEMORY = ("not enough memory to load the numerical libraries (the memory limit, ulimit -v, is too low: they "
-              "need about 400 MB of address space); raise the limit, e.g. ulimit -v unlimited")
-MIN_ADDRESS_SPACE = 256 * 2**20
-"""[bytes] Below this memory limit (ulimit -v) the numerical libraries abort while loading, in C."""
+              "need about 500 MB of address space); raise the limit, e.g. ulimit -v unlimited")
+MIN_ADDRESS_SPACE = 512 * 2**20
+"""[bytes] Below this memory limit (ulimit -v) the harness is refused at start.  Measured with ``ked run`` of a
+quasi-static campaign of 4 scenes (this project's 2-core machine): at 300 MB the imports failed now in Python
+(ImportError, one line), now inside HDF5's initialization (its diagnostics before the line), at 350 MB OpenBLAS
+aborted with its own message, at 400 MB a worker process could not start and the run waited for ever; at 500 MB
+it ran."""
 
 
 def check_memory_limit() -> None:

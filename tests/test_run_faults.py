@@ -357,9 +357,11 @@ def test_working_directory_deleted_mid_run_still_summarises_every_scene(tmp_path
     assert n == 16 and "16 ok" in stdout, stdout[-600:]  # was: "0 scenes" though all were stored
 
 
-@pytest.mark.parametrize("limit_kb", [100_000, 300_000])
+@pytest.mark.parametrize("limit_kb", [100_000, 300_000, 400_000])
 def test_too_low_memory_limit_is_one_line(tmp_path, qs_config, limit_kb):
-    # ulimit -v: at 100 MB OpenBLAS aborted with its own message, at 300 MB the import failed (ImportError)
+    # ulimit -v: at 100 MB OpenBLAS aborted with its own message, at 300 MB the import failed (ImportError, or
+    # inside HDF5's initialization, which printed its diagnostics first), at 400 MB a worker could not start
+    # and the run waited for ever (ked_cli.errors.MIN_ADDRESS_SPACE)
     import resource
 
     def limit() -> None:
