@@ -322,16 +322,11 @@ def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, 
     with progress(len(rpms)) if bar is None else contextlib.nullcontext(bar) as bar:
         for i, spec in enumerate(specs):
             if workers is not None and workers.worth(workers.speeds, len(specs) - i):
-                from compare.checkwork import row_task
-
                 def each(j: int, row: CheckRow) -> None:
                     status(bar, f"{row.rpm:g} rpm")
                     advance(bar)
 
-                rest = specs[i:]
-                rows += workers.map(row_task, [(s, rng, margins, confirm) for s in rest],
-                                    [f"the check at {s.speed.value:g} rpm" for s in rest], on_each=each,
-                                    cost=[s.speed.value for s in rest])  # faster: more harmonics, richer bases
+                rows += workers.rows(specs[i:], rng, margins, confirm, on_each=each)
                 break
 
             def one(spec: SceneSpec = spec) -> CheckRow:

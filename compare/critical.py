@@ -455,20 +455,13 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
         rest = speeds[len(done):]
         if not workers.worth(workers.evaluations, len(rest)):
             return done + [f(r) for r in rest]
-        from compare.checkwork import floquet_task
-
-        return done + workers.map(floquet_task, [(spec, r) for r in rest],
-                                  [f"the critical-speed sweep at {r:.4g} rpm" for r in rest],
-                                  on_each=lambda i, v: tick(f"critical speeds, {rest[i]:.4g} rpm"), cost=rest)
+        return done + workers.floquet(spec, rest, on_each=lambda i, v: tick(f"critical speeds, {rest[i]:.4g} rpm"))
 
     def refine(brackets: list[Bracket], rtol: float) -> list[tuple[float, float]] | None:
         if workers is None or not workers.worth(workers.evaluations, len(brackets), REFINE_EVALUATIONS):
             return None
-        from compare.checkwork import refine_task
-
-        done = workers.map(refine_task, [(spec, b, rtol) for b in brackets],
-                           [f"the critical speed near {b[1]:.4g} rpm" for b in brackets],
-                           on_each=lambda i, res: tick(f"critical speed near {brackets[i][1]:.4g} rpm", res[2]))
+        done = workers.refine(spec, brackets, rtol,
+                              on_each=lambda i, res: tick(f"critical speed near {brackets[i][1]:.4g} rpm", res[2]))
         return [(r, m) for r, m, _ in done]
 
     # one BLAS thread, as in solve_linear: the evaluations are small batched calls where threads only cost
