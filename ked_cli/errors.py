@@ -124,6 +124,20 @@ def _exit(code: int) -> None:
         os._exit(code)
 
 
+STORING = ("run", "merge", "study")
+"""The commands that commit results as they go (an interrupted one resumes)."""
+
+
+def interrupted(argv: list[str] | None = None) -> str:
+    """The line an interrupted command ends with: a storing command (:data:`STORING`) keeps what it
+    committed and resumes; any other has stored nothing."""
+    args = sys.argv[1:] if argv is None else argv
+    name = next((a for a in args if not a.startswith("-")), "")
+    if name in STORING:
+        return "ked: interrupted; results committed so far are kept (rerun to resume)"
+    return "ked: interrupted; nothing was stored"
+
+
 def run_guarded(command: Callable[..., object]) -> None:
     """Run a click command as a script; map every failure to one line and an exit status."""
     for s in _STOP_SIGNALS:
@@ -147,7 +161,7 @@ def _run(command: Callable[..., object]) -> None:
     except click.exceptions.Exit as exc:
         sys.exit(exc.exit_code)
     except click.Abort:
-        click.echo("ked: interrupted; results committed so far are kept (rerun to resume)", err=True)
+        click.echo(interrupted(), err=True)
         sys.exit(EXIT_INTERRUPTED)
     except click.UsageError as exc:
         hint = f" (try '{exc.ctx.command_path} --help')" if exc.ctx is not None else ""
@@ -157,7 +171,7 @@ def _run(command: Callable[..., object]) -> None:
         click.echo(f"ked: {exc.format_message()}", err=True)
         sys.exit(exc.exit_code)
     except KeyboardInterrupt:
-        click.echo("ked: interrupted; results committed so far are kept (rerun to resume)", err=True)
+        click.echo(interrupted(), err=True)
         sys.exit(EXIT_INTERRUPTED)
     except BrokenPipeError:
         os._exit(0)  # the reader went away (ked ... | head): nothing left to say

@@ -105,6 +105,30 @@ def test_repeated_signals_or_hangup_end_the_run_promptly_and_keep_the_commits(tm
     assert store.verify(out) == []  # what was committed stays, readable (a rerun resumes from it)
 
 
+def test_ctrl_c_stops_a_check_and_its_workers_in_one_line():
+    # `ked check` over a range of the distributed model starts worker processes (its work is worth them);
+    # a Ctrl-C to the process group while they compute ends it in one line, which says that a check keeps
+    # nothing (it stores no results), and takes the workers with it
+    proc = _start(["check", "--mass-model", "distributed", "--rpm-range", "30:600:20", "--workers", "2"],
+                  start_new_session=True)
+    workers = _workers_of(proc, 2)
+    assert workers, "no worker process started"
+    time.sleep(0.5)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = _finish(proc)
+    assert proc.returncode == 130, err
+    assert err.strip() == "ked: interrupted; nothing was stored", err
+    assert _gone(workers)
+
+
+def test_the_interrupt_line_names_what_is_kept():
+    from ked_cli.errors import interrupted
+
+    assert interrupted(["run", "c.toml", "--workers", "2"]).endswith("(rerun to resume)")
+    assert interrupted(["--no-color", "study", "atlas"]).endswith("(rerun to resume)")
+    assert interrupted(["check", "--rpm", "100"]) == interrupted(["quasi"]) == "ked: interrupted; nothing was stored"
+
+
 def test_ctrl_c_while_the_workers_start_prints_no_child_traceback(tmp_path):
     # a terminal's Ctrl-C goes to the whole process group: the parent and its starting workers
     cfg = tmp_path / "signals.toml"
