@@ -124,8 +124,8 @@ def _exit(code: int) -> None:
         os._exit(code)
 
 
-STORING = ("run", "merge", "study")
-"""The commands that commit results as they go (an interrupted one resumes)."""
+STORING = ("run", "merge", "study", "plot")
+"""The commands that write results or figures as they go (an interrupted one keeps them and resumes)."""
 
 
 def interrupted(argv: list[str] | None = None) -> str:
