@@ -320,13 +320,13 @@ def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, 
                       direction=direction, step_deg=step_deg, tolerance=tolerance) for rpm in rpms]
     rows: list[CheckRow] = []
     with progress(len(rpms)) if bar is None else contextlib.nullcontext(bar) as bar:
+        def done_on_a_worker(j: int, row: CheckRow) -> None:
+            status(bar, f"{row.rpm:g} rpm")
+            advance(bar)
+
         for i, spec in enumerate(specs):
             if workers is not None and workers.worth(workers.speeds, len(specs) - i):
-                def each(j: int, row: CheckRow) -> None:
-                    status(bar, f"{row.rpm:g} rpm")
-                    advance(bar)
-
-                rows += workers.rows(specs[i:], rng, margins, confirm, on_each=each)
+                rows += workers.rows(specs[i:], rng, margins, confirm, on_each=done_on_a_worker)
                 break
 
             def one(spec: SceneSpec = spec) -> CheckRow:

@@ -8,8 +8,8 @@ harness's imports each), plus each worker's first task, which pays what the firs
 the next (caches of the linkage; Exudyn's import, ~1 s, in a confirmed check).  So the first two tasks of
 each kind (a speed, a sweep evaluation) are timed here, and the rest goes to the workers only where the
 time it saves, (tasks) x (the second's time) x (1 - 1 / workers), exceeds :data:`POOL_START_S` plus the
-first task's extra time: a check of a light model (a tip mass: some 0.02 s a speed) stays in this process,
-and so does a confirmed check of three speeds.  The workers run on :func:`compare.runner.run_tasks` (one
+first task's extra time: a check of a light model (a tip mass: some 0.02 s a speed) stays in this
+process.  The workers run on :func:`compare.runner.run_tasks` (one
 :class:`LocalPool`, kept from the speeds to the sweep).  Each task computes what the sequential check
 computes, with the same code: the rows, the critical speeds and every number printed are the same (a
 test compares them).
@@ -60,9 +60,11 @@ class Work:
         """compute(), timed if it is one of the first two."""
         t0 = time.perf_counter()
         out = compute()
-        if not self.timed_enough:
-            seconds = time.perf_counter() - t0
-            self.first, self.second = (seconds, math.nan) if not math.isfinite(self.first) else (self.first, seconds)
+        seconds = time.perf_counter() - t0
+        if not math.isfinite(self.first):
+            self.first = seconds
+        elif not self.timed_enough:
+            self.second = seconds
         return out
 
 
@@ -101,7 +103,7 @@ class CheckWorkers:
 
     def __exit__(self, kind: type[BaseException] | None, *exc: object) -> None:
         if self._pool is not None:
-            self._pool.__exit__(kind)
+            self._pool.drop(abort=kind is not None)
             self._pool = None
 
     def worth(self, work: Work, tasks: int, per_task: float = 1.0) -> bool:

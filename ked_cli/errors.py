@@ -160,9 +160,6 @@ def _run(command: Callable[..., object]) -> None:
         raise_if_stopped()  # the command ended although a stop was asked for: its interrupt was lost
     except click.exceptions.Exit as exc:
         sys.exit(exc.exit_code)
-    except click.Abort:
-        click.echo(interrupted(), err=True)
-        sys.exit(EXIT_INTERRUPTED)
     except click.UsageError as exc:
         hint = f" (try '{exc.ctx.command_path} --help')" if exc.ctx is not None else ""
         click.echo(f"ked: {first_line(exc.format_message())}{hint}", err=True)
@@ -170,7 +167,7 @@ def _run(command: Callable[..., object]) -> None:
     except click.ClickException as exc:
         click.echo(f"ked: {exc.format_message()}", err=True)
         sys.exit(exc.exit_code)
-    except KeyboardInterrupt:
+    except (click.Abort, KeyboardInterrupt):
         click.echo(interrupted(), err=True)
         sys.exit(EXIT_INTERRUPTED)
     except BrokenPipeError:
