@@ -111,6 +111,32 @@ def test_not_smooth_falls_back_to_direct():
     assert np.array_equal(s(theta).stiffness, kink(theta).stiffness)
 
 
+def _stiffening(theta: np.ndarray) -> Coefficients:
+    """A support stiffening 400-fold near theta = pi (k1 = 1e9 (2 + 1 / (1.005 + cos theta))), turning with
+    theta, beside a unit stiffness: condition number up to 4e11."""
+    c, s = np.cos(theta), np.sin(theta)
+    R = np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
+    D = np.zeros((theta.size, 2, 2))
+    D[:, 0, 0], D[:, 1, 1] = 1e9 * (2.0 + 1.0 / (1.005 + c)), 1.0
+    K = R @ D @ np.swapaxes(R, 1, 2)
+    K = 0.5 * (K + np.swapaxes(K, 1, 2))
+    return Coefficients(stiffness=K, damping=0.01 * K, load=np.stack([s, c], -1))
+
+
+def test_slowly_converging_stiffness_is_sampled_on_while_the_compliance_form_stalls():
+    # the compliance form, rebuilt into K, stalls at its rounding floor (condition number 4e11); the
+    # stiffness form's series falls like exp(-acosh(1.005) k) = exp(-0.1 k): by a factor of a few per
+    # doubling at first, then below 1e-9 on 1024 samples (its midpoint check at G = 512 sees the harmonics
+    # above 256: exp(-25.6) ~ 8e-12).  Sampling goes on while either form still gains (the minimum of both
+    # alone looked stalled: direct everywhere); with at most 512 samples it is direct
+    s = SampledCoefficients(_stiffening)
+    assert s.form == "stiffness" and s.points == 1024 and s.error <= INTERPOLATION_TOLERANCE
+    theta = 0.3 + np.arange(96) * (2 * np.pi / 96)
+    got, layout = _pack(s(theta))
+    assert _field_error(got, _pack(_stiffening(theta))[0], layout) < INTERPOLATION_TOLERANCE
+    assert SampledCoefficients(_stiffening, max_points=512).form == "direct"
+
+
 @pytest.mark.parametrize("mm", ["tip", "joints", "extender", "distributed"])
 @pytest.mark.parametrize("prestress", [True, False])
 def test_interpolated_linkage_coefficients_equal_direct(mm, prestress):
