@@ -32,17 +32,24 @@ class TrigInterpolant:
 
     def uniform(self, theta0: float, step_sign: float, m: int) -> np.ndarray:
         """Values (m, F) at theta0 + step_sign * 2 pi j / m, j = 0 .. m - 1."""
-        a = self.spectrum * np.exp(1j * self.frequency * theta0)
+        spec, half = self.spectrum, self.points // 2
+        F, width = spec.shape
+        if m > self.points:  # no two frequencies share a residue: b_k = a_k e^{i k theta0}, k = 0 .. G/2
+            b = np.zeros((F, m // 2 + 1), dtype=complex)
+            b[:, :half + 1] = spec[:, half:] * np.exp(1j * theta0 * np.arange(half + 1))
+        else:
+            # b[:, r]: the sum of the a_f e^{i f theta0} with f = r (mod m), r = 0 .. m/2 (all irfft reads).
+            # Column c = j m + rho holds f = c - G/2: e^{i f theta0} = e^{i j m theta0} e^{i (rho - G/2) theta0},
+            # so the columns are folded by residue with the first factor (one pass over the spectrum, no
+            # temporary of its size) and the second applied to the m/2 + 1 residues read
+            full = width // m
+            w = np.exp(1j * (m * theta0) * np.arange(full + 1))
+            folded = np.einsum("j,fjm->fm", w[:full], spec[:, :full * m].reshape(F, full, m))
+            folded[:, :width - full * m] += w[full] * spec[:, full * m:]
+            rho = (np.arange(m // 2 + 1) + half) % m
+            b = folded[:, rho] * np.exp(1j * theta0 * (rho - half))
         if step_sign < 0:
-            a = np.conj(a)  # sum_f a_f e^{-i f t} is real: the conjugate of sum_f conj(a_f) e^{i f t}
-        # b[:, r]: the sum of the a_f with f = r (mod m), r = 0 .. m/2 (all irfft reads): column c holds
-        # f = c - G/2, so the sums of the columns c = r + G/2 (mod m), m consecutive columns at a time
-        F, width = a.shape
-        rows = -(-width // m)
-        folded = a if rows * m == width else np.concatenate([a, np.zeros((F, rows * m - width), complex)], axis=1)
-        if rows > 1:
-            folded = folded.reshape(F, rows, m).sum(axis=1)
-        b = folded[:, (np.arange(m // 2 + 1) + self.points // 2) % m]
+            b = np.conj(b)  # sum_f a_f e^{-i f t} is real: the conjugate of sum_f conj(a_f) e^{i f t}
         out = np.fft.irfft(b, n=m, axis=1) * m if m > 1 else b.real
         return out.T
 

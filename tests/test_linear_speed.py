@@ -153,6 +153,18 @@ def test_interpolated_linkage_coefficients_equal_direct(mm, prestress):
         assert _field_error(got, _pack(co.direct(theta))[0], layout) < INTERPOLATION_TOLERANCE
 
 
+@pytest.mark.parametrize("G", [2, 8, 64])
+def test_uniform_grids_equal_the_interpolant_summed_directly(G):
+    # TrigInterpolant.uniform folds the spectrum by residue modulo m (m <= G) or pads it (m > G) and takes
+    # one inverse FFT; TrigInterpolant.at sums the series term by term: equal to rounding on grids of every
+    # size against G, forwards and backwards, from any first angle
+    interpolant = TrigInterpolant(np.random.default_rng(G).normal(size=(G, 3)))
+    for m in sorted({1, 2, 3, 5, max(G - 1, 1), G, G + 1, 3 * G}):
+        for theta0, sign in ((0.0, 1.0), (0.7, -1.0), (-2.3, 1.0)):
+            theta = theta0 + sign * np.arange(m) * (2 * np.pi / m)
+            np.testing.assert_allclose(interpolant.uniform(theta0, sign, m), interpolant.at(theta), atol=1e-12)
+
+
 @pytest.mark.parametrize("G", [2, 16, 32])
 def test_midpoint_values_equal_the_interpolant_summed_directly(G):
     # the refinement's check: the interpolant of G random samples at the G midpoints, by one real FFT pair,
