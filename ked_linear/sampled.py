@@ -106,12 +106,22 @@ INTERPOLATION_TOLERANCE = 1e-9
 entry over the cycle, measured at the midpoints of the sampling grid before it is refined once more."""
 
 
-MAX_POINTS = 2048
-"""Most samples kept by :class:`SampledCoefficients`.  Their cost is one frame condensation each, once per
-system; the alternative, direct evaluation at every angle asked for, costs that at each of the thousands of
-stage angles of every propagator level.  On 8 generated atlas linkages (every mechanism and mass model at
-r = 0.05 and 0.2) 22 of 128 systems passed only on 1024 or 2048 samples (the stiffness form: extender and
-tip near a stiffening support, converging geometrically but slowly at first)."""
+MAX_POINTS = 4096
+"""Most samples kept by :class:`SampledCoefficients`, which doubles its grid up to this unless it passes
+(or neither form is finite, or the interpolant would exceed :data:`SPECTRUM_BYTES`).  Their cost is one
+frame condensation each, once per system; the alternative, direct evaluation at every angle asked for,
+costs that at each of the thousands of stage angles of every propagator level.  On 8 generated atlas
+linkages (every mechanism and mass model at r = 0.05 and 0.2) 24 of 128 systems passed only on 1024 to
+4096 samples (the stiffness form: extender and tip near a stiffening support, converging geometrically but
+slowly at first; tip, linkage 4, cognate: 3.6e-4, 7e-8, 4.4e-13 on 1024, 2048, 4096), where a rule that
+stopped once the smaller of the two forms' errors fell less than 100-fold per doubling had stopped at 512
+or earlier: the compliance form, rebuilt into K, sits at a rounding floor near 2e-9-1e-7 while the
+stiffness form is still converging."""
+
+SPECTRUM_BYTES = 32 * 2**20
+"""The grid is not doubled past the number of samples whose interpolant (complex spectrum of every kept
+column) would exceed this: a 5-lump distributed model (1800 columns) stops at 1024 samples, where the
+surveyed ones passed (the interpolant of K and C alone, for a propagator's stages, takes about as much again)."""
 
 MEMO_ANGLES = 512
 """Requests of at most this many angles are remembered (the last 8): the collocation grids recur."""
@@ -128,9 +138,8 @@ class SampledCoefficients:
     elsewhere.  Two forms are tried on the same samples: the coefficients themselves ("stiffness"), and
     the compliance form K^-1, K^-1 C K^-1, K^-1 f, output K^-1 ("flexibility", K etc. rebuilt per angle):
     the frozen structure's flexibility is smooth even where its stiffness spikes (a lumped mass whose
-    flexibility nearly vanishes in one direction).  Neither passing below ``max_points``, or both forms'
-    errors stalling (:func:`_stalled`: a kink, a linkage near toggle, a form at its rounding floor while
-    the other is still converging is kept on), ``direct`` is used everywhere (``form`` "direct").
+    flexibility nearly vanishes in one direction).  Neither passing below ``max_points`` (a kink, a linkage
+    near toggle), ``direct`` is used everywhere (``form`` "direct").
 
     ``points``: the number of samples kept (0: direct); ``error``: the last measured midpoint error.
     The sampling is done at the first request (or when ``form``, ``points`` or ``error`` is read)."""
@@ -170,7 +179,6 @@ class SampledCoefficients:
         exact_sym = _symmetric(both)
         bounds = _bounds(layout, exact_sym)
         symmetric: dict[str, tuple[bool, ...]] = {}
-        history: dict[str, list[float]] = {"stiffness": [], "flexibility": []}
         while True:
             exact = _compact(mid, exact_sym)  # the errors are measured on the coefficients, by their triangles
             errors = {}
@@ -185,7 +193,6 @@ class SampledCoefficients:
                 elif sym != exact_sym:
                     values = _compact(_expand(values, layout, sym), exact_sym)
                 errors[form] = _compact_error(values, exact, bounds)
-                history[form].append(errors[form])
                 if errors[form] <= tolerance:
                     self._form, self._points, self._error, self.layout, self.symmetric = form, 2 * G, errors[form], \
                         layout, sym
@@ -193,8 +200,13 @@ class SampledCoefficients:
                                                                    _compact(_to_form(form, mid), sym)))
                     return
             self._error = min(errors.values(), key=lambda e: e if np.isfinite(e) else np.inf)
-            # give up at max_points, or when doubling stops paying in both forms
-            if 4 * G > max_points or all(_stalled(h) for h in history.values()):
+            # give up at max_points or when neither form gives finite values; no earlier: a form may stay
+            # near O(1) for several doublings before its grid resolves a spike and then converge fast (the
+            # tip model's stiffness form: 1.2, 1.1, 0.8, 0.14, 1.4e-2, 4.5e-5, 4.3e-10 on a generated linkage),
+            # and the direct evaluation given up to costs a frame condensation at every angle of every
+            # propagator level (thousands per level), against one per sample here, once per system
+            if 4 * G > max_points or 4 * G * int(bounds[-1]) * 16 > SPECTRUM_BYTES \
+                    or not any(np.isfinite(e) for e in errors.values()):
                 return
             grid, G = _merge(grid, mid), 2 * G
             mid = direct((np.arange(G) + 0.5) * (2.0 * np.pi / G))
@@ -241,17 +253,6 @@ class SampledCoefficients:
         if index is None:
             return self.direct(theta)
         return _from_form(self.form, _expand(self.interpolant.evaluate(theta, index), self.layout, self.symmetric))
-
-
-STALLED = 0.5
-"""A form whose midpoint error fell by less than this factor at the last doubling of the grid (or is not finite)
-stops paying for further samples: its error sits at its rounding floor (the compliance form's, rebuilt into K,
-lies near 1e-8-1e-7 on the generated atlas linkages) or it converges too slowly for :data:`MAX_POINTS`."""
-
-
-def _stalled(errors: list[float]) -> bool:
-    """The midpoint errors of one form, one per grid: no longer worth a doubling (:data:`STALLED`)."""
-    return not np.isfinite(errors[-1]) or (len(errors) >= 2 and not errors[-1] < STALLED * errors[-2])
 
 
 def _midpoint_values(samples: np.ndarray) -> np.ndarray:

@@ -127,8 +127,9 @@ def test_slowly_converging_stiffness_is_sampled_on_while_the_compliance_form_sta
     # the compliance form, rebuilt into K, stalls at its rounding floor (condition number 4e11); the
     # stiffness form's series falls like exp(-acosh(1.005) k) = exp(-0.1 k): by a factor of a few per
     # doubling at first, then below 1e-9 on 1024 samples (its midpoint check at G = 512 sees the harmonics
-    # above 256: exp(-25.6) ~ 8e-12).  Sampling goes on while either form still gains (the minimum of both
-    # alone looked stalled: direct everywhere); with at most 512 samples it is direct
+    # above 256: exp(-25.6) ~ 8e-12).  Sampling goes on up to its limit while neither form passes (judged by
+    # the smaller of the two errors, falling slowly, it had stopped: direct everywhere); with at most 512
+    # samples it is direct
     s = SampledCoefficients(_stiffening)
     assert s.form == "stiffness" and s.points == 1024 and s.error <= INTERPOLATION_TOLERANCE
     theta = 0.3 + np.arange(96) * (2 * np.pi / 96)
