@@ -232,10 +232,12 @@ def uniform_grids(interpolant: TrigInterpolant, theta0: np.ndarray, sign: float,
     c[:, 0] *= 0.5
     terms = c[None] * np.exp(1j * np.outer(np.asarray(theta0, dtype=float), np.arange(half + 1)))[:, None, :]
     if sign < 0:
-        terms = np.conj(terms)  # Re sum_f t_f e^{-i f s} = Re sum_f conj(t_f) e^{i f s}
+        np.conj(terms, out=terms)  # Re sum_f t_f e^{-i f s} = Re sum_f conj(t_f) e^{i f s}
     if m > G:  # no two frequencies share a residue, none reaches m/2: the Hermitian part, zero-padded by irfft
-        hermitian = 0.5 * terms
-        hermitian[..., 0] = terms[..., 0].real
+        mean = terms[..., 0].real.copy()
+        hermitian = terms
+        hermitian *= 0.5  # in place: the terms are not needed again
+        hermitian[..., 0] = mean
     else:
         b = np.zeros(terms.shape[:2] + (m,), dtype=complex)
         for start in range(0, half + 1, m):  # m consecutive frequencies have distinct residues
