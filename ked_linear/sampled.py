@@ -200,13 +200,14 @@ class SampledCoefficients:
                                                                    _compact(_to_form(form, mid), sym)))
                     return
             self._error = min(errors.values(), key=lambda e: e if np.isfinite(e) else np.inf)
-            # give up at max_points or when neither form gives finite values; no earlier: a form may stay
-            # near O(1) for several doublings before its grid resolves a spike and then converge fast (the
-            # tip model's stiffness form: 1.2, 1.1, 0.8, 0.14, 1.4e-2, 4.5e-5, 4.3e-10 on a generated linkage),
-            # and the direct evaluation given up to costs a frame condensation at every angle of every
-            # propagator level (thousands per level), against one per sample here, once per system
-            if 4 * G > max_points or 4 * G * int(bounds[-1]) * 16 > SPECTRUM_BYTES \
-                    or not any(np.isfinite(e) for e in errors.values()):
+            # give up at max_points, at the interpolant's memory bound or when neither form gives finite
+            # values; no earlier: a form may stay near O(1) for several doublings before its grid resolves a
+            # spike and then converge fast (the tip model's stiffness form: 1.2, 1.1, 0.8, 0.14, 1.4e-2,
+            # 4.5e-5, 4.3e-10 on a generated linkage), and the fallback, direct evaluation, costs a frame
+            # condensation at every angle of every propagator level (thousands per level), against one per
+            # sample here, once per system
+            next_bytes = 4 * G * int(bounds[-1]) * np.dtype(complex).itemsize
+            if 4 * G > max_points or next_bytes > SPECTRUM_BYTES or not any(np.isfinite(e) for e in errors.values()):
                 return
             grid, G = _merge(grid, mid), 2 * G
             mid = direct((np.arange(G) + 0.5) * (2.0 * np.pi / G))
