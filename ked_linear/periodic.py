@@ -31,6 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .blockband import BlockBandedLU
+
 
 @dataclass(frozen=True)
 class Coefficients:
@@ -284,8 +286,9 @@ def _solve_krylov(s, E, E1, E2, weight, X, Y, c0, x0=None, cheap: bool = True) -
     operator's theta-averaged part, block diagonal in the harmonics (I + i k s mean X - (k s)^2 mean Y,
     exact when K and C do not vary: cheap, enough for slowly varying coefficients); if that has not
     converged in :data:`CHEAP_ITERATIONS` iterations, on from there with the operator truncated to
-    the coefficients' harmonics |k - l| <= :data:`PRECONDITIONER_BANDS` (block banded: a sparse LU).
-    ``cheap``: False skips the first stage.  Returns c and whether the banded stage was needed."""
+    the coefficients' harmonics |k - l| <= :data:`PRECONDITIONER_BANDS` (block banded: its block LU,
+    :class:`ked_linear.blockband.BlockBandedLU`).  ``cheap``: False skips the first stage.  Returns c and
+    whether the banded stage was needed."""
     P, n = c0.shape
     H = (P - 1) // 2
 
@@ -314,7 +317,10 @@ def _solve_krylov(s, E, E1, E2, weight, X, Y, c0, x0=None, cheap: bool = True) -
         x, done = _gmres(apply, averaged, b, x, tol, CHEAP_ITERATIONS, 1)
         if done:
             return x.reshape(P, n), False
-    lu = _banded_operator(s, X, Y, H, PRECONDITIONER_BANDS)
+    try:
+        lu = _banded_operator(s, X, Y, H, PRECONDITIONER_BANDS)
+    except np.linalg.LinAlgError:  # a singular pivot block (no damping, a harmonic at a frozen resonance)
+        return _solve_dense(s, E, E1, E2, weight, X, Y, c0), True
 
     def banded(x: np.ndarray) -> np.ndarray:
         c = x.reshape(P, n)
@@ -400,30 +406,22 @@ KRYLOV_TOLERANCE = 1e-11
 """Relative residual at which the iterative periodic solve stops."""
 
 
-def _banded_operator(s: float, X: np.ndarray, Y: np.ndarray, H: int, bands: int):
-    """Sparse LU of the collocation operator in complex amplitudes of the nonnegative harmonics
-    (k, l = 0 .. H) kept to the bands |k - l| <= ``bands``: block (k, l) = delta_kl I + (i l s) X^_{k-l} -
-    (l s)^2 Y^_{k-l}, X^_d the DFT of X on the N collocation points (the operator's coupling, block Toeplitz
-    in the harmonics).  A real solution's amplitudes of -k are the conjugates of those of k; the coupling
-    of k to the conjugates, |k + l| <= ``bands`` (the lowest harmonics, where the operator is near the
-    identity), is left out: half the size of the system on all harmonics -H .. H, for a preconditioner."""
-    from scipy import sparse
-    from scipy.sparse import linalg as spla
-
+def _banded_operator(s: float, X: np.ndarray, Y: np.ndarray, H: int, bands: int) -> BlockBandedLU:
+    """Block LU (:class:`ked_linear.blockband.BlockBandedLU`) of the collocation operator in complex
+    amplitudes of the nonnegative harmonics (k, l = 0 .. H) kept to the bands |k - l| <= ``bands``: block
+    (k, l) = delta_kl I + (i l s) X^_{k-l} - (l s)^2 Y^_{k-l}, X^_d the DFT of X on the N collocation points
+    (the operator's coupling, block Toeplitz in the harmonics).  A real solution's amplitudes of -k are the
+    conjugates of those of k; the coupling of k to the conjugates, |k + l| <= ``bands`` (the lowest
+    harmonics, where the operator is near the identity), is left out: half the size of the system on all
+    harmonics -H .. H, for a preconditioner."""
     N, n = X.shape[0], X.shape[1]
-    d, l = np.meshgrid(np.arange(-bands, bands + 1), np.arange(H + 1), indexing="ij")
-    keep = (l + d >= 0) & (l + d <= H)
-    d, l = d[keep], l[keep]
-    Xh = np.fft.fft(X, axis=0)[np.arange(-bands, bands + 1) % N] / N  # only the bands' coefficients
-    Yh = np.fft.fft(Y, axis=0)[np.arange(-bands, bands + 1) % N] / N
-    blocks = (1j * s * l)[:, None, None] * Xh[d + bands] - ((s * l) ** 2)[:, None, None] * Yh[d + bands]
-    blocks[d == 0] += np.eye(n)
-    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    rows = ((l + d) * n)[:, None, None] + i
-    cols = (l * n)[:, None, None] + j
-    size = (H + 1) * n
-    A = sparse.csc_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())), shape=(size, size))
-    return spla.splu(A, permc_spec="NATURAL")  # banded: natural order keeps the fill in the band
+    d = np.arange(-bands, bands + 1)  # band[k, bands + e] is block (k, l = k + e): coupled by X^_{-e}, Y^_{-e}
+    Xh = np.fft.fft(X, axis=0)[-d % N] / N  # only the bands' coefficients
+    Yh = np.fft.fft(Y, axis=0)[-d % N] / N
+    l = (np.arange(H + 1)[:, None] + d[None, :]).astype(float)
+    band = (1j * s * l)[..., None, None] * Xh[None] - ((s * l) ** 2)[..., None, None] * Yh[None]
+    band[:, bands] += np.eye(n)
+    return BlockBandedLU(band)
 
 
 def evaluate(solution: PeriodicSolution, theta: np.ndarray,

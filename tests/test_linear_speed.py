@@ -243,6 +243,46 @@ def _random_system(n: int, seed: int, speed: float = 1.3) -> PeriodicSystem:
     return PeriodicSystem(mass=rng.uniform(0.5, 2.0, n), speed=speed, coefficients=coefficients)
 
 
+@pytest.mark.parametrize(("m", "b"), [(1, 2), (2, 2), (5, 1), (9, 2), (12, 3)])
+def test_block_banded_lu_solves_as_the_dense_matrix(m, b):
+    # the block LU of a block-banded matrix solves as numpy's dense LU of the same matrix assembled block by
+    # block (an independent factorization); entries of the band outside the matrix are ignored
+    from ked_linear.blockband import BlockBandedLU
+
+    rng = np.random.default_rng(10 * m + b)
+    n = 3
+    band = rng.normal(size=(m, 2 * b + 1, n, n)) + 1j * rng.normal(size=(m, 2 * b + 1, n, n))
+    band[:, b] += 4.0 * (2 * b + 1) * np.eye(n)  # diagonal blocks dominate their rows
+    A = np.zeros((m * n, m * n), dtype=complex)
+    for k in range(m):
+        for e in range(-b, b + 1):
+            if 0 <= k + e < m:
+                A[k * n:(k + 1) * n, (k + e) * n:(k + e + 1) * n] = band[k, b + e]
+    rhs = rng.normal(size=m * n) + 1j * rng.normal(size=m * n)
+    got = BlockBandedLU(band).solve(rhs)
+    np.testing.assert_allclose(got, np.linalg.solve(A, rhs), rtol=0, atol=1e-12 * np.abs(got).max())
+
+
+def test_banded_preconditioner_inverts_the_operators_bands():
+    # the preconditioner of the iterative periodic solve inverts the collocation operator's blocks
+    # (k, l) = delta_kl I + (i l s) X^_{k-l} - (l s)^2 Y^_{k-l} for |k - l| <= bands, k, l = 0 .. H (X^ the
+    # DFT of X = K^-1 C, Y^ of Y = K^-1 M on the collocation points), assembled here from that definition
+    from ked_linear.periodic import _banded_operator
+
+    rng = np.random.default_rng(3)
+    N, n, s, H, bands = 16, 3, 0.4, 6, 2
+    X, Y = 0.1 * rng.normal(size=(2, N, n, n))
+    Xh, Yh = np.fft.fft(X, axis=0) / N, np.fft.fft(Y, axis=0) / N
+    A = np.zeros(((H + 1) * n, (H + 1) * n), dtype=complex)
+    for k in range(H + 1):
+        for l in range(max(0, k - bands), min(H, k + bands) + 1):
+            A[k * n:(k + 1) * n, l * n:(l + 1) * n] = (k == l) * np.eye(n) + 1j * l * s * Xh[(k - l) % N] \
+                - (l * s) ** 2 * Yh[(k - l) % N]
+    x = rng.normal(size=(H + 1) * n) + 1j * rng.normal(size=(H + 1) * n)
+    got = _banded_operator(s, X, Y, H, bands).solve(A @ x)
+    np.testing.assert_allclose(got, x, rtol=0, atol=1e-12 * np.abs(x).max())
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_krylov_solve_equals_dense_solve(seed, monkeypatch):
     system = _random_system(4, seed)
