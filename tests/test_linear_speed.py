@@ -244,10 +244,15 @@ def _random_system(n: int, seed: int, speed: float = 1.3) -> PeriodicSystem:
 
 
 @pytest.mark.parametrize(("m", "b"), [(1, 2), (2, 2), (5, 1), (9, 2), (12, 3)])
-def test_block_banded_lu_solves_as_the_dense_matrix(m, b):
+@pytest.mark.parametrize("group", [1, 2, 3, 16])
+def test_block_banded_lu_solves_as_the_dense_matrix(m, b, group, monkeypatch):
     # the block LU of a block-banded matrix solves as numpy's dense LU of the same matrix assembled block by
-    # block (an independent factorization); entries of the band outside the matrix are ignored
+    # block (an independent factorization), its blocks as given or grouped by 2, 3, 16 (a group width of
+    # group * n); entries of the band outside the matrix are ignored
+    from ked_linear import blockband
     from ked_linear.blockband import BlockBandedLU
+
+    monkeypatch.setattr(blockband, "GROUP_WIDTH", 3 * group)
 
     rng = np.random.default_rng(10 * m + b)
     n = 3
