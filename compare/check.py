@@ -162,6 +162,9 @@ class CheckRow:
     floquet_steps: int = 0
     """Propagator steps per cycle behind ``floquet_max_abs`` (the reduced system's where its Floquet
     analysis answered; ``ked_linear.LinearResult.floquet_steps``); 0 without a linear solve."""
+    floquet_reduced: bool = False
+    """Whether the reduced system's Floquet analysis gave ``floquet_max_abs``
+    (``ked_linear.LinearResult.floquet_reduced``); else the full model's propagator did."""
 
 
 def spec_for(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, rpm: float, *,
@@ -281,6 +284,7 @@ def check_row(r: SceneResult, linear_range: LinearRange, tolerance: float,
         linear_limit_speed_ratio=linear_range.lower_limit(tolerance), holds_below_error=margins.holds_below * tolerance,
         fails_above_error=margins.fails_above * tolerance, margins_source=margins.source, decided_by=decided_by,
         predicted_tier=predicted, floquet_steps=int(lin.stats.get("floquet_steps", 0)) if lin is not None else 0,
+        floquet_reduced=bool(lin.stats.get("floquet_reduced", False)) if lin is not None else False,
     )
 
 

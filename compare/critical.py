@@ -479,10 +479,12 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
 
 def sweep_exact(row: object) -> bool:
     """True when a check row's max |mu| is the sweep's own value (:func:`floquet_max_abs`) at its speed: the
-    linear solve's Floquet analysis ran the full model at :data:`SWEEP_STEPS` (the reduced system's answer,
-    when it vouches, is the same in both; at any other count the row does not say which of the two
-    answered, so only the full model's count is taken as proof)."""
-    return int(getattr(row, "floquet_steps", 0)) == SWEEP_STEPS and math.isfinite(row.floquet_max_abs)
+    linear solve's Floquet analysis was the reduced system's (``floquet_reduced``: the sweep asks the same
+    ``ked_linear.solver.reduced_stability`` with the same settings, which answers the same) or the full
+    model's at :data:`SWEEP_STEPS` (the sweep's fixed count where the reduction does not answer)."""
+    if not math.isfinite(row.floquet_max_abs):
+        return False
+    return bool(getattr(row, "floquet_reduced", False)) or int(getattr(row, "floquet_steps", 0)) == SWEEP_STEPS
 
 
 def sweep_evaluations(rows: Sequence[object], fine: int = 4) -> int:

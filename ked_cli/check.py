@@ -98,7 +98,8 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     three speeds or more, the local maxima over the speeds checked of max |Floquet
     multiplier|, refined by the Floquet part alone, and of the amplification linear /
     quasi-static peak; else empty), floquet_steps (propagator steps per cycle behind
-    floquet_max_abs).
+    floquet_max_abs), floquet_reduced (true when the reduced system's Floquet analysis
+    gave it).
     """
     from compare.check import check as run_check
     from compare.check import progress, redraw

@@ -520,12 +520,15 @@ def _settled(changes: list[float], tops: list[float], tolerance: float) -> bool:
 class FloquetResult:
     """max_abs: largest |multiplier|; error_estimate: |max_abs(steps) - max_abs(steps / 2)| (at least
     :data:`ROUND_OFF_FLOOR`), an upper bound once the levels converge at the method's fourth order;
-    steps: propagator steps per cycle; multipliers: all of them at ``steps`` (largest first)."""
+    steps: propagator steps per cycle; multipliers: all of them at ``steps`` (largest first); reduced: True
+    when they are those of a reduced system (:func:`ked_linear.reduction.reduced_floquet`), False for the
+    full model's propagator."""
 
     max_abs: float
     error_estimate: float
     steps: int
     multipliers: np.ndarray
+    reduced: bool = False
 
 
 def floquet(system: PeriodicSystem, tolerance: float, steps: int | None = None,

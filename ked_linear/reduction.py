@@ -503,7 +503,7 @@ def reduced_floquet(system: PeriodicSystem, frames: LinkFrames, tolerance: float
         if not np.isfinite(tops[-1]) or tops[-1] + est >= FULL_NEAR_ONE:
             return None
         if est <= 0.5 * tolerance:
-            result = FloquetResult(max_abs=tops[-1], error_estimate=est, steps=steps, multipliers=mu)
+            result = FloquetResult(max_abs=tops[-1], error_estimate=est, steps=steps, multipliers=mu, reduced=True)
             return Reduction(result=result, sizes=(small.r, rich.r), richer_max_abs=other,
                              basis_change=basis_change, step_error=step_est)
     return None

@@ -27,7 +27,7 @@ class LinearResult:
         floquet_error: its estimated absolute error; floquet_steps: propagator steps per cycle (of the
         reduced system's Radau IIA propagator when the reduced Floquet analysis answered: damped extender
         and distributed models, ``ked_linear.reduction``; else of the full model's SDIRK2 or
-        Gauss-Legendre propagator).
+        Gauss-Legendre propagator); floquet_reduced: whether the reduced Floquet analysis answered.
     harmonics: crank harmonics H with a dynamic response; collocation_points: N (both 0 when the steady
         state on the co-rotating reduced basis answered, ``ked_linear.corotating``); radau_steps: that
         basis's Radau IIA steps per cycle (0 when the collocation answered);
@@ -58,6 +58,7 @@ class LinearResult:
     settings: LinearSettings
     wall_s: float
     radau_steps: int = 0
+    floquet_reduced: bool = False
 
 
 MAX_COORDINATES = 240

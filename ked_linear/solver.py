@@ -229,6 +229,7 @@ def _solve_linear(scene: Scene, settings: LinearSettings | None) -> LinearResult
         message=_message(status, fl.max_abs, fl.error_estimate, ss.error_estimate, settings.tolerance,
                          ss.harmonics),
         floquet_max_abs=fl.max_abs, floquet_error=fl.error_estimate, floquet_steps=fl.steps,
+        floquet_reduced=fl.reduced,
         harmonics=ss.harmonics, collocation_points=ss.points, radau_steps=ss.radau_steps,
         error_estimate=ss.error_estimate,
         damping_reference_hz=ls.damping_reference_hz, damping_beta=ls.damping_beta,

@@ -216,6 +216,26 @@ def test_a_row_at_the_sweep_steps_is_the_sweeps_own_value(thesis):
     assert [f(r.rpm) for r in rows[1:]] == [r.floquet_max_abs for r in rows[1:]]
 
 
+def test_a_row_of_the_reduced_floquet_analysis_is_the_sweeps_own_value(thesis):
+    # where the reduced system's Floquet analysis answered a row's linear solve (thesis distributed model:
+    # at 100 rpm beside the collocation's steady state, at 300 rpm beside the co-rotating one), the row
+    # says so and is an exact sample: the sweep's independent Floquet-only evaluation (a fresh system, no
+    # recalled parts) gives the same number to the last bit; the joints model's full propagator is not it
+    from compare.check import check, spec_for
+    from compare.critical import floquet_max_abs, sweep_exact
+    from ked_linear.solver import forget_recalled
+    from ked_quasi import MassModel
+
+    mm = MassModel("distributed")
+    rows = check(thesis, "source", mm, [100.0, 300.0])
+    assert [r.floquet_reduced for r in rows] == [True, True]
+    assert [sweep_exact(r) for r in rows] == [True, True]
+    forget_recalled()
+    f = floquet_max_abs(spec_for(thesis, "source", mm, 100.0))
+    assert [f(r.rpm) for r in rows] == [r.floquet_max_abs for r in rows]
+    assert not check(thesis, "source", MassModel("joints"), [90.0])[0].floquet_reduced
+
+
 def test_a_sweep_of_one_or_no_finite_sample_finds_nothing():
     assert critical_speeds([100.0], [0.5], _curve) == ()
     assert critical_speeds([100.0, 150.0, 200.0], [float("nan")] * 3, lambda r: float("nan")) == ()

@@ -35,15 +35,15 @@ def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Sol
     ``radau_steps`` is ``LinearResult.radau_steps`` (steps of the co-rotating steady state; 0 when the
     collocation answered, whose ``harmonics`` and ``collocation_points`` are then the statistics).
     ``floquet_steps`` is ``LinearResult.floquet_steps``: Radau IIA steps of the reduced system where the
-    reduced Floquet analysis answered (damped extender and distributed models), else the full model's
-    propagator steps (docs/linear_model.md)."""
+    reduced Floquet analysis answered (damped extender and distributed models; ``floquet_reduced`` then
+    true), else the full model's propagator steps (docs/linear_model.md)."""
     from ked_linear import describe_flags, result_flags, solve_linear
 
     res = solve_linear(scene, settings)  # a slider-crank scene dispatches to ked_linear.slider
     stats = {"wall_s": float(res.wall_s), "floquet_max_abs": float(res.floquet_max_abs),
              "floquet_error": float(res.floquet_error), "floquet_steps": int(res.floquet_steps),
              "harmonics": int(res.harmonics), "collocation_points": int(res.collocation_points),
-             "radau_steps": int(res.radau_steps),
+             "radau_steps": int(res.radau_steps), "floquet_reduced": bool(res.floquet_reduced),
              "error_estimate": float(res.error_estimate), "damping_reference_hz": float(res.damping_reference_hz),
              "speed_ratio": float(res.speed_ratio)}
     if not res.stable:
