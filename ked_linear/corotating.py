@@ -86,7 +86,6 @@ from .reducedsystem import (  # noqa: F401  (the reduced system's parts, re-expo
     _Forcing,
     _frames,
     _Reduced,
-    uniform_grids,
 )
 from .reduction import (
     BASES,

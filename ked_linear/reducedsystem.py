@@ -178,7 +178,7 @@ class _Reduced:
         r = self.r
         sign = 1.0 if self.system.speed > 0 else -1.0  # march in the direction of time
         h = sign * 2.0 * np.pi / steps
-        stage = uniform_grids(self.interpolant, RADAU_C * h, sign, steps)
+        stage = self.interpolant.grids(RADAU_C * h, sign, steps)
         K, C, F = self.fields(stage)
         S = radau_affine_steps(K.reshape(3, steps, r, r), C.reshape(3, steps, r, r), F.reshape(3, steps, r), h)
         Phi = _product(S)
@@ -219,32 +219,4 @@ class _Reduced:
         rhs = co.load - s * _apply(co.damping, z1) - s**2 * m * z2
         u = np.linalg.solve(co.stiffness, rhs[..., None])[..., 0]
         return u, None if co.output is None else _apply(co.output, u)
-
-
-def uniform_grids(interpolant: TrigInterpolant, theta0: np.ndarray, sign: float, m: int) -> np.ndarray:
-    """Values (g m, F) of ``interpolant`` (of real samples) on the g uniform full-turn grids
-    theta0[i] + sign 2 pi j / m (grid by grid): what g calls of :meth:`TrigInterpolant.uniform` give, from
-    the one-sided spectrum (the real form sum_f Re(c_f e^{i f theta}), f = 0 .. G/2) folded modulo m by
-    slices and one real inverse FFT."""
-    G = interpolant.points
-    half = G // 2
-    c = 2.0 * interpolant.spectrum[:, half:]  # f = 0 .. G/2 (the Nyquist term was halved at each end)
-    c[:, 0] *= 0.5
-    terms = c[None] * np.exp(1j * np.outer(np.asarray(theta0, dtype=float), np.arange(half + 1)))[:, None, :]
-    if sign < 0:
-        np.conj(terms, out=terms)  # Re sum_f t_f e^{-i f s} = Re sum_f conj(t_f) e^{i f s}
-    if m > G:  # no two frequencies share a residue, none reaches m/2: the Hermitian part, zero-padded by irfft
-        mean = terms[..., 0].real.copy()
-        hermitian = terms
-        hermitian *= 0.5  # in place: the terms are not needed again
-        hermitian[..., 0] = mean
-    else:
-        b = np.zeros(terms.shape[:2] + (m,), dtype=complex)
-        for start in range(0, half + 1, m):  # m consecutive frequencies have distinct residues
-            stop = min(start + m, half + 1)
-            b[..., :stop - start] += terms[..., start:stop]
-        # Re ifft(b) = irfft of the Hermitian part (b_k + conj(b_-k)) / 2, k = 0 .. m/2
-        hermitian = 0.5 * (b[..., :m // 2 + 1] + np.conj(b[..., (-np.arange(m // 2 + 1)) % m]))
-    out = np.fft.irfft(hermitian, n=m, axis=2) * m  # (g, F, m)
-    return np.swapaxes(out, 1, 2).reshape(-1, out.shape[1])
 

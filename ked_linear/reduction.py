@@ -210,24 +210,13 @@ def projection(co: Coefficients, lumps: tuple[np.ndarray, np.ndarray, np.ndarray
 
 class InterpolatedCoefficients:
     """Reduced coefficients (K, C; no load) from samples on a uniform full-turn grid, trigonometric
-    interpolation (one inverse FFT per uniform grid asked for, direct summation elsewhere; :meth:`grids`:
-    several uniform grids at once from the one-sided spectrum)."""
+    interpolation (:class:`ked_linear.sampled.TrigInterpolant`: one inverse FFT per uniform grid asked for,
+    direct summation elsewhere)."""
 
     def __init__(self, K: np.ndarray, C: np.ndarray):
         self.size = K.shape[1]
-        flat = np.concatenate([K.reshape(K.shape[0], -1), C.reshape(C.shape[0], -1)], axis=1)
-        self.interpolant = TrigInterpolant(flat)
-        # the same interpolant, real form: sum_f Re(w_f A_f e^{i f theta}), f = 0 .. G/2 (w = 1 at 0 and at
-        # the Nyquist frequency, 2 between; A the FFT / G); frequencies whose terms are below SPECTRUM_CUT
-        # of the largest everywhere are left out (they change no value by more than ~1e-11 of its field's peak,
-        # against the 1e-8 of the interpolation itself)
-        half = flat.shape[0] // 2
-        A = self.interpolant.spectrum[:, half:] * 2.0  # frequencies 0 .. G/2 (the Nyquist term was halved)
-        A[:, 0] *= 0.5
-        size = np.max(np.abs(A), axis=0)
-        kept = np.nonzero(size > SPECTRUM_CUT * size.max())[0]
-        top = int(kept[-1]) + 1 if kept.size else 1
-        self.one_sided = np.ascontiguousarray(A[:, :top])  # (F, top)
+        self.interpolant = TrigInterpolant(np.concatenate([K.reshape(K.shape[0], -1), C.reshape(C.shape[0], -1)],
+                                                          axis=1))
 
     def __call__(self, theta: np.ndarray) -> Coefficients:
         theta = np.atleast_1d(np.asarray(theta, dtype=float))
@@ -235,29 +224,6 @@ class InterpolatedCoefficients:
         r = self.size
         return Coefficients(stiffness=flat[:, :r * r].reshape(-1, r, r), damping=flat[:, r * r:].reshape(-1, r, r),
                             load=np.zeros((theta.size, r)))
-
-    def grids(self, theta0: np.ndarray, step: float, m: int) -> tuple[np.ndarray, np.ndarray]:
-        """(K, C), each (g, m, r, r), at the g uniform full-turn grids theta0[i] + step * j, j = 0 .. m - 1
-        (step = +-2 pi / m): the spectrum folded modulo m, one inverse FFT of length m per field and grid."""
-        a = self.one_sided
-        f = np.arange(a.shape[1])
-        if abs(abs(step) * m - 2.0 * np.pi) > 1e-9:
-            raise ValueError("InterpolatedCoefficients.grids: step must be +-2 pi / m")
-        terms = a[None, :, :] * np.exp(1j * np.outer(np.asarray(theta0, dtype=float), f))[:, None, :]
-        if step < 0:
-            terms = np.conj(terms)  # Re sum_f t_f e^{-i f s} = Re sum_f conj(t_f) e^{i f s}
-        folded = np.zeros(terms.shape[:2] + (m,), dtype=complex)
-        for start in range(0, f.size, m):  # m consecutive frequencies have distinct residues
-            folded[..., f[start:start + m] % m] += terms[..., start:start + m]
-        values = np.fft.ifft(folded, axis=2).real * m  # (g, F, m)
-        r = self.size
-        out = np.swapaxes(values, 1, 2)
-        return out[..., :r * r].reshape(-1, m, r, r), out[..., r * r:].reshape(-1, m, r, r)
-
-
-SPECTRUM_CUT = 1e-13
-"""Relative size below which a frequency of the reduced coefficients' spectrum is left out of
-:meth:`InterpolatedCoefficients.grids`."""
 
 
 def interpolation_error(K: np.ndarray, C: np.ndarray) -> float:
@@ -295,11 +261,8 @@ def radau_multipliers(system: PeriodicSystem, steps: int, stages: int = RADAU_ST
     c, a = tableau(stages)
     h = system.period / steps
     t = np.arange(steps) * h
-    if isinstance(system.coefficients, InterpolatedCoefficients):  # the stages' uniform grids at once
-        K, C = system.coefficients.grids(system.speed * c * h, system.speed * h, steps)
-    else:
-        stage = [system.coefficients(system.speed * (t + ci * h)) for ci in c]  # one uniform grid each
-        K, C = np.stack([co.stiffness for co in stage]), np.stack([co.damping for co in stage])
+    stage = [system.coefficients(system.speed * (t + ci * h)) for ci in c]  # one uniform grid each
+    K, C = np.stack([co.stiffness for co in stage]), np.stack([co.damping for co in stage])
     phi = _product(radau_steps(K, C, h, a))
     mu = np.linalg.eigvals(phi)
     return mu[np.argsort(-np.abs(mu))]

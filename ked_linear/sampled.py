@@ -53,6 +53,11 @@ class TrigInterpolant:
         out = np.fft.irfft(b, n=m, axis=1) * m if m > 1 else b.real
         return out.T
 
+    def grids(self, theta0: np.ndarray, step_sign: float, m: int) -> np.ndarray:
+        """Values (g m, F) on the g uniform full-turn grids theta0[i] + step_sign * 2 pi j / m, grid by grid
+        (the stage angles of a Runge-Kutta pass: one grid per stage)."""
+        return np.concatenate([self.uniform(float(t), step_sign, m) for t in np.atleast_1d(theta0)])
+
     def at(self, theta: np.ndarray) -> np.ndarray:
         """Values (m, F) at any angles (m,), by direct summation (O(G m) per column)."""
         return (np.exp(1j * np.outer(theta, self.frequency)) @ self.spectrum.T).real

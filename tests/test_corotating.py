@@ -119,7 +119,7 @@ def test_one_radau_pass_per_basis_and_level_serves_both_analyses():
     # the steady state and the reduced Floquet ladder use the same reduced systems: every pass the ladder
     # needs at a level the steady state already marched is taken from it (the same multipliers object), and
     # the periodic state of a pass is a fixed point of its one-cycle map (independent check: march it again)
-    from ked_linear.corotating import radau_affine_steps, uniform_grids
+    from ked_linear.corotating import radau_affine_steps
     from ked_linear.floquet import _product
     from ked_linear.reduction import RADAU_C, Reductions, link_frames, reduced_floquet
 
@@ -140,7 +140,7 @@ def test_one_radau_pass_per_basis_and_level_serves_both_analyses():
     # the fixed point: x0 -> Phi x0 + d over one cycle, rebuilt from the step maps
     steps, r = co.steps, small.r
     h = 2.0 * np.pi / steps
-    K, C, F = small.fields(uniform_grids(small.interpolant, RADAU_C * h, 1.0, steps))
+    K, C, F = small.fields(small.interpolant.grids(RADAU_C * h, 1.0, steps))
     Phi = _product(radau_affine_steps(K.reshape(3, steps, r, r), C.reshape(3, steps, r, r), F.reshape(3, steps, r), h))
     x0 = small._runs[steps].states[0]
     assert np.max(np.abs(Phi[:2 * r, :2 * r] @ x0 + Phi[:2 * r, 2 * r] - x0)) <= 1e-9 * np.max(np.abs(x0))
