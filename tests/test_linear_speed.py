@@ -164,6 +164,10 @@ def test_uniform_grids_equal_the_interpolant_summed_directly(G):
         for theta0, sign in ((0.0, 1.0), (0.7, -1.0), (-2.3, 1.0)):
             theta = theta0 + sign * np.arange(m) * (2 * np.pi / m)
             np.testing.assert_allclose(interpolant.uniform(theta0, sign, m), interpolant.at(theta), atol=1e-12)
+        # several grids at once (a Runge-Kutta pass's stages), grid by grid
+        starts = np.array([0.0, 0.7, -2.3])
+        stacked = np.concatenate([t0 - np.arange(m) * (2 * np.pi / m) for t0 in starts])
+        np.testing.assert_allclose(interpolant.grids(starts, -1.0, m), interpolant.at(stacked), atol=1e-12)
 
 
 @pytest.mark.parametrize("G", [2, 16, 32])
