@@ -9,6 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
+PIVOT_LIMIT = 1e12
+"""Largest |pivot block inverse| times the band's largest |entry| the factors accept (see
+:class:`BlockBandedLU`)."""
+
 GROUP_WIDTH = 48
 """Blocks smaller than this are grouped into blocks of about this size (:func:`regroup`): the substitutions
 loop over the blocks in Python, and on small blocks the loop's overhead, not the arithmetic, is the cost."""
@@ -22,7 +26,9 @@ class BlockBandedLU:
     no pivoting between blocks: fit for matrices whose diagonal blocks dominate their rows, as the
     collocation operator's do (each is a damped dynamic stiffness; :func:`ked_linear.periodic._solve_krylov`
     uses these factors only as a preconditioner).  Blocks under :data:`GROUP_WIDTH` are grouped first.
-    Raises ``numpy.linalg.LinAlgError`` when a pivot block is singular or the factors are not finite."""
+    Raises ``numpy.linalg.LinAlgError`` when a pivot block is singular or nearly so (its inverse over
+    :data:`PIVOT_LIMIT` times the band's largest entry's reciprocal: pivoting between blocks would be
+    needed) or the factors are not finite."""
 
     def __init__(self, band: np.ndarray):
         self.size = band.shape[0] * band.shape[2]
@@ -30,7 +36,7 @@ class BlockBandedLU:
         m, w, n, _ = band.shape
         b = (w - 1) // 2
         self.m, self.b, self.n = m, b, n
-        A = np.array(band)  # (k, b + d): eliminated in place
+        A = np.array(band, dtype=np.result_type(band.dtype, np.float64))  # (k, b + d): eliminated in place
         for k in range(m):  # the entries outside the matrix are zero blocks
             A[k, :max(0, b - k)] = 0.0
             A[k, b + max(0, m - k):] = 0.0
@@ -49,6 +55,8 @@ class BlockBandedLU:
         up = np.zeros((m, b, n, n), dtype=A.dtype)  # up[k, d - 1] = inv_k A[k, k + d]
         for d in range(1, min(b, m - 1) + 1):
             up[:m - d, d - 1] = inv[:m - d] @ A[:m - d, b + d]
+        if np.max(np.abs(inv)) * np.max(np.abs(band)) > PIVOT_LIMIT:
+            raise np.linalg.LinAlgError("block-banded LU: a pivot block is nearly singular")
         self._inv = inv
         self._lower = np.ascontiguousarray(low.transpose(0, 2, 1, 3)).reshape(m, n, b * n)  # [L[k, k-b] ..]
         self._upper = np.ascontiguousarray(up.transpose(0, 2, 1, 3)).reshape(m, n, b * n)  # [.. U[k, k+b]]

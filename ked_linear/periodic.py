@@ -319,7 +319,7 @@ def _solve_krylov(s, E, E1, E2, weight, X, Y, c0, x0=None, cheap: bool = True) -
             return x.reshape(P, n), False
     try:
         lu = _banded_operator(s, X, Y, H, PRECONDITIONER_BANDS)
-    except np.linalg.LinAlgError:  # a singular pivot block (no damping, a harmonic at a frozen resonance)
+    except np.linalg.LinAlgError:  # a (nearly) singular pivot block: no damping, a harmonic at a frozen resonance
         return _solve_dense(s, E, E1, E2, weight, X, Y, c0), True
 
     def banded(x: np.ndarray) -> np.ndarray:

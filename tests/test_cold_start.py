@@ -19,11 +19,16 @@ ROOT = Path(__file__).resolve().parents[1]
 
 PROBE = """
 import json, sys
+import ked_linear.periodic as periodic
 from ked_cli.main import cli
+factored = []
+banded = periodic._banded_operator
+periodic._banded_operator = lambda *a: factored.append(1) or banded(*a)
 try:
     cli(["check", "--mass-model", sys.argv[1], "--rpm", sys.argv[2]], standalone_mode=False)
 finally:
-    print(json.dumps(sorted(m for m in ("scipy", "scipy.linalg", "scipy.sparse", "numpy.ma") if m in sys.modules)))
+    print(json.dumps([sorted(m for m in ("scipy", "scipy.linalg", "scipy.sparse", "numpy.ma") if m in sys.modules),
+                      len(factored)]))
 """
 
 
@@ -34,4 +39,7 @@ def test_check_imports_no_scipy(mass_model: str, rpm: str) -> None:
     # imports); joints: the dense collocation and the full Floquet propagator
     out = subprocess.run([sys.executable, "-c", PROBE, mass_model, rpm], capture_output=True, text=True, cwd=ROOT,
                          check=True).stdout
-    assert json.loads(out.strip().splitlines()[-1]) == []
+    imported, factored = json.loads(out.strip().splitlines()[-1])
+    assert imported == []
+    if rpm == "300":  # the banded preconditioner was built (else this case would test nothing more)
+        assert factored >= 1

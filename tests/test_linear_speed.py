@@ -247,7 +247,7 @@ def _random_system(n: int, seed: int, speed: float = 1.3) -> PeriodicSystem:
     return PeriodicSystem(mass=rng.uniform(0.5, 2.0, n), speed=speed, coefficients=coefficients)
 
 
-@pytest.mark.parametrize(("m", "b"), [(1, 2), (2, 2), (5, 1), (9, 2), (12, 3)])
+@pytest.mark.parametrize(("m", "b"), [(1, 2), (2, 2), (4, 0), (5, 1), (9, 2), (12, 3)])
 @pytest.mark.parametrize("group", [1, 2, 3, 16])
 def test_block_banded_lu_solves_as_the_dense_matrix(m, b, group, monkeypatch):
     # the block LU of a block-banded matrix solves as numpy's dense LU of the same matrix assembled block by
@@ -270,6 +270,26 @@ def test_block_banded_lu_solves_as_the_dense_matrix(m, b, group, monkeypatch):
     rhs = rng.normal(size=m * n) + 1j * rng.normal(size=m * n)
     got = BlockBandedLU(band).solve(rhs)
     np.testing.assert_allclose(got, np.linalg.solve(A, rhs), rtol=0, atol=1e-12 * np.abs(got).max())
+
+
+def test_block_banded_lu_refuses_a_nearly_singular_pivot(monkeypatch):
+    # block elimination without pivoting between blocks (blocks not grouped): a pivot block singular to
+    # 1e-14 is refused (the periodic solve then solves dense) rather than factored into a useless
+    # preconditioner, though the matrix is well conditioned; grouped into one block (LAPACK's pivoting
+    # inside it) the same matrix is factored
+    from ked_linear import blockband
+    from ked_linear.blockband import BlockBandedLU
+
+    S = np.array([[1.0, 1.0], [1.0, 1.0 + 1e-14]])  # the first pivot; the matrix [[S, I], [I, I]] is regular
+    band = np.zeros((2, 3, 2, 2))
+    band[0, 1], band[0, 2], band[1, 0], band[1, 1] = S, np.eye(2), np.eye(2), np.eye(2)
+    monkeypatch.setattr(blockband, "GROUP_WIDTH", 2)
+    with pytest.raises(np.linalg.LinAlgError):
+        BlockBandedLU(band)
+    monkeypatch.setattr(blockband, "GROUP_WIDTH", 4)
+    rhs = np.arange(4.0)
+    A = np.block([[S, np.eye(2)], [np.eye(2), np.eye(2)]])
+    np.testing.assert_allclose(BlockBandedLU(band).solve(rhs), np.linalg.solve(A, rhs), rtol=1e-10)
 
 
 def test_banded_preconditioner_inverts_the_operators_bands():
