@@ -27,7 +27,7 @@ class BlockBandedLU:
     collocation operator's do (each is a damped dynamic stiffness; :func:`ked_linear.periodic._solve_krylov`
     uses these factors only as a preconditioner).  Blocks under :data:`GROUP_WIDTH` are grouped first.
     Raises ``numpy.linalg.LinAlgError`` when a pivot block is singular or nearly so (its inverse over
-    :data:`PIVOT_LIMIT` times the band's largest entry's reciprocal: pivoting between blocks would be
+    :data:`PIVOT_LIMIT` times the reciprocal of the matrix's largest entry: pivoting between blocks would be
     needed) or the factors are not finite."""
 
     def __init__(self, band: np.ndarray):
@@ -40,6 +40,7 @@ class BlockBandedLU:
         for k in range(m):  # the entries outside the matrix are zero blocks
             A[k, :max(0, b - k)] = 0.0
             A[k, b + max(0, m - k):] = 0.0
+        scale = np.max(np.abs(A))
         inv = np.empty((m, n, n), dtype=A.dtype)
         low = np.zeros((m, b, n, n), dtype=A.dtype)  # low[k, b - i] = L[k, k - i]
         for k in range(m):
@@ -55,7 +56,7 @@ class BlockBandedLU:
         up = np.zeros((m, b, n, n), dtype=A.dtype)  # up[k, d - 1] = inv_k A[k, k + d]
         for d in range(1, min(b, m - 1) + 1):
             up[:m - d, d - 1] = inv[:m - d] @ A[:m - d, b + d]
-        if np.max(np.abs(inv)) * np.max(np.abs(band)) > PIVOT_LIMIT:
+        if np.max(np.abs(inv)) * scale > PIVOT_LIMIT:
             raise np.linalg.LinAlgError("block-banded LU: a pivot block is nearly singular")
         self._inv = inv
         self._lower = np.ascontiguousarray(low.transpose(0, 2, 1, 3)).reshape(m, n, b * n)  # [L[k, k-b] ..]
