@@ -29,7 +29,7 @@ from .floquet import _product
 from .linkframes import FrameAngles, _turn, rotate_columns
 from .periodic import Coefficients, PeriodicSystem, _apply, series
 from .radau import RADAU_C, radau_affine_steps
-from .sampled import TrigInterpolant, interleave, midpoint_error
+from .sampled import TrigInterpolant, interleave, midpoint_errors
 
 SAMPLES = 128
 """Angles on which the reduced coefficients are sampled first (doubled up to :data:`MAX_SAMPLES` until the
@@ -129,8 +129,8 @@ class _Reduced:
         # those at the midpoints of the G / 2 grid, if known; forcing: B q of the frozen solution, if shared
         flat = self._flat(np.arange(G) * (2.0 * np.pi / G), co_grid, angles_grid)
         k, c, f = self._layout()
-        while midpoint_error(flat, (k, c)) > COEFFICIENT_TOLERANCE or midpoint_error(flat, (f,)) > \
-                INTERPOLATION_TOLERANCE:
+        limits = np.array([COEFFICIENT_TOLERANCE, COEFFICIENT_TOLERANCE, INTERPOLATION_TOLERANCE])
+        while np.any(midpoint_errors(flat, (k, c, f)) > limits):
             if 2 * G > MAX_SAMPLES:
                 raise ValueError("reduced coefficients not interpolable")
             mid = (np.arange(G) + 0.5) * (2.0 * np.pi / G)

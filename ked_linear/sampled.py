@@ -76,17 +76,19 @@ class TrigInterpolant:
         return out
 
 
-def midpoint_error(flat: np.ndarray, fields: tuple[slice, ...]) -> float:
-    """Largest error, relative to each field's peak (``fields``: column slices of ``flat`` (G, F)), of the
-    trigonometric interpolant of the even samples at the odd ones: an upper bound of the error of the
-    interpolant of all samples (the series converging geometrically)."""
+def midpoint_errors(flat: np.ndarray, fields: tuple[slice, ...]) -> np.ndarray:
+    """Per field (``fields``: column slices of ``flat`` (G, F)), the largest error relative to the field's
+    peak of the trigonometric interpolant of the even samples at the odd ones: an upper bound of the error
+    of the interpolant of all samples (the series converging geometrically); inf where not finite."""
     half = _midpoint_values(flat[0::2])  # the odd samples are the even ones' midpoints
-    err = 0.0
-    for f in fields:
+    err = np.zeros(len(fields))
+    for i, f in enumerate(fields):
         peak = np.max(np.abs(flat[:, f]))
-        if peak > 0.0:
-            err = max(err, float(np.max(np.abs(half[:, f] - flat[1::2, f])) / peak))
-    return err if np.isfinite(err) else float("inf")
+        if not np.isfinite(peak):  # NaN or inf samples: never interpolable
+            err[i] = np.inf
+        elif peak > 0.0:
+            err[i] = np.max(np.abs(half[:, f] - flat[1::2, f])) / peak
+    return np.where(np.isfinite(err), err, np.inf)
 
 
 def uniform_grids(theta: np.ndarray, most: int = 4) -> np.ndarray | None:

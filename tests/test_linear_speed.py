@@ -17,6 +17,7 @@ from ked_linear.sampled import (
     _midpoint_values,
     _pack,
     inverse,
+    midpoint_errors,
     uniform_grids,
 )
 
@@ -177,6 +178,26 @@ def test_midpoint_values_equal_the_interpolant_summed_directly(G):
     samples = np.random.default_rng(G).normal(size=(G, 3))
     mid = (np.arange(G) + 0.5) * (2 * np.pi / G)
     np.testing.assert_allclose(_midpoint_values(samples), TrigInterpolant(samples).at(mid), atol=1e-13)
+
+
+def test_midpoint_errors_per_field_against_aliasing_in_closed_form():
+    # 16 samples; the even ones (8 points) hold cos(7 theta) as its alias cos(theta) (7 = -1 mod 8), so the
+    # interpolant of the even samples reads cos(theta) at the odd angles: the error there is
+    # max |cos(7 theta) - cos(theta)| = 2 |sin(4 theta) sin(3 theta)| = 2 |sin(3 theta)| (sin(4 theta) = +-1
+    # at theta = (2j + 1) pi / 8), peak 1.  A field of degree 2 (< 8 / 2) has rounding error only; a field
+    # with a NaN is never accepted (inf).
+    G = 16
+    theta = np.arange(G) * (2 * np.pi / G)
+    smooth = np.stack([np.cos(2 * theta), 3.0 + np.sin(theta)], axis=1)
+    flat = np.concatenate([smooth, np.cos(7 * theta)[:, None], np.zeros((G, 1))], axis=1)
+    odd = theta[1::2]
+    expected = np.max(np.abs(np.cos(7 * odd) - np.cos(odd)))
+    np.testing.assert_allclose(expected, np.max(2 * np.abs(np.sin(3 * odd))), rtol=1e-14)
+    err = midpoint_errors(flat, (slice(0, 2), slice(2, 3), slice(3, 4)))
+    assert err[0] < 1e-14 and err[2] == 0.0
+    np.testing.assert_allclose(err[1], expected, rtol=1e-12)
+    flat[5, 3] = np.nan
+    assert midpoint_errors(flat, (slice(0, 2), slice(3, 4)))[1] == np.inf
 
 
 def test_closed_form_inverse_of_small_matrices():
