@@ -182,7 +182,7 @@ once taken), its arrays read-only; two threads asking at once may both compute i
 
 def _series_of(co: SampledCoefficients, n: int) -> _Series | None:
     """:func:`_series` of sampled coefficients."""
-    spectrum, G = co.interpolant.spectrum, co.interpolant.points  # (F, G + 1), frequencies -G/2 .. G/2
+    spectrum, G = co.interpolant.spectrum, co.interpolant.points  # (F, G/2 + 1): values 2 Re sum d_k e^{ikt}
     columns, start, sizes = [], 0, []
     for shape, sym in zip(co.layout[:2], co.symmetric[:2]):
         if shape != (n, n):
@@ -190,11 +190,11 @@ def _series_of(co: SampledCoefficients, n: int) -> _Series | None:
         columns.append(start + (_triangle_index(n) if sym else np.arange(n * n)))
         sizes.append(n * (n + 1) // 2 if sym else n * n)
         start += sizes[-1]
-    s = spectrum[:start, G // 2:]  # K's and C's columns, frequencies 0 .. G/2: (columns, G/2 + 1)
-    # sum over f = -G/2 .. G/2 of s_f e^{i f t}, s_{-f} = conj(s_f): s_0 + sum_f 2 Re(s_f) cos ft - 2 Im(s_f) sin ft
-    rows = np.empty((G + 1, s.shape[0]))
-    rows[0] = s[:, 0].real
-    rows[1::2], rows[2::2] = 2.0 * s[:, 1:].real.T, -2.0 * s[:, 1:].imag.T
+    d = spectrum[:start]  # K's and C's columns, frequencies 0 .. G/2: (columns, G/2 + 1)
+    # 2 Re sum_k d_k e^{i k t} = 2 d_0 + sum_k 2 Re(d_k) cos kt - 2 Im(d_k) sin kt
+    rows = np.empty((G + 1, d.shape[0]))
+    rows[0] = 2.0 * d[:, 0].real
+    rows[1::2], rows[2::2] = 2.0 * d[:, 1:].real.T, -2.0 * d[:, 1:].imag.T
     # the harmonics whose whole tail is round-off: at most SERIES_TAIL of each field's largest coefficient
     tail = np.zeros(G // 2 + 1)
     for f in (slice(0, sizes[0]), slice(sizes[0], sizes[0] + sizes[1])):

@@ -13,43 +13,55 @@ from .periodic import Coefficients, _apply
 
 
 class TrigInterpolant:
-    """The trigonometric interpolant of samples (G, F) at theta_j = 2 pi j / G, G even: degree G/2
-    with the Nyquist term split between +-G/2, so that it reproduces the samples.  Evaluated on a
-    uniform full-turn grid by folding its spectrum and one inverse FFT (O(G + m log m) per column)."""
+    """The trigonometric interpolant of samples (G, F) at theta_j = 2 pi j / G, G even: degree G/2, the
+    Nyquist term a cosine, so that it reproduces the samples.  Held as the non-negative half of its spectrum,
+    d_k = a_k for k = 0 .. G/2 with the constant and the Nyquist coefficient halved (values 2 Re sum_k d_k
+    e^{i k theta}: the samples are real, a_-k = conj a_k), one real FFT of the samples; evaluated on a uniform
+    full-turn grid by folding the spectrum and one inverse real FFT (O(G + m log m) per column)."""
 
     def __init__(self, samples: np.ndarray):
         G = samples.shape[0]
         if G % 2 or G < 2:
             raise ValueError(f"TrigInterpolant: needs an even number of samples >= 2; got {G}")
-        A = np.fft.fft(samples, axis=0) / G
-        half = G // 2
-        # frequencies -G/2 .. G/2 (G + 1 terms), the Nyquist coefficient halved at both ends; stored
-        # transposed, (F, G + 1): the FFTs then run along contiguous rows
-        spectrum = np.concatenate([A[half:half + 1] / 2, A[half + 1:], A[:half], A[half:half + 1] / 2])
-        self.spectrum = np.ascontiguousarray(spectrum.reshape(G + 1, -1).T)
-        self.frequency = np.arange(-half, half + 1)
+        d = np.fft.rfft(samples, axis=0).reshape(G // 2 + 1, -1) / G
+        d[0] *= 0.5
+        d[G // 2] *= 0.5
+        # stored transposed, (F, G/2 + 1): the FFTs then run along contiguous rows
+        self.spectrum = np.ascontiguousarray(d.T)
+        self.frequency = np.arange(G // 2 + 1)
         self.points = G
 
     def uniform(self, theta0: float, step_sign: float, m: int) -> np.ndarray:
         """Values (m, F) at theta0 + step_sign * 2 pi j / m, j = 0 .. m - 1."""
-        spec, half = self.spectrum, self.points // 2
+        spec = self.spectrum
         F, width = spec.shape
-        if m > self.points:  # no two frequencies share a residue: b_k = a_k e^{i k theta0}, k = 0 .. G/2
-            b = np.zeros((F, m // 2 + 1), dtype=complex)
-            b[:, :half + 1] = spec[:, half:] * np.exp(1j * theta0 * np.arange(half + 1))
-        else:
-            # b[:, r]: the sum of the a_f e^{i f theta0} with f = r (mod m), r = 0 .. m/2 (all irfft reads).
-            # Column c = j m + rho holds f = c - G/2: e^{i f theta0} = e^{i j m theta0} e^{i (rho - G/2) theta0},
-            # so the columns are folded by residue with the first factor (one pass over the spectrum, no
-            # temporary of its size) and the second applied to the m/2 + 1 residues read
-            full = width // m
+        # values 2 Re sum_rho P_rho e^{2 pi i rho j / m}, P_rho the sum of the d_k e^{i k theta0} with k = rho
+        # (mod m): the inverse real FFT of b_rho = P_rho + conj P_-rho, rho = 0 .. m/2
+        n = m // 2 + 1
+        full = width // m
+        if full:
+            # column k = j m + rho: e^{i k theta0} = e^{i j m theta0} e^{i rho theta0}, so the columns are
+            # folded by residue with the first factor, the second applied after
             w = np.exp(1j * (m * theta0) * np.arange(full + 1))
-            folded = np.einsum("j,fjm->fm", w[:full], spec[:, :full * m].reshape(F, full, m))
-            folded[:, :width - full * m] += w[full] * spec[:, full * m:]
-            rho = (np.arange(m // 2 + 1) + half) % m
-            b = folded[:, rho] * np.exp(1j * theta0 * (rho - half))
+            P = spec[:, :m].copy()
+            for j in range(1, full):
+                P += w[j] * spec[:, j * m:(j + 1) * m]
+            P[:, :width - full * m] += w[full] * spec[:, full * m:]
+            P *= np.exp(1j * theta0 * np.arange(m))
+            b = P[:, :n].copy()
+            b[:, 0] += np.conj(P[:, 0])
+            b[:, 1:] += np.conj(P[:, m - 1:m - n:-1])  # P_-rho = P_{m - rho}, rho = 1 .. n - 1
+        else:  # fewer frequencies than residues: P_rho = d_rho e^{i rho theta0} for rho < width, else 0
+            b = np.zeros((F, n), dtype=complex)
+            low = min(width, n)
+            b[:, :low] = spec[:, :low] * np.exp(1j * theta0 * np.arange(low))
+            b[:, 0] = 2.0 * spec[:, 0].real  # d_0 is real
+            lo = max(m - width + 1, 1)  # the rho >= 1 with -rho = m - rho < width
+            if lo < n:
+                k = np.arange(m - lo, m - n, -1)
+                b[:, lo:] += np.conj(spec[:, m - lo:m - n:-1] * np.exp(1j * theta0 * k))
         if step_sign < 0:
-            b = np.conj(b)  # sum_f a_f e^{-i f t} is real: the conjugate of sum_f conj(a_f) e^{i f t}
+            np.conj(b, out=b)  # Re sum_rho b_rho e^{-i rho t} = Re sum_rho conj(b_rho) e^{i rho t}
         out = np.fft.irfft(b, n=m, axis=1) * m if m > 1 else b.real
         return out.T
 
@@ -60,7 +72,7 @@ class TrigInterpolant:
 
     def at(self, theta: np.ndarray) -> np.ndarray:
         """Values (m, F) at any angles (m,), by direct summation (O(G m) per column)."""
-        return (np.exp(1j * np.outer(theta, self.frequency)) @ self.spectrum.T).real
+        return 2.0 * (np.exp(1j * np.outer(theta, self.frequency)) @ self.spectrum.T).real
 
     def evaluate(self, theta: np.ndarray, index: np.ndarray | None = None) -> np.ndarray:
         """Values (m, F) at the angles ``theta`` (m,): by :meth:`uniform` on each uniform full-turn grid they
