@@ -43,9 +43,12 @@ class TrigInterpolant:
             # column k = j m + rho: e^{i k theta0} = e^{i j m theta0} e^{i rho theta0}, so the columns are
             # folded by residue with the first factor, the second applied after
             w = np.exp(1j * (m * theta0) * np.arange(full + 1))
-            P = spec[:, :m].copy()
-            for j in range(1, full):
-                P += w[j] * spec[:, j * m:(j + 1) * m]
+            if full <= 4:  # a few slices (einsum costs more than their sum)
+                P = spec[:, :m].copy()
+                for j in range(1, full):
+                    P += w[j] * spec[:, j * m:(j + 1) * m]
+            else:
+                P = np.einsum("j,fjm->fm", w[:full], spec[:, :full * m].reshape(F, full, m))
             P[:, :width - full * m] += w[full] * spec[:, full * m:]
             P *= np.exp(1j * theta0 * np.arange(m))
             b = P[:, :n].copy()
