@@ -13,12 +13,16 @@ at 300 rpm uses --tip-damping (default 0.1) for every model: the Exudyn runs div
 of the coefficients K, C, f per crank angle (direct frame condensation against the interpolated
 coefficients the solver uses), and `ked check` end to end in a fresh process.
 
+With ``--floor`` it only times the Radau stage solves of the distributed model's co-rotating passes on their
+own (the arithmetic floor of that solve, docs/linear_model.md).
+
 With ``--against DIR`` it only times solve_linear of this checkout against the one in DIR (an older
 checkout, e.g. ``git worktree add /tmp/old main``), both in worker processes asked in turn, scene by
 scene (same run, same load): median CPU seconds of each, their ratio, default and 64-harmonic settings.
 
 Usage: .venv/bin/python benchmarks/bench_linear.py [--runs 3] [--mass-models tip,joints,...] [--rpm 100,300]
        .venv/bin/python benchmarks/bench_linear.py --against DIR [--runs 5]
+       .venv/bin/python benchmarks/bench_linear.py --floor [--rpm 100,300]
 """
 
 from __future__ import annotations
@@ -107,10 +111,14 @@ def main() -> None:
     ap.add_argument("--tip-damping", type=float, default=0.1)
     ap.add_argument("--no-scaling", action="store_true")
     ap.add_argument("--against", default=None, metavar="DIR", help="time against the checkout in DIR only")
+    ap.add_argument("--floor", action="store_true", help="only the Radau stage solves' floor (distributed model)")
     args = ap.parse_args()
     warnings.simplefilter("ignore")
     if args.against:
         against(args)
+        return
+    if args.floor:
+        radau_floor(args)
         return
     side_by_side(args)
     if not args.no_scaling:
@@ -119,6 +127,51 @@ def main() -> None:
     floquet_cost(args)
     coefficient_cost(args)
     check_timing(args)
+
+
+def radau_floor(args) -> None:
+    """The arithmetic floor of the co-rotating steady state (docs/linear_model.md, Cost): the Radau passes a
+    distributed-model solve marches (recorded from the solve itself), each timed as numpy's batched solve of
+    its stage systems alone, (steps, 3r, 3r) with 2r + 1 right-hand sides, on random well-conditioned data."""
+    from ked_linear import reducedsystem
+    from ked_linear.solver import keep_freed_memory
+
+    keep_freed_memory()
+    passes: list[tuple[int, int]] = []
+    propagate = reducedsystem._Reduced.propagate
+
+    def recording(self, steps, states=False):
+        if steps not in self._runs:
+            passes.append((self.r, steps))
+        return propagate(self, steps, states)
+
+    print(f"\nRadau stage solves alone (distributed model, numpy batched solve, median of {max(args.runs, 15)})")
+    print(f"{'rpm':>5}{'r':>4}{'steps':>7}{'Mflop':>8}{'ms':>8}{'Gflop/s':>9}")
+    rng = np.random.default_rng(0)
+    for rpm in (float(x) for x in args.rpm.split(",")):
+        passes.clear()
+        reducedsystem._Reduced.propagate = recording
+        try:
+            forget()
+            solve_linear(make_scene(mass_model="distributed", rpm=rpm))
+        finally:
+            reducedsystem._Reduced.propagate = propagate
+        total = 0.0
+        for r, steps in passes:
+            n = 3 * r
+            L = rng.normal(size=(steps, n, n)) + n * np.eye(n)
+            B = rng.normal(size=(steps, n, 2 * r + 1))
+            ms = 1e3 * statistics.median(_cpu(np.linalg.solve, L, B) for _ in range(max(args.runs, 15)))
+            flop = steps * (2 * n**3 / 3 + 2 * n**2 * (2 * r + 1))
+            total += ms
+            print(f"{rpm:5.0f}{r:4d}{steps:7d}{flop / 1e6:8.1f}{ms:8.2f}{flop / ms / 1e6:9.2f}")
+        print(f"{rpm:5.0f}  all passes: {total:.1f} ms")
+
+
+def _cpu(fn, *fn_args) -> float:
+    t0 = time.process_time()
+    fn(*fn_args)
+    return time.process_time() - t0
 
 
 def harmonics_64(args) -> None:
