@@ -141,7 +141,8 @@ def radau_floor(args) -> None:
     propagate = reducedsystem._Reduced.propagate
 
     def recording(self, steps, states=False):
-        if steps not in self._runs:
+        known = self._runs.get(steps)
+        if known is None or (states and known.states is None):  # marched (again), as propagate decides
             passes.append((self.r, steps))
         return propagate(self, steps, states)
 

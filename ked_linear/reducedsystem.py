@@ -130,8 +130,8 @@ class _Reduced:
         flat = self._flat(np.arange(G) * (2.0 * np.pi / G), co_grid, angles_grid)
         k, c, f = self._layout()
         limits = np.array([COEFFICIENT_TOLERANCE, COEFFICIENT_TOLERANCE, INTERPOLATION_TOLERANCE])
-        while np.any(midpoint_errors(flat, (k, c, f)) > limits):
-            if 2 * G > MAX_SAMPLES:
+        while np.any((errors := midpoint_errors(flat, (k, c, f))) > limits):
+            if 2 * G > MAX_SAMPLES or not np.all(np.isfinite(errors)):  # refining keeps a non-finite sample
                 raise ValueError("reduced coefficients not interpolable")
             mid = (np.arange(G) + 0.5) * (2.0 * np.pi / G)
             flat = interleave(flat, self._flat(mid) if midpoints is None else self._flat(mid, *midpoints(2 * G)))

@@ -83,7 +83,7 @@ from .reducedsystem import (  # noqa: F401  (INTERPOLATION_TOLERANCE re-exported
     COEFFICIENT_TOLERANCE as INTERPOLATION_TOLERANCE,
 )
 from .reducedsystem import _Forcing, _Reduced
-from .sampled import TrigInterpolant, midpoint_errors
+from .sampled import TrigInterpolant
 
 FULL_NEAR_ONE = 0.9
 """A reduced max |mu| + error at or above this goes to the full model (the weakly damped threshold of the
@@ -224,14 +224,6 @@ class InterpolatedCoefficients:
         r = self.size
         return Coefficients(stiffness=flat[:, :r * r].reshape(-1, r, r), damping=flat[:, r * r:].reshape(-1, r, r),
                             load=np.zeros((theta.size, r)))
-
-
-def interpolation_error(K: np.ndarray, C: np.ndarray) -> float:
-    """Largest error, relative to each field's peak, of the interpolant of the even samples at the odd ones:
-    an upper bound of the error of the interpolant of all samples (the series converging geometrically)."""
-    k, c = K.reshape(K.shape[0], -1), C.reshape(C.shape[0], -1)
-    return float(np.max(midpoint_errors(np.concatenate([k, c], axis=1),
-                                        (slice(0, k.shape[1]), slice(k.shape[1], None)))))
 
 
 # --------------------------------------------------------------------------------------------------

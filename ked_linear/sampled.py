@@ -139,10 +139,11 @@ rounding floor near 2e-9-1e-7 while the stiffness form is still converging, geom
 first (a stiffening support).  Now all 128 pass, 12 of them on 1024 to 4096 samples (tip, linkage 4,
 cognate: 3.6e-4, 7e-8, 4.4e-13 on 1024, 2048, 4096)."""
 
-SPECTRUM_BYTES = 32 * 2**20
-"""The grid is not doubled past the number of samples whose interpolant (complex spectrum of every kept
-column) would exceed this: a 5-lump distributed model (1800 columns) stops at 1024 samples, where the
-surveyed ones passed (the interpolant of K and C alone, for a propagator's stages, takes about as much again)."""
+SPECTRUM_BYTES = 16 * 2**20
+"""The grid is not doubled past the number of samples whose interpolant (the non-negative half of the complex
+spectrum of every kept column, G/2 + 1 frequencies) would exceed this: a 5-lump distributed model (1800
+columns) stops at 1024 samples, where the surveyed ones passed (the interpolant of K and C alone, for a
+propagator's stages, takes about as much again)."""
 
 MEMO_ANGLES = 512
 """Requests of at most this many angles are remembered (the last 8): the collocation grids recur."""
@@ -227,7 +228,7 @@ class SampledCoefficients:
             # 4.5e-5, 4.3e-10 on a generated linkage), and the fallback, direct evaluation, costs a frame
             # condensation at every angle of every propagator level (thousands per level), against one per
             # sample here, once per system
-            next_bytes = 4 * G * int(bounds[-1]) * np.dtype(complex).itemsize
+            next_bytes = 2 * G * int(bounds[-1]) * np.dtype(complex).itemsize  # 4 G samples kept next
             if 4 * G > max_points or next_bytes > SPECTRUM_BYTES or not any(np.isfinite(e) for e in errors.values()):
                 return
             grid, G = _merge(grid, mid), 2 * G

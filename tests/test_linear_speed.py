@@ -155,11 +155,35 @@ def test_interpolated_linkage_coefficients_equal_direct(mm, prestress):
         assert _field_error(got, _pack(co.direct(theta))[0], layout) < INTERPOLATION_TOLERANCE
 
 
+@pytest.mark.parametrize("G", [2, 6, 16, 64])
+def test_uniform_grids_equal_the_interpolant_from_its_definition(G):
+    # independent of the class's spectrum: the interpolant of G samples is sum_{f=-G/2}^{G/2} a_f e^{i f t}
+    # with a_f numpy's full complex DFT / G and the Nyquist coefficient split half and half between +-G/2
+    # (so that it is real and reproduces the samples); evaluated term by term on grids of every size against
+    # G (folded, just above G/2 + 1 where the conjugate half wraps, padded), both directions, many folds
+    samples = np.random.default_rng(G).normal(size=(G, 2))
+    a = np.fft.fft(samples, axis=0) / G
+    f = np.fft.fftfreq(G, 1.0 / G)
+    a = np.concatenate([a, a[G // 2:G // 2 + 1]])
+    f = np.concatenate([f, [G // 2]])
+    a[G // 2] /= 2.0
+    a[-1] /= 2.0
+    f[G // 2] = -G // 2
+    interpolant = TrigInterpolant(samples)
+    for m in sorted({1, 2, 3, max(G // 4 + 1, 1), G // 2 + 1, G // 2 + 2, G // 2 + 3, G - 1 or 1, G, 2 * G + 1}):
+        for theta0, sign in ((0.0, 1.0), (0.7, -1.0), (-2.3, 1.0)):
+            theta = theta0 + sign * np.arange(m) * (2 * np.pi / m)
+            exact = np.exp(1j * np.outer(theta, f)) @ a
+            np.testing.assert_allclose(interpolant.uniform(theta0, sign, m), exact.real, atol=1e-12)
+            np.testing.assert_allclose(interpolant.at(theta), exact.real, atol=1e-12)
+            assert np.max(np.abs(exact.imag)) < 1e-12
+
+
 @pytest.mark.parametrize("G", [2, 8, 64])
 def test_uniform_grids_equal_the_interpolant_summed_directly(G):
-    # TrigInterpolant.uniform folds the spectrum by residue modulo m (m <= G) or pads it (m > G) and takes
-    # one inverse FFT; TrigInterpolant.at sums the series term by term: equal to rounding on grids of every
-    # size against G, forwards and backwards, from any first angle
+    # TrigInterpolant.uniform folds the spectrum by residue modulo m (m <= G/2 + 1) or pads it (larger m) and
+    # takes one inverse real FFT; TrigInterpolant.at sums the series term by term: equal to rounding on grids
+    # of every size against G, forwards and backwards, from any first angle
     interpolant = TrigInterpolant(np.random.default_rng(G).normal(size=(G, 3)))
     for m in sorted({1, 2, 3, 5, max(G - 1, 1), G, G + 1, 3 * G}):
         for theta0, sign in ((0.0, 1.0), (0.7, -1.0), (-2.3, 1.0)):
