@@ -1,4 +1,5 @@
-"""Critical speeds of a linkage: the crank speeds where its free vibrations are least damped.
+"""Critical speeds of a linkage: the crank speeds where its free vibrations are least damped (speeds of
+weakest damping), and the amplification peaks, where its steady response is largest.
 
 Over a speed range the largest |Floquet multiplier| of the linear model peaks at the parametric
 resonances (a crank harmonic of the varying stiffness meeting twice a frozen natural frequency, or a
@@ -394,19 +395,30 @@ def floquet_max_abs(spec: object, steps: int = SWEEP_STEPS) -> Callable[[float],
     return f
 
 
-def mark_near(rows: Sequence[object], speeds: Sequence[CriticalSpeed]) -> list[object]:
-    """The check rows (``compare.check.CheckRow``), each verdict near a critical speed saying so."""
+def mark_near(rows: Sequence[object], speeds: Sequence[CriticalSpeed],
+              amplification: Sequence[float] = ()) -> list[object]:
+    """The check rows (``compare.check.CheckRow``), each verdict near a speed of weakest damping or an
+    amplification peak saying so.  Only an amplification peak (forced resonance: the steady response is
+    largest relative to the quasi-static one) is a speed to keep away from; a speed of weakest damping
+    (parametric resonance of the free vibration) is where transients die out slowest, which alone does
+    not amplify the steady response (its own weakly-damped flag does where max |mu| is near 1)."""
     from dataclasses import replace
 
     out = []
     for row in rows:
+        notes = []
         s = near(row.rpm, [c.rpm for c in speeds])
         if s is not None:
             mu = next(c.max_abs for c in speeds if c.rpm == s)
-            row = replace(row, verdict=f"{row.verdict}; within {NEAR:.0%} of the critical speed {s:.4g} rpm (a local "
-                                       f"maximum of max |Floquet multiplier|, {mu:.3g}: free vibrations least damped, "
-                                       "keep the operating speed away from it)")
-        out.append(row)
+            notes.append(f"within {NEAR:.0%} of {s:.4g} rpm, a speed of weakest damping (parametric resonance, max "
+                         f"|Floquet multiplier| {mu:.3g}): free vibrations after a start-up or a disturbance die "
+                         "out slowest there; this alone does not amplify the steady response")
+        a = near(row.rpm, amplification)
+        if a is not None:
+            notes.append(f"within {NEAR:.0%} of the amplification peak {a:.4g} rpm (forced resonance: the "
+                         "dynamic response is largest relative to the quasi-static one there; keep the operating "
+                         "speed away from it)")
+        out.append(replace(row, verdict="; ".join([row.verdict, *notes])) if notes else row)
     return out
 
 
@@ -474,7 +486,7 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
         redraw(bar)
     amp = amplification_peaks(rpms, [r.linear_peak_m / r.quasi_static_peak_m if r.quasi_static_peak_m > 0
                                      else math.nan for r in rows])
-    return crit, amp, mark_near(rows, crit)
+    return crit, amp, mark_near(rows, crit, amp)
 
 
 def sweep_exact(row: object) -> bool:

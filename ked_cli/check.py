@@ -169,9 +169,11 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
         click.echo(textwrap.fill(r.verdict, width=WIDTH, initial_indent=" " * 9, subsequent_indent=" " * 11,
                                  break_on_hyphens=False))
     if len(rows) >= 3 and slider is None:  # no Floquet analysis of a slider-crank yet
-        for text in ("Critical speeds (local maxima of max |Floquet multiplier|): "
+        for text in ("Critical speeds, i.e. of weakest damping (parametric resonance: local maxima of max |Floquet "
+                     "multiplier|; transients die out slowest): "
                      + (", ".join(f"{c.rpm:.4g} rpm (|mu| {c.max_abs:.3g})" for c in crit) or "none in this range"),
-                     "Amplification peaks (linear / quasi-static peak): "
+                     "Amplification peaks (forced resonance: local maxima of the linear / quasi-static peak; keep "
+                     "the operating speed away from these): "
                      + (", ".join(f"{a:.4g} rpm" for a in amp) or "none in this range")):
             click.echo(textwrap.fill(text, width=WIDTH, subsequent_indent="  ", break_on_hyphens=False))
     click.echo(textwrap.fill(
