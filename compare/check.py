@@ -95,40 +95,49 @@ class LinearRange:
 
 @dataclass(frozen=True)
 class VerdictMargins:
-    """Where a predicted quasi-static error decides: below ``holds_below`` x tolerance it holds, above
-    ``fails_above`` x tolerance it fails, in between it is borderline (multipliers [1] of the tolerance).
-    ``n_scenes`` Exudyn-confirmed scenes near the threshold behind them, ``unsafe_rate`` [1] the share of
+    """Where a predicted quasi-static error decides, in one stratum (mass model x mechanism x linkage kind,
+    :func:`compare.verdict_rule.stratum`): below ``holds_below`` x tolerance it holds, above ``fails_above``
+    x tolerance it fails, in between it is borderline (multipliers [1] of the tolerance).  ``n_scenes``
+    Exudyn-confirmed scenes of the stratum near the threshold behind them, ``unsafe_rate`` [1] the share of
     those called adequate that Exudyn measured above the tolerance, ``unsafe_upper95`` [1] its upper 95 %
-    bound, ``source`` where the numbers come from."""
+    bound, ``source`` where the numbers come from.  The default is a stratum without calibration:
+    ``holds_below`` 0 (the prediction never grants the quasi-static tier), ``fails_above`` 1.4."""
 
-    holds_below: float = 0.6
+    holds_below: float = 0.0
     fails_above: float = 1.4
     n_scenes: int = 0
     unsafe_rate: float = math.nan
     unsafe_upper95: float = math.nan
-    source: str = "default (no calibration)"
+    source: str = "not calibrated against Exudyn for this stratum"
 
     def __post_init__(self) -> None:
-        if not (0.0 < self.holds_below <= 1.0 <= self.fails_above and math.isfinite(self.fails_above)):
-            raise ValueError(f"verdict margins: need 0 < holds_below <= 1 <= fails_above, got "
+        if not (0.0 <= self.holds_below <= 1.0 <= self.fails_above and math.isfinite(self.fails_above)):
+            raise ValueError(f"verdict margins: need 0 <= holds_below <= 1 <= fails_above, got "
                              f"{self.holds_below!r}, {self.fails_above!r}")
 
+    @property
+    def calibrated(self) -> bool:
+        """Whether the prediction may grant the quasi-static tier in this stratum."""
+        return self.holds_below > 0.0
 
-def verdict_margins(tolerance: float = 0.10) -> VerdictMargins:
-    """The margins the atlas calibrated at ``tolerance`` [1] (published with the package:
-    :mod:`compare.atlas.published`), or the conservative default :class:`VerdictMargins` when there is no
-    calibration at that tolerance."""
+
+def verdict_margins(tolerance: float = 0.10, stratum: str = "") -> VerdictMargins:
+    """The margins the atlas calibrated at ``tolerance`` [1] for ``stratum`` (published with the package:
+    :mod:`compare.atlas.published`), or :class:`VerdictMargins` () (no quasi-static tier from a prediction)
+    when that stratum has no calibration meeting its bound at that tolerance."""
     from compare.atlas.published import read
 
-    m = read().get("margins", {}).get(f"{100 * tolerance:g}")
+    m = read().get("margins", {}).get(f"{100 * tolerance:g}", {})
+    m = m.get(stratum) if isinstance(m, dict) else None
     if not isinstance(m, dict):
-        return VerdictMargins()
+        return VerdictMargins(source=f"{stratum or 'this stratum'}: not calibrated against Exudyn at "
+                                     f"{tolerance:.0%}")
     try:
         return VerdictMargins(holds_below=float(m["holds_below"]), fails_above=float(m["fails_above"]),
                               n_scenes=int(m["n_scenes"]), unsafe_rate=float(m["unsafe_rate"]),
                               unsafe_upper95=float(m["unsafe_upper95"]), source=str(m["source"]))
     except (KeyError, TypeError, ValueError):
-        return VerdictMargins()
+        return VerdictMargins(source=f"{stratum}: calibration record unreadable")
 
 
 @dataclass(frozen=True)
@@ -220,6 +229,9 @@ def tier(r: SceneResult, linear_range: LinearRange, tolerance: float,
                             margins.fails_above) == verdict_rule.QUASI_STATIC:
         return "quasi-static", (f"quasi-static holds: {err:.1%} off the linear model < {lo:.1%} "
                                 f"({margins.holds_below:g} x tolerance; {where})")
+    elif err <= hi and not margins.calibrated:
+        return "borderline", (f"borderline: quasi-static {err:.1%} off the linear model, and the prediction is "
+                              f"not calibrated against Exudyn here ({margins.source}); run --confirm")
     elif err <= hi:
         return "borderline", (f"borderline: quasi-static {err:.1%} off the linear model, between "
                               f"{lo:.1%} and {hi:.1%} where the prediction cannot decide" if in_range else
@@ -319,9 +331,10 @@ def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, 
     (:class:`compare.checkwork.CheckWorkers`; the rows are the same)."""
     slider = isinstance(source, SliderCrank)
     rng = LinearRange() if slider else linear_range(mass_model.name)
-    margins = VerdictMargins() if slider else verdict_margins(tolerance)
+
     specs = [spec_for(source, mechanism, mass_model, rpm, stiffness_scale=stiffness_scale, damping_ratio=damping_ratio,
                       direction=direction, step_deg=step_deg, tolerance=tolerance) for rpm in rpms]
+    margins = verdict_margins(tolerance, verdict_rule.stratum(specs[0].kind, mass_model.name, mechanism))
     rows: list[CheckRow] = []
     with progress(len(rpms)) if bar is None else contextlib.nullcontext(bar) as bar:
         def done_on_a_worker(j: int, row: CheckRow) -> None:

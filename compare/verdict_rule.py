@@ -37,3 +37,9 @@ def calls(e: np.ndarray, r: np.ndarray, r_linear: np.ndarray, linear_ok: np.ndar
     out[inside & (e < fails_above * tolerance)] = BORDERLINE
     out[inside & (e < holds_below * tolerance)] = QUASI_STATIC
     return out
+
+
+def stratum(kind: str, mass_model: str, mechanism: str) -> str:
+    """The calibration stratum of a scene: linkage kind x mass model x mechanism (e.g.
+    ``four-bar/distributed/cognate``); margins are calibrated and published per stratum, never pooled."""
+    return f"{kind}/{mass_model}/{mechanism}"

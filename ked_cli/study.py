@@ -113,8 +113,12 @@ def stability(ladder: bool, retry_failed: bool, **common: Any) -> None:
               help="Scenes of the stratified sample confirmed with Exudyn (0: none).")
 @click.option("--threshold", type=click.IntRange(min=0), default=400, show_default=True,
               help="Scenes confirmed with Exudyn within +-25 % of their family's quasi-static 10 % limit, from which "
-                   "the check's margins are chosen (0: none).")
-def atlas(linkages: int, seed: int, scheduler: str | None, confirm: int, threshold: int, **common: Any) -> None:
+                   "the check's margins are chosen per stratum (0: none).")
+@click.option("--threshold-top-up", type=click.IntRange(min=0), default=400, show_default=True,
+              help="Scenes of a second, independent draw of the same threshold design, so that every stratum (mass "
+                   "model x mechanism) has the Exudyn answers its own margins need (0: none).")
+def atlas(linkages: int, seed: int, scheduler: str | None, confirm: int, threshold: int, threshold_top_up: int,
+          **common: Any) -> None:
     """Validity atlas: the quasi-static and linear models' limits over a sample of four-bars."""
     from compare.atlas.store import AtlasFileError
     from compare.runner import SchedulerError
@@ -122,6 +126,6 @@ def atlas(linkages: int, seed: int, scheduler: str | None, confirm: int, thresho
 
     try:
         _run("atlas", linkages=linkages, seed=seed, scheduler=scheduler, confirm=confirm, threshold=threshold,
-             **common)
+             threshold_top_up=threshold_top_up, **common)
     except (AtlasFileError, SchedulerError) as exc:
         raise UserError(str(exc)) from None

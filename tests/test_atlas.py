@@ -108,7 +108,7 @@ def atlas(tmp_path_factory):
     path = root / "atlas" / "atlas.h5"
     first = run_atlas(path, linkages=2, seed=SEED, workers=2, ratios=RATIOS, echo=lambda s: None)
     conf = run_confirm(path, n=1, seed=SEED, workers=2, echo=lambda s: None)
-    thr = run_threshold(path, n=1, seed=SEED, workers=2, echo=lambda s: None)
+    thr = run_threshold(path, n=1, top_up=1, seed=SEED, workers=2, echo=lambda s: None)
     margins = calibration.store_margins(path)
     report = write_report(path, root / "figures", root / "README.md")
     return {"path": path, "root": root, "first": first, "confirm": conf, "threshold": thr, "margins": margins,
@@ -206,15 +206,55 @@ def test_confirmed_scene_and_tier_limits(atlas):
 
 def test_threshold_scene_and_stored_margins(atlas):
     thr = atlas_store.read(atlas["path"], "threshold")
-    assert atlas["threshold"]["computed"] == 1 and len(thr["key"]) == 1
-    assert 0.75 <= thr["factor"][0] <= 1.25
-    assert thr["status"][0] == "ok" or thr["reason"][0]
+    # one scene of each draw (the second an independent draw of the same design; the two may coincide)
+    assert 1 <= atlas["threshold"]["computed"] == len(thr["key"]) <= 2
+    assert all(0.75 <= f <= 1.25 for f in thr["factor"])
+    assert all(s == "ok" or why for s, why in zip(thr["status"], thr["reason"]))
     m = verdict_margins(0.10, atlas["path"])
-    # one scene cannot bound the unsafe rate by 3 % (that needs >= 122 scenes without an unsafe call):
-    # the prediction alone grants no quasi-static tier
-    assert m.holds_below == 0.0 and 0 < m.n_scenes <= 2  # the threshold scene (+ a confirmed one at r*)
+    # two scenes cannot bound the unsafe rate by 3 % (that needs >= 122 scenes without an unsafe call):
+    # the prediction alone grants no quasi-static tier, pooled or in any stratum
+    assert m.holds_below == 0.0 and 0 < m.n_scenes <= 3  # the threshold scenes (+ a confirmed one at r*)
     assert atlas["margins"]["bound_met"] is False
+    strata = atlas["margins"]["strata"]
+    assert strata and all(rec["holds_below"] == 0.0 and not rec["bound_met"] for rec in strata.values())
+    assert set(strata) <= {f"four-bar/{mm}/{mech}" for mm in ("tip", "joints", "extender", "distributed")
+                           for mech in ("source", "cognate")}
+    assert all(verdict_margins(0.10, atlas["path"], k).holds_below == 0.0 for k in strata)
+    assert math.isnan(verdict_margins(0.10, atlas["path"], "slider-crank/distributed/source").holds_below)
     assert math.isnan(verdict_margins(0.05, atlas["path"]).holds_below)  # calibrated at 10 % only
+
+
+def test_repredict_reproduces_the_predictions_stored_by_the_same_code(atlas, tmp_path):
+    # regression pin of the re-prediction path: on rows that today's code computed, predicting them again
+    # (quasi-static and linear alone, compare.atlas.repredict) must give the stored prediction columns, and
+    # the file then records which code made them
+    import shutil
+
+    from compare.atlas import repredict
+
+    path = tmp_path / "atlas.h5"
+    shutil.copy(atlas["path"], path)
+    before = atlas_store.read(path, "threshold")
+    assert repredict.stale_tables(path) == ["threshold", "confirm"]  # no record yet of the code behind them
+    assert repredict.repredict(path, ("threshold",), seed=SEED, workers=1, echo=lambda s: None) == {
+        "threshold": len(before["key"])}
+    after = atlas_store.read(path, "threshold")
+    for c in ("qs_vs_linear", "floquet_max_abs", "linear_flags"):
+        np.testing.assert_allclose(after[c], before[c], rtol=1e-9, atol=1e-12, equal_nan=True)
+    assert list(after["key"]) == list(before["key"]) and list(after["qs_vs_dyn"]) == list(before["qs_vs_dyn"])
+    assert repredict.stale_tables(path) == ["confirm"]
+    assert "threshold" in atlas_store.attrs(path)[repredict.ATTR]
+
+
+def test_tolerance_bound_covers_the_quantile_as_stated():
+    # independent check by simulation: for uniform(0, 1) samples of 100 the bound must lie above the 0.95
+    # quantile (0.95) in at least 95 % of the draws (the chosen order statistic k = 99 covers it with probability
+    # P(Binom(100, 0.95) <= 98) = 0.963); of 59 values the largest, since 1 - 0.95^59 > 0.95 > 1 - 0.95^58
+    rng = np.random.default_rng(7)
+    hits = [calibration.tolerance_bound(rng.uniform(size=100)) >= 0.95 for _ in range(4000)]
+    assert 0.95 <= np.mean(hits) <= 0.975
+    x = rng.uniform(size=59)
+    assert calibration.tolerance_bound(x) == x.max() and calibration.tolerance_bound(x[:10]) == x[:10].max()
 
 
 def test_report_section_and_figures(atlas):
@@ -319,14 +359,18 @@ def test_margin_rule_needs_122_scenes_without_an_unsafe_call():
 
 def test_margin_rule_with_planted_unsafe_scenes():
     # 300 scenes: 295 perfectly predicted, 5 predicted at 9.05 % but measured 11 % (unsafe if called quasi-static).
-    # Five unsafe in 300: upper bound > 3 % (binomial), so the margin must fall to 0.90 x 10 %, where none is
-    # called quasi-static and the bound is the zero-count one.
+    # Five unsafe in 300: upper bound > 3 % (binomial), so the margin must fall to at most 0.90 x 10 %, where none
+    # is called quasi-static and the bound is the zero-count one.
     e, m, r, r_lin, ok = _perfect(295)
     e, m = np.r_[e, [0.0905] * 5], np.r_[m, [0.11] * 5]
     r, r_lin, ok = np.r_[r, [0.1] * 5], np.r_[r_lin, [1.0] * 5], np.r_[ok, [True] * 5]
     assert _binomial_upper95(5, 300) > 0.03
     mg = calibration.choose_margins(e, m, r, r_lin, ok)
-    assert mg.holds_below == 0.90 and mg.bound_met
+    # the rate criterion alone gives 0.90; the scatter criterion is more cautious: 5 of the 122 scenes predicted
+    # near the tolerance have measured / predicted = 0.11 / 0.0905 = 1.2155, and the 95 % / 95 % upper tolerance
+    # bound of 122 values is their 121st (P(Binom(122, 0.95) <= 120) >= 0.95), one of the five: 1 / 1.2155 -> 0.82
+    assert mg.holds_below_rate == 0.90 and mg.bound_met
+    assert mg.ratio_q95 == pytest.approx(0.11 / 0.0905) and mg.holds_below_scatter == 0.82 == mg.holds_below
     assert mg.stats.unsafe.k == 0 and mg.stats.unsafe.high95 == pytest.approx(1 - 0.025 ** (1 / 300))
     above = calibration.call_stats(calibration.calls(e, r, r_lin, ok, 0.10, 0.91, 1.0), m, 0.10)
     assert above.unsafe.k == 5 and above.unsafe.high95 == pytest.approx(_binomial_upper95(5, 300), rel=1e-7)
@@ -361,6 +405,13 @@ def test_the_committed_margins_meet_the_bound():
         pytest.skip("no committed atlas file (not a checkout)")
     m = verdict_margins()
     assert m.n_scenes >= 300 and m.unsafe_upper95 <= 0.03 and 0 < m.holds_below <= 1 <= m.fails_above
+    # every four-bar stratum: at least MIN_STRATUM scenes of its own, its own unsafe bound <= 3 %
+    strata = [f"four-bar/{mm}/{mech}" for mm in ("tip", "joints", "extender", "distributed")
+              for mech in ("source", "cognate")]
+    for k in strata:
+        s = verdict_margins(0.10, None, k)
+        assert s.n_scenes >= calibration.MIN_STRATUM and s.unsafe_upper95 <= 0.03, (k, s)
+        assert 0 < s.holds_below <= 1 <= s.fails_above, (k, s)
 
 
 def test_threshold_sample_is_stratified_and_inside_the_band():

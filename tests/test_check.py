@@ -85,7 +85,7 @@ def test_tier_bands_follow_the_rule():
     r, e, ratio = _extender_300()
     assert 0.07 < e < 0.12 and 0.10 < ratio < 0.12
     wide = LinearRange(r5=0.5, r5_spread=0.1, r10=0.5, r10_spread=0.1, source="test")  # lower band 0.4 > r
-    m = VerdictMargins()
+    m = VerdictMargins(holds_below=0.6, fails_above=1.4)
     assert wide.lower_limit(0.10) == pytest.approx(0.4) and wide.lower_limit(0.05) == pytest.approx(0.4)
     t_hold, t_border, t_fail = 1.01 * e / m.holds_below, e, 0.99 * e / m.fails_above
     assert tier(r, wide, t_hold, m)[0] == "quasi-static"  # e < holds_below x tolerance, r inside
@@ -102,6 +102,10 @@ def test_tier_bands_follow_the_rule():
     # without an atlas the linear model's range is unknown: never quasi-static or linear from a prediction
     assert tier(r, LinearRange(), t_hold, m)[0] == "borderline"
     assert tier(r, LinearRange(), t_fail, m)[0] == "nonlinear"
+    # a stratum without calibration against Exudyn: never quasi-static from the prediction, and it says so
+    name, text = tier(r, wide, t_hold, VerdictMargins(source="four-bar/tip/source: not calibrated"))
+    assert name == "borderline" and "not calibrated" in text and "--confirm" in text
+    assert tier(r, wide, t_fail, VerdictMargins())[0] == "linear"  # far above the tolerance: still linear
     # narrower margins move the band: with holds_below 0.99 an error of 0.95 x tolerance holds
     assert tier(r, wide, e / 0.95, VerdictMargins(holds_below=0.99, fails_above=1.01))[0] == "quasi-static"
     row = check_row(r, wide, 0.10, m)  # the JSON states the numbers the rule used
@@ -112,13 +116,13 @@ def test_tier_bands_follow_the_rule():
 
 
 def test_verdict_margins_are_validated_and_default_conservative():
-    d = VerdictMargins()
-    assert (d.holds_below, d.fails_above, d.source) == (0.6, 1.4, "default (no calibration)")
-    for bad in ((0.0, 1.4), (1.2, 1.4), (0.6, 0.9), (0.6, math.inf)):
+    d = VerdictMargins()  # a stratum without calibration: the prediction never grants the quasi-static tier
+    assert (d.holds_below, d.fails_above, d.calibrated) == (0.0, 1.4, False)
+    for bad in ((-0.1, 1.4), (1.2, 1.4), (0.6, 0.9), (0.6, math.inf)):
         with pytest.raises(ValueError, match="verdict margins"):
             VerdictMargins(*bad)
-    m = verdict_margins()  # calibrated by the atlas where it offers them, else the default
-    assert 0 < m.holds_below <= 1 <= m.fails_above
+    m = verdict_margins(0.10, "four-bar/tip/source")  # calibrated by the atlas where it offers them
+    assert 0 <= m.holds_below <= 1 <= m.fails_above
 
 
 def test_measured_errors_decide():

@@ -22,13 +22,14 @@ state, each with its two-sided 95 % Clopper-Pearson interval (:func:`clopper_pea
 largest multiplier on :data:`HOLDS_GRID` whose unsafe-call rate has an upper 95 % bound <=
 :data:`MAX_UNSAFE_UPPER95` (the unsafe count grows with the multiplier, so every smaller one meets it too),
 and (b) at most 1 / q95 of the measured-over-predicted ratio m / e of the scenes predicted near the
-tolerance (e within +-20 % of it; all scenes if fewer than :data:`MIN_NEAR`): a call at the margin is
-then right with about 95 % probability.  ``fails_above``: (a) the smallest multiplier >= 1 on
+tolerance (e within +-20 % of it; all scenes if fewer than :data:`MIN_NEAR`), q95 its distribution-free
+95 % / 95 % upper tolerance bound (:func:`tolerance_bound`): a call at the margin is then right with at least
+95 % probability, at 95 % confidence.  ``fails_above``: (a) the smallest multiplier >= 1 on
 :data:`FAILS_GRID` whose over-cautious calls *made by the prediction* (e >= fails_above x tol, m < tol) meet
-the same bound, and (b) at least 1 / q05 of the same ratio.  The band between them is the measured
-uncertainty of the prediction at the threshold.  When no multiplier meets the bound (too few scenes: with
-no unsafe call at all the bound needs n >= 122), ``holds_below`` is 0 (the prediction alone never grants
-the quasi-static tier) and ``bound_met`` is False.
+the same bound, and (b) at least 1 / q05 of the same ratio (its lower tolerance bound).  The band between
+them is the measured uncertainty of the prediction at the threshold.  When no multiplier meets the bound (too
+few scenes: with no unsafe call at all the bound needs n >= 122), ``holds_below`` is 0 (the prediction alone never
+grants the quasi-static tier) and ``bound_met`` is False.
 """
 
 from __future__ import annotations
@@ -47,7 +48,13 @@ from compare.atlas.analysis import default_path, limits, lower_band
 from compare.atlas.threshold import BAND, TABLE
 
 # re-exported: the calibration's vocabulary
-from compare.verdict_rule import BORDERLINE, CALL_NAMES, NOT_QUASI_STATIC, QUASI_STATIC, calls  # noqa: F401
+from compare.verdict_rule import BORDERLINE, CALL_NAMES, NOT_QUASI_STATIC, QUASI_STATIC, calls, stratum  # noqa: F401
+
+FOUR_BAR = "four-bar"
+"""The linkage kind of every atlas scene."""
+MIN_STRATUM = 100
+"""Fewest Exudyn-confirmed threshold scenes of a stratum whose margins may grant the quasi-static tier (with no
+unsafe call the 3 % bound needs 122 anyway)."""
 
 MAX_UNSAFE_UPPER95 = 0.03
 """Largest allowed upper 95 % bound of the unsafe-call rate at the threshold [1]."""
@@ -57,7 +64,22 @@ FAILS_GRID = tuple(round(1.0 + 0.01 * i, 2) for i in range(0, 201))
 """Candidate ``fails_above`` multipliers: 1.00 ... 3.00."""
 NEAR = 0.20
 """Scenes predicted within +-20 % of the tolerance measure the prediction's scatter at the decision."""
-MIN_NEAR = 30
+MIN_NEAR = 59
+"""Fewest scenes whose largest value is a 95 % / 95 % upper tolerance bound (1 - 0.95^59 > 0.95): with
+fewer near the tolerance, every scene of the sample measures the scatter."""
+
+
+def tolerance_bound(x: np.ndarray, coverage: float = 0.95, confidence: float = 0.95) -> float:
+    """Distribution-free upper tolerance bound of a sample: the smallest order statistic that lies above
+    the ``coverage`` quantile of the population with probability ``confidence`` (binomial order-statistic
+    bound); the sample's largest value when no order statistic reaches the confidence (too few values)."""
+    from scipy.stats import binom
+
+    x = np.sort(np.asarray(x, float))
+    n = x.size
+    k = np.arange(1, n + 1)
+    ok = binom.cdf(k - 1, n, coverage) >= confidence
+    return float(x[int(np.argmax(ok))] if ok.any() else x[-1]) if n else math.nan
 
 
 @dataclass(frozen=True)
@@ -160,7 +182,7 @@ def choose_margins(e: np.ndarray, measured: np.ndarray, r: np.ndarray, r_linear:
     near = good & (np.abs(e / tolerance - 1.0) <= NEAR)
     pick = near if near.sum() >= MIN_NEAR else good
     ratio = m[pick] / e[pick]
-    q05, q95 = (float(np.percentile(ratio, q)) for q in (5, 95)) if ratio.size else (math.nan, math.nan)
+    q05, q95 = (-tolerance_bound(-ratio), tolerance_bound(ratio)) if ratio.size else (math.nan, math.nan)
     hb_scatter = math.floor(100.0 / q95 + 1e-9) / 100.0 if q95 > 0 else 0.0
     fa_scatter = math.ceil(100.0 / q05 - 1e-9) / 100.0 if q05 > 0 else FAILS_GRID[-1]
     holds = min(hb, hb_scatter) if met else 0.0
@@ -249,15 +271,36 @@ def threshold_margins(path: object, tolerance: float = 0.10) -> Margins:
     return choose_margins(d.e, d.measured, d.r, d.r_linear, d.linear_ok, tolerance)
 
 
+def strata_margins(path: object, tolerance: float = 0.10) -> dict[str, Margins]:
+    """:func:`choose_margins` on each stratum (linkage kind x mass model x mechanism,
+    :func:`compare.verdict_rule.stratum`) of the threshold scenes alone: a stratum's bias never hides behind
+    the others.  A stratum with fewer than :data:`MIN_STRATUM` Exudyn answers grants no quasi-static tier
+    (``holds_below`` 0, ``bound_met`` False)."""
+    from dataclasses import replace
+
+    d = threshold_data(path, tolerance)
+    out = {}
+    for mm, mech in sorted(set(zip(d.mass_model, d.mechanism))):
+        s = (d.mass_model == mm) & (d.mechanism == mech)
+        mg = choose_margins(d.e[s], d.measured[s], d.r[s], d.r_linear[s], d.linear_ok[s], tolerance)
+        if mg.stats.n < MIN_STRATUM and mg.holds_below > 0:
+            e, r, r_lin, ok = d.e[s], d.r[s], d.r_linear[s], d.linear_ok[s]
+            stats = call_stats(calls(e, r, r_lin, ok, tolerance, 0.0, mg.fails_above), d.measured[s], tolerance)
+            mg = replace(mg, holds_below=0.0, bound_met=False, stats=stats)
+        out[stratum(FOUR_BAR, str(mm), str(mech))] = mg
+    return out
+
+
 def store_margins(path: object, tolerance: float = 0.10) -> dict[str, object] | None:
     """Choose the margins from the file's threshold table and store them (attribute :data:`ATTR`) when they
     changed; returns the record (None without a threshold table)."""
     p = Path(path)  # type: ignore[arg-type]
     if not store.read(p, TABLE):
         return None
-    rec = margins_record(threshold_margins(p, tolerance),
-                         f"atlas {p.name}: Exudyn-confirmed scenes within +-25 % of their family's quasi-static 10 % "
-                         "limit (threshold sample and the confirmed sample's scenes in that band)")
+    where = (f"atlas {p.name}: Exudyn-confirmed scenes within +-25 % of their family's quasi-static 10 % "
+             "limit (threshold sample and the confirmed sample's scenes in that band)")
+    rec = margins_record(threshold_margins(p, tolerance), f"{where}, every stratum pooled (context only)")
+    rec["strata"] = {k: margins_record(m, f"{where}, stratum {k}") for k, m in strata_margins(p, tolerance).items()}
     old = store.attrs(p).get(ATTR, {})
     old = old if isinstance(old, dict) else {}
     key = f"{100 * tolerance:g}"
@@ -294,10 +337,11 @@ def _uncalibrated(source: str) -> VerdictMargins:
     return VerdictMargins(nan, nan, 0, nan, nan, nan, nan, nan, nan, nan, source)
 
 
-def verdict_margins(tolerance: float = 0.10, path: object = None) -> VerdictMargins:
+def verdict_margins(tolerance: float = 0.10, path: object = None, stratum: str | None = None) -> VerdictMargins:
     """The margins stored in the atlas file (default: the committed ``results/atlas/atlas.h5``, read like
-    :func:`compare.atlas.analysis.limits`).  Never raises for a missing or unreadable file, a file without
-    calibration or an uncalibrated tolerance: it returns multipliers nan with ``source`` saying why."""
+    :func:`compare.atlas.analysis.limits`) for ``stratum`` (None: every stratum pooled, context only: the
+    check uses a stratum's).  Never raises for a missing or unreadable file, a file without calibration, an
+    uncalibrated tolerance or stratum: it returns multipliers nan with ``source`` saying why."""
     p = Path(path) if path is not None else default_path()  # type: ignore[arg-type]
     if not p.exists():
         return _uncalibrated(f"no atlas file {p}: margins not calibrated")
@@ -310,6 +354,11 @@ def verdict_margins(tolerance: float = 0.10, path: object = None) -> VerdictMarg
     if not isinstance(rec, dict):
         have = ", ".join(f"{k} %" for k in stored) if isinstance(stored, dict) and stored else "none"
         return _uncalibrated(f"atlas file {p}: no margins calibrated at {100 * tolerance:g} % (calibrated: {have})")
+
+    if stratum is not None:
+        rec = rec.get("strata", {}).get(stratum)
+        if not isinstance(rec, dict):
+            return _uncalibrated(f"atlas file {p}: stratum {stratum} not calibrated at {100 * tolerance:g} %")
 
     def num(k: str) -> float:
         v = rec.get(k)

@@ -22,7 +22,8 @@ MASS_MODELS = ("tip", "joints", "extender", "distributed")
 
 def build(atlas: str | Path) -> dict[str, Any]:
     """The published record of an atlas file: {"source", "damping_ratio", "limits": {mass model: TierLimits
-    fields}, "margins": {"10": VerdictMargins fields}} (non-finite numbers as null)."""
+    fields}, "margins": {"10": {stratum: VerdictMargins fields}}} (non-finite numbers as null): only the strata
+    whose margins grant the quasi-static tier (bound met); the check grants none from a prediction elsewhere."""
     # here, not at the top: ked check reads the published file only and must not import scipy.stats, h5py
     from compare.atlas.analysis import limits
     from compare.atlas.calibration import verdict_margins
@@ -35,10 +36,19 @@ def build(atlas: str | Path) -> dict[str, Any]:
             rec["limits"][mm] = _finite(asdict(limits(mm, atlas)))
         except ValueError:
             continue
-    m = verdict_margins(0.10, atlas)
-    if math.isfinite(m.holds_below):
-        rec["margins"]["10"] = _finite(asdict(m))
+    rec["margins"]["10"] = {k: _finite(asdict(m)) for k in strata(atlas)
+                            if math.isfinite((m := verdict_margins(0.10, atlas, k)).holds_below) and m.holds_below > 0}
     return rec
+
+
+def strata(atlas: str | Path) -> list[str]:
+    """The strata calibrated in the atlas file at 10 % (whether their bound is met or not)."""
+    from compare.atlas import store
+    from compare.atlas.calibration import ATTR
+
+    rec = store.attrs(Path(atlas)).get(ATTR, {})
+    rec = rec.get("10", {}) if isinstance(rec, dict) else {}
+    return sorted(rec.get("strata", {})) if isinstance(rec, dict) else []
 
 
 def write(atlas: str | Path, out: str | Path | None = None) -> Path:

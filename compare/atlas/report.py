@@ -110,7 +110,7 @@ def linear_limit_table(rows: tuple[fd.LinearLimits, ...]) -> list[str]:
                   for x in rows], dense=True)
 
 
-def headline(h: fd.Headline, margins: cal.Margins | None = None) -> str:
+def headline(h: fd.Headline, strata: dict[str, cal.Margins] | None = None) -> str:
     """The section's answer in a few sentences."""
     text = (f"**In short:** over {h.families} families the quasi-static coupler-point history stays within 10 % of "
             f"the linear KED model up to r* = {h.r10_median:.3f} (median; 10-90 % of the families: "
@@ -121,13 +121,18 @@ def headline(h: fd.Headline, margins: cal.Margins | None = None) -> str:
             "rank correlations with r* "
             + ", ".join(f"{k} ({rho:+.2f})" for k, rho in h.correlations)
             + f". The one-mode estimate predicts r* within +-25 % for {h.one_mode_within:.0%} of the families.")
-    if margins is not None:
-        s = margins.stats
-        text += (f" At the threshold ({s.n} Exudyn-confirmed scenes within +-25 % of their family's 10 % limit) "
-                 f"`ked check`'s quasi-static call, with the margins chosen from them (quasi-static below "
-                 f"{margins.holds_below:g} x the tolerance, borderline up to {margins.fails_above:g} x), agrees with "
-                 f"Exudyn on {_ci(s.agreement)} of its decisive calls; unsafe calls {_ci(s.unsafe)}, over-cautious "
-                 f"{_ci(s.overcautious)}, borderline {s.borderline} (95 % Clopper-Pearson intervals).")
+    if strata:
+        granted = [k for k, m in strata.items() if m.holds_below > 0]
+        margins = ", ".join(f"{k.split('/', 1)[1]} {strata[k].holds_below:g}" for k in granted) or "none"
+        worst = max(m.stats.unsafe.high95 for k, m in strata.items())
+        text += (f" At the threshold (Exudyn-confirmed scenes within +-25 % of their family's 10 % limit), `ked check` "
+                 f"calibrates its quasi-static call per stratum (linkage kind x mass model x mechanism, "
+                 f"{min(m.stats.n for m in strata.values())}-{max(m.stats.n for m in strata.values())} scenes each): "
+                 f"{len(granted)} of the {len(strata)} four-bar strata grant the quasi-static tier from a prediction "
+                 f"(margins {margins} "
+                 f"x the tolerance), every stratum's unsafe-call rate with a 95 % upper bound of at most "
+                 f"{worst:.1%} (table below); a stratum without enough data, and every slider-crank, grants none and "
+                 "says so.")
     return text
 
 
@@ -138,7 +143,20 @@ def _ci(x: cal.Rate) -> str:
     return f"{x.k}/{x.n} = {x.rate:.1%} [{x.low95:.1%}-{x.high95:.1%}]"
 
 
-def threshold_text(t: fd.ThresholdFindings | None) -> list[str]:
+def strata_table(strata: dict[str, cal.Margins]) -> list[str]:
+    """One row per stratum: its own margins and the calls they make on its threshold scenes."""
+    rows = [[k, str(m.stats.n), f"{m.holds_below:g} / {m.fails_above:g}",
+             "yes" if m.holds_below > 0 else ("no: fewer than " + str(cal.MIN_STRATUM) if m.stats.n < cal.MIN_STRATUM
+                                              else "no: bound not met"),
+             str(m.stats.quasi_static), f"{m.stats.borderline} ({m.stats.borderline_measured_fail})",
+             str(m.stats.not_quasi_static), _ci(m.stats.unsafe), _ci(m.stats.overcautious),
+             f"{m.ratio_q05:.3f}-{m.ratio_q95:.3f}"] for k, m in strata.items()]
+    return table(("stratum", "scenes (Exudyn ok)", "holds below / fails above [x tol]", "grants quasi-static",
+                  "quasi-static", "borderline (measured fail)", "not quasi-static", "unsafe [95 %]",
+                  "over-cautious [95 %]", "measured / predicted, 5-95 % tolerance bounds"), rows, dense=True)
+
+
+def threshold_text(t: fd.ThresholdFindings | None, strata: dict[str, cal.Margins] | None = None) -> list[str]:
     """The threshold calibration: counts, rates with intervals, the chosen margins, per stratum."""
     if t is None:
         return ["No threshold sample yet (`ked study atlas --threshold N`)."]
@@ -167,28 +185,33 @@ def threshold_text(t: fd.ThresholdFindings | None) -> list[str]:
          *table(("rule", "quasi-static", "borderline (measured fail)", "not quasi-static", "unsafe [95 %]",
                  "over-cautious [95 %]", "agreement [95 %]"), [
              row("plain: e < 10 %, no margin, no linear-range gate (context)", mg.plain),
-             row(f"chosen: e < {mg.holds_below:g} x 10 % and r below the linear lower band; borderline to "
+             row(f"pooled (context): e < {mg.holds_below:g} x 10 % and r below the linear lower band; borderline to "
                  f"{mg.fails_above:g} x", mg.stats)], dense=True), "",
-         f"**Chosen margins** (`compare.atlas.verdict_margins()`, stored in the atlas file): quasi-static holds below "
+         f"**Pooled margins** (every stratum together, context only: the check uses each stratum's own, below): "
+         "quasi-static holds below "
          f"**{mg.holds_below:g} x** the tolerance, borderline up to **{mg.fails_above:g} x**, each the more cautious "
          f"of two criteria. Rate: the largest multiplier whose unsafe-call rate has a 95 % upper bound <= "
          f"{cal.MAX_UNSAFE_UPPER95:.0%} ({mg.holds_below_rate:g} x; "
          f"{'met' if mg.bound_met else 'NOT met: the prediction alone grants no quasi-static tier'}), and the "
          f"smallest >= 1 whose over-cautious predictions (e >= it, measured < 10 %) meet the same bound "
          f"({mg.fails_above_rate:g} x). Scatter: measured / predicted error of the {mg.n_near} scenes predicted "
-         f"within +-20 % of the tolerance, 5-95 %: {mg.ratio_q05:.3f}-{mg.ratio_q95:.3f}, so a call at "
+         f"within +-20 % of the tolerance (all scenes when fewer than {cal.MIN_NEAR}), distribution-free 95 % / 95 % "
+         f"tolerance bounds of its 5th and 95th percentiles: {mg.ratio_q05:.3f}-{mg.ratio_q95:.3f}, so a call at "
          f"1 / {mg.ratio_q95:.3f} = {mg.holds_below_scatter:g} x (at 1 / {mg.ratio_q05:.3f} = "
-         f"{mg.fails_above_scatter:g} x) is right with about 95 % probability. With these margins the unsafe calls' "
-         f"upper bound is {mg.stats.unsafe.high95:.1%}. The linear-range gate (r below the mass model's lower-band "
+         f"{mg.fails_above_scatter:g} x) is right with at least 95 % probability, at 95 % confidence. With these "
+         f"margins the unsafe calls' upper bound is {mg.stats.unsafe.high95:.1%}. The linear-range gate (r below "
+         "the mass model's lower-band "
          f"linear limit) withheld the quasi-static tier from {t.gated} scenes the margin alone would have granted. "
          "The rule is `compare.atlas.calibration.calls`, which `ked check` mirrors."
          f" The {t.overcautious} over-cautious calls: {t.overcautious_flagged} where the linear solution carries a "
          f"large-deflection or large-rotation flag (of {t.flagged} such scenes), "
          f"{t.overcautious_gate} by the linear-range gate, {t.overcautious_prediction} by the prediction.", "",
-         *table(("mass model", "mechanism", "scenes (Exudyn ok)", "measured >= 10 %", "unsafe", "borderline",
-                 "over-cautious"), [[x.mass_model, x.mechanism, f"{x.scenes} ({x.exudyn_ok})", str(x.measured_fail),
-                                     str(x.unsafe), str(x.borderline), str(x.overcautious)] for x in t.strata],
-                dense=True)]
+         "**Per stratum** (what `ked check` uses; `compare.atlas.calibration.strata_margins`): each stratum's margins "
+         "chosen by the same two criteria from its own scenes alone, so a stratum whose prediction is biased never "
+         "hides behind the others; a stratum grants the quasi-static tier from a prediction only with at least "
+         f"{cal.MAX_UNSAFE_UPPER95:.0%} as the 95 % upper bound of its unsafe calls and {cal.MIN_STRATUM} Exudyn "
+         "answers (with no unsafe call the bound needs 122). The pooled margins above are context only.", "",
+         *strata_table(strata or {})]
     if t.early is not None:
         below, early, between, unseen = t.early
         L += ["", f"First crossings, checked: {early} of the {below} threshold scenes below their "
@@ -290,11 +313,13 @@ def drawn_from(atlas: Path) -> str:
 def markdown(f: fd.AtlasFindings, atlas: Path, readme: Path, figs: dict[str, Path]) -> str:
     """The README section from the findings (figure and atlas paths relative to the README)."""
     rel = {k: os.path.relpath(v.resolve(), readme.resolve().parent) for k, v in figs.items()}
+    strata = cal.strata_margins(atlas) if f.threshold is not None else {}
     info = f.info
     st = info.get("settings", {})
-    L = ["## Atlas: the quasi-static limit over the design space", "", headline(f.headline, f.margins), "",
+    L = ["## Atlas: the quasi-static limit over the design space", "", headline(f.headline, strata), "",
          "Regenerate (resumable; computes what is missing, then redraws): `ked study atlas --linkages N --confirm M "
-         "--threshold T` "
+         "--threshold T --threshold-top-up U`; after a change of the linear model the stored predictions are "
+         "recomputed once (`compare.atlas.repredict`, the file attribute `predicted_by` names the code) "
          f"(stored: `{os.path.relpath(atlas.resolve(), readme.resolve().parent)}`, "
          f"{atlas.stat().st_size / 1e6:.1f} MB; figures `figures/atlas_*.png`).", "",
          *sample_text(f.sample), "",
@@ -333,7 +358,7 @@ def markdown(f: fd.AtlasFindings, atlas: Path, readme: Path, figs: dict[str, Pat
          *tier_table(f.tiers), "",
          "### Calibration at the threshold (`ked check`'s quasi-static call)", "",
          *([drawn_from(atlas), ""] if drawn_from(atlas) else []),
-         *threshold_text(f.threshold), "", f"![threshold]({rel['threshold']})", "",
+         *threshold_text(f.threshold, strata), "", f"![threshold]({rel['threshold']})", "",
          "### Exudyn-confirmed sample (context: mostly far from the threshold)", "",
          "Stratified (`compare.atlas.confirm`): per mass model, families drawn from equal strata of their r* (10 %), "
          "each at r = 0.6, 1, 1.4, 2, 3 x r* (interpolated r*, capped at 0.5); quasi-static, linear and Exudyn "

@@ -1,7 +1,8 @@
 """The threshold confirmation of the atlas: Exudyn where the check's decision is made.
 
-Selection (:func:`select_threshold`, pure and seeded): per stratum (mass model x mechanism, 8 strata,
-the sample split evenly), the families whose quasi-static 10 % limit r10 was crossed on the atlas grid,
+Selection (:func:`select_threshold`, pure and seeded, in two independent draws of the same design whose
+union is the sample): per stratum (mass model x mechanism, 8 strata, each draw split evenly),
+the families whose quasi-static 10 % limit r10 was crossed on the atlas grid,
 sorted by r10 and cut into equal chunks, one family drawn from each chunk; each drawn family gives one
 scene at r = f x r10 with f drawn uniformly from [1 - :data:`BAND`, 1 + :data:`BAND`] (one scene per
 family: the scenes are independent draws for the binomial intervals of :mod:`compare.atlas.calibration`).
@@ -30,13 +31,17 @@ BAND = 0.25
 MECHANISMS = ("source", "cognate")
 TABLE = "threshold"
 DEFAULT_THRESHOLD = 400
-"""Scenes of the default threshold sample (50 per stratum)."""
+"""Scenes of the default threshold sample's first draw (50 per stratum)."""
+DEFAULT_TOP_UP = 400
+"""Scenes of its second, independent draw (50 per stratum): a stratum's margins need at least
+``compare.atlas.calibration.MIN_STRATUM`` Exudyn answers."""
 
 
 def select_threshold(families: dict[str, np.ndarray], n: int, seed: int = 0,
-                     band: float = BAND) -> list[ConfirmPoint]:
-    """The stratified threshold sample of ``n`` scenes (see the module docstring)."""
-    rng = np.random.default_rng([seed, 2])
+                     band: float = BAND, draw: int = 0) -> list[ConfirmPoint]:
+    """The stratified threshold sample of ``n`` scenes (see the module docstring); ``draw`` > 0 an
+    independent further draw of the same design (its own random stream), which tops up every stratum."""
+    rng = np.random.default_rng([seed, 2] if draw == 0 else [seed, 2, draw])
     r10 = np.asarray(families.get("r10", []), float)
     status = np.asarray(families.get("r10_status", []), dtype=object)
     strata = [(mm, mech) for mm in MASS_MODELS for mech in MECHANISMS]
@@ -57,10 +62,13 @@ def select_threshold(families: dict[str, np.ndarray], n: int, seed: int = 0,
     return points
 
 
-def run_threshold(path: Path, *, n: int = DEFAULT_THRESHOLD, seed: int = 0, workers: int = 2,
-                  scheduler: str | None = None, progress: bool = False,
+def run_threshold(path: Path, *, n: int = DEFAULT_THRESHOLD, top_up: int = DEFAULT_TOP_UP, seed: int = 0,
+                  workers: int = 2, scheduler: str | None = None, progress: bool = False,
                   echo: Callable[[str], Any] = print) -> dict[str, int]:
-    """Confirm the threshold sample's scenes not yet stored in the atlas file (resumable)."""
+    """Confirm the threshold sample's scenes (``n`` of the first draw, ``top_up`` of the second) not yet
+    stored in the atlas file (resumable)."""
     atlas_store.check_atlas(path, {"seed": seed})
-    return confirm_points(path, select_threshold(atlas_store.read(path, "families"), n, seed), TABLE, seed,
-                          workers=workers, scheduler=scheduler, progress=progress, echo=echo)
+    families = atlas_store.read(path, "families")
+    points = select_threshold(families, n, seed) + (select_threshold(families, top_up, seed, draw=1) if top_up else [])
+    return confirm_points(path, list({p.key: p for p in points}.values()), TABLE, seed, workers=workers,
+                          scheduler=scheduler, progress=progress, echo=echo)
