@@ -17,9 +17,11 @@ modified Newton with one Jacobian update per step. One run at fixed settings (_r
       |dx|, |dy|) and for the rotation (relative to its peak), after at least min_cycles cycles; with
       settings.extrapolate the limit cycle is also estimated from the last 4 cycles by minimal
       polynomial extrapolation and accepted once two successive estimates agree within steady_tol (and
-      differ from the last cycle by < 20 % of the peak). "anderson": the periodic orbit solved directly,
-      cycle by cycle with Anderson mixing of the full state (exudyn_models.periodic); steady by the same
-      two-successive-cycles test on a plain continuation cycle.
+      differ from the last cycle by < 20 % of the peak) and a cycle simulated from the extrapolated
+      state reproduces it within steady_tol (else the run is not steady, exudyn_models.march).
+      "anderson": the periodic orbit solved directly, cycle by cycle with Anderson mixing of the full
+      state (exudyn_models.periodic); steady by the same two-successive-cycles test on a plain
+      continuation cycle.
 Refinement (settings.refine): a Newton failure is retried along the ladder of exudyn_models.refine within
 refine_budget_s; every attempt is recorded (DynamicResult.attempts, SimulationError.attempts). A scene that
 runs through at the requested settings is returned exactly as without refinement.
@@ -138,7 +140,10 @@ def _message(record: RunRecord, settings: DynamicSettings) -> str:
     cycles, change, tol = tr.cycles, tr.change, settings.steady_tol
     if record.converged and record.extrapolated:
         return (f"steady after {cycles} cycles, extrapolated from the last {EXTRAPOLATION_ORDER + 2} "
-                f"(change of the estimate {change:.2e} < tol {tol:g})")
+                f"(change of the estimate {change:.2e} < tol {tol:g}; {record.confirmation})")
+    if record.confirmation:
+        return (f"not steady after {cycles} cycles: the orbit extrapolated from the last {EXTRAPOLATION_ORDER + 2} "
+                f"is not confirmed ({record.confirmation.split(': ', 1)[-1]}); no periodic orbit found")
     if record.converged and record.residuals:
         return (f"steady after {cycles} cycles (change {change:.2e} < tol {tol:g}; periodic orbit by Anderson "
                 f"mixing, residual {record.residuals[0]:.1e} -> {record.residuals[-1]:.1e})")
@@ -179,7 +184,7 @@ def _extend(scene, settings: DynamicSettings, solved: DynamicSettings, record: R
     """A run that did not settle but whose cycle changes decay: grant the cycles the measured contraction
     predicts (exudyn_models.failure.cycles_to_grant) by a rerun with max_cycles raised, if settings.refine
     and the wall-time budget allow. Returns the settings and record to report, and what was granted."""
-    if record.converged:
+    if record.converged or record.confirmation:  # an unconfirmed extrapolation would recur in a longer run
         return solved, record, None
     before = evidence_of(record.tracker)
     predicted, grant = cycles_to_grant(before, solved.steady_tol)
