@@ -36,6 +36,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ked_quasi import limits
+
 from .builder import build_model
 from .cycles import (  # noqa: F401 - re-exported (the public home of these names)
     EXTRAPOLATION_ORDER,
@@ -87,6 +89,9 @@ class DynamicResult:
     cycle_peaks [m]: peak |d| (vector dx, dy) of every constant-speed cycle.
     midspan (n,) [m]: a slider-crank's coupler midspan deflection normal to its chord
         (exudyn_models.slider_simulate); None for a four-bar.
+    flags: validity flags of the history (ked_quasi.limits: large_deflection, large_rotation, non_finite),
+        the same bounds as the quasi-static and linear answers: a deflection beyond the small-deflection
+        range is not compared as a valid reference; validity: one line saying why (empty if no flag).
     """
 
     crank_angle: np.ndarray
@@ -109,6 +114,8 @@ class DynamicResult:
     periodic_residuals: tuple[float, ...] = ()
     cycle_peaks: tuple[float, ...] = ()
     midspan: np.ndarray | None = None
+    flags: tuple[str, ...] = ()
+    validity: str = ""
 
 
 def _run(scene, settings: DynamicSettings, damping_beta: float) -> RunRecord:
@@ -169,6 +176,8 @@ def _result(scene, settings: DynamicSettings, solved: DynamicSettings, record: R
     if record.start_note not in ("ramp", "quasi-static"):
         message += f" (start: {record.start_note})"
     d = np.asarray(record.deflection)
+    linkage = getattr(scene, "fourbar", None) or scene.linkage  # a four-bar, or a slider-crank
+    flags = limits.flags(d[:, :3], linkage)
     return DynamicResult(crank_angle=np.asarray(scene.crank_angles, dtype=float), deflection=d[:, :3],
                          wall_s=time.perf_counter() - t_wall, steps=record.steps,
                          newton_iterations=record.newton_iterations, cycles=tr.cycles, converged=record.converged,
@@ -176,7 +185,8 @@ def _result(scene, settings: DynamicSettings, solved: DynamicSettings, record: R
                          cycle_changes=tuple(tr.changes), solved_settings=solved, attempts=attempts,
                          failure_class=failure_class, evidence=evidence, start=record.start_note,
                          periodic_residuals=record.residuals, cycle_peaks=tuple(tr.peaks),
-                         midspan=d[:, 3].copy() if d.shape[1] > 3 else None)
+                         midspan=d[:, 3].copy() if d.shape[1] > 3 else None, flags=flags,
+                         validity=limits.describe(flags, d[:, :3], linkage))
 
 
 def _extend(scene, settings: DynamicSettings, solved: DynamicSettings, record: RunRecord, beta: float,
