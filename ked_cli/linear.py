@@ -102,9 +102,9 @@ def _table(opts: SceneOptions, scene: Any, res: Any, out: dict[str, Any]) -> Non
 
 
 def _slider_scene(opts: SceneOptions) -> Any:
-    """The slider-crank scene ``--linkage`` names (``ked_cli.options.build_slider`` without the quasi-static
-    speed bound: the linear model flags its own validity), or None for a four-bar."""
+    """The slider-crank scene ``--linkage`` names (``ked_cli.options.build_slider``: the same speed-ratio
+    bound r <= 10 as ``ked quasi`` and ``ked check``), or None for a four-bar."""
     from ked_cli.quasi import slider_source
 
     sc = slider_source(opts.linkage)
-    return None if sc is None else build_slider(opts, sc, refuse_fast=False)
+    return None if sc is None else build_slider(opts, sc)
