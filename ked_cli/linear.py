@@ -41,6 +41,8 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
     own frozen structure, as by ked quasi (mass model distributed unless given); the JSON adds midspan_m,
     the coupler's midspan deflection normal to its chord.
     """
+    import numpy as np
+
     from ked_linear import LinearSettings, describe_flags, result_flags, solve_linear
 
     opts = SceneOptions.pop(kw)
@@ -59,6 +61,10 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
         raise click.UsageError(str(exc)) from None
     try:
         res = solve_linear(scene, settings)
+    except (np.linalg.LinAlgError, ArithmeticError) as exc:  # before ValueError: LinAlgError is one
+        from compare.solvers.linear import NUMERICAL_FAILURE
+
+        raise click.ClickException(f"{NUMERICAL_FAILURE}: {exc} (not a verdict on the linkage)") from None
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
     d = res.deflection
