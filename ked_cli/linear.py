@@ -6,7 +6,15 @@ from typing import Any
 
 import click
 
-from ked_cli.options import SceneOptions, build_scene, build_slider, json_text, scene_options, wrap
+from ked_cli.options import (
+    SceneOptions,
+    build_scene,
+    build_slider,
+    json_text,
+    refuse_oversized,
+    scene_options,
+    wrap,
+)
 from ked_quasi import rules
 
 
@@ -53,6 +61,7 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
         from dataclasses import replace
 
         opts = replace(opts, mass_model=scene.mass_model.name)  # the mass model solved (distributed by default)
+    refuse_oversized(scene)
     linkage = getattr(scene, "fourbar", None) or scene.linkage
     try:
         settings = LinearSettings(damping_ratio=damping_ratio, damping_reference_hz=damping_reference_hz,

@@ -204,6 +204,17 @@ def refuse_fast(fourbar: Any, mass_model: Any, rpms: list[float], step_deg: floa
             raise click.BadParameter(str(exc).removeprefix("value = "), param_hint=hint) from None
 
 
+def refuse_oversized(scene: Any) -> None:
+    """BadParameter for --lumps when the linear KED model cannot take the scene (for the commands that
+    need it: ``ked linear``, ``ked check``), at load, before anything is solved."""
+    from ked_linear.size import check_size
+
+    try:
+        check_size(scene, label="value")
+    except ValueError as exc:
+        raise click.BadParameter(str(exc).removeprefix("value: "), param_hint="--lumps") from None
+
+
 WIDTH = 100
 """Columns of every human-readable line a command prints."""
 
