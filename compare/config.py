@@ -28,7 +28,7 @@ from ked_quasi import rules
 from ked_quasi.linkage import BRANCHES, DIRECTIONS, LINKS, SECTION_RULES, THESIS_RPM, FourBar, thesis_fourbar
 from ked_quasi.massmodel import MASS_MODELS, PLACEMENTS, MassModel, default_payload
 from ked_quasi.scene import variant
-from ked_quasi.slidercrank import SliderCrank, simeon_slider_crank, slider_from_table
+from ked_quasi.slidercrank import SliderCrank, kind_conflict, simeon_slider_crank, slider_from_table
 
 DEFAULT_TOLERANCE = 0.10
 CONFIG_SOLVERS = ("quasi_static", "linear", "dynamic")
@@ -386,6 +386,9 @@ def linkage_from_table(c: _Checker, tab: dict[str, Any]) -> FourBar | SliderCran
     (keys: :func:`ked_quasi.slidercrank.slider_from_table`)."""
     kind = c.string(tab, "linkage.kind", default=FOUR_BAR, choices=(FOUR_BAR, SLIDER_KIND))
     if kind is None:
+        return None
+    if kind_conflict(tab):
+        c.err("linkage", kind_conflict(tab).removeprefix("linkage."))
         return None
     if kind == SLIDER_KIND or tab.get("preset") == "simeon":
         if tab.get("preset") == "simeon":

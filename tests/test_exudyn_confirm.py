@@ -109,7 +109,8 @@ rpm = [0.6]
 steps_per_cycle = 180
 """)
     h5 = tmp_path / "thin.h5"
-    run = CliRunner().invoke(ked, ["run", str(cfg), "--out", str(h5), "--workers", "1", "--no-figures", "--no-progress"])
+    run = CliRunner().invoke(ked, ["run", str(cfg), "--out", str(h5), "--workers", "1", "--no-figures",
+                                   "--no-progress"])
     assert run.exit_code == 0, run.output
     rows = json.loads(CliRunner().invoke(ked, ["inspect", str(h5), "--json"]).stdout)
     rows = rows["scenes"] if isinstance(rows, dict) else rows
