@@ -144,7 +144,8 @@ class SteadyTracker:
     (or the accepted estimate's); changes: one per cycle from the second on; history: the last
     EXTRAPOLATION_ORDER + 2 cycles; estimate: the last extrapolated limit; peaks [m]: peak |d| of
     every cycle (growth evidence for exudyn_models.failure); weights: the extrapolation weights of the last
-    estimate over history (exudyn_models.cycles.extrapolation_weights)."""
+    estimate over history (exudyn_models.cycles.extrapolation_weights); rejected: an estimate of this run was
+    not confirmed by a simulated cycle (exudyn_models.march), so no later one is accepted."""
 
     settings: DynamicSettings
     cycles: int = 0
@@ -155,6 +156,7 @@ class SteadyTracker:
     estimate: np.ndarray | None = None
     peaks: list[float] = field(default_factory=list)
     weights: np.ndarray | None = None
+    rejected: bool = False
 
     def add(self, cycle: np.ndarray) -> None:
         """Record one more simulated cycle."""
@@ -177,7 +179,7 @@ class SteadyTracker:
     def settled_estimate(self) -> np.ndarray | None:
         """The extrapolated limit cycle once two successive estimates agree within steady_tol (and it is
         a modest correction, < 20 % of the peak, of the last cycle); None otherwise."""
-        if not (self.settings.extrapolate and len(self.history) == EXTRAPOLATION_ORDER + 2):
+        if not (self.settings.extrapolate and not self.rejected and len(self.history) == EXTRAPOLATION_ORDER + 2):
             return None
         self.weights = extrapolation_weights(self.history)
         estimate = np.tensordot(self.weights, np.array(self.history, dtype=float), axes=1)
@@ -200,8 +202,8 @@ class RunRecord:
     phase began; residuals: periodic-solve residuals per cycle (empty when marching); message;
     steps_per_cycle: the steps per cycle the run used (exudyn_models.lowspeed; 0 = not recorded);
     confirmation: how an extrapolated cycle was checked by a cycle simulated from the extrapolated state
-    (exudyn_models.march.confirm_extrapolation): the confirming cycle's change, or why the extrapolated
-    orbit was rejected (then converged is False; "" when nothing was extrapolated)."""
+    (exudyn_models.march.confirm_extrapolation): the confirming cycle's change when the returned cycle is
+    extrapolated, else why the last extrapolated orbit was rejected ("" when none was)."""
 
     deflection: np.ndarray
     steps: int

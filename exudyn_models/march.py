@@ -8,9 +8,10 @@ simulated from the extrapolated full state, reproduces it within steady_tol (con
 full state (ODE2 coordinates, velocities, accelerations, algebraic coordinates) is recorded at the end of
 each cycle and extrapolated with the weights of the deflection's extrapolation (the same transient decays
 in every linear observation of the cycles); a coordinate that turns by whole revolutions per cycle (the
-crank's rotation) is first brought to the phase of the last cycle. Otherwise the run is not steady
-(RunRecord.confirmation says why): the extrapolation fitted something other than a decaying transient
-toward a periodic orbit."""
+crank's rotation) is first brought to the phase of the last cycle. An estimate the confirming cycle does
+not reproduce fitted something other than a decaying transient toward a periodic orbit: it is dropped
+(RunRecord.confirmation says why) and the march goes on from the last simulated cycle's end without
+extrapolation: the run is then steady only by two successive simulated cycles."""
 
 from __future__ import annotations
 
@@ -98,38 +99,61 @@ def march(scene, settings: DynamicSettings, model: BuiltModel, start_note: str, 
           tolerances=None) -> RunRecord:
     """Run the model (initial state already set) to steady state or max_cycles in one Exudyn run.
     sampler, tolerances: the cycle sampler and Newton tolerances (None: the four-bar's CycleSampler and
-    newton_tolerances; the slider-crank passes its own, exudyn_models.slider_simulate)."""
+    newton_tolerances; the slider-crank passes its own, exudyn_models.slider_simulate). An extrapolated
+    cycle that its confirming cycle does not reproduce is dropped and the march goes on, without
+    extrapolation, from the last simulated cycle's end (a new Exudyn run from that state)."""
     drive, mbs = model.drive, model.mbs
     n = settings.steps_per_cycle
     h = drive.cycle_time / n
+    t_end = drive.cycle_start(settings.max_cycles)
     tol = newton_tolerances(settings, scene) if tolerances is None else tolerances
-    sset = solver_settings(settings, h, drive.cycle_start(settings.max_cycles), tol)
     tracker = SteadyTracker(settings)
     check = _CycleCheck(model, CycleSampler(model, scene, n) if sampler is None else sampler, tracker, h)
-    mbs.SetPreStepUserFunction(check)
-    solver = exu.MainSolverImplicitSecondOrder()
-    ok = solver.SolveSystem(mbs, sset)
-    if check.error is not None:
-        raise check.error
-    t = float(solver.it.currentTime)
-    if not ok and not check.converged:
-        raise SimulationError("Newton iteration did not converge (step rejected)", t,
-                              float(np.mod(drive.angle(t), 2.0 * math.pi)), cycles=tracker.cycles,
-                              peaks=tuple(tracker.peaks), step_index=int(solver.it.currentStepIndex))
-    if not check.converged and tracker.cycles < settings.max_cycles:
-        check(mbs, drive.cycle_start(settings.max_cycles))  # the last cycle ends with the run
-    if tracker.current is None:
-        raise SimulationError("no complete steady cycle was simulated", t, float(np.mod(drive.angle(t), 2.0 * math.pi)))
-    record = RunRecord(deflection=tracker.current if check.result is None else check.result,
-                       steps=int(solver.it.currentStepIndex), newton_iterations=int(solver.it.newtonStepsCount),
-                       converged=check.converged, extrapolated=check.extrapolated, tracker=tracker,
-                       start_note=start_note)
-    if check.extrapolated:
+    steps = newton = 0
+    t_start, confirmation = 0.0, ""
+    while True:
+        mbs.SetPreStepUserFunction(check)
+        sset = solver_settings(settings, h, t_end, tol)
+        sset.timeIntegration.startTime = t_start
+        sset.timeIntegration.numberOfSteps = max(1, round((t_end - t_start) / h))
+        solver = exu.MainSolverImplicitSecondOrder()
+        ok = solver.SolveSystem(mbs, sset)
+        steps += int(solver.it.currentStepIndex)
+        newton += int(solver.it.newtonStepsCount)
+        if check.error is not None:
+            raise check.error
+        t = float(solver.it.currentTime)
+        if not ok and not check.converged:
+            raise SimulationError("Newton iteration did not converge (step rejected)", t,
+                                  float(np.mod(drive.angle(t), 2.0 * math.pi)), cycles=tracker.cycles,
+                                  peaks=tuple(tracker.peaks), step_index=steps)
+        if not check.converged and tracker.cycles < settings.max_cycles:
+            check(mbs, t_end)  # the last cycle ends with the run
+        if tracker.current is None:
+            raise SimulationError("no complete steady cycle was simulated", t,
+                                  float(np.mod(drive.angle(t), 2.0 * math.pi)))
+        if not check.extrapolated:
+            break
         if check.pending:
             check.record_end(mbs)
         mbs.SetPreStepUserFunction(0)  # the confirming cycle runs on its own
-        confirm_extrapolation(model, settings, check.sample, tol, record, check.ends)
-    return record
+        confirmed, text, c_steps, c_newton = confirm_extrapolation(model, settings, check.sample, tol, check.result,
+                                                                   tracker, check.ends)
+        steps, newton = steps + c_steps, newton + c_newton
+        if confirmed:
+            confirmation = text
+            break
+        confirmation = f"extrapolated orbit after {tracker.cycles} cycles not confirmed: {text}"
+        check.converged, check.extrapolated, check.result = False, False, None
+        if tracker.cycles >= settings.max_cycles:
+            break
+        tracker.rejected = True  # from here on only two successive simulated cycles make the run steady
+        set_initial_state(model, *check.ends[-1])  # go on marching from the last simulated cycle's end
+        t_start = drive.cycle_start(tracker.cycles)
+        check.next_check = drive.cycle_start(tracker.cycles + 1) - 0.5 * h
+    return RunRecord(deflection=tracker.current if check.result is None else check.result, steps=steps,
+                     newton_iterations=newton, converged=check.converged, extrapolated=check.extrapolated,
+                     tracker=tracker, start_note=start_note, confirmation=confirmation)
 
 
 def extrapolated_state(ends: list[tuple[np.ndarray, ...]], weights: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -145,11 +169,12 @@ def extrapolated_state(ends: list[tuple[np.ndarray, ...]], weights: np.ndarray) 
 
 
 def confirm_extrapolation(model: BuiltModel, settings: DynamicSettings, sample, tol: NewtonTolerances,
-                          record: RunRecord, ends: list[tuple[np.ndarray, ...]]) -> None:
-    """Simulate one cycle from the extrapolated state and keep the extrapolated cycle only if that cycle
-    reproduces it within steady_tol; else the record becomes not converged (the last simulated cycle is
-    returned) and record.confirmation says why. tol: the march's Newton tolerances."""
-    tracker, drive, n = record.tracker, model.drive, settings.steps_per_cycle
+                          estimate: np.ndarray, tracker: SteadyTracker,
+                          ends: list[tuple[np.ndarray, ...]]) -> tuple[bool, str, int, int]:
+    """Simulate one cycle from the extrapolated state (the tracker's weights over ``ends``) and compare it
+    with ``estimate``: (confirmed, what was found, steps, Newton iterations). Confirmed when the simulated
+    cycle reproduces the estimate within steady_tol. tol: the march's Newton tolerances."""
+    drive, n = model.drive, settings.steps_per_cycle
     h = drive.cycle_time / n
     t0 = drive.cycle_start(tracker.cycles)
     q, v, a, ae = extrapolated_state(ends, tracker.weights)
@@ -159,23 +184,16 @@ def confirm_extrapolation(model: BuiltModel, settings: DynamicSettings, sample, 
     sset.timeIntegration.numberOfSteps = n
     solver = exu.MainSolverImplicitSecondOrder()
     ok = solver.SolveSystem(model.mbs, sset)
-    record.steps += int(solver.it.currentStepIndex)
-    record.newton_iterations += int(solver.it.newtonStepsCount)
-    reason = ""
+    steps, newton = int(solver.it.currentStepIndex), int(solver.it.newtonStepsCount)
     if not ok:
-        reason = "Newton failed in the cycle simulated from the extrapolated state"
-    else:
-        data = model.mbs.GetSensorStoredData(model.p_sensor)
-        rows = rows_by_step(data, h, t0)[:n]
-        if rows.size < n or np.any(rows < 0):
-            reason = "the cycle simulated from the extrapolated state has missing samples"
-        else:
-            change = relative_change(sample(data[rows, 1:]), record.deflection)
-            if change < settings.steady_tol:
-                record.confirmation = (f"confirmed by a cycle simulated from the extrapolated state (change "
-                                       f"{change:.2e} < tol {settings.steady_tol:g})")
-                return
-            reason = (f"a cycle simulated from the extrapolated state differs from it by {change:.2e} of the peak "
-                      f"(not < tol {settings.steady_tol:g})")
-    record.confirmation = f"extrapolated orbit not confirmed: {reason}"
-    record.converged, record.extrapolated, record.deflection = False, False, tracker.current
+        return False, "Newton failed in the cycle simulated from the extrapolated state", steps, newton
+    data = model.mbs.GetSensorStoredData(model.p_sensor)
+    rows = rows_by_step(data, h, t0)[:n]
+    if rows.size < n or np.any(rows < 0):
+        return False, "the cycle simulated from the extrapolated state has missing samples", steps, newton
+    change = relative_change(sample(data[rows, 1:]), estimate)
+    if change < settings.steady_tol:
+        return True, (f"confirmed by a cycle simulated from the extrapolated state (change {change:.2e} < tol "
+                      f"{settings.steady_tol:g})"), steps, newton
+    return False, (f"a cycle simulated from the extrapolated state differs from it by {change:.2e} of the peak "
+                   f"(not < tol {settings.steady_tol:g})"), steps, newton

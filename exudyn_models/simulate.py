@@ -18,7 +18,7 @@ modified Newton with one Jacobian update per step. One run at fixed settings (_r
       settings.extrapolate the limit cycle is also estimated from the last 4 cycles by minimal
       polynomial extrapolation and accepted once two successive estimates agree within steady_tol (and
       differ from the last cycle by < 20 % of the peak) and a cycle simulated from the extrapolated
-      state reproduces it within steady_tol (else the run is not steady, exudyn_models.march).
+      state reproduces it within steady_tol (else the march goes on, exudyn_models.march).
       "anderson": the periodic orbit solved directly, cycle by cycle with Anderson mixing of the full
       state (exudyn_models.periodic); steady by the same two-successive-cycles test on a plain
       continuation cycle.
@@ -148,16 +148,14 @@ def _message(record: RunRecord, settings: DynamicSettings) -> str:
     if record.converged and record.extrapolated:
         return (f"steady after {cycles} cycles, extrapolated from the last {EXTRAPOLATION_ORDER + 2} "
                 f"(change of the estimate {change:.2e} < tol {tol:g}; {record.confirmation})")
-    if record.confirmation:
-        return (f"not steady after {cycles} cycles: the orbit extrapolated from the last {EXTRAPOLATION_ORDER + 2} "
-                f"is not confirmed ({record.confirmation.split(': ', 1)[-1]}); no periodic orbit found")
+    rejected = f" ({record.confirmation}; marching went on)" if record.confirmation else ""
     if record.converged and record.residuals:
         return (f"steady after {cycles} cycles (change {change:.2e} < tol {tol:g}; periodic orbit by Anderson "
                 f"mixing, residual {record.residuals[0]:.1e} -> {record.residuals[-1]:.1e})")
     if record.converged:
-        return f"steady after {cycles} cycles (change {change:.2e} < tol {tol:g})"
+        return f"steady after {cycles} cycles (change {change:.2e} < tol {tol:g}){rejected}"
     return (f"not steady after max_cycles={settings.max_cycles} cycles: last relative change "
-            f"{change:.2e} >= tol {tol:g}")
+            f"{change:.2e} >= tol {tol:g}{rejected}")
 
 
 def _result(scene, settings: DynamicSettings, solved: DynamicSettings, record: RunRecord, f_ref: float,
@@ -194,7 +192,7 @@ def _extend(scene, settings: DynamicSettings, solved: DynamicSettings, record: R
     """A run that did not settle but whose cycle changes decay: grant the cycles the measured contraction
     predicts (exudyn_models.failure.cycles_to_grant) by a rerun with max_cycles raised, if settings.refine
     and the wall-time budget allow. Returns the settings and record to report, and what was granted."""
-    if record.converged or record.confirmation:  # an unconfirmed extrapolation would recur in a longer run
+    if record.converged:
         return solved, record, None
     before = evidence_of(record.tracker)
     predicted, grant = cycles_to_grant(before, solved.steady_tol)

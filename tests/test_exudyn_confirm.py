@@ -50,7 +50,13 @@ def test_extrapolated_orbit_is_confirmed_by_a_simulated_cycle():
 def test_a_wrong_extrapolated_orbit_is_rejected(monkeypatch):
     """Fault injection: the settled estimate of the deflection is moved by 5 % of its peak (the state the
     confirming cycle starts from is the true extrapolation): the simulated cycle differs by ~5 % > steady_tol,
-    so the run is not steady and returns its last simulated cycle, not the estimate."""
+    so the estimate is dropped and the march goes on without extrapolation from the last simulated cycle's
+    end: the answer is then that of a plain march (extrapolate=False) of the same scene, cycle for cycle (a
+    restart from the full state reproduces a continuous run closely: 6e-6 of the peak measured here, the
+    generalized-alpha scheme's algorithmic accelerations are not part of the state; bound 1e-4, far below the
+    5 % injected and the steady_tol of 2e-3)."""
+    scene = make_scene(mass_model="joints", step_deg=30.0)
+    plain_run = simulate_steady_state(scene, DynamicSettings(steps_per_cycle=180, refine=False, extrapolate=False))
     plain = SteadyTracker.settled_estimate
 
     def corrupted(self):
@@ -61,13 +67,14 @@ def test_a_wrong_extrapolated_orbit_is_rejected(monkeypatch):
         return est + np.array([0.05 * peak, 0.0, 0.0])
 
     monkeypatch.setattr(SteadyTracker, "settled_estimate", corrupted)
-    res = simulate_steady_state(make_scene(mass_model="joints", step_deg=30.0),
-                                DynamicSettings(steps_per_cycle=180, refine=False))
-    assert not res.converged
-    assert "is not confirmed" in res.message and "differs from it by" in res.message
+    res = simulate_steady_state(scene, DynamicSettings(steps_per_cycle=180, refine=False))
+    assert "not confirmed" in res.message and "differs from it by" in res.message
     change = float(res.message.split("differs from it by ")[1].split(" ")[0])
     assert 0.03 < change < 0.07  # the 5 % moved into dx, against the peak of |dx|, |dy|
-    assert res.failure_class  # classified like every run without a steady state
+    assert "extrapolated from the last" not in res.message  # the answer is a simulated cycle
+    assert res.converged and plain_run.converged and res.cycles == plain_run.cycles
+    peak = float(np.max(np.abs(plain_run.deflection[:, :2])))
+    np.testing.assert_allclose(res.deflection[:, :2], plain_run.deflection[:, :2], rtol=0, atol=1e-4 * peak)
 
 
 def _thin_file(tmp_path):
@@ -123,11 +130,15 @@ steps_per_cycle = 180
 
 
 @pytest.mark.slow
-def test_thin_section_tip_mass_at_r_9_5_is_not_a_converged_orbit(tmp_path):
+def test_thin_section_tip_mass_at_r_9_5_is_not_an_extrapolated_orbit(tmp_path):
     """The case found: r = 9.5 (14.4 rpm), tip mass. The marching extrapolation settles after 76 cycles on a
-    0.51 m 'orbit' (twice the shortest link) that one simulated cycle does not reproduce: no steady state
-    (exit 1), never a converged answer (~15 s)."""
+    0.51 m 'orbit' (twice the shortest link) that one simulated cycle does not reproduce: it is rejected; the
+    answer is a simulated cycle, and it carries the small-deflection flags (not a valid answer; ~40-80 s)."""
     out = CliRunner().invoke(ked, ["simulate", "--linkage", _thin_file(tmp_path), "--rpm", "14.4", "--json"])
-    assert out.exit_code == 1
     data = json.loads(out.stdout)
-    assert data["converged"] is False and "not confirmed" in data["message"]
+    assert "extrapolated orbit after 76 cycles not confirmed" in data["message"]
+    assert "extrapolated from the last" not in data["message"]
+    if data["converged"]:
+        assert out.exit_code == 0 and "large_deflection" in data["flags"] and data["valid"] is False
+    else:
+        assert out.exit_code == 1
