@@ -48,6 +48,7 @@ from compare.execute import run_scene
 from compare.inspect import speed_ratio
 from compare.results import SceneResult
 from compare.scenes import SceneSpec, SpeedSpec
+from compare.solvers import Solution
 from compare.solvers import get as get_solver
 from ked_linear.settings import HARMONICS
 from ked_quasi.harmonics import one_mode_dynamic_estimate
@@ -195,6 +196,9 @@ def tier(r: SceneResult, linear_range: LinearRange, tolerance: float,
     ratio = speed_ratio(r)
     if qs is None or not qs.ok:
         return "nonlinear", f"no quasi-static answer ({qs.message if qs else 'not run'}): use the nonlinear model"
+    if lin is not None and not lin.ok and lin.failure_class != "physical":  # not a verdict on the physics
+        why = lin.message if lin.failure_class == "numerical" else f"the linear model failed: {lin.message}"
+        return "nonlinear", f"{why}: no linear prediction; use the nonlinear model (--confirm)"
     if lin is None or not lin.ok:
         why = lin.message if lin is not None else "the linear model did not run"
         return "nonlinear", f"no stable linear steady state ({why}): use the nonlinear model (--confirm)"
@@ -273,7 +277,12 @@ def check_row(r: SceneResult, linear_range: LinearRange, tolerance: float,
     predicted, verdict = tier(r, linear_range, tolerance, margins)
     name, decided_by = predicted, "predicted"
     confirmed = {}
-    if "dynamic" in r.solutions and r.solutions["dynamic"].ok:
+    dyn = r.solutions.get("dynamic")
+    if dyn is not None and dyn.ok and dyn.flags:  # beyond the small-deflection range: not a valid measurement
+        confirmed = {"dynamic_flagged": 1.0}
+        verdict += (f" [Exudyn answer outside the small-deflection range ({', '.join(dyn.flags)}): not a valid "
+                    "measurement, the prediction stands]")
+    elif "dynamic" in r.solutions and r.solutions["dynamic"].ok:
         confirmed = {f"{n}_vs_dynamic": r.metrics[f"{n}_vs_dynamic"].verdict_error
                      if f"{n}_vs_dynamic" in r.metrics else nan for n in ("quasi_static", "linear")}
         measured = measured_tier(confirmed, tolerance)
@@ -291,13 +300,25 @@ def check_row(r: SceneResult, linear_range: LinearRange, tolerance: float,
         linear_vs_quasi_static=metrics.history_error(qs_xy, lin_xy) if lin_xy is not None and qs_xy is not None
         else nan, quasi_static_error_estimate=est,
         floquet_max_abs=float(lin.stats.get("floquet_max_abs", nan)) if lin is not None else nan,
-        tier=name, verdict=verdict, flags=tuple(sorted({*(qs.flags if qs else ()), *(lin.flags if lin else ())})),
+        tier=name, verdict=verdict, flags=_row_flags(qs, lin, r.solutions.get("dynamic")),
         confirmed=confirmed, key=r.key, linear_harmonics=int(lin.stats.get("harmonics", 0)) if lin is not None else 0,
         linear_limit_speed_ratio=linear_range.lower_limit(tolerance), holds_below_error=margins.holds_below * tolerance,
         fails_above_error=margins.fails_above * tolerance, margins_source=margins.source, decided_by=decided_by,
         predicted_tier=predicted, floquet_steps=int(lin.stats.get("floquet_steps", 0)) if lin is not None else 0,
         floquet_reduced=bool(lin.stats.get("floquet_reduced", False)) if lin is not None else False,
     )
+
+
+LINEAR_FAILED = "linear_failed"
+"""Flag of a check row whose linear solve failed without a physical verdict (numerically, or it could not run)."""
+
+
+def _row_flags(qs: Solution | None, lin: Solution | None, dyn: Solution | None) -> tuple[str, ...]:
+    """The validity flags of every tier's answer (quasi-static, linear, Exudyn), plus :data:`LINEAR_FAILED`."""
+    found = {*(qs.flags if qs else ()), *(lin.flags if lin else ()), *(dyn.flags if dyn is not None and dyn.ok else ())}
+    if lin is not None and not lin.ok and lin.failure_class != "physical":
+        found.add(LINEAR_FAILED)
+    return tuple(sorted(found))
 
 
 def linear_range(mass_model: str) -> LinearRange:

@@ -28,7 +28,7 @@ from ked_quasi import rules
 from ked_quasi.linkage import BRANCHES, DIRECTIONS, LINKS, SECTION_RULES, THESIS_RPM, FourBar, thesis_fourbar
 from ked_quasi.massmodel import MASS_MODELS, PLACEMENTS, MassModel, default_payload
 from ked_quasi.scene import variant
-from ked_quasi.slidercrank import SliderCrank, simeon_slider_crank, slider_from_table
+from ked_quasi.slidercrank import SliderCrank, kind_conflict, simeon_slider_crank, slider_from_table
 
 DEFAULT_TOLERANCE = 0.10
 CONFIG_SOLVERS = ("quasi_static", "linear", "dynamic")
@@ -275,28 +275,30 @@ def _check_kind_axes(c: _Checker, source: FourBar | SliderCrank, path: str, mech
 
 
 def _check_speed_ratios(c: _Checker, grid: Grid) -> None:
-    """r = Omega/omega1_min above the bound at a requested rpm is refused: checked once per distinct mechanism
-    and mass model, at the fastest rpm and the smallest stiffness scale (every Young's modulus times k scales
-    the frozen structure's stiffness by k, so omega1_min grows as sqrt(k): that pair has the largest r)."""
+    """r = Omega/omega1_min above the bound (or below its floor) at a requested rpm is refused: checked once
+    per distinct mechanism and mass model, at the fastest rpm and the smallest stiffness scale (every Young's
+    modulus times k scales the frozen structure's stiffness by k, so omega1_min grows as sqrt(k): that pair has
+    the largest r), and at the slowest rpm and the largest scale (the smallest r)."""
     rpms = [s.value for s in grid.speeds if s.kind == "rpm"]
     if not rpms:
         return
-    k = min(grid.stiffness_scales)
-    for i, linkage in enumerate(grid.linkages):
-        where = "" if len(grid.linkages) == 1 else f"{_linkage_path(i, len(grid.linkages))}, "
-        if isinstance(linkage, SliderCrank):
-            _check_slider_grid(c, grid, linkage, max(rpms), k, where)
-        for mech, mm in itertools.product(() if isinstance(linkage, SliderCrank) else grid.mechanisms,
-                                          grid.mass_models):
-            try:
-                check_speed(variant(linkage, mech, k), mm, max(rpms), grid.step_deg,
-                            label=f"grid.rpm ({where}{mech}, {mm.name}, stiffness x{k:g})")
-            except ValueError as exc:
-                c.problems.append(str(exc))
-                c.bad.add("grid.rpm")
+    # the fastest rpm at the softest scale has the largest r, the slowest at the stiffest the smallest
+    for rpm, k in ((max(rpms), min(grid.stiffness_scales)), (min(rpms), max(grid.stiffness_scales))):
+        for i, linkage in enumerate(grid.linkages):
+            where = "" if len(grid.linkages) == 1 else f"{_linkage_path(i, len(grid.linkages))}, "
+            if isinstance(linkage, SliderCrank):
+                _check_slider_grid(c, grid, linkage, rpm, k, where)
+            for mech, mm in itertools.product(() if isinstance(linkage, SliderCrank) else grid.mechanisms,
+                                              grid.mass_models):
+                try:
+                    check_speed(variant(linkage, mech, k), mm, rpm, grid.step_deg,
+                                label=f"grid.rpm ({where}{mech}, {mm.name}, stiffness x{k:g})")
+                except ValueError as exc:
+                    c.problems.append(str(exc))
+                    c.bad.add("grid.rpm")
+                    return
+            if "grid.rpm" in c.bad:
                 return
-        if "grid.rpm" in c.bad:
-            return
 
 
 def _check_slider_grid(c: _Checker, grid: Grid, linkage: SliderCrank, rpm: float, k: float, where: str = "") -> None:
@@ -323,15 +325,17 @@ def _check_slider_grid(c: _Checker, grid: Grid, linkage: SliderCrank, rpm: float
 
 def check_speed(fourbar: FourBar, mass_model: MassModel, rpm: float, step_deg: float, label: str = "rpm") -> None:
     """Refuse a crank speed ``rpm`` [rev/min] at which r = Omega/omega1_min exceeds the rule's bound
-    (:func:`ked_quasi.rules.check_speed_ratio`, naming the likely unit mix-up).  A quick estimate
-    (:data:`~ked_quasi.rules.SPEED_RATIO_LOAD_STEP_DEG`) screens; a suspicious speed is confirmed with the
-    scene's own step and lumps, the omega1_min the run would compute."""
+    (:func:`ked_quasi.rules.check_speed_ratio`, naming the likely unit mix-up) or lies below
+    :data:`~ked_quasi.rules.MIN_SPEED_RATIO`.  A quick estimate (:data:`~ked_quasi.rules.SPEED_RATIO_LOAD_STEP_DEG`)
+    screens; a suspicious speed is confirmed with the scene's own step and lumps, the omega1_min the run
+    would compute."""
     from ked_quasi.units import rpm_to_rad_s
 
     bound = float(rules.SPEED_RATIO.hi)  # type: ignore[arg-type]
     quick = _omega1_min(fourbar, replace(mass_model, lumps=min(mass_model.lumps, rules.SPEED_RATIO_LOAD_LUMPS)),
                         rules.SPEED_RATIO_LOAD_STEP_DEG)
-    if not rpm_to_rad_s(rpm) / quick > rules.SPEED_RATIO_SCREEN * bound:
+    r = rpm_to_rad_s(rpm) / quick
+    if not (r > rules.SPEED_RATIO_SCREEN * bound or r < rules.MIN_SPEED_RATIO / rules.SPEED_RATIO_SCREEN):
         return
     exact = _omega1_min(fourbar, mass_model, step_deg)
     rules.check_speed_ratio(rpm_to_rad_s(rpm) / exact, rpm, exact / (2.0 * math.pi), label)
@@ -386,6 +390,9 @@ def linkage_from_table(c: _Checker, tab: dict[str, Any]) -> FourBar | SliderCran
     (keys: :func:`ked_quasi.slidercrank.slider_from_table`)."""
     kind = c.string(tab, "linkage.kind", default=FOUR_BAR, choices=(FOUR_BAR, SLIDER_KIND))
     if kind is None:
+        return None
+    if kind_conflict(tab):
+        c.err("linkage", kind_conflict(tab).removeprefix("linkage."))
         return None
     if kind == SLIDER_KIND or tab.get("preset") == "simeon":
         if tab.get("preset") == "simeon":

@@ -131,8 +131,10 @@ def _solver_of(key: str) -> str | None:
 
 
 def _flagged(row: dict[str, Any], key: str) -> bool:
+    """An error whose solver's answer, or whose reference (every error is measured against it), carries
+    validity flags."""
     solver = _solver_of(key)
-    return solver is not None and bool(row.get(f"flags_{solver}"))
+    return solver is not None and (bool(row.get(f"flags_{solver}")) or bool(row.get(f"flags_{row.get('reference')}")))
 
 
 def flag_note(rows: Sequence[dict[str, Any]]) -> str:

@@ -110,6 +110,14 @@ def extrapolate_limit(cycles: list[np.ndarray]) -> np.ndarray:
     from the least-squares fit sum_i c_i (x_{i+1} - x_i) = 0, c_k = 1, g = c / sum(c). dx, dy and the
     rotation are scaled by their peaks so both enter the fit alike.
     """
+    return np.tensordot(extrapolation_weights(cycles), np.array(cycles, dtype=float), axes=1)
+
+
+def extrapolation_weights(cycles: list[np.ndarray]) -> np.ndarray:
+    """The weights g, shape (len(cycles),) and summing to 1) of :func:`extrapolate_limit`: limit = sum_i g_i x_i.
+    The same weights extrapolate any other linear observation of the same cycles (e.g. the model's full
+    state at each cycle's end, exudyn_models.march), since its transient decays by the same multipliers;
+    a fit without a finite limit (sum(c) ~ 0) gives the last cycle."""
     X = np.array(cycles, dtype=float)
     scale = np.ones(X.shape[-1])
     for cols in (slice(0, 2), slice(2, 3)):
@@ -120,9 +128,12 @@ def extrapolate_limit(cycles: list[np.ndarray]) -> np.ndarray:
     k = len(cycles) - 2
     c, *_ = np.linalg.lstsq(U[:, :k], -U[:, k], rcond=None)
     c = np.append(c, 1.0)
+    g = np.zeros(len(cycles))
     if abs(c.sum()) < 1e-12:
-        return X[-1]
-    return np.tensordot(c / c.sum(), X[:k + 1], axes=1)
+        g[-1] = 1.0
+    else:
+        g[:k + 1] = c / c.sum()
+    return g
 
 
 @dataclass
@@ -132,7 +143,9 @@ class SteadyTracker:
     cycles: cycles seen; current: the last one on the grid (n, 3); change: the last relative change
     (or the accepted estimate's); changes: one per cycle from the second on; history: the last
     EXTRAPOLATION_ORDER + 2 cycles; estimate: the last extrapolated limit; peaks [m]: peak |d| of
-    every cycle (growth evidence for exudyn_models.failure)."""
+    every cycle (growth evidence for exudyn_models.failure); weights: the extrapolation weights of the last
+    estimate over history (exudyn_models.cycles.extrapolation_weights); rejected: an estimate of this run was
+    not confirmed by a simulated cycle (exudyn_models.march), so no later one is accepted."""
 
     settings: DynamicSettings
     cycles: int = 0
@@ -142,6 +155,8 @@ class SteadyTracker:
     history: list[np.ndarray] = field(default_factory=list)
     estimate: np.ndarray | None = None
     peaks: list[float] = field(default_factory=list)
+    weights: np.ndarray | None = None
+    rejected: bool = False
 
     def add(self, cycle: np.ndarray) -> None:
         """Record one more simulated cycle."""
@@ -164,9 +179,10 @@ class SteadyTracker:
     def settled_estimate(self) -> np.ndarray | None:
         """The extrapolated limit cycle once two successive estimates agree within steady_tol (and it is
         a modest correction, < 20 % of the peak, of the last cycle); None otherwise."""
-        if not (self.settings.extrapolate and len(self.history) == EXTRAPOLATION_ORDER + 2):
+        if not (self.settings.extrapolate and not self.rejected and len(self.history) == EXTRAPOLATION_ORDER + 2):
             return None
-        estimate = extrapolate_limit(self.history)
+        self.weights = extrapolation_weights(self.history)
+        estimate = np.tensordot(self.weights, np.array(self.history, dtype=float), axes=1)
         previous, self.estimate = self.estimate, estimate
         if previous is None or not self.enough:
             return None
@@ -184,7 +200,10 @@ class RunRecord:
     deflection (n, 3) of the returned cycle; steps, newton_iterations: totals; converged; extrapolated:
     the returned cycle is the extrapolated limit; tracker: the cycles; start_note: how the constant-speed
     phase began; residuals: periodic-solve residuals per cycle (empty when marching); message;
-    steps_per_cycle: the steps per cycle the run used (exudyn_models.lowspeed; 0 = not recorded)."""
+    steps_per_cycle: the steps per cycle the run used (exudyn_models.lowspeed; 0 = not recorded);
+    confirmation: how an extrapolated cycle was checked by a cycle simulated from the extrapolated state
+    (exudyn_models.march.confirm_extrapolation): the confirming cycle's change when the returned cycle is
+    extrapolated, else why the last extrapolated orbit was rejected ("" when none was)."""
 
     deflection: np.ndarray
     steps: int
@@ -196,3 +215,4 @@ class RunRecord:
     residuals: tuple[float, ...] = ()
     message: str = ""
     steps_per_cycle: int = 0
+    confirmation: str = ""

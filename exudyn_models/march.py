@@ -1,7 +1,17 @@
 """Marching to steady state in one Exudyn run (settings.periodic = "off"): after the start (ramp, or the
 quasi-static start state) the solver runs up to max_cycles constant-speed cycles; a pre-step function
 samples every completed cycle on the scene grid and stops the run once it is steady (exudyn_models.cycles
-.SteadyTracker: plain test, then the extrapolated limit)."""
+.SteadyTracker: plain test, then the extrapolated limit).
+
+An extrapolated limit is an estimate, not a simulated cycle: it is accepted only when one more cycle,
+simulated from the extrapolated full state, reproduces it within steady_tol (confirm_extrapolation). The
+full state (ODE2 coordinates, velocities, accelerations, algebraic coordinates) is recorded at the end of
+each cycle and extrapolated with the weights of the deflection's extrapolation (the same transient decays
+in every linear observation of the cycles); a coordinate that turns by whole revolutions per cycle (the
+crank's rotation) is first brought to the phase of the last cycle. An estimate the confirming cycle does
+not reproduce fitted something other than a decaying transient toward a periodic orbit: it is dropped
+(RunRecord.confirmation says why) and the march goes on from the last simulated cycle's end without
+extrapolation: the run is then steady only by two successive simulated cycles."""
 
 from __future__ import annotations
 
@@ -11,10 +21,19 @@ import exudyn as exu
 import numpy as np
 
 from .builder import BuiltModel
-from .cycles import CycleSampler, RunRecord, SteadyTracker, rows_by_step, solver_settings
+from .cycles import (
+    EXTRAPOLATION_ORDER,
+    CycleSampler,
+    RunRecord,
+    SteadyTracker,
+    relative_change,
+    rows_by_step,
+    solver_settings,
+)
 from .errors import SimulationError
 from .settings import DynamicSettings
-from .tolerance import newton_tolerances
+from .start import set_initial_state
+from .tolerance import NewtonTolerances, newton_tolerances
 
 
 class _CycleCheck:
@@ -34,8 +53,22 @@ class _CycleCheck:
         self.result: np.ndarray | None = None
         self.extrapolated = False
         self.error: BaseException | None = None
+        self.ends: list[tuple[np.ndarray, ...]] = []  # full state at the end of each cycle of tracker.history
+        self.pending = False
+
+    def record_end(self, mbs) -> None:
+        """Record the model's current full state as the end state of the last checked cycle. (Exudyn calls
+        the pre-step function with the time at the end of the coming step while the state is still the one
+        at its start, so the state at a cycle's end is read at the following call, or after the run.)"""
+        sd = mbs.systemData
+        end = (np.array(sd.GetODE2Coordinates()), np.array(sd.GetODE2Coordinates_t()),
+               np.array(sd.GetODE2Coordinates_tt()), np.array(sd.GetAECoordinates()))
+        self.ends = (self.ends + [end])[-(EXTRAPOLATION_ORDER + 2):]
+        self.pending = False
 
     def __call__(self, mbs, t: float) -> bool:
+        if self.pending:  # the model's state is now the one at the end of the last checked cycle
+            self.record_end(mbs)
         if t < self.next_check:
             return True
         self.next_check += self.cycle_time
@@ -51,6 +84,7 @@ class _CycleCheck:
         rows = rows_by_step(data, self.step)
         first = self.ramp_steps + tr.cycles * n
         tr.add(self.sample(data[rows[first:first + n], 1:]))
+        self.pending = True
         if tr.steady():
             self.converged, self.result = True, tr.current
             return False
@@ -65,29 +99,101 @@ def march(scene, settings: DynamicSettings, model: BuiltModel, start_note: str, 
           tolerances=None) -> RunRecord:
     """Run the model (initial state already set) to steady state or max_cycles in one Exudyn run.
     sampler, tolerances: the cycle sampler and Newton tolerances (None: the four-bar's CycleSampler and
-    newton_tolerances; the slider-crank passes its own, exudyn_models.slider_simulate)."""
+    newton_tolerances; the slider-crank passes its own, exudyn_models.slider_simulate). An extrapolated
+    cycle that its confirming cycle does not reproduce is dropped and the march goes on, without
+    extrapolation, from the last simulated cycle's end (a new Exudyn run from that state)."""
     drive, mbs = model.drive, model.mbs
     n = settings.steps_per_cycle
     h = drive.cycle_time / n
-    sset = solver_settings(settings, h, drive.cycle_start(settings.max_cycles),
-                           newton_tolerances(settings, scene) if tolerances is None else tolerances)
+    t_end = drive.cycle_start(settings.max_cycles)
+    tol = newton_tolerances(settings, scene) if tolerances is None else tolerances
     tracker = SteadyTracker(settings)
     check = _CycleCheck(model, CycleSampler(model, scene, n) if sampler is None else sampler, tracker, h)
-    mbs.SetPreStepUserFunction(check)
+    steps = newton = 0
+    t_start, confirmation = 0.0, ""
+    while True:
+        mbs.SetPreStepUserFunction(check)
+        sset = solver_settings(settings, h, t_end, tol)
+        sset.timeIntegration.startTime = t_start
+        sset.timeIntegration.numberOfSteps = max(1, round((t_end - t_start) / h))
+        solver = exu.MainSolverImplicitSecondOrder()
+        ok = solver.SolveSystem(mbs, sset)
+        steps += int(solver.it.currentStepIndex)
+        newton += int(solver.it.newtonStepsCount)
+        if check.error is not None:
+            raise check.error
+        t = float(solver.it.currentTime)
+        if not ok and not check.converged:
+            raise SimulationError("Newton iteration did not converge (step rejected)", t,
+                                  float(np.mod(drive.angle(t), 2.0 * math.pi)), cycles=tracker.cycles,
+                                  peaks=tuple(tracker.peaks), step_index=steps)
+        if not check.converged and tracker.cycles < settings.max_cycles:
+            check(mbs, t_end)  # the last cycle ends with the run
+        if tracker.current is None:
+            raise SimulationError("no complete steady cycle was simulated", t,
+                                  float(np.mod(drive.angle(t), 2.0 * math.pi)))
+        if not check.extrapolated:
+            break
+        if check.pending:
+            check.record_end(mbs)
+        mbs.SetPreStepUserFunction(0)  # the confirming cycle runs on its own
+        confirmed, text, c_steps, c_newton = confirm_extrapolation(model, settings, check.sample, tol, check.result,
+                                                                   tracker, check.ends)
+        steps, newton = steps + c_steps, newton + c_newton
+        if confirmed:
+            confirmation = text
+            break
+        confirmation = f"extrapolated orbit after {tracker.cycles} cycles not confirmed: {text}"
+        check.converged, check.extrapolated, check.result = False, False, None
+        if tracker.cycles >= settings.max_cycles:
+            break
+        tracker.rejected = True  # from here on only two successive simulated cycles make the run steady
+        set_initial_state(model, *check.ends[-1])  # go on marching from the last simulated cycle's end
+        t_start = drive.cycle_start(tracker.cycles)
+        check.next_check = drive.cycle_start(tracker.cycles + 1) - 0.5 * h
+    return RunRecord(deflection=tracker.current if check.result is None else check.result, steps=steps,
+                     newton_iterations=newton, converged=check.converged, extrapolated=check.extrapolated,
+                     tracker=tracker, start_note=start_note, confirmation=confirmation)
+
+
+def extrapolated_state(ends: list[tuple[np.ndarray, ...]], weights: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The full state (q, v, a, ae) at the end of the last of ``ends`` extrapolated with ``weights``
+    (exudyn_models.cycles.extrapolation_weights of the same cycles). Velocities, accelerations and the
+    algebraic coordinates are periodic; a coordinate whose value grows by whole turns per cycle (a crank's
+    rotation [rad]; the change of a position over one cycle at the same crank angle is far below pi m) is
+    brought to the last cycle's phase first."""
+    last = len(ends) - 1
+    q_turn = 2.0 * math.pi * np.rint((ends[-1][0] - ends[-2][0]) / (2.0 * math.pi))
+    q = sum(g * (e[0] + (last - i) * q_turn) for i, (g, e) in enumerate(zip(weights, ends)))
+    return (q, *(sum(g * e[j] for g, e in zip(weights, ends)) for j in (1, 2, 3)))
+
+
+def confirm_extrapolation(model: BuiltModel, settings: DynamicSettings, sample, tol: NewtonTolerances,
+                          estimate: np.ndarray, tracker: SteadyTracker,
+                          ends: list[tuple[np.ndarray, ...]]) -> tuple[bool, str, int, int]:
+    """Simulate one cycle from the extrapolated state (the tracker's weights over ``ends``) and compare it
+    with ``estimate``: (confirmed, what was found, steps, Newton iterations). Confirmed when the simulated
+    cycle reproduces the estimate within steady_tol. tol: the march's Newton tolerances."""
+    drive, n = model.drive, settings.steps_per_cycle
+    h = drive.cycle_time / n
+    t0 = drive.cycle_start(tracker.cycles)
+    q, v, a, ae = extrapolated_state(ends, tracker.weights)
+    set_initial_state(model, q, v, a, ae)
+    sset = solver_settings(settings, h, t0 + n * h, tol)
+    sset.timeIntegration.startTime = t0
+    sset.timeIntegration.numberOfSteps = n
     solver = exu.MainSolverImplicitSecondOrder()
-    ok = solver.SolveSystem(mbs, sset)
-    if check.error is not None:
-        raise check.error
-    t = float(solver.it.currentTime)
-    if not ok and not check.converged:
-        raise SimulationError("Newton iteration did not converge (step rejected)", t,
-                              float(np.mod(drive.angle(t), 2.0 * math.pi)), cycles=tracker.cycles,
-                              peaks=tuple(tracker.peaks), step_index=int(solver.it.currentStepIndex))
-    if not check.converged and tracker.cycles < settings.max_cycles:
-        check(mbs, drive.cycle_start(settings.max_cycles))  # the last cycle ends with the run
-    if tracker.current is None:
-        raise SimulationError("no complete steady cycle was simulated", t, float(np.mod(drive.angle(t), 2.0 * math.pi)))
-    return RunRecord(deflection=tracker.current if check.result is None else check.result,
-                     steps=int(solver.it.currentStepIndex), newton_iterations=int(solver.it.newtonStepsCount),
-                     converged=check.converged, extrapolated=check.extrapolated, tracker=tracker,
-                     start_note=start_note)
+    ok = solver.SolveSystem(model.mbs, sset)
+    steps, newton = int(solver.it.currentStepIndex), int(solver.it.newtonStepsCount)
+    if not ok:
+        return False, "Newton failed in the cycle simulated from the extrapolated state", steps, newton
+    data = model.mbs.GetSensorStoredData(model.p_sensor)
+    rows = rows_by_step(data, h, t0)[:n]
+    if rows.size < n or np.any(rows < 0):
+        return False, "the cycle simulated from the extrapolated state has missing samples", steps, newton
+    change = relative_change(sample(data[rows, 1:]), estimate)
+    if change < settings.steady_tol:
+        return True, (f"confirmed by a cycle simulated from the extrapolated state (change {change:.2e} < tol "
+                      f"{settings.steady_tol:g})"), steps, newton
+    return False, (f"a cycle simulated from the extrapolated state differs from it by {change:.2e} of the peak "
+                   f"(not < tol {settings.steady_tol:g})"), steps, newton

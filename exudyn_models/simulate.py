@@ -17,9 +17,11 @@ modified Newton with one Jacobian update per step. One run at fixed settings (_r
       |dx|, |dy|) and for the rotation (relative to its peak), after at least min_cycles cycles; with
       settings.extrapolate the limit cycle is also estimated from the last 4 cycles by minimal
       polynomial extrapolation and accepted once two successive estimates agree within steady_tol (and
-      differ from the last cycle by < 20 % of the peak). "anderson": the periodic orbit solved directly,
-      cycle by cycle with Anderson mixing of the full state (exudyn_models.periodic); steady by the same
-      two-successive-cycles test on a plain continuation cycle.
+      differ from the last cycle by < 20 % of the peak) and a cycle simulated from the extrapolated
+      state reproduces it within steady_tol (else the march goes on, exudyn_models.march).
+      "anderson": the periodic orbit solved directly, cycle by cycle with Anderson mixing of the full
+      state (exudyn_models.periodic); steady by the same two-successive-cycles test on a plain
+      continuation cycle.
 Refinement (settings.refine): a Newton failure is retried along the ladder of exudyn_models.refine within
 refine_budget_s; every attempt is recorded (DynamicResult.attempts, SimulationError.attempts). A scene that
 runs through at the requested settings is returned exactly as without refinement.
@@ -33,6 +35,8 @@ import time
 from dataclasses import dataclass, replace
 
 import numpy as np
+
+from ked_quasi import limits
 
 from .builder import build_model
 from .cycles import (  # noqa: F401 - re-exported (the public home of these names)
@@ -85,6 +89,9 @@ class DynamicResult:
     cycle_peaks [m]: peak |d| (vector dx, dy) of every constant-speed cycle.
     midspan (n,) [m]: a slider-crank's coupler midspan deflection normal to its chord
         (exudyn_models.slider_simulate); None for a four-bar.
+    flags: validity flags of the history (ked_quasi.limits: large_deflection, large_rotation, non_finite),
+        the same bounds as the quasi-static and linear answers: a deflection beyond the small-deflection
+        range is not compared as a valid reference; validity: one line saying why (empty if no flag).
     """
 
     crank_angle: np.ndarray
@@ -107,6 +114,8 @@ class DynamicResult:
     periodic_residuals: tuple[float, ...] = ()
     cycle_peaks: tuple[float, ...] = ()
     midspan: np.ndarray | None = None
+    flags: tuple[str, ...] = ()
+    validity: str = ""
 
 
 def _run(scene, settings: DynamicSettings, damping_beta: float) -> RunRecord:
@@ -138,14 +147,15 @@ def _message(record: RunRecord, settings: DynamicSettings) -> str:
     cycles, change, tol = tr.cycles, tr.change, settings.steady_tol
     if record.converged and record.extrapolated:
         return (f"steady after {cycles} cycles, extrapolated from the last {EXTRAPOLATION_ORDER + 2} "
-                f"(change of the estimate {change:.2e} < tol {tol:g})")
+                f"(change of the estimate {change:.2e} < tol {tol:g}; {record.confirmation})")
+    rejected = f" ({record.confirmation}; marching went on)" if record.confirmation else ""
     if record.converged and record.residuals:
         return (f"steady after {cycles} cycles (change {change:.2e} < tol {tol:g}; periodic orbit by Anderson "
                 f"mixing, residual {record.residuals[0]:.1e} -> {record.residuals[-1]:.1e})")
     if record.converged:
-        return f"steady after {cycles} cycles (change {change:.2e} < tol {tol:g})"
+        return f"steady after {cycles} cycles (change {change:.2e} < tol {tol:g}){rejected}"
     return (f"not steady after max_cycles={settings.max_cycles} cycles: last relative change "
-            f"{change:.2e} >= tol {tol:g}")
+            f"{change:.2e} >= tol {tol:g}{rejected}")
 
 
 def _result(scene, settings: DynamicSettings, solved: DynamicSettings, record: RunRecord, f_ref: float,
@@ -164,6 +174,8 @@ def _result(scene, settings: DynamicSettings, solved: DynamicSettings, record: R
     if record.start_note not in ("ramp", "quasi-static"):
         message += f" (start: {record.start_note})"
     d = np.asarray(record.deflection)
+    linkage = getattr(scene, "fourbar", None) or scene.linkage  # a four-bar, or a slider-crank
+    flags = limits.flags(d[:, :3], linkage)
     return DynamicResult(crank_angle=np.asarray(scene.crank_angles, dtype=float), deflection=d[:, :3],
                          wall_s=time.perf_counter() - t_wall, steps=record.steps,
                          newton_iterations=record.newton_iterations, cycles=tr.cycles, converged=record.converged,
@@ -171,7 +183,8 @@ def _result(scene, settings: DynamicSettings, solved: DynamicSettings, record: R
                          cycle_changes=tuple(tr.changes), solved_settings=solved, attempts=attempts,
                          failure_class=failure_class, evidence=evidence, start=record.start_note,
                          periodic_residuals=record.residuals, cycle_peaks=tuple(tr.peaks),
-                         midspan=d[:, 3].copy() if d.shape[1] > 3 else None)
+                         midspan=d[:, 3].copy() if d.shape[1] > 3 else None, flags=flags,
+                         validity=limits.describe(flags, d[:, :3], linkage))
 
 
 def _extend(scene, settings: DynamicSettings, solved: DynamicSettings, record: RunRecord, beta: float,

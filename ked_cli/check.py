@@ -9,7 +9,15 @@ from dataclasses import asdict
 
 import click
 
-from ked_cli.options import RuleType, json_text, linkage_option, load_source, refuse_fast, refuse_fast_slider
+from ked_cli.options import (
+    RuleType,
+    json_text,
+    linkage_option,
+    load_source,
+    refuse_fast,
+    refuse_fast_slider,
+    refuse_oversized,
+)
 from ked_quasi import rules
 from ked_quasi.linkage import DIRECTIONS
 from ked_quasi.massmodel import MASS_MODELS
@@ -115,15 +123,17 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     try:
         mm = MassModel(mass_model, lumps=lumps, payload=default_payload(mass_model) if payload_kg is None
                        else payload_kg)
+        from compare.check import spec_for
+
         if slider is None:
             source = load_source(linkage)
             refuse_fast(variant(source, mechanism, stiffness_scale, direction), mm, speeds, 10.0, "--rpm")
         else:
-            from compare.check import spec_for
-
             source = slider
             refuse_fast_slider(spec_for(slider, mechanism, mm, speeds[0], stiffness_scale=stiffness_scale,
                                         direction=direction).scene(speeds[0]), speeds, "--rpm")
+        refuse_oversized(spec_for(source, mechanism, mm, speeds[0], stiffness_scale=stiffness_scale,
+                                  direction=direction).scene(speeds[0]))
         sweep = len(speeds) >= 3 and slider is None  # critical speeds: local maxima over the range (compare.critical)
         # one bar over the speeds and then the critical-speed sweep; worker processes once the work is worth them
         with progress(len(speeds)) as bar, CheckWorkers(workers) as pool:

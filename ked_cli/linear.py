@@ -6,7 +6,15 @@ from typing import Any
 
 import click
 
-from ked_cli.options import SceneOptions, build_scene, build_slider, json_text, scene_options, wrap
+from ked_cli.options import (
+    SceneOptions,
+    build_scene,
+    build_slider,
+    json_text,
+    refuse_oversized,
+    scene_options,
+    wrap,
+)
 from ked_quasi import rules
 
 
@@ -41,6 +49,8 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
     own frozen structure, as by ked quasi (mass model distributed unless given); the JSON adds midspan_m,
     the coupler's midspan deflection normal to its chord.
     """
+    import numpy as np
+
     from ked_linear import LinearSettings, describe_flags, result_flags, solve_linear
 
     opts = SceneOptions.pop(kw)
@@ -51,6 +61,7 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
         from dataclasses import replace
 
         opts = replace(opts, mass_model=scene.mass_model.name)  # the mass model solved (distributed by default)
+    refuse_oversized(scene)
     linkage = getattr(scene, "fourbar", None) or scene.linkage
     try:
         settings = LinearSettings(damping_ratio=damping_ratio, damping_reference_hz=damping_reference_hz,
@@ -59,6 +70,10 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
         raise click.UsageError(str(exc)) from None
     try:
         res = solve_linear(scene, settings)
+    except (np.linalg.LinAlgError, ArithmeticError) as exc:  # before ValueError: LinAlgError is one
+        from compare.solvers.linear import NUMERICAL_FAILURE
+
+        raise click.ClickException(f"{NUMERICAL_FAILURE}: {exc} (not a verdict on the linkage)") from None
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
     d = res.deflection
@@ -102,9 +117,9 @@ def _table(opts: SceneOptions, scene: Any, res: Any, out: dict[str, Any]) -> Non
 
 
 def _slider_scene(opts: SceneOptions) -> Any:
-    """The slider-crank scene ``--linkage`` names (``ked_cli.options.build_slider`` without the quasi-static
-    speed bound: the linear model flags its own validity), or None for a four-bar."""
+    """The slider-crank scene ``--linkage`` names (``ked_cli.options.build_slider``: the same speed-ratio
+    bound r <= 10 as ``ked quasi`` and ``ked check``), or None for a four-bar."""
     from ked_cli.quasi import slider_source
 
     sc = slider_source(opts.linkage)
-    return None if sc is None else build_slider(opts, sc, refuse_fast=False)
+    return None if sc is None else build_slider(opts, sc)

@@ -194,14 +194,26 @@ def refuse_fast_slider(scene: Any, rpms: list[float], hint: str, frequencies: An
 
 
 def refuse_fast(fourbar: Any, mass_model: Any, rpms: list[float], step_deg: float, hint: str) -> None:
-    """BadParameter for ``hint`` when a crank speed's r = Omega/omega1_min is above the rules' bound."""
+    """BadParameter for ``hint`` when a crank speed's r = Omega/omega1_min is above the rules' bound or
+    below its floor (:data:`ked_quasi.rules.MIN_SPEED_RATIO`)."""
     from compare.config import check_speed
 
-    if rpms:
+    for rpm in sorted({max(rpms), min(rpms)}) if rpms else ():  # the largest and the smallest r
         try:
-            check_speed(fourbar, mass_model, max(rpms), step_deg, label="value")
+            check_speed(fourbar, mass_model, rpm, step_deg, label="value")
         except ValueError as exc:
             raise click.BadParameter(str(exc).removeprefix("value = "), param_hint=hint) from None
+
+
+def refuse_oversized(scene: Any) -> None:
+    """BadParameter for --lumps when the linear KED model cannot take the scene (for the commands that
+    need it: ``ked linear``, ``ked check``), at load, before anything is solved."""
+    from ked_linear.size import check_size
+
+    try:
+        check_size(scene, label="value")
+    except ValueError as exc:
+        raise click.BadParameter(str(exc).removeprefix("value: "), param_hint="--lumps") from None
 
 
 WIDTH = 100

@@ -84,8 +84,9 @@ def simulate(as_json: bool, **kw: Any) -> None:
     newton_iterations, damping_reference_hz, message, failure_class ("" or numerical / physical / undecided),
     evidence, solved_settings (the settings that produced the history: the requested ones unless the
     refinement ladder was needed) and attempts (every run: rung, outcome, wall_s, cycles,
-    elements_per_link, steps_per_cycle, message).  Exit status 1 when no steady state was reached (the
-    JSON still says converged=false and holds the last cycle).
+    elements_per_link, steps_per_cycle, message), flags (validity flags, e.g. large_deflection: the
+    history is beyond the small-deflection range, as in `ked quasi`) and valid.  Exit status 1 when no
+    steady state was reached (the JSON still says converged=false and holds the last cycle).
 
     A slider-crank (--linkage simeon, or a TOML [linkage] table with kind = "slider-crank") runs its own
     model (rigid or beam crank, beam coupler, slider held on its line; start from the ramp, marching);
@@ -115,9 +116,12 @@ def simulate(as_json: bool, **kw: Any) -> None:
         "message": res.message, "failure_class": res.failure_class, "evidence": res.evidence,
         "solved_settings": dataclasses.asdict(res.solved_settings or res.settings),
         "attempts": [attempt_dict(a) for a in res.attempts],
+        "flags": list(res.flags), "valid": bool(res.converged and not res.flags),
     }
     if res.midspan is not None:
         out["midspan_m"] = res.midspan.tolist()
+    if res.flags and res.converged:
+        click.echo(wrap(f"warning: {res.validity}"), err=True)
     if as_json:
         click.echo(json.dumps(out))
     else:
@@ -142,6 +146,8 @@ def _table(opts: SceneOptions, res: Any, out: dict[str, Any]) -> None:
         click.echo(wrap("refinement ladder: " + "; ".join(a.text() for a in res.attempts)))
     if not res.converged:
         return
+    if res.flags:
+        click.echo(wrap("NOT VALID: " + ", ".join(res.flags) + " (see the warning above)"))
     mid = out.get("midspan_m")
     click.echo(f"{'theta deg':>9} {'dx mm':>10} {'dy mm':>10} {'rot mrad':>10}" + (f" {'mid mm':>10}" if mid else ""))
     for i, theta in enumerate(out["crank_angle_deg"]):

@@ -168,8 +168,16 @@ JOINT_SPLIT = Rule("joint_split", "", 0.0, 1.0, "the fraction of a link's mass a
 
 # -- speed and grid -----------------------------------------------------------------------------
 RPM = Rule("rpm", "rev/min", 0.0, 1e5, "crank speeds of real machinery, up to 100 000 rpm", lo_open=True)
-SPEED_RATIO = Rule("speed_ratio", "", 0.0, 10.0,
-                   "crank speed over the lowest first natural frequency of the frozen linkage", lo_open=True)
+MIN_SPEED_RATIO = 1e-4
+"""Slowest crank speed accepted, as r = Omega/omega1_min.  Below it the dynamic part of the response (of
+order r^2 = 1e-8 of the quasi-static deflection) is below what any solver resolves (Newton tolerances,
+round-off), so no tier can say anything the quasi-static answer does not; the Exudyn model's low-speed step
+error grows like 1/r (exudyn_models.lowspeed: thousands of steps per cycle at this bound, and a period of
+10^4 natural periods), and far below it the inertia loads underflow (1e-100 rpm gives NaN deflections).
+The harness's slowest scenes (1 rpm on the thesis linkage, r ~ 2e-3) are well above it."""
+SPEED_RATIO = Rule("speed_ratio", "", MIN_SPEED_RATIO, 10.0,
+                   "crank speed over the lowest first natural frequency of the frozen linkage; below 1e-4 the "
+                   "dynamic part is below every solver's resolution")
 STEP_DEG = Rule("step_deg", "deg", 0.01, 45.0,
                 "at least 8 samples per turn to resolve peaks and harmonics, at most 36 000 angles; "
                 "it must divide 360")
@@ -240,8 +248,15 @@ def check_transmission(min_deg: float, label: str, at_deg: float, lengths: str) 
 
 def check_speed_ratio(ratio: float, rpm: float, f1_hz: float, label: str = "rpm") -> None:
     """Refuse a crank speed ``rpm`` whose speed ratio ``ratio`` = Omega/omega1_min exceeds
-    :data:`SPEED_RATIO`'s bound (``f1_hz``: the lowest first natural frequency [Hz]); the message
-    names the likely unit mix-up."""
+    :data:`SPEED_RATIO`'s bound (``f1_hz``: the lowest first natural frequency [Hz]; the message
+    names the likely unit mix-up) or lies below :data:`MIN_SPEED_RATIO`."""
+    if ratio < MIN_SPEED_RATIO:  # nan (no finite frequency) is not refused
+        raise ValueError(
+            f"{label} = {rpm:g}: speed ratio r = Omega/omega1_min = {ratio:.3g} below {MIN_SPEED_RATIO:g} (lowest "
+            f"first natural frequency {f1_hz:.3g} Hz): at so slow a crank the dynamic part of the response (~r^2 "
+            "of the deflection) is below every solver's resolution and the period cannot be simulated in "
+            "reasonable steps; crank speeds are in rev/min: raise the speed (the quasi-static answer at "
+            f"r = {MIN_SPEED_RATIO:g} is the answer at any slower speed, scaled by (speed ratio)^2)")
     if ratio > SPEED_RATIO.hi:  # type: ignore[operator]  # nan (no finite frequency) is not refused
         raise ValueError(
             f"{label} = {rpm:g}: speed ratio r = Omega/omega1_min = {ratio:.3g} above {SPEED_RATIO.hi:g} (lowest "

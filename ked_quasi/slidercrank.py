@@ -339,8 +339,16 @@ def load_slider_crank(path: str) -> SliderCrank | None:
     except (OSError, ValueError):
         return None
     tab = doc.get("linkage")
+    if kind_conflict(tab):
+        raise ValueError(f"{path}: {kind_conflict(tab)}")
     if not is_slider_table(tab):
         return None
+    if tab.get("preset") == "simeon":
+        extra = sorted(set(tab) - {"preset", "kind"})
+        if extra:
+            raise ValueError(f"{path}: linkage: unknown key(s) {', '.join(extra)} beside preset = 'simeon'; allowed: "
+                             "preset, kind")
+        return simeon_slider_crank()
     try:
         return slider_from_table(tab)
     except ValueError as exc:
@@ -353,9 +361,29 @@ TABLE_KEYS = ("kind", "crank", "coupler", "offset", "coupler_point", "slider_mas
 SECTION_KEYS = (*SECTION_RULES, "rigid")
 
 
+PRESET_KINDS = {"thesis": "four-bar", "simeon": KIND}
+"""The kind of each linkage preset a ``[linkage]`` table may name (``preset = ...``)."""
+
+
+def kind_conflict(tab: Any) -> str:
+    """The problem of a ``[linkage]`` table whose ``preset`` and ``kind`` name different kinds of linkage
+    (empty when they agree or either is absent)."""
+    if not isinstance(tab, dict):
+        return ""
+    preset, kind = tab.get("preset"), tab.get("kind")
+    own = PRESET_KINDS.get(preset) if isinstance(preset, str) else None
+    if own is None or kind is None or kind == own:
+        return ""
+    return (f"linkage.preset = {preset!r} is a {own} but linkage.kind = {kind!r}: the keys preset and kind "
+            f"conflict; drop kind (or write kind = {own!r})")
+
+
 def is_slider_table(tab: Any) -> bool:
-    """Whether a ``[linkage]`` table declares ``kind = "slider-crank"``."""
-    return isinstance(tab, dict) and tab.get("kind") == KIND
+    """Whether a ``[linkage]`` table declares a slider-crank: ``kind = "slider-crank"`` or the preset
+    ``"simeon"`` (without a conflicting kind, :func:`kind_conflict`)."""
+    if not isinstance(tab, dict):
+        return False
+    return tab.get("kind") == KIND or (tab.get("preset") == "simeon" and not kind_conflict(tab))
 
 
 def slider_from_table(tab: dict[str, Any]) -> SliderCrank:

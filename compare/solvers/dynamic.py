@@ -57,7 +57,8 @@ def _stats(res: Any) -> dict[str, Any]:
 
 
 def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Solution:
-    """Exudyn steady state of the scene; a run without a periodic steady state is a failed solution
+    """Exudyn steady state of the scene (with the validity flags of ``ked_quasi.limits`` where its
+    history leaves the small-deflection range); a run without a periodic steady state is a failed solution
     that keeps its last cycle, classified (numerical / physical / undecided) with its evidence.  The stats say
     which settings produced the history (``solved_*``) and every attempt of the refinement ladder."""
     from exudyn_models.simulate import simulate_steady_state
@@ -68,8 +69,9 @@ def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Sol
     stats = _stats(res)
     d = np.asarray(res.deflection, dtype=float)
     deflection = {c: d[:, COMPONENTS.index(c)].copy() for c in outputs}
-    if res.converged:
-        return Solution(SOLVER.name, STATUS_OK, deflection, stats=stats)
+    if res.converged:  # an answer beyond the small-deflection range carries its flags (not a valid reference)
+        return Solution(SOLVER.name, STATUS_OK, deflection, stats=stats, flags=tuple(res.flags),
+                        warnings=res.validity)
     evidence = f" ({res.evidence})" if res.evidence else ""
     return Solution(SOLVER.name, STATUS_FAILED, deflection, stats=stats, error_type="NoSteadyState",
                     failure_class=res.failure_class or "numerical",

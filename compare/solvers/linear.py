@@ -27,8 +27,14 @@ def make_settings(overrides: dict[str, Any], damping_ratio: float) -> Any:
     return settings_class()(**{"damping_ratio": damping_ratio, **overrides})
 
 
+NUMERICAL_FAILURE = "linear model failed numerically"
+"""The start of the message of a linear solve that failed numerically (a singular or non-finite matrix)."""
+
+
 def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Solution:
-    """The linear model's steady state; without an asymptotically stable periodic steady state (max
+    """The linear model's steady state (a linear-algebra failure of the solve, e.g. a singular or
+    non-finite matrix, is a failed solution of class "numerical" whose message starts with
+    :data:`NUMERICAL_FAILURE`); without an asymptotically stable periodic steady state (max
     |Floquet multiplier| >= 1: "unstable", or undamped with every multiplier on the unit circle:
     "marginal") a failed solution of class "physical" (error type "Unstable" or "Marginal") with the
     multiplier as evidence; a weakly damped stable one carries the flag "weakly_damped".  The statistic
@@ -39,7 +45,11 @@ def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Sol
     true), else the full model's propagator steps (docs/linear_model.md)."""
     from ked_linear import describe_flags, result_flags, solve_linear
 
-    res = solve_linear(scene, settings)  # a slider-crank scene dispatches to ked_linear.slider
+    try:
+        res = solve_linear(scene, settings)  # a slider-crank scene dispatches to ked_linear.slider
+    except (np.linalg.LinAlgError, ArithmeticError) as exc:  # a numerical failure, not a physical verdict
+        return Solution(SOLVER.name, STATUS_FAILED, message=f"{NUMERICAL_FAILURE}: {exc}"[:2000],
+                        error_type=type(exc).__name__, failure_class="numerical")
     stats = {"wall_s": float(res.wall_s), "floquet_max_abs": float(res.floquet_max_abs),
              "floquet_error": float(res.floquet_error), "floquet_steps": int(res.floquet_steps),
              "harmonics": int(res.harmonics), "collocation_points": int(res.collocation_points),
