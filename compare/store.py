@@ -206,6 +206,7 @@ def _repacked(image: bytes) -> bytes:
             new.attrs[k] = v
         for name in old:
             old.copy(old[name], new, name)
+        h5layout.attach_dimensions(new)  # the copy leaves the dimension scales' references dangling
     return out.getvalue()
 
 
@@ -857,6 +858,7 @@ def _write_upgraded(old: h5py.File, new: h5py.File, scenes: dict[str, tuple[Scen
     if not len(new.get(SCENES, ())) and SCENES in new:
         del new[SCENES]
     h5layout.write_tables(new, rows["scene"], rows["solution"], rows["metric"])
+    h5layout.attach_dimensions(new)
 
 
 def _same(a: Any, b: Any) -> bool:
