@@ -777,7 +777,7 @@ INNER_DIMENSIONS: dict[str, tuple[tuple[str, ...], str]] = {
     "xy": (("x", "y"), "coordinate of a point (x, y) in the global frame"),
 }
 """Dimension -> (labels, description) of the inner dimension of a table's (rows, k) columns."""
-_INNER_COLUMNS = {"crank_pivot_m": "xy", "follower_pivot_m": "xy", "youngs_modulus_Pa": "link", "area_m2": "link",
+INNER_COLUMNS = {"crank_pivot_m": "xy", "follower_pivot_m": "xy", "youngs_modulus_Pa": "link", "area_m2": "link",
                   "second_moment_m4": "link", "density_kg_m3": "link"}
 _DIMENSION_ATTRS = ("DIMENSION_LIST", "REFERENCE_LIST")
 
@@ -823,7 +823,7 @@ def _table_dimensions(g: h5py.Group, dim: str) -> None:
         own.append(dim)
     cols = [(c, ds) for c, ds in tables.column_items(g) if c not in own and c != dim]
     for inner, (labels, description) in INNER_DIMENSIONS.items():
-        users = [ds for c, ds in cols if _INNER_COLUMNS.get(c) == inner and ds.ndim == 2 and ds.shape[1] == len(labels)]
+        users = [ds for c, ds in cols if INNER_COLUMNS.get(c) == inner and ds.ndim == 2 and ds.shape[1] == len(labels)]
         if users:
             scale = _label_scale(g, inner, labels, "", description)
             own.append(inner)
