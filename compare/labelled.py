@@ -154,7 +154,7 @@ def open_results(path: str | Path) -> Results:
         _, version = store._scenes(f, path)
         if version != store.SCHEMA_VERSION:
             raise store.StoreError(f"{path}: schema version {version}; open_results reads version "
-                                   f"{store.SCHEMA_VERSION} (upgrade a copy: `ked merge {path.name} NEW.h5`)")
+                                   f"{store.SCHEMA_VERSION} (a version-4 copy: `ked merge {path} NEW.h5`)")
         frames = {n: _frame(pd, f.get(n)) for n in h5layout.TABLES}
         st = f.get(h5layout.SCENE_TABLE)
         cols = tables.read_table(st) if st is not None else {}

@@ -206,7 +206,8 @@ def _repacked(image: bytes) -> bytes:
             new.attrs[k] = v
         for name in old:
             old.copy(old[name], new, name)
-        h5layout.attach_dimensions(new)  # the copy leaves the dimension scales' references dangling
+        if schema_version(new) is not None:  # a campaign file: the copy leaves its scales' references dangling
+            h5layout.attach_dimensions(new)
     return out.getvalue()
 
 
