@@ -228,3 +228,46 @@ def test_open_results_refuses_an_older_layout_in_one_line(tmp_path):
     with pytest.raises(store.StoreError, match="schema version 2") as err:
         open_results(f)
     assert "\n" not in str(err.value)
+
+
+def _strip_dimensions(path: Path) -> None:
+    """Make ``path`` a version-4 file as written before the dimension scales: no scales, no attachments."""
+    with h5py.File(path, "r+") as f:
+        for name in TABLE_NAMES:
+            for d in tables.dimension_names(f[name]):
+                del f[name][d]
+            del f[name].attrs[tables.DIMENSIONS]
+        for g in f["scenes"].values():
+            for d in ("component", "xy", "mode"):
+                if d in g:
+                    del g[d]
+
+        def drop(_name, obj):
+            if isinstance(obj, h5py.Dataset):
+                for a in ("DIMENSION_LIST", "REFERENCE_LIST", "CLASS", "NAME"):
+                    if a in obj.attrs:
+                        del obj.attrs[a]
+        f.visititems(drop)
+
+
+def test_a_version_4_file_without_dimension_scales_reads_and_gets_them_at_its_next_commit(campaign, tmp_path):
+    f = tmp_path / "before.h5"
+    shutil.copyfile(campaign, f)
+    _strip_dimensions(f)
+    with h5py.File(f, "r") as h:
+        assert not any("CLASS" in ds.attrs for ds in h["scene_table"].values())
+    key = next(k for k, s in store.stored_status(f).items() if s == "ok")
+    with xr.open_dataset(f, group=f"scenes/{key}", engine="h5netcdf", phony_dims="sort") as ds:
+        assert any(str(d).startswith("phony_dim") for d in ds.sizes)  # what readers saw before
+    assert store.verify(f) == []
+    before = store.read_scenes(f)
+    assert [r.metrics for r in before] == [r.metrics for r in store.read_scenes(campaign)]
+    from compare import open_results
+
+    a, b = open_results(f), open_results(campaign)
+    assert a.histories.identical(b.histories) and a.metrics.equals(b.metrics)
+    store.commit(f, before[:1])  # the next commit (here: a scene rewritten as it was)
+    assert store.verify(f) == []
+    for group in _all_groups(f):
+        with xr.open_dataset(f, group=group, engine="h5netcdf") as ds:
+            assert not [d for d in ds.sizes if str(d).startswith("phony_dim")], (group, dict(ds.sizes))
