@@ -43,7 +43,8 @@ class Results:
     (scene, solver, crank_angle), ``coupler_point`` [m] (scene, crank_angle, xy), ``natural_frequencies``
     [Hz] (scene, crank_angle, mode); every column of ``/scene_table`` is a coordinate along ``scene``
     (per-link columns along (scene, link), pivots along (scene, xy)), plus ``speed_ratio`` [1] =
-    Omega / omega1_min.  NaN where a scene has no such sample (a failed solver, another crank grid).
+    Omega / omega1_min.  NaN where a scene has no such sample (a failed solver, another crank grid: the
+    coordinate is the union of the scenes' grids).
     ``scenes``, ``solutions``, ``metrics``, ``runs``: DataFrames of ``/scene_table``, ``/solution_table``,
     ``/metric_table``, ``/runs``, one column per stored column (a (rows, k) column as one array per
     cell), units and descriptions in ``DataFrame.attrs["units"]`` / ``["descriptions"]``."""
@@ -87,11 +88,24 @@ def _scene_arrays(f: h5py.File, keys: list[str]) -> dict[str, Any]:
     return out
 
 
+ANGLE_TOL = 1e-9
+"""Crank angles of two scenes closer than this [rad] are one value of the ``crank_angle`` coordinate."""
+
+
+def _grid(thetas: list[np.ndarray]) -> np.ndarray:
+    """The union of the scenes' crank-angle grids [rad], sorted, values closer than ANGLE_TOL merged (the
+    first kept)."""
+    if not thetas:
+        return np.zeros(0)
+    every = np.sort(np.concatenate(thetas))
+    return every[np.concatenate([[True], np.diff(every) > ANGLE_TOL])]
+
+
 def _histories(xr: Any, f: h5py.File, scene_cols: dict[str, np.ndarray], scene_attrs: dict[str, dict[str, str]]
                ) -> Any:
     keys = [str(k) for k in scene_cols.get("key", [])]
     arrays = _scene_arrays(f, keys)
-    grid = np.unique(np.concatenate([a[0] for a in arrays.values()])) if arrays else np.zeros(0)
+    grid = _grid([a[0] for a in arrays.values()])
     solvers = list(dict.fromkeys(s for a in arrays.values() for s in a[1]))
     n_modes = max((a[3].shape[1] for a in arrays.values() if a[3] is not None and a[3].ndim == 2), default=0)
     n, m = len(keys), len(grid)
@@ -101,7 +115,7 @@ def _histories(xr: Any, f: h5py.File, scene_cols: dict[str, np.ndarray], scene_a
         if k not in arrays:
             continue
         theta, sols, coupler, freqs = arrays[k]
-        at = np.searchsorted(grid, theta)
+        at = np.searchsorted(grid, theta + ANGLE_TOL, side="right") - 1
         for j, s in enumerate(solvers):
             for c, h in sols.get(s, {}).items():
                 if c in hist and h.shape == theta.shape:

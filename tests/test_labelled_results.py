@@ -271,3 +271,32 @@ def test_a_version_4_file_without_dimension_scales_reads_and_gets_them_at_its_ne
     for group in _all_groups(f):
         with xr.open_dataset(f, group=group, engine="h5netcdf") as ds:
             assert not [d for d in ds.sizes if str(d).startswith("phony_dim")], (group, dict(ds.sizes))
+
+
+def test_scenes_of_different_crank_grids_share_one_crank_angle_coordinate(tmp_path):
+    """A 30 deg and a 15 deg scene: the coordinate is the union grid (24 angles), the coarse scene's
+    histories sit on every second angle, NaN between (no interpolation)."""
+    import dataclasses
+
+    from compare import open_results
+    from tests.test_campaign_store import ok_result, spec
+
+    coarse = ok_result(300.0)
+    theta = np.arange(24) * (2 * np.pi / 24)
+    qs = {c: (i + 1) * 1e-3 * np.cos(theta) for i, c in enumerate(("dx", "dy", "rotation"))}
+    fine = dataclasses.replace(
+        ok_result(400.0), spec=dataclasses.replace(spec(400.0), step_deg=15.0), crank_angle=theta,
+        coupler_point=np.column_stack([np.cos(theta), np.sin(theta)]),
+        natural_frequencies=np.column_stack([20 + np.cos(theta), 50 + np.sin(theta)]), metrics={},
+        solutions={"quasi_static": dataclasses.replace(coarse.solutions["quasi_static"], deflection=qs)})
+    f = tmp_path / "grids.h5"
+    store.record_run(f, "", "t", 2)
+    store.commit(f, [coarse, fine])
+    h = open_results(f).histories
+    np.testing.assert_allclose(h["crank_angle"].values, theta, rtol=0, atol=1e-12)
+    dx = h["dx"].sel(solver="quasi_static")
+    np.testing.assert_array_equal(dx.sel(scene=fine.key).values, qs["dx"])
+    c = dx.sel(scene=coarse.key).values
+    np.testing.assert_array_equal(c[::2], coarse.solutions["quasi_static"].deflection["dx"])
+    assert np.isnan(c[1::2]).all()
+    assert np.isnan(h["dx"].sel(scene=fine.key, solver="dynamic").values).all()  # a solver it did not run
