@@ -783,9 +783,12 @@ _DIMENSION_ATTRS = ("DIMENSION_LIST", "REFERENCE_LIST")
 
 
 def _label_scale(g: h5py.Group, name: str, labels: Any, units: str, description: str) -> h5py.Dataset:
-    """Dataset ``name`` of ``g`` holding ``labels`` (replaced if it holds other values), made a dimension scale."""
+    """Dataset ``name`` of ``g`` holding ``labels`` (replaced if it holds other values), made a dimension scale
+    (one made before is kept: a table or scene group is written anew whenever its content changes)."""
     data = np.asarray(labels)
     ds = g.get(name)
+    if isinstance(ds, h5py.Dataset) and ds.shape == data.shape and "CLASS" in ds.attrs:
+        return _detach(ds)
     if not isinstance(ds, h5py.Dataset) or ds.shape != data.shape or (
             data.dtype.kind in "fiu" and not np.array_equal(ds[()], data)) or (
             data.dtype.kind == "U" and [text(x) for x in ds[()]] != list(data)):
@@ -796,18 +799,21 @@ def _label_scale(g: h5py.Group, name: str, labels: Any, units: str, description:
         else:
             ds = g.create_dataset(name, data=data)
     ds.attrs["units"], ds.attrs["description"] = units, description
-    ds.make_scale(name)
+    _scale(ds, name)
     return ds
 
 
-def _drop_dimension_attrs(g: h5py.Group) -> None:
-    """Remove the scale attachments below ``g`` (an HDF5 copy into another file leaves them dangling)."""
-    def drop(_name: str, obj: Any) -> None:
-        if isinstance(obj, h5py.Dataset):
-            for a in _DIMENSION_ATTRS:
-                if a in obj.attrs:
-                    del obj.attrs[a]
-    g.visititems(drop)
+def _detach(ds: h5py.Dataset) -> h5py.Dataset:
+    """``ds`` without scale attachments (an HDF5 copy into another file leaves them dangling)."""
+    for a in _DIMENSION_ATTRS:
+        if a in ds.attrs:
+            del ds.attrs[a]
+    return ds
+
+
+def _scale(ds: h5py.Dataset, name: str) -> None:
+    if "CLASS" not in _detach(ds).attrs:
+        ds.make_scale(name)
 
 
 def _table_dimensions(g: h5py.Group, dim: str) -> None:
@@ -817,11 +823,11 @@ def _table_dimensions(g: h5py.Group, dim: str) -> None:
     before, own = tables.dimension_names(g), []
     if dim in g and dim not in tables.dimension_names(g):  # a column that numbers the rows (the runs')
         row = g[dim]
-        row.make_scale(dim)
+        _scale(row, dim)
     else:
         row = _label_scale(g, dim, np.arange(n, dtype=np.int64), "1", "row number of the table")
         own.append(dim)
-    cols = [(c, ds) for c, ds in tables.column_items(g) if c not in own and c != dim]
+    cols = [(c, _detach(ds)) for c, ds in tables.column_items(g) if c not in own and c != dim]
     for inner, (labels, description) in INNER_DIMENSIONS.items():
         users = [ds for c, ds in cols if INNER_COLUMNS.get(c) == inner and ds.ndim == 2 and ds.shape[1] == len(labels)]
         if users:
@@ -844,14 +850,14 @@ def _scene_dimensions(g: h5py.Group) -> None:
     theta = g.get("crank_angle")
     if not isinstance(theta, h5py.Dataset) or theta.ndim != 1:
         return
-    theta.make_scale("crank_angle")
+    _scale(theta, "crank_angle")
     n = theta.shape[0]
     cp, nf = g.get("coupler_point"), g.get("natural_frequencies")
     for ds, dim, labels, units, description in (
             (cp, "xy", ("x", "y"), "", INNER_DIMENSIONS["xy"][1]),
             (nf, "mode", None, "1", "mode number (1 = lowest natural frequency)")):
         if isinstance(ds, h5py.Dataset) and ds.ndim == 2 and ds.shape[0] == n:
-            ds.dims[0].attach_scale(theta)
+            _detach(ds).dims[0].attach_scale(theta)
             labels = np.arange(1, ds.shape[1] + 1, dtype=np.int64) if labels is None else labels
             if len(labels) == ds.shape[1]:
                 ds.dims[1].attach_scale(_label_scale(g, dim, labels, units, description))
@@ -868,7 +874,7 @@ def _scene_dimensions(g: h5py.Group) -> None:
         if labels and all(ds.shape[1] == len(labels) for ds in sols):
             scale = _label_scale(g, "component", np.array(labels), "", "component of the deflection of P")
     for ds in sols:
-        ds.dims[0].attach_scale(theta)
+        _detach(ds).dims[0].attach_scale(theta)
         if scale is not None:
             ds.dims[1].attach_scale(scale)
 
@@ -882,8 +888,6 @@ def attach_dimensions(f: h5py.File) -> None:
     attachments (an HDF5 copy into another file leaves them dangling) are dropped and made anew."""
     groups = [f[n] for n in TABLE_DIMENSIONS if isinstance(f.get(n), h5py.Group) and "rows" in f[n].attrs]
     scenes = f.get(SCENES)
-    for g in [*groups, *([scenes] if isinstance(scenes, h5py.Group) else [])]:
-        _drop_dimension_attrs(g)
     for g in groups:
         _table_dimensions(g, TABLE_DIMENSIONS[g.name.lstrip("/")])
     for g in (scenes.values() if isinstance(scenes, h5py.Group) else ()):
