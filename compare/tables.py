@@ -28,14 +28,15 @@ DIMENSIONS = "dimensions"
 DIMENSIONLESS = "1"
 """The unit of a dimensionless number (ratio, count, flag); text has the unit ""."""
 
-_SUFFIX_UNITS = (("_rad_s", "rad/s"), ("_kg_m3", "kg/m^3"), ("_hz", "Hz"), ("_Pa", "Pa"), ("_m2", "m^2"),
-                 ("_m4", "m^4"), ("_kg", "kg"), ("_deg", "deg"), ("_rad", "rad"), ("_s", "s"), ("_m", "m"))
+_SUFFIX_UNITS = (("rpm", "rev/min"), ("_rad_s", "rad/s"), ("_kg_m3", "kg/m^3"), ("_hz", "Hz"), ("_Pa", "Pa"),
+                 ("_m2", "m^2"), ("_m4", "m^4"), ("_kg", "kg"), ("_deg", "deg"), ("_rad", "rad"), ("_s", "s"),
+                 ("_m", "m"))
 
 
 def units_of_name(name: str) -> str:
     """The unit a column name states by its suffix (``wall_s`` -> s, ``f1_min_hz`` -> Hz, ``peak_m``
-    -> m), "" if it states none (the naming convention of every table and attribute; a number whose name
-    states no unit is dimensionless, :data:`DIMENSIONLESS`)."""
+    -> m, ``rpm`` -> rev/min), "" if it states none (the naming convention of every table and attribute;
+    a number whose name states no unit is dimensionless, :data:`DIMENSIONLESS`)."""
     for suffix, unit in _SUFFIX_UNITS:
         if name.endswith(suffix) or name.lower().endswith(suffix.lower()):
             return unit

@@ -300,3 +300,22 @@ def test_scenes_of_different_crank_grids_share_one_crank_angle_coordinate(tmp_pa
     np.testing.assert_array_equal(c[::2], coarse.solutions["quasi_static"].deflection["dx"])
     assert np.isnan(c[1::2]).all()
     assert np.isnan(h["dx"].sel(scene=fine.key, solver="dynamic").values).all()  # a solver it did not run
+
+
+def test_ked_inspect_verify_passes_on_the_file(campaign):
+    from click.testing import CliRunner
+
+    from ked_cli.main import cli
+
+    res = CliRunner().invoke(cli, ["inspect", str(campaign), "--verify"])
+    assert res.exit_code == 0, res.output
+
+
+def test_units_of_study_and_atlas_columns_follow_the_convention(tmp_path):
+    """A table written without declared units (the study and atlas tables): the unit the name states, "1"
+    for another number, "" for text."""
+    with h5py.File(tmp_path / "t.h5", "w") as f:
+        tables.write_table(f, "t", {"rpm": [60.0], "wall_s": [1.0], "error": [0.1], "ok": [True], "lumps": [5],
+                                    "label": ["a"]}, integers=True)
+        got = {c: _text(ds.attrs["units"]) for c, ds in f["t"].items()}
+    assert got == {"rpm": "rev/min", "wall_s": "s", "error": "1", "ok": "1", "lumps": "1", "label": ""}
