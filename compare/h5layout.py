@@ -61,7 +61,8 @@ METRIC_FIELDS: tuple[tuple[str, str, str, str], ...] = (
     ("pair_holds", "u1", "1", "1 if the pair holds (the verdict): verdict_error < tolerance; the rotation never "
                               "enters it"),
     ("verdict_error", "f8", "1", "the verdict's measure: history error of the deflection vector (dx, dy), "
-                                 "max_k |a_k - b_k| / max_k |b_k| (the pair's vector row's history_error)"),
+                                 "max_k |a_k - b_k| / max_k |b_k| (the pair's vector row's history_error; of dx "
+                                 "or dy alone where only one is stored)"),
     ("omega_rad_s", "f8", "rad/s", "crank speed"),
     ("omega1_min_rad_s", "f8", "rad/s", "lowest first natural circular frequency over the cycle"),
     ("speed_ratio", "f8", "1", "omega / omega1_min"),
