@@ -783,9 +783,12 @@ INNER_COLUMNS = {"crank_pivot_m": "xy", "follower_pivot_m": "xy", "youngs_modulu
 _DIMENSION_ATTRS = ("DIMENSION_LIST", "REFERENCE_LIST")
 
 
-def _label_scale(g: h5py.Group, name: str, labels: Any, units: str, description: str) -> h5py.Dataset:
+def _label_scale(g: h5py.Group, name: str, labels: Any, units: str | None = None, description: str = ""
+                 ) -> h5py.Dataset:
     """Dataset ``name`` of ``g`` holding ``labels`` (replaced if it holds other values), made a dimension scale
-    (one made before is kept: a table or scene group is written anew whenever its content changes)."""
+    (one made before is kept: a table or scene group is written anew whenever its content changes); with
+    ``units`` and ``description`` attributes unless ``units`` is None (a scene's labels: the schema states
+    them, and a scene's bytes count)."""
     data = np.asarray(labels)
     ds = g.get(name)
     if isinstance(ds, h5py.Dataset) and ds.shape == data.shape and "CLASS" in ds.attrs:
@@ -799,7 +802,8 @@ def _label_scale(g: h5py.Group, name: str, labels: Any, units: str, description:
             ds = g.create_dataset(name, data=list(data), dtype=h5py.string_dtype())
         else:
             ds = g.create_dataset(name, data=data)
-    ds.attrs["units"], ds.attrs["description"] = units, description
+    if units is not None:
+        ds.attrs["units"], ds.attrs["description"] = units, description
     _scale(ds, name)
     return ds
 
@@ -854,14 +858,12 @@ def _scene_dimensions(g: h5py.Group) -> None:
     _scale(theta, "crank_angle")
     n = theta.shape[0]
     cp, nf = g.get("coupler_point"), g.get("natural_frequencies")
-    for ds, dim, labels, units, description in (
-            (cp, "xy", ("x", "y"), "", INNER_DIMENSIONS["xy"][1]),
-            (nf, "mode", None, "1", "mode number (1 = lowest natural frequency)")):
+    for ds, dim, labels in ((cp, "xy", ("x", "y")), (nf, "mode", None)):
         if isinstance(ds, h5py.Dataset) and ds.ndim == 2 and ds.shape[0] == n:
             _detach(ds).dims[0].attach_scale(theta)
             labels = np.arange(1, ds.shape[1] + 1, dtype=np.int64) if labels is None else labels
             if len(labels) == ds.shape[1]:
-                ds.dims[1].attach_scale(_label_scale(g, dim, labels, units, description))
+                ds.dims[1].attach_scale(_label_scale(g, dim, labels))
     sg = g.get(SOLUTIONS)
     if not isinstance(sg, h5py.Group):
         return
@@ -873,11 +875,30 @@ def _scene_dimensions(g: h5py.Group) -> None:
     if len(comps) == 1:
         labels = [c for c in comps.pop().split(",") if c]
         if labels and all(ds.shape[1] == len(labels) for ds in sols):
-            scale = _label_scale(g, "component", np.array(labels), "", "component of the deflection of P")
+            scale = _label_scale(g, "component", np.array(labels))
     for ds in sols:
         _detach(ds).dims[0].attach_scale(theta)
         if scale is not None:
             ds.dims[1].attach_scale(scale)
+
+
+def _dimensioned(f: h5py.File) -> list[h5py.Dataset]:
+    """Every dataset :func:`attach_dimensions` attaches a scale to or makes one."""
+    out = [ds for n in TABLE_DIMENSIONS if isinstance(f.get(n), h5py.Group) for ds in f[n].values()]
+    scenes = f.get(SCENES)
+    for g in (scenes.values() if isinstance(scenes, h5py.Group) else ()):
+        if isinstance(g, h5py.Group):
+            out += [ds for ds in g.values() if isinstance(ds, h5py.Dataset)]
+            sg = g.get(SOLUTIONS)
+            out += [ds for ds in sg.values() if isinstance(ds, h5py.Dataset)] if isinstance(sg, h5py.Group) else []
+    return [ds for ds in out if isinstance(ds, h5py.Dataset)]
+
+
+def detach_dimensions(f: h5py.File) -> None:
+    """Drop every scale attachment of a campaign file (before an HDF5 copy into another file, which would
+    leave them dangling and their stale data in the copy)."""
+    for ds in _dimensioned(f):
+        _detach(ds)
 
 
 def attach_dimensions(f: h5py.File) -> None:

@@ -201,12 +201,15 @@ def _open_memory(buf: io.BytesIO, new: bool) -> h5py.File:
 def _repacked(image: bytes) -> bytes:
     """An HDF5 file image rewritten without free space: every object copied into a new file."""
     out = io.BytesIO()
-    with h5py.File(io.BytesIO(image), "r") as old, _open_memory(out, new=True) as new:
+    with h5py.File(io.BytesIO(image), "r+") as old, _open_memory(out, new=True) as new:
+        ours = schema_version(old) is not None
+        if ours:  # a campaign file: a copy would leave its scales' references dangling; attached anew below
+            h5layout.detach_dimensions(old)
         for k, v in old.attrs.items():
             new.attrs[k] = v
         for name in old:
             old.copy(old[name], new, name)
-        if schema_version(new) is not None:  # a campaign file: the copy leaves its scales' references dangling
+        if ours:
             h5layout.attach_dimensions(new)
     return out.getvalue()
 
