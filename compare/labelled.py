@@ -38,7 +38,7 @@ def _require(name: str) -> Any:
 class Results:
     """A results file as labelled data.
 
-    ``histories``: xarray Dataset, dims ``scene`` (coordinate: the content key), ``solver``,
+    ``histories``: xarray Dataset of the complete scenes, dims ``scene`` (coordinate: the content key), ``solver``,
     ``crank_angle`` [rad], ``xy``, ``mode``, ``link``; variables ``dx``, ``dy`` [m], ``rotation`` [rad]
     (scene, solver, crank_angle), ``coupler_point`` [m] (scene, crank_angle, xy), ``natural_frequencies``
     [Hz] (scene, crank_angle, mode); every column of ``/scene_table`` is a coordinate along ``scene``
@@ -103,6 +103,9 @@ def _grid(thetas: list[np.ndarray]) -> np.ndarray:
 
 def _histories(xr: Any, f: h5py.File, scene_cols: dict[str, np.ndarray], scene_attrs: dict[str, dict[str, str]]
                ) -> Any:
+    n_rows = len(scene_cols.get("key", []))
+    done = np.asarray(scene_cols.get("complete", np.zeros(n_rows)), dtype=bool)  # readers ignore incomplete rows
+    scene_cols = {name: data[done] for name, data in scene_cols.items()}
     keys = [str(k) for k in scene_cols.get("key", [])]
     arrays = _scene_arrays(f, keys)
     grid = _grid([a[0] for a in arrays.values()])

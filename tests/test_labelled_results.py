@@ -319,3 +319,19 @@ def test_units_of_study_and_atlas_columns_follow_the_convention(tmp_path):
                                     "label": ["a"]}, integers=True)
         got = {c: _text(ds.attrs["units"]) for c, ds in f["t"].items()}
     assert got == {"rpm": "rev/min", "wall_s": "s", "error": "1", "ok": "1", "lumps": "1", "label": ""}
+
+
+def test_open_results_leaves_incomplete_scenes_out_of_the_histories(campaign, tmp_path):
+    """As every reader of the harness: a scene row without complete = 1 is not a result (its table row is
+    still in the DataFrame, as stored)."""
+    from compare import open_results
+    from tests.test_campaign_store import edit_rows
+
+    f = tmp_path / "incomplete.h5"
+    shutil.copyfile(campaign, f)
+    key = sorted(store.stored_status(f))[0]
+    with h5py.File(f, "r+") as h:
+        edit_rows(h, "scene_table", key, complete=0)
+    res = open_results(f)
+    assert key not in list(res.histories["scene"].values) and res.histories.sizes["scene"] == 3
+    assert key in list(res.scenes["key"]) and len(res.scenes) == 4
