@@ -835,9 +835,8 @@ def _table_dimensions(g: h5py.Group, dim: str) -> None:
     cols = [(c, _detach(ds)) for c, ds in tables.column_items(g) if c not in own and c != dim]
     for inner, (labels, description) in INNER_DIMENSIONS.items():
         users = [ds for c, ds in cols if INNER_COLUMNS.get(c) == inner and ds.ndim == 2 and ds.shape[1] == len(labels)]
-        if users:
-            scale = _label_scale(g, inner, labels, "", description)
-            own.append(inner)
+        if users:  # at the file's root: every dataset of a table is as long as its rows (older readers' rule)
+            scale = _label_scale(g.file, inner, labels, "", description)
             for ds in users:
                 ds.dims[1].attach_scale(scale)
     g.attrs[tables.DIMENSIONS] = ",".join(own)
@@ -885,6 +884,7 @@ def _scene_dimensions(g: h5py.Group) -> None:
 def _dimensioned(f: h5py.File) -> list[h5py.Dataset]:
     """Every dataset :func:`attach_dimensions` attaches a scale to or makes one."""
     out = [ds for n in TABLE_DIMENSIONS if isinstance(f.get(n), h5py.Group) for ds in f[n].values()]
+    out += [f[n] for n in INNER_DIMENSIONS if isinstance(f.get(n), h5py.Dataset)]
     scenes = f.get(SCENES)
     for g in (scenes.values() if isinstance(scenes, h5py.Group) else ()):
         if isinstance(g, h5py.Group):
@@ -904,7 +904,8 @@ def detach_dimensions(f: h5py.File) -> None:
 def attach_dimensions(f: h5py.File) -> None:
     """Name every dimension of a version-4 file's tables and scene arrays with HDF5 dimension scales
     (netCDF-4 and xarray read them as named dimensions with coordinates): a table's rows (``scene``,
-    ``solution``, ``metric``, ``run``) and its per-link / (x, y) columns (``link``, ``xy``); a scene's
+    ``solution``, ``metric``, ``run``) and its per-link / (x, y) columns (``link``, ``xy``: datasets at the
+    file's root); a scene's
     ``crank_angle`` [rad], ``component`` (of ``solutions/<solver>``), ``xy`` and ``mode`` (scales in the
     scene's group: ``solutions/`` holds only the solvers' datasets).  Stale
     attachments (an HDF5 copy into another file leaves them dangling) are dropped and made anew."""

@@ -156,8 +156,14 @@ def test_xarray_reads_named_dimensions_and_a_crank_angle_coordinate(campaign):
         np.testing.assert_array_equal(ds["linear"].values[:, 1], dy)
     with xr.open_dataset(campaign, group="scene_table", engine="h5netcdf") as ds:
         assert ds.sizes["scene"] == n_scenes and ds["youngs_modulus_Pa"].dims == ("scene", "link")
-        assert list(ds["link"].values) == ["crank", "coupler", "extender", "follower"]
         assert ds["crank_pivot_m"].dims == ("scene", "xy")
+    with xr.open_dataset(campaign, engine="h5netcdf") as ds:  # the inner dimensions' labels, at the root
+        assert list(ds["link"].values) == ["crank", "coupler", "extender", "follower"]
+        assert list(ds["xy"].values) == ["x", "y"]
+    with h5py.File(campaign, "r") as f:  # a reader of the layout before the scales sees only columns
+        for name in TABLE_NAMES:
+            n = int(f[name].attrs["rows"])
+            assert all(ds.shape[0] == n and "units" in ds.attrs for ds in f[name].values()), name
 
 
 def test_an_upgraded_older_file_gets_the_dimensions(tmp_path):
@@ -237,6 +243,8 @@ def _strip_dimensions(path: Path) -> None:
             for d in tables.dimension_names(f[name]):
                 del f[name][d]
             del f[name].attrs[tables.DIMENSIONS]
+        for d in h5layout.INNER_DIMENSIONS:
+            del f[d]
         for g in f["scenes"].values():
             for d in ("component", "xy", "mode"):
                 if d in g:
