@@ -826,10 +826,12 @@ def _table_dimensions(g: h5py.Group, dim: str) -> None:
 
     n = tables.n_rows(g)
     before, own = tables.dimension_names(g), []
-    if dim in g and dim not in tables.dimension_names(g):  # a column that numbers the rows (the runs')
+    if dim == TABLE_DIMENSIONS[RUNS] and dim in g:  # the runs' column run numbers the rows
         row = g[dim]
         _scale(row, dim)
     else:
+        if dim in g and dim not in before:  # a row-number dataset an older writer took for a column
+            del g[dim]
         row = _label_scale(g, dim, np.arange(n, dtype=np.int64), "1", "row number of the table")
         own.append(dim)
     cols = [(c, _detach(ds)) for c, ds in tables.column_items(g) if c not in own and c != dim]
