@@ -8,6 +8,7 @@ The public campaign API (each ``ked`` campaign command is one of these calls)::
     results = read_scenes("out.h5")               # SceneResult per scene: solutions, metrics, verdict
     problems = verify("out.h5")                   # [] for a valid file
     write_figures(results, "out_figures")
+    res = open_results("out.h5")                  # labelled data (extra ked-harness[xarray]): xarray, pandas
 
 Names are imported on first use, so importing a submodule stays cheap.
 """
@@ -25,6 +26,7 @@ _API = {
     "read_scenes": "compare.store", "verify": "compare.store", "StoreError": "compare.store",
     "SceneResult": "compare.results", "SceneSpec": "compare.scenes",
     "write_figures": "compare.plots", "summary_row": "compare.inspect", "format_table": "compare.inspect",
+    "open_results": "compare.labelled", "Results": "compare.labelled",
     "register": "compare.solvers", "Solver": "compare.solvers", "Solution": "compare.solvers",
 }
 __all__ = sorted(_API)

@@ -43,7 +43,7 @@ def complete(g: h5py.Group) -> bool:
 
 # The metric columns: one row per (solver pair, component); version 4 in ``/metric_table`` (with the scene's
 # key), version 3 in one compound dataset ``metrics`` per scene.  name, version-3 HDF5 type, units ("row" =
-# the row's ``units`` column), description.
+# the row's ``units`` column; "1" dimensionless, "" text), description.
 METRIC_FIELDS: tuple[tuple[str, str, str, str], ...] = (
     ("solver", "S32", "", "solver measured"),
     ("reference", "S32", "", "reference solver (the higher fidelity)"),
@@ -57,9 +57,12 @@ METRIC_FIELDS: tuple[tuple[str, str, str, str], ...] = (
     ("amplification", "f8", "1", "max|b| / max|a|"),
     ("solver_peak", "f8", "row", "max|a|"),
     ("reference_peak", "f8", "row", "max|b|"),
-    ("holds", "u1", "", "1 if history_error < tolerance"),
-    ("pair_holds", "u1", "", "1 if the pair holds: every scalar component holds"),
-    ("verdict_error", "f8", "1", "worst history_error of dx, dy, rotation of the pair"),
+    ("holds", "u1", "1", "1 if this component's history_error < tolerance"),
+    ("pair_holds", "u1", "1", "1 if the pair holds (the verdict): verdict_error < tolerance; the rotation never "
+                              "enters it"),
+    ("verdict_error", "f8", "1", "the verdict's measure: history error of the deflection vector (dx, dy), "
+                                 "max_k |a_k - b_k| / max_k |b_k| (the pair's vector row's history_error; of dx "
+                                 "or dy alone where only one is stored)"),
     ("omega_rad_s", "f8", "rad/s", "crank speed"),
     ("omega1_min_rad_s", "f8", "rad/s", "lowest first natural circular frequency over the cycle"),
     ("speed_ratio", "f8", "1", "omega / omega1_min"),
@@ -369,28 +372,28 @@ SCENE_COLUMNS: dict[str, tuple[str, str]] = {
     "failure_class": ("", "'', numerical, physical, undecided, input"),
     "rpm": ("rev/min", "resolved crank speed"),
     "omega1_min_rad_s": ("rad/s", "lowest first natural circular frequency over the cycle"),
-    "run": ("", "row of /runs of the run that stored the scene"),
+    "run": ("1", "row of /runs of the run that stored the scene"),
     "json": ("", "canonical JSON of the scene's parameters (the key is hashed from it without solvers)"),
     "mechanism": ("", "source or cognate"),
     "mass_model": ("", "mass model name"),
-    "mass_lumps": ("", "lumps per link"),
+    "mass_lumps": ("1", "lumps per link"),
     "payload_kg": ("kg", "payload mass"),
-    "joint_split": ("", "share of a link's mass lumped at its first joint"),
+    "joint_split": ("1", "share of a link's mass lumped at its first joint"),
     "lump_placement": ("", "midpoint or end"),
     "speed_kind": ("", "rpm or ratio: how the speed was given"),
     "speed_rpm": ("rev/min", "crank speed as given (NaN when given as a ratio)"),
-    "speed_ratio_requested": ("", "Omega / omega1_min as given (NaN when given in rpm)"),
-    "stiffness_scale": ("", "Young's modulus multiplier"),
-    "damping_ratio": ("", "modal damping ratio"),
+    "speed_ratio_requested": ("1", "Omega / omega1_min as given (NaN when given in rpm)"),
+    "stiffness_scale": ("1", "Young's modulus multiplier"),
+    "damping_ratio": ("1", "modal damping ratio"),
     "direction": ("", "ccw or cw"),
     "step_deg": ("deg", "crank-angle step"),
-    "n_modes": ("", "natural frequencies stored per crank angle"),
+    "n_modes": ("1", "natural frequencies stored per crank angle"),
     "outputs": ("", "stored components, comma-separated"),
     "solvers": ("", "solvers the scene runs, comma-separated"),
-    "tolerance": ("", "verdict tolerance"),
+    "tolerance": ("1", "verdict tolerance"),
     "kind": ("", "linkage kind: four-bar or slider-crank"),
     "offset_m": ("m", "slider-crank: offset of the slider line from the crank pivot"),
-    "coupler_point_fraction": ("", "slider-crank: coupler point P as a fraction of the coupler from A"),
+    "coupler_point_fraction": ("1", "slider-crank: coupler point P as a fraction of the coupler from A"),
     "slider_mass_kg": ("kg", "slider-crank: lumped slider mass"),
     "rigid": ("", "slider-crank: rigid flag per link (links order), comma-separated"),
     "crank_m": ("m", "crank length"),
@@ -410,7 +413,7 @@ SCENE_COLUMNS: dict[str, tuple[str, str]] = {
     "total_wall_s": ("s", "wall time of the scene"),
     "worker": ("", "host:pid that computed the scene"),
     "finished_utc": ("", "ISO 8601 time the scene finished"),
-    "complete": ("", "1: the scene is complete (its row is written after its arrays and its other rows)"),
+    "complete": ("1", "1: the scene is complete (its row is written after its arrays and its other rows)"),
 }
 SOLUTION_COLUMNS: dict[str, tuple[str, str]] = {
     "key": ("", "scene key"),
@@ -421,18 +424,26 @@ SOLUTION_COLUMNS: dict[str, tuple[str, str]] = {
     "failure_class": ("", "'', numerical, physical, undecided, input"),
     "flags": ("", "validity flags, comma-separated: the answer is outside the range where the model holds"),
     "warnings": ("", "solver warnings"),
-    "fidelity": ("", "fidelity rank of the solver (higher = reference)"),
+    "fidelity": ("1", "fidelity rank of the solver (higher = reference)"),
     "settings_json": ("", "resolved settings (JSON)"),
     "stats_json": ("", "wall_s [s] and the solver's own statistics (JSON)"),
 }
 METRIC_COLUMNS: dict[str, tuple[str, str]] = {
     "key": ("", "scene key"), **{name: (units, description) for name, _, units, description in METRIC_FIELDS}}
 RUN_COLUMNS: dict[str, tuple[str, str]] = {
-    "run": ("", "run number (the scenes' run column)"),
+    "run": ("1", "run number (the scenes' run column)"),
     "started_utc": ("", "ISO 8601 start time"),
     "campaign_name": ("", "campaign name"),
     "campaign_config": ("", "TOML text of the campaign"),
-    "n_scenes": ("", "scenes the run planned"),
+    "n_scenes": ("1", "scenes the run planned"),
+    "harness_version": ("", "version of ked-harness that ran"),
+    "exudyn_version": ("", "version of Exudyn"),
+    "numpy_version": ("", "version of numpy"),
+    "h5py_version": ("", "version of h5py"),
+    "hdf5_version": ("", "version of the HDF5 library"),
+    "python_version": ("", "version of Python"),
+    "git_commit": ("", "commit of the harness source ('' outside a git checkout)"),
+    "host": ("", "machine that ran"),
 }
 _CARRIED = "carried over verbatim from an older layout of the file"
 _INT = ("run", "mass_lumps", "n_modes", "fidelity", "n_scenes")
@@ -534,7 +545,8 @@ def write_arrays(scenes: h5py.Group, r: SceneResult) -> None:
         return
     g = scenes.create_group(r.key)
     for name, data in arrays.items():
-        g.create_dataset(name, data=np.asarray(data, dtype=np.float64)).attrs["units"] = ARRAYS[name][0]
+        ds = g.create_dataset(name, data=np.asarray(data, dtype=np.float64))
+        ds.attrs["units"], ds.attrs["description"] = ARRAYS[name]
     if sols:
         sg = g.create_group(SOLUTIONS)
         for name, s in sols.items():
@@ -542,6 +554,8 @@ def write_arrays(scenes: h5py.Group, r: SceneResult) -> None:
             ds = sg.create_dataset(name, data=np.column_stack([np.asarray(s.deflection[c], dtype=np.float64)
                                                                for c in comps]))
             ds.attrs["components"], ds.attrs["units"] = ",".join(comps), ",".join(COMPONENT_UNITS[c] for c in comps)
+            ds.attrs["description"] = (f"{name}'s deflection histories of the coupler point P over the crank angle, "
+                                       "one column per component (attribute components; units: attribute units)")
 
 
 def metric_table_rows(key: str, rows: MetricRows) -> list[dict[str, Any]]:
@@ -564,7 +578,31 @@ def _write(f: h5py.File, name: str, data: dict[str, np.ndarray]) -> None:
     from compare import tables
 
     units, descriptions = _units(_COLUMNS[name])
+    older = _older_verdict_rows(data) if name == METRIC_TABLE else 0
+    if older:  # rows an upgrade carried over verbatim from a file written before the vector verdict
+        note = (f"; {older} of {len(data['key'])} rows, carried over from a file written before the vector "
+                "verdict, hold the worst history error of dx, dy and rotation instead")
+        descriptions = {**descriptions, **{c: descriptions[c] + note for c in ("pair_holds", "verdict_error")}}
     tables.write_table(f, name, data, units=units, descriptions={c: _CARRIED for c in data} | descriptions)
+
+
+def _older_verdict_rows(data: dict[str, np.ndarray]) -> int:
+    """Rows of metric-table columns whose ``verdict_error`` is not the vector verdict of their pair (the
+    pair's ``vector`` history error, or the larger of dx and dy where only those are stored)."""
+    need = ("key", "solver", "reference", "component", "history_error", "verdict_error")
+    if any(c not in data for c in need) or not len(data["key"]):
+        return 0
+    pair = [(bytes(k), bytes(s), bytes(r)) for k, s, r in zip(data["key"], data["solver"], data["reference"])]
+    comp = [bytes(c).decode("utf-8") for c in data["component"]]
+    expected: dict[tuple[bytes, bytes, bytes], dict[str, float]] = {}
+    for p, c, h in zip(pair, comp, data["history_error"]):
+        expected.setdefault(p, {})[c] = float(h)
+    n = 0
+    for p, v in zip(pair, data["verdict_error"]):
+        e = expected[p]
+        want = e["vector"] if "vector" in e else max((e[c] for c in ("dx", "dy") if c in e), default=math.nan)
+        n += not (float(v) == want or (math.isnan(float(v)) and math.isnan(want)))
+    return n
 
 
 def write_tables(f: h5py.File, scenes: list[dict[str, Any]], solutions: list[dict[str, Any]],
@@ -711,6 +749,8 @@ class TableFile:
 def verify_tables(f: h5py.File) -> list[str]:
     """Table-level problems of a version-4 file: every column of every table as long as its ``rows``
     and with a ``units`` attribute."""
+    from compare import tables
+
     p = []
     for name in TABLES:
         g = f.get(name)
@@ -720,9 +760,161 @@ def verify_tables(f: h5py.File) -> list[str]:
             p.append(f"/{name}: not a table (a group with a rows attribute)")
             continue
         n = int(g.attrs["rows"])
-        for col, ds in g.items():
+        for col, ds in tables.column_items(g):
             if not isinstance(ds, h5py.Dataset) or len(ds) != n:
                 p.append(f"/{name}/{col}: {getattr(ds, 'shape', 'not a column')} rows, the table has {n}")
             elif "units" not in ds.attrs:
                 p.append(f"/{name}/{col}: no units attribute")
     return p
+
+
+# -- dimension scales: the file's dimensions named for netCDF/xarray readers --------------------------
+
+TABLE_DIMENSIONS = {RUNS: "run", SCENE_TABLE: "scene", SOLUTION_TABLE: "solution", METRIC_TABLE: "metric"}
+"""Table -> name of its row dimension (the ``run`` column of ``/runs`` is its own scale; the other tables
+get a dataset of row numbers)."""
+INNER_DIMENSIONS: dict[str, tuple[tuple[str, ...], str]] = {
+    "link": (LINKS, "link of a per-link column (four-bar order; a slider-crank's crank and coupler first)"),
+    "xy": (("x", "y"), "coordinate of a point (x, y) in the global frame"),
+}
+"""Dimension -> (labels, description) of the inner dimension of a table's (rows, k) columns."""
+INNER_COLUMNS = {"crank_pivot_m": "xy", "follower_pivot_m": "xy", "youngs_modulus_Pa": "link", "area_m2": "link",
+                  "second_moment_m4": "link", "density_kg_m3": "link"}
+_DIMENSION_ATTRS = ("DIMENSION_LIST", "REFERENCE_LIST")
+
+
+def _label_scale(g: h5py.Group, name: str, labels: Any, units: str | None = None, description: str = ""
+                 ) -> h5py.Dataset:
+    """Dataset ``name`` of ``g`` holding ``labels`` (replaced if it holds other values), made a dimension scale
+    (one made before is kept: a table or scene group is written anew whenever its content changes); with
+    ``units`` and ``description`` attributes unless ``units`` is None (a scene's labels: the schema states
+    them, and a scene's bytes count)."""
+    data = np.asarray(labels)
+    ds = g.get(name)
+    if isinstance(ds, h5py.Dataset) and ds.shape == data.shape and "CLASS" in ds.attrs:
+        return _detach(ds)
+    if not isinstance(ds, h5py.Dataset) or ds.shape != data.shape or (
+            data.dtype.kind in "fiu" and not np.array_equal(ds[()], data)) or (
+            data.dtype.kind == "U" and [text(x) for x in ds[()]] != list(data)):
+        if name in g:
+            del g[name]
+        if data.dtype.kind == "U":
+            ds = g.create_dataset(name, data=list(data), dtype=h5py.string_dtype())
+        else:
+            ds = g.create_dataset(name, data=data)
+    if units is not None:
+        ds.attrs["units"], ds.attrs["description"] = units, description
+    _scale(ds, name)
+    return ds
+
+
+def _detach(ds: h5py.Dataset) -> h5py.Dataset:
+    """``ds`` without scale attachments (an HDF5 copy into another file leaves them dangling)."""
+    for a in _DIMENSION_ATTRS:
+        if a in ds.attrs:
+            del ds.attrs[a]
+    return ds
+
+
+def _scale(ds: h5py.Dataset, name: str) -> None:
+    if "CLASS" not in _detach(ds).attrs:
+        ds.make_scale(name)
+
+
+def _table_dimensions(g: h5py.Group, dim: str) -> None:
+    from compare import tables
+
+    n = tables.n_rows(g)
+    before, own = tables.dimension_names(g), []
+    if dim == TABLE_DIMENSIONS[RUNS] and dim in g:  # the runs' column run numbers the rows
+        row = g[dim]
+        _scale(row, dim)
+    else:
+        if dim in g and dim not in before:  # a row-number dataset an older writer took for a column
+            del g[dim]
+        row = _label_scale(g, dim, np.arange(n, dtype=np.int64), "1", "row number of the table")
+        own.append(dim)
+    cols = [(c, _detach(ds)) for c, ds in tables.column_items(g) if c not in own and c != dim]
+    for inner, (labels, description) in INNER_DIMENSIONS.items():
+        users = [ds for c, ds in cols if INNER_COLUMNS.get(c) == inner and ds.ndim == 2 and ds.shape[1] == len(labels)]
+        if users:  # at the file's root: every dataset of a table is as long as its rows (older readers' rule)
+            scale = _label_scale(g.file, inner, labels, "", description)
+            for ds in users:
+                ds.dims[1].attach_scale(scale)
+    g.attrs[tables.DIMENSIONS] = ",".join(own)
+    for name in before:
+        if name not in own and name in g:
+            del g[name]
+    for _, ds in cols:
+        if ds.ndim and ds.shape[0] == n:
+            ds.dims[0].attach_scale(row)
+
+
+def _scene_dimensions(g: h5py.Group) -> None:
+    """A scene group's crank angle as the scale of its arrays' and histories' first dimension, with the
+    point coordinates (xy), modes and components as the second."""
+    theta = g.get("crank_angle")
+    if not isinstance(theta, h5py.Dataset) or theta.ndim != 1:
+        return
+    _scale(theta, "crank_angle")
+    n = theta.shape[0]
+    cp, nf = g.get("coupler_point"), g.get("natural_frequencies")
+    for ds, dim, labels in ((cp, "xy", ("x", "y")), (nf, "mode", None)):
+        if isinstance(ds, h5py.Dataset) and ds.ndim == 2 and ds.shape[0] == n:
+            _detach(ds).dims[0].attach_scale(theta)
+            labels = np.arange(1, ds.shape[1] + 1, dtype=np.int64) if labels is None else labels
+            if len(labels) == ds.shape[1]:
+                ds.dims[1].attach_scale(_label_scale(g, dim, labels))
+    sg = g.get(SOLUTIONS)
+    if not isinstance(sg, h5py.Group):
+        return
+    sols = [ds for ds in sg.values() if isinstance(ds, h5py.Dataset) and ds.ndim == 2 and ds.shape[0] == n]
+    if not sols:
+        return
+    comps = {text(ds.attrs.get("components", "")) for ds in sols}
+    scale = None
+    if len(comps) == 1:
+        labels = [c for c in comps.pop().split(",") if c]
+        if labels and all(ds.shape[1] == len(labels) for ds in sols):
+            scale = _label_scale(g, "component", np.array(labels))
+    for ds in sols:
+        _detach(ds).dims[0].attach_scale(theta)
+        if scale is not None:
+            ds.dims[1].attach_scale(scale)
+
+
+def _dimensioned(f: h5py.File) -> list[h5py.Dataset]:
+    """Every dataset :func:`attach_dimensions` attaches a scale to or makes one."""
+    out = [ds for n in TABLE_DIMENSIONS if isinstance(f.get(n), h5py.Group) for ds in f[n].values()]
+    out += [f[n] for n in INNER_DIMENSIONS if isinstance(f.get(n), h5py.Dataset)]
+    scenes = f.get(SCENES)
+    for g in (scenes.values() if isinstance(scenes, h5py.Group) else ()):
+        if isinstance(g, h5py.Group):
+            out += [ds for ds in g.values() if isinstance(ds, h5py.Dataset)]
+            sg = g.get(SOLUTIONS)
+            out += [ds for ds in sg.values() if isinstance(ds, h5py.Dataset)] if isinstance(sg, h5py.Group) else []
+    return [ds for ds in out if isinstance(ds, h5py.Dataset)]
+
+
+def detach_dimensions(f: h5py.File) -> None:
+    """Drop every scale attachment of a campaign file (before an HDF5 copy into another file, which would
+    leave them dangling and their stale data in the copy)."""
+    for ds in _dimensioned(f):
+        _detach(ds)
+
+
+def attach_dimensions(f: h5py.File) -> None:
+    """Name every dimension of a version-4 file's tables and scene arrays with HDF5 dimension scales
+    (netCDF-4 and xarray read them as named dimensions with coordinates): a table's rows (``scene``,
+    ``solution``, ``metric``, ``run``) and its per-link / (x, y) columns (``link``, ``xy``: datasets at the
+    file's root); a scene's
+    ``crank_angle`` [rad], ``component`` (of ``solutions/<solver>``), ``xy`` and ``mode`` (scales in the
+    scene's group: ``solutions/`` holds only the solvers' datasets).  Stale
+    attachments (an HDF5 copy into another file leaves them dangling) are dropped and made anew."""
+    groups = [f[n] for n in TABLE_DIMENSIONS if isinstance(f.get(n), h5py.Group) and "rows" in f[n].attrs]
+    scenes = f.get(SCENES)
+    for g in groups:
+        _table_dimensions(g, TABLE_DIMENSIONS[g.name.lstrip("/")])
+    for g in (scenes.values() if isinstance(scenes, h5py.Group) else ()):
+        if isinstance(g, h5py.Group):
+            _scene_dimensions(g)

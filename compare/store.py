@@ -201,11 +201,16 @@ def _open_memory(buf: io.BytesIO, new: bool) -> h5py.File:
 def _repacked(image: bytes) -> bytes:
     """An HDF5 file image rewritten without free space: every object copied into a new file."""
     out = io.BytesIO()
-    with h5py.File(io.BytesIO(image), "r") as old, _open_memory(out, new=True) as new:
+    with h5py.File(io.BytesIO(image), "r+") as old, _open_memory(out, new=True) as new:
+        ours = schema_version(old) is not None
+        if ours:  # a campaign file: a copy would leave its scales' references dangling; attached anew below
+            h5layout.detach_dimensions(old)
         for k, v in old.attrs.items():
             new.attrs[k] = v
         for name in old:
             old.copy(old[name], new, name)
+        if ours:
+            h5layout.attach_dimensions(new)
     return out.getvalue()
 
 
@@ -857,6 +862,7 @@ def _write_upgraded(old: h5py.File, new: h5py.File, scenes: dict[str, tuple[Scen
     if not len(new.get(SCENES, ())) and SCENES in new:
         del new[SCENES]
     h5layout.write_tables(new, rows["scene"], rows["solution"], rows["metric"])
+    h5layout.attach_dimensions(new)
 
 
 def _same(a: Any, b: Any) -> bool:

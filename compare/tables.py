@@ -2,8 +2,10 @@
 ``/solution_table``, ``/metric_table``), the study tables (``/study/<table>``) and the atlas.
 
 A table is a group with one dataset per column (``rows`` attribute = its length), each column
-carrying the attributes ``units`` (SI; "" for text, flags and dimensionless numbers) and
-``description``.  Encoding: text as UTF-8 strings (written fixed-width, padding compressed away;
+carrying the attributes ``units`` (SI; "1" for every dimensionless number: ratios, counts, flags; "" only
+for text) and ``description``.  A table may also hold dimension scales (HDF5 dimension scales naming its
+row and inner dimensions, listed in the table's ``dimensions`` attribute): they are not columns.
+Encoding: text as UTF-8 strings (written fixed-width, padding compressed away;
 variable-length columns of older files are read too), booleans as ``uint8`` 0/1, numbers as float64
 (``None`` -> NaN) or, where the writer asks for it, integers as int64; a column of equal-length
 sequences is a (rows, k) array.  Columns are gzip-compressed (numbers shuffled first).
@@ -21,14 +23,20 @@ import numpy as np
 ROWS = "rows"
 UNITS = "units"
 DESCRIPTION = "description"
+DIMENSIONS = "dimensions"
+"""Table attribute: comma-separated names of the table's datasets that are dimension scales, not columns."""
+DIMENSIONLESS = "1"
+"""The unit of a dimensionless number (ratio, count, flag); text has the unit ""."""
 
-_SUFFIX_UNITS = (("_rad_s", "rad/s"), ("_kg_m3", "kg/m^3"), ("_hz", "Hz"), ("_Pa", "Pa"), ("_m2", "m^2"),
-                 ("_m4", "m^4"), ("_kg", "kg"), ("_deg", "deg"), ("_rad", "rad"), ("_s", "s"), ("_m", "m"))
+_SUFFIX_UNITS = (("rpm", "rev/min"), ("_rad_s", "rad/s"), ("_kg_m3", "kg/m^3"), ("_hz", "Hz"), ("_Pa", "Pa"),
+                 ("_m2", "m^2"), ("_m4", "m^4"), ("_kg", "kg"), ("_deg", "deg"), ("_rad", "rad"), ("_s", "s"),
+                 ("_m", "m"))
 
 
 def units_of_name(name: str) -> str:
     """The unit a column name states by its suffix (``wall_s`` -> s, ``f1_min_hz`` -> Hz, ``peak_m``
-    -> m), "" if it states none (the naming convention of every table and attribute)."""
+    -> m, ``rpm`` -> rev/min), "" if it states none (the naming convention of every table and attribute;
+    a number whose name states no unit is dimensionless, :data:`DIMENSIONLESS`)."""
     for suffix, unit in _SUFFIX_UNITS:
         if name.endswith(suffix) or name.lower().endswith(suffix.lower()):
             return unit
@@ -79,10 +87,21 @@ def encode(values: Sequence[Any] | np.ndarray, integers: bool = False, kind: str
     return np.array([np.nan if v is None else v for v in vals], dtype=np.float64)
 
 
+def dimension_names(g: h5py.Group) -> tuple[str, ...]:
+    """The datasets of table ``g`` that are dimension scales, not columns (its ``dimensions`` attribute)."""
+    return tuple(n for n in text(g.attrs.get(DIMENSIONS, "")).split(",") if n)
+
+
+def column_items(g: h5py.Group) -> list[tuple[str, h5py.Dataset]]:
+    """(name, dataset) of every column of table ``g`` (its dimension scales left out)."""
+    skip = dimension_names(g)
+    return [(n, ds) for n, ds in g.items() if n not in skip]
+
+
 def kinds_of(g: h5py.Group) -> dict[str, str]:
     """Column -> kind of a stored table (to rewrite it with the same types)."""
     out = {}
-    for name, ds in g.items():
+    for name, ds in column_items(g):
         k = ds.dtype.kind
         out[name] = "text" if k in "OS" else "flag" if ds.dtype == np.uint8 else "int" if k in "iu" else "float"
     return out
@@ -108,7 +127,8 @@ def _create(g: h5py.Group, name: str, data: np.ndarray, extendable: bool) -> h5p
 def _describe(ds: h5py.Dataset, name: str, units: Mapping[str, str] | None,
               descriptions: Mapping[str, str] | None) -> None:
     u = (units or {}).get(name)
-    ds.attrs[UNITS] = units_of_name(name) if u is None else u
+    u = units_of_name(name) if u is None else u
+    ds.attrs[UNITS] = u or ("" if ds.dtype.kind in "OS" else DIMENSIONLESS)
     ds.attrs[DESCRIPTION] = (descriptions or {}).get(name, "")
 
 
@@ -175,7 +195,7 @@ def read_raw(g: h5py.Group) -> dict[str, np.ndarray]:
     """Table -> column -> array as stored (fixed-width text as UTF-8 ``bytes``, variable-length text as
     an object array): for rewriting a table without decoding it."""
     out = {}
-    for name, ds in g.items():
+    for name, ds in column_items(g):
         data = ds[()]
         if ds.dtype.kind == "O":
             data = np.array([x if isinstance(x, bytes) else str(x).encode("utf-8") for x in np.ravel(data)],
@@ -218,7 +238,7 @@ def concat(old: Mapping[str, np.ndarray], new: Mapping[str, np.ndarray]) -> dict
 
 def read_table(g: h5py.Group) -> dict[str, np.ndarray]:
     """Table -> column -> array (see :func:`read_column`)."""
-    return {name: read_column(ds) for name, ds in g.items() if isinstance(ds, h5py.Dataset)}
+    return {name: read_column(ds) for name, ds in column_items(g) if isinstance(ds, h5py.Dataset)}
 
 
 def n_rows(g: h5py.Group) -> int:
