@@ -1,0 +1,416 @@
+"""Regression comparison of two results files, scene by scene (``ked diff BASELINE NEW``, the pytest plugin).
+
+Scenes are matched by content key; the scenes left are matched by the physical scene (linkage, mechanism, mass
+model, speed, stiffness scale, damping ratio, direction), and the settings that differ are named.  Per matched
+scene and solver the checks are (tolerances: :mod:`compare.tolerances`, tier ``same`` for a solver whose
+settings and versions are unchanged, ``physics`` otherwise):
+
+- ``status``: ok in BASELINE and failed in NEW (the scene, or one solver) fails; failed -> ok is reported, passes;
+- ``finite``: a NaN or inf in a stored history of NEW always fails;
+- ``history``: each stored history's drift, max |new - base| / max |base|, within the tier's ``history`` (or
+  under the absolute floor ``history_abs``);
+- ``verdict``: a verdict flip (``holds`` of any pair of solvers) always fails;
+- ``verdict_error``: |new - base| of each pair's verdict error within the tier's ``verdict_error`` (the larger of
+  the solver's and its reference's: the error moves with either);
+- ``missing`` / ``added``: a scene of BASELINE without a match in NEW, a scene of NEW without one in BASELINE.
+
+Everything here is computed from :func:`compare.store.read_scenes` (one reader of results files).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import textwrap
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from compare.expect import Expectations, Violation, check_expectations
+from compare.results import SceneResult
+from compare.tolerances import Tolerances
+
+PHYSICAL = ("linkage", "mechanism", "mass_model", "speed", "stiffness_scale", "damping_ratio", "direction")
+"""The fields of a scene's description that make the physical scene (the rest are settings)."""
+SCENE_SETTINGS = ("step_deg", "n_modes", "outputs", "tolerance")
+"""Settings of the scene that concern every solver: a change puts every solver in the ``physics`` tier."""
+VERSION_KEYS = {"harness_version": None, "exudyn_version": "dynamic"}
+"""File attribute -> the solver whose tier a change of it moves (None: every solver)."""
+CHECKS = ("missing", "added", "status", "finite", "verdict", "verdict_error", "history")
+
+
+@dataclass(frozen=True)
+class Check:
+    """One check of one scene: ``check`` (one of :data:`CHECKS`), ``solver``, ``quantity`` (a component, a pair or
+    a status), ``value`` and ``bound`` (numbers [1] for drifts, text otherwise), ``tier``, and the ``message``."""
+
+    scene: str
+    key: str
+    check: str
+    solver: str
+    quantity: str
+    value: Any
+    bound: Any
+    passed: bool
+    tier: str = ""
+    message: str = ""
+
+    @property
+    def severity(self) -> float:
+        """How far beyond its bound a failed check is (inf for a flip, a status change, a missing scene)."""
+        if self.passed:
+            return 0.0
+        if isinstance(self.value, float) and isinstance(self.bound, float) and self.bound > 0 \
+                and math.isfinite(self.value):
+            return self.value / self.bound
+        return math.inf
+
+    @property
+    def name(self) -> str:
+        """``check solver/quantity`` (e.g. ``history dynamic/dx``)."""
+        what = "/".join(x for x in (self.solver, self.quantity) if x)
+        return f"{self.check} {what}" if what else self.check
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"check": self.check, "solver": self.solver, "quantity": self.quantity, "value": _json(self.value),
+                "bound": _json(self.bound), "passed": self.passed, "tier": self.tier, "message": self.message}
+
+
+def _json(v: Any) -> Any:
+    return v if not isinstance(v, float) or math.isfinite(v) else str(v)
+
+
+@dataclass(frozen=True)
+class SceneDiff:
+    """The checks of one scene: ``match`` "key", "physical", "missing" (only in BASELINE) or "added" (only in
+    NEW); ``settings_differ``: "name: base -> new" of a physical match; ``tiers``: solver -> tier used."""
+
+    label: str
+    base_key: str
+    new_key: str
+    match: str
+    settings_differ: tuple[str, ...] = ()
+    tiers: tuple[tuple[str, str], ...] = ()
+    checks: tuple[Check, ...] = ()
+
+    @property
+    def passed(self) -> bool:
+        return all(c.passed for c in self.checks)
+
+    @property
+    def failures(self) -> list[Check]:
+        return sorted((c for c in self.checks if not c.passed), key=lambda c: -c.severity)
+
+    @property
+    def severity(self) -> float:
+        return max((c.severity for c in self.checks), default=0.0)
+
+    @property
+    def drifted(self) -> list[Check]:
+        """The failed history checks (what ``--figures`` draws)."""
+        return [c for c in self.checks if c.check == "history" and not c.passed]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"label": self.label, "baseline_key": self.base_key, "new_key": self.new_key, "match": self.match,
+                "settings_differ": list(self.settings_differ), "tiers": dict(self.tiers), "passed": self.passed,
+                "checks": [c.to_dict() for c in self.checks]}
+
+
+@dataclass(frozen=True)
+class DiffReport:
+    """The comparison of two files: per-scene diffs, the expectations violated in NEW, the version changes."""
+
+    baseline: str
+    new: str
+    scenes: tuple[SceneDiff, ...]
+    tolerances: Tolerances = field(default_factory=Tolerances)
+    violations: tuple[Violation, ...] = ()
+    versions_differ: tuple[str, ...] = ()
+
+    @property
+    def passed(self) -> bool:
+        return not self.violations and all(s.passed for s in self.scenes)
+
+    @property
+    def failed_scenes(self) -> list[SceneDiff]:
+        """The scenes with a failed check, worst first."""
+        return sorted((s for s in self.scenes if not s.passed), key=lambda s: (-s.severity, s.label))
+
+    def counts(self) -> dict[str, int]:
+        out = {"scenes": len(self.scenes), "passed": sum(s.passed for s in self.scenes),
+               "failed": sum(not s.passed for s in self.scenes), "expectations_violated": len(self.violations)}
+        for m in ("key", "physical", "missing", "added"):
+            out[f"matched_by_{m}" if m in ("key", "physical") else m] = sum(s.match == m for s in self.scenes)
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"baseline": self.baseline, "new": self.new, "passed": self.passed, "counts": self.counts(),
+                "versions_differ": list(self.versions_differ), "tolerances": self.tolerances.to_dict(),
+                "expectations": [v.to_dict() for v in self.violations],
+                "scenes": [s.to_dict() for s in self.scenes]}
+
+
+# -- matching -------------------------------------------------------------------------------------
+
+
+def physical_key(r: SceneResult) -> str:
+    """Hash of the physical scene (:data:`PHYSICAL`), whatever the settings."""
+    d = r.spec.key_dict()
+    text = json.dumps({k: d[k] for k in PHYSICAL}, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _settings(r: SceneResult) -> dict[str, Any]:
+    """name -> value of every setting of a scene: the scene's own, each solver's explicit and resolved ones."""
+    d = r.spec.key_dict()
+    out = {k: d[k] for k in SCENE_SETTINGS if k in d}
+    for k, v in d.items():
+        if k not in PHYSICAL and k not in SCENE_SETTINGS and isinstance(v, dict):
+            out.update({f"{k}.{n}": x for n, x in v.items()})
+    for name, s in r.solutions.items():
+        out.update({f"{name}.{n}": x for n, x in s.settings.items()})
+    return out
+
+
+def settings_differ(base: SceneResult, new: SceneResult) -> list[str]:
+    """"name: base -> new" for every setting that differs (absent: "-")."""
+    a, b = _settings(base), _settings(new)
+    return [f"{k}: {a.get(k, '-')} -> {b.get(k, '-')}" for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
+
+
+def _tiers(base: SceneResult, new: SceneResult, versions: dict[str, tuple[Any, Any]]) -> dict[str, str]:
+    """solver -> tier: ``same`` unless the scene's settings, the solver's settings or a version it depends on
+    differ."""
+    differ = [d.split(":", 1)[0] for d in settings_differ(base, new)]
+    scene_wide = any(k in SCENE_SETTINGS for k in differ)
+    moved = {None if k in SCENE_SETTINGS else k.split(".", 1)[0] for k in differ}
+    moved |= {VERSION_KEYS[k] for k in versions}
+    out = {}
+    for solver in sorted(set(base.solutions) | set(new.solutions)):
+        physics = scene_wide or None in moved or solver in moved
+        out[solver] = "physics" if physics else "same"
+    return out
+
+
+def match(base: Sequence[SceneResult], new: Sequence[SceneResult]
+          ) -> tuple[list[tuple[SceneResult, SceneResult, str]], list[SceneResult], list[SceneResult]]:
+    """(pairs (base, new, "key"|"physical"), unmatched base, unmatched new): by content key, then one-to-one by
+    physical scene (a physical scene held by several scenes of a side is left unmatched)."""
+    nk = {r.key: r for r in new}
+    pairs = [(b, nk[b.key], "key") for b in base if b.key in nk]
+    done = {b.key for b, _, _ in pairs}
+    left_b = [b for b in base if b.key not in done]
+    left_n = [n for n in new if n.key not in done]
+    groups: dict[str, tuple[list[SceneResult], list[SceneResult]]] = {}
+    for side, rs in ((0, left_b), (1, left_n)):
+        for r in rs:
+            groups.setdefault(physical_key(r), ([], []))[side].append(r)
+    missing, added = [], []
+    for bs, ns in groups.values():
+        if len(bs) == 1 and len(ns) == 1:
+            pairs.append((bs[0], ns[0], "physical"))
+        else:
+            missing += bs
+            added += ns
+    return pairs, missing, added
+
+
+# -- checks ---------------------------------------------------------------------------------------
+
+
+def _same_grid(a: np.ndarray | None, b: np.ndarray | None) -> bool:
+    return a is not None and b is not None and a.shape == b.shape and bool(np.allclose(a, b, rtol=0, atol=1e-12))
+
+
+def scene_checks(base: SceneResult, new: SceneResult, tiers: dict[str, str], tol: Tolerances) -> list[Check]:
+    """Every check of one matched scene (see the module docstring)."""
+    label, key = new.spec.label, new.key
+    out: list[Check] = []
+
+    def add(check: str, solver: str, quantity: str, value: Any, bound: Any, passed: bool, tier: str = "",
+            message: str = "") -> None:
+        out.append(Check(label, key, check, solver, quantity, value, bound, passed, tier, message))
+
+    if base.ok and not new.ok:
+        add("status", "", "scene", f"ok -> {new.status}", "ok", False,
+            message=f"failed at {new.stage}: {new.message}"[:200])
+    elif not base.ok and new.ok:
+        add("status", "", "scene", f"{base.status} -> ok", "ok", True, message="a failed scene now solves")
+    for name, sb in base.solutions.items():
+        sn = new.solutions.get(name)
+        if sb.ok and (sn is None or not sn.ok):
+            add("status", name, "solver", f"ok -> {'absent' if sn is None else sn.status}", "ok", False,
+                message="" if sn is None else sn.message[:200])
+    for name, sn in new.solutions.items():
+        for comp, h in sn.deflection.items():
+            bad = int(np.size(h) - np.count_nonzero(np.isfinite(h)))
+            if bad:
+                add("finite", name, comp, f"{bad} non-finite value(s)", "all finite", False)
+    same_grid = _same_grid(base.crank_angle, new.crank_angle)
+    for name, sb in base.solutions.items():
+        sn = new.solutions.get(name)
+        if not (sb.ok and sn is not None and sn.ok) or not same_grid:
+            continue
+        b = tol.bounds(tiers.get(name, "physics"), name)
+        for comp, hb in sb.deflection.items():
+            hn = sn.deflection.get(comp)
+            if hn is None:
+                add("history", name, comp, "absent", "stored", False, tiers.get(name, ""))
+                continue
+            if hn.shape != hb.shape or not np.all(np.isfinite(hn)):
+                continue  # reported by status/finite
+            diff = float(np.max(np.abs(hn - hb))) if hb.size else 0.0
+            pk = float(np.max(np.abs(hb))) if hb.size else 0.0
+            rel = diff / pk if pk > 0 else (0.0 if diff == 0 else math.inf)
+            ok = diff <= max(b.history * pk, b.history_abs)
+            add("history", name, comp, rel, b.history, ok, tiers.get(name, ""),
+                f"max |new - base| = {diff:.3g} (peak {pk:.3g}; floor {b.history_abs:g})")
+    for pname, mb in base.metrics.items():
+        mn = new.metrics.get(pname)
+        if mn is None:
+            continue
+        tier = "physics" if "physics" in (tiers.get(mb.solver), tiers.get(mb.reference)) else "same"
+        add("verdict", mb.solver, pname, f"{_holds(mb.holds)} -> {_holds(mn.holds)}", _holds(mb.holds),
+            mb.holds == mn.holds, tier,
+            f"verdict_error {mb.verdict_error:.4g} -> {mn.verdict_error:.4g} (tolerance {mn.tolerance:g})")
+        bound = max(tol.bounds(tier, mb.solver).verdict_error, tol.bounds(tier, mb.reference).verdict_error)
+        d = abs(mn.verdict_error - mb.verdict_error)
+        add("verdict_error", mb.solver, pname, d if math.isfinite(d) else math.inf, bound, d <= bound, tier,
+            f"{mb.verdict_error:.6g} -> {mn.verdict_error:.6g}")
+    return out
+
+
+def _holds(h: bool) -> str:
+    return "holds" if h else "fails"
+
+
+def _versions(base_info: dict[str, Any], new_info: dict[str, Any]) -> dict[str, tuple[Any, Any]]:
+    return {k: (base_info.get(k), new_info.get(k)) for k in VERSION_KEYS if base_info.get(k) != new_info.get(k)}
+
+
+def diff_results(base: Sequence[SceneResult], new: Sequence[SceneResult], tolerances: Tolerances | None = None,
+                 expect: Expectations | None = None, base_info: dict[str, Any] | None = None,
+                 new_info: dict[str, Any] | None = None, names: tuple[str, str] = ("BASELINE", "NEW")) -> DiffReport:
+    """The :class:`DiffReport` of two sets of scenes (``*_info``: the files' attributes, for their versions)."""
+    tol = tolerances or Tolerances()
+    versions = _versions(base_info or {}, new_info or {})
+    pairs, missing, added = match(base, new)
+    scenes = []
+    for b, n, how in pairs:
+        tiers = _tiers(b, n, versions)
+        differ = tuple(settings_differ(b, n)) if how == "physical" else ()
+        scenes.append(SceneDiff(n.spec.label, b.key, n.key, how, differ, tuple(sorted(tiers.items())),
+                                tuple(scene_checks(b, n, tiers, tol))))
+    for b in missing:
+        scenes.append(SceneDiff(b.spec.label, b.key, "", "missing", checks=(Check(
+            b.spec.label, b.key, "missing", "", "scene", "not in NEW", "present", False,
+            message="in BASELINE, no scene of NEW has its key or its physical scene"),)))
+    for n in added:
+        scenes.append(SceneDiff(n.spec.label, "", n.key, "added", checks=(Check(
+            n.spec.label, n.key, "added", "", "scene", "not in BASELINE", "present", False,
+            message="in NEW only: no baseline to compare with (regenerate the baseline)"),)))
+    violations = tuple(check_expectations(new, expect)) if expect else ()
+    vtext = tuple(f"{k}: {a} -> {b}" for k, (a, b) in versions.items())
+    return DiffReport(names[0], names[1], tuple(sorted(scenes, key=lambda s: (s.label, s.new_key or s.base_key))),
+                      tol, violations, vtext)
+
+
+def diff_files(baseline: str | Path, new: str | Path, tolerances: Tolerances | None = None,
+               expect: Expectations | None = None) -> DiffReport:
+    """:func:`diff_results` of two results files (read by :func:`compare.store.read_scenes`; a file that is not
+    a readable results file raises :class:`compare.store.StoreError`)."""
+    from compare import store
+
+    base_info, new_info = store.file_info(baseline), store.file_info(new)
+    return diff_results(store.read_scenes(baseline), store.read_scenes(new), tolerances, expect, base_info, new_info,
+                        (str(baseline), str(new)))
+
+
+def stored_tables(path: str | Path) -> dict[str, Any]:
+    """The ``[tolerances]`` and ``[expect]`` tables of the campaign config stored in a results file ({} where
+    absent; raises ValueError when the stored text is not TOML)."""
+    from compare import store
+
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # pragma: no cover - Python 3.10
+        import tomli as tomllib  # type: ignore[no-redef]
+    text = str(store.file_info(path).get("campaign_config", "") or "")
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{path}: its stored campaign config is not TOML ({exc})") from None
+    return {k: doc[k] for k in ("tolerances", "expect") if k in doc}
+
+
+# -- output ---------------------------------------------------------------------------------------
+
+WIDTH = 100
+
+
+def _fit(text: str, n: int) -> str:
+    return text if len(text) <= n else text[:n - 3] + "..."
+
+
+def _value_text(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{100 * v:.3g} %" if math.isfinite(v) else str(v)
+    return str(v)
+
+
+def format_report(rep: DiffReport, width: int = WIDTH) -> str:
+    """The report as text of at most ``width`` columns: one line per failing scene (its worst check), worst
+    first, the violated expectations, the scenes matched by physical scene with the settings that differ, and a
+    closing count."""
+    lines = []
+    failed = rep.failed_scenes
+    if failed:
+        head = f"{'scene':<34} {'check':<34} {'value':>13} {'bound':>13}"
+        lines += [head[:width], "-" * min(width, len(head))]
+        for s in failed:
+            c = s.failures[0]
+            more = len(s.failures) - 1
+            scene = _fit(s.label + (f" (+{more})" if more else ""), 34)
+            lines.append(f"{scene:<34} {_fit(c.name, 34):<34} {_fit(_value_text(c.value), 13):>13} "
+                         f"{_fit(_value_text(c.bound), 13):>13}"[:width])
+    for v in rep.violations:
+        lines.append(_fit(f"EXPECT {v.message}", width))
+    for s in rep.scenes:
+        if s.match == "physical" and s.settings_differ:
+            lines.append(textwrap.fill(f"{s.label}: matched by physical scene; settings differ: "
+                                       + "; ".join(s.settings_differ), width=width, subsequent_indent="  ",
+                                       break_long_words=False, break_on_hyphens=False))
+    for v in rep.versions_differ:
+        lines.append(_fit(f"version differs: {v}", width))
+    c = rep.counts()
+    summary = (f"{'PASS' if rep.passed else 'FAIL'}: {c['passed']} of {c['scenes']} scenes within tolerance "
+               f"({c['matched_by_key']} matched by key, {c['matched_by_physical']} by physical scene, "
+               f"{c['missing']} missing, {c['added']} added); {c['expectations_violated']} expectation(s) violated")
+    last = textwrap.fill(summary, width=width, subsequent_indent="  ")
+    return "\n".join([*lines, last])
+
+
+def junit_xml(rep: DiffReport) -> str:
+    """JUnit XML: one test case per scene and check (classname: the scene's label), one per violated
+    expectation."""
+    import xml.etree.ElementTree as ET
+
+    cases = [(s.label, c.name, c) for s in rep.scenes for c in s.checks]
+    suite = ET.Element("testsuite", name="ked diff", tests=str(len(cases) + len(rep.violations)),
+                       failures=str(sum(not c.passed for _, _, c in cases) + len(rep.violations)), errors="0")
+    for label, name, c in cases:
+        case = ET.SubElement(suite, "testcase", classname=label, name=name)
+        if not c.passed:
+            f = ET.SubElement(case, "failure",
+                              message=f"{c.name}: {_value_text(c.value)} beyond {_value_text(c.bound)}")
+            f.text = c.message
+    for v in rep.violations:
+        case = ET.SubElement(suite, "testcase", classname=v.scene, name=f"expect {v.quantity}")
+        ET.SubElement(case, "failure", message=v.message)
+    root = ET.Element("testsuites")
+    root.append(suite)
+    return ET.tostring(root, encoding="unicode", xml_declaration=True)
