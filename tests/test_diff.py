@@ -20,7 +20,7 @@ from click.testing import CliRunner
 
 from compare import store
 from compare.config import ConfigError, parse_config
-from compare.diff import diff_files, format_report
+from compare.diff import diff_files, diff_results, format_report
 from compare.expect import Expectations, check_expectations
 from compare.runner import run_campaign
 from compare.tolerances import DEFAULTS, parse_tolerances
@@ -89,6 +89,10 @@ def test_identical_rerun_passes(baseline, tmp_path):
     assert rep.counts()["matched_by_key"] == 4
     res = _diff(baseline, rerun)
     assert res.exit_code == 0 and "PASS: 4 of 4" in res.output
+    # scenes stored identically are judged from the tables: the same checks as reading them in full
+    full = diff_results(store.read_scenes(baseline), store.read_scenes(rerun))
+    assert {(c.scene, c.check, c.solver, c.quantity, c.passed) for s in rep.scenes for c in s.checks} == \
+        {(c.scene, c.check, c.solver, c.quantity, c.passed) for s in full.scenes for c in s.checks}
 
 
 def test_history_scaled_by_one_percent_fails_naming_scene_and_quantity(baseline, tmp_path):
