@@ -331,7 +331,7 @@ def diff_files(baseline: str | Path, new: str | Path, tolerances: Tolerances | N
 
     base_info, new_info = store.file_info(baseline), store.file_info(new)
     versions = _versions(base_info, new_info)
-    same, keys_b, keys_n = identical_scenes(baseline, new, versions)
+    same, keys_b, keys_n = identical_scenes(baseline, new, versions, tolerances or Tolerances())
     rest_b, rest_n = [k for k in keys_b if k not in same], [k for k in keys_n if k not in same]
     rep = diff_results(_read(baseline, rest_b, len(keys_b)), _read(new, rest_n, len(keys_n)), tolerances, None,
                        base_info, new_info, (str(baseline), str(new)))
@@ -407,8 +407,8 @@ def _equal(a: dict[str, Any], b: dict[str, Any]) -> bool:
     return True
 
 
-def identical_scenes(baseline: str | Path, new: str | Path, versions: dict[str, tuple[Any, Any]]
-                     ) -> tuple[dict[str, SceneDiff], list[str], list[str]]:
+def identical_scenes(baseline: str | Path, new: str | Path, versions: dict[str, tuple[Any, Any]],
+                     tol: Tolerances) -> tuple[dict[str, SceneDiff], list[str], list[str]]:
     """(key -> :class:`SceneDiff` of every scene stored identically in both files, the keys of BASELINE, those of
     NEW); ({}, [], []) for files of an older layout (every scene is then read)."""
     import h5py
@@ -428,12 +428,12 @@ def identical_scenes(baseline: str | Path, new: str | Path, versions: dict[str, 
             ab, an = _arrays(fb, key, solvers), _arrays(fn, key, solvers)
             if not _equal(ab, an):
                 continue
-            out[key] = _identical_diff(key, n, an, solvers, versions)
+            out[key] = _identical_diff(key, n, an, solvers, versions, tol)
     return out, list(lb), list(ln)
 
 
 def _identical_diff(key: str, row: dict[str, Any], arrays: dict[str, Any], solvers: list[str],
-                    versions: dict[str, tuple[Any, Any]]) -> SceneDiff:
+                    versions: dict[str, tuple[Any, Any]], tol: Tolerances) -> SceneDiff:
     """The checks of a scene stored identically in both files: every history drift 0, every verdict unchanged."""
     moved = {VERSION_KEYS[k] for k in versions}
     tiers = {s: "physics" if (None in moved or s in moved) else "same" for s in solvers}
@@ -443,12 +443,14 @@ def _identical_diff(key: str, row: dict[str, Any], arrays: dict[str, Any], solve
         if arrays.get(f"solutions/{s}") is None or row["status"] != b"ok":
             continue
         for comp in (c for c in row["outputs"].split(",") if c):
-            checks.append(Check(label, key, "history", s, comp, 0.0, 0.0, True, tiers[s], "identical"))
+            checks.append(Check(label, key, "history", s, comp, 0.0, tol.bounds(tiers[s], s).history, True,
+                                tiers[s], "identical"))
     for (s, ref), (holds, err) in sorted(row["pairs"].items()):
         tier = "physics" if "physics" in (tiers.get(s), tiers.get(ref)) else "same"
         checks.append(Check(label, key, "verdict", s, f"{s}_vs_{ref}", f"{_holds(holds)} -> {_holds(holds)}",
                             _holds(holds), True, tier, "identical"))
-        checks.append(Check(label, key, "verdict_error", s, f"{s}_vs_{ref}", 0.0, 0.0, True, tier,
+        bound = max(tol.bounds(tier, s).verdict_error, tol.bounds(tier, ref).verdict_error)
+        checks.append(Check(label, key, "verdict_error", s, f"{s}_vs_{ref}", 0.0, bound, True, tier,
                             f"{err:.6g} -> {err:.6g}"))
     return SceneDiff(label, key, key, "key", (), tuple(sorted(tiers.items())), tuple(checks))
 

@@ -91,8 +91,9 @@ def test_identical_rerun_passes(baseline, tmp_path):
     assert res.exit_code == 0 and "PASS: 4 of 4" in res.output
     # scenes stored identically are judged from the tables: the same checks as reading them in full
     full = diff_results(store.read_scenes(baseline), store.read_scenes(rerun))
-    assert {(c.scene, c.check, c.solver, c.quantity, c.passed) for s in rep.scenes for c in s.checks} == \
-        {(c.scene, c.check, c.solver, c.quantity, c.passed) for s in full.scenes for c in s.checks}
+    assert {(c.scene, c.check, c.solver, c.quantity, c.bound, c.tier, c.passed) for s in rep.scenes
+            for c in s.checks} == {(c.scene, c.check, c.solver, c.quantity, c.bound, c.tier, c.passed)
+                                   for s in full.scenes for c in s.checks}
 
 
 def test_history_scaled_by_one_percent_fails_naming_scene_and_quantity(baseline, tmp_path):
