@@ -455,6 +455,24 @@ def _identical_diff(key: str, row: dict[str, Any], arrays: dict[str, Any], solve
     return SceneDiff(label, key, key, "key", (), tuple(sorted(tiers.items())), tuple(checks))
 
 
+def regression_tables(doc: dict[str, Any]) -> tuple[Tolerances | None, Expectations | None, list[str]]:
+    """The ``[tolerances]`` and ``[expect]`` tables of a parsed TOML document (None where absent) and their
+    problems (``"toml.path: message"``)."""
+    from compare.expect import parse_expect
+    from compare.tolerances import parse_tolerances
+    from ked_quasi.massmodel import MASS_MODELS
+
+    tol = exp = None
+    problems: list[str] = []
+    if "tolerances" in doc:
+        tol, p = parse_tolerances(doc["tolerances"])
+        problems += p
+    if "expect" in doc:
+        exp, p = parse_expect(doc["expect"], MASS_MODELS)
+        problems += p
+    return tol, exp, problems
+
+
 def stored_tables(path: str | Path) -> dict[str, Any]:
     """The ``[tolerances]`` and ``[expect]`` tables of the campaign config stored in a results file ({} where
     absent; raises ValueError when the stored text is not TOML)."""

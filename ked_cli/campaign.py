@@ -250,14 +250,15 @@ def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool, wide
 
 def _inspect_expect(file: Path, as_json: bool) -> None:
     from compare import store
-    from compare.diff import stored_tables
+    from compare.diff import regression_tables, stored_tables
     from compare.expect import check_expectations
-    from ked_cli.diff import parse_tables
 
     try:
-        _, exp = parse_tables(stored_tables(file), f"{file}: its stored campaign config")
+        _, exp, problems = regression_tables(stored_tables(file))
     except (ValueError, store.StoreError) as exc:
         raise click.UsageError(str(exc)) from None
+    if problems:
+        raise click.UsageError(f"{file}: its stored campaign config: {'; '.join(problems)}")
     if not exp:
         raise click.UsageError(f"{file}: its stored campaign config has no [expect] table (nothing to check)")
     if not as_json:

@@ -29,18 +29,10 @@ def load_tables(path: Path) -> tuple[Any, Any]:
 
 
 def parse_tables(doc: dict[str, Any], where: str) -> tuple[Any, Any]:
-    from compare.expect import parse_expect
-    from compare.tolerances import parse_tolerances
-    from ked_quasi.massmodel import MASS_MODELS
+    """(Tolerances or None, Expectations or None) of a parsed TOML document; a problem is a usage error."""
+    from compare.diff import regression_tables
 
-    tol = exp = None
-    problems: list[str] = []
-    if "tolerances" in doc:
-        tol, p = parse_tolerances(doc["tolerances"])
-        problems += p
-    if "expect" in doc:
-        exp, p = parse_expect(doc["expect"], MASS_MODELS)
-        problems += p
+    tol, exp, problems = regression_tables(doc)
     if problems:
         raise click.UsageError(f"{where}: {'; '.join(problems)}")
     return tol, exp
