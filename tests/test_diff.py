@@ -300,3 +300,19 @@ def test_run_and_inspect_check_the_expect_table(tmp_path):
 def test_inspect_expect_without_a_table_is_bad_input(baseline):
     res = CliRunner().invoke(cli, ["inspect", str(baseline), "--expect"])
     assert res.exit_code == 2 and "no [expect] table" in res.output
+
+
+def test_diff_reads_the_tables_stored_in_new(tmp_path):
+    """Without --tolerances, the [tolerances] table of the campaign config stored in NEW applies: a 1 % drift of
+    the linear answer passes a stated 2 %, fails the default round-off bound (--tolerances of an empty table)."""
+    out = tmp_path / "t.h5"
+    run_campaign(parse_config(CAMPAIGN + "[tolerances.same.linear]\nhistory = 0.02\nverdict_error = 0.02\n"), out,
+                 workers=1, progress=False)
+    new = _copy(out, tmp_path, "t_new.h5")
+    with h5py.File(new, "r+") as f:
+        ds = f[f"scenes/{_key(f, TIP60)}/solutions/linear"]
+        ds[...] = ds[()] * 1.01
+    assert _diff(out, new).exit_code == 0
+    plain = tmp_path / "plain.toml"
+    plain.write_text("[tolerances]\n")
+    assert _diff(out, new, "--tolerances", str(plain)).exit_code == 1
