@@ -34,7 +34,10 @@ def _tolerances(tolerances: Any) -> Any:
     if tolerances is None or isinstance(tolerances, Tolerances):
         return tolerances
     if isinstance(tolerances, (str, Path)):
-        import tomllib
+        try:
+            import tomllib
+        except ModuleNotFoundError:  # pragma: no cover - Python 3.10
+            import tomli as tomllib  # type: ignore[no-redef]
 
         tolerances = tomllib.loads(Path(tolerances).read_text(encoding="utf-8")).get("tolerances", {})
     tol, problems = parse_tolerances(dict(tolerances))
@@ -111,7 +114,7 @@ def assert_matches_baseline(new: str | Path, baseline: str | Path, *, tolerances
 
 class KedCampaign:
     """What the ``ked_campaign`` fixture gives: :meth:`run` a campaign config into a results file (resuming a
-    stored one; default file: ``<tmp dir>/<config stem>.h5``), :meth:`load` a results file's scenes."""
+    stored one; default file: ``<session tmp dir>/<config stem>.h5``), :meth:`load` a results file's scenes."""
 
     def __init__(self, tmp: Path) -> None:
         self.tmp = tmp
@@ -142,10 +145,11 @@ def ked_regen(request: pytest.FixtureRequest) -> bool:
     return bool(request.config.getoption("--ked-regen"))
 
 
-@pytest.fixture
-def ked_campaign(tmp_path: Path) -> KedCampaign:
-    """Runs (:meth:`KedCampaign.run`) or loads (:meth:`KedCampaign.load`) a campaign."""
-    return KedCampaign(tmp_path)
+@pytest.fixture(scope="session")
+def ked_campaign(tmp_path_factory: pytest.TempPathFactory) -> KedCampaign:
+    """Runs (:meth:`KedCampaign.run`) or loads (:meth:`KedCampaign.load`) a campaign; one temporary directory
+    for the session, so a config run by several tests is computed once (the run resumes the stored file)."""
+    return KedCampaign(tmp_path_factory.mktemp("ked"))
 
 
 @pytest.fixture
