@@ -184,10 +184,24 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
     elif grid_obj is not None:
         _check_speed_ratios(c, grid_obj)
     tolerances, expect = _regression_tables(c, doc)
+    if expect and grid_obj is not None and not c.problems:
+        _check_expect_scenes(c, expect, grid_obj)
     if c.problems:
         raise ConfigError(c.problems, source=source)
     assert grid_obj is not None
     return CampaignConfig(name=name, grid=grid_obj, text=text, tolerances=tolerances, expect=expect)
+
+
+def _check_expect_scenes(c: _Checker, expect: Expectations, grid: Grid) -> None:
+    """Every scene an ``[expect]`` table names must be a scene of the grid (label or key prefix)."""
+    scenes = grid.expand()
+    labels = {s.label for s in scenes}
+    keys = [s.key for s in scenes]
+    for name in ("holds", "fails"):
+        for i, ident in enumerate(getattr(expect, name)):
+            if ident not in labels and not any(k.startswith(ident) for k in keys):
+                c.err(f"expect.{name}[{i}]", f"{ident!r} is not a scene of the grid (give a scene label, e.g. "
+                                             f"{sorted(labels)[0]!r}, or a key prefix)")
 
 
 def _regression_tables(c: _Checker, doc: dict[str, Any]) -> tuple[Tolerances | None, Expectations | None]:

@@ -499,16 +499,21 @@ def _fit(text: str, n: int) -> str:
     return text if len(text) <= n else text[:n - 3] + "..."
 
 
-def _value_text(v: Any) -> str:
+def _value_text(v: Any, unit: str = "%") -> str:
+    """A drift as a percentage of the peak (``%``) or in points of an error (``pt``); text as it is."""
     if isinstance(v, float):
-        return f"{100 * v:.3g} %" if math.isfinite(v) else str(v)
+        return f"{100 * v:.3g} {unit}" if math.isfinite(v) else str(v)
     return str(v)
 
 
+def _unit(c: Check) -> str:
+    return "pt" if c.check == "verdict_error" else "%"
+
+
 def format_report(rep: DiffReport, width: int = WIDTH) -> str:
-    """The report as text of at most ``width`` columns: one line per failing scene (its worst check), worst
-    first, the violated expectations, the scenes matched by physical scene with the settings that differ, and a
-    closing count."""
+    """The report as text of at most ``width`` columns: one line per failing scene (its worst check; drifts of
+    histories in % of the baseline's peak, of verdict errors in points), worst first, the violated expectations,
+    the scenes matched by physical scene with the settings that differ, and a closing count."""
     lines = []
     failed = rep.failed_scenes
     if failed:
@@ -518,8 +523,8 @@ def format_report(rep: DiffReport, width: int = WIDTH) -> str:
             c = s.failures[0]
             more = len(s.failures) - 1
             scene = _fit(s.label + (f" (+{more})" if more else ""), 34)
-            lines.append(f"{scene:<34} {_fit(c.name, 34):<34} {_fit(_value_text(c.value), 13):>13} "
-                         f"{_fit(_value_text(c.bound), 13):>13}"[:width])
+            lines.append(f"{scene:<34} {_fit(c.name, 34):<34} {_fit(_value_text(c.value, _unit(c)), 13):>13} "
+                         f"{_fit(_value_text(c.bound, _unit(c)), 13):>13}"[:width])
     for v in rep.violations:
         lines.append(_fit(f"EXPECT {v.message}", width))
     for s in rep.scenes:
@@ -549,7 +554,8 @@ def junit_xml(rep: DiffReport) -> str:
         case = ET.SubElement(suite, "testcase", classname=label, name=name)
         if not c.passed:
             f = ET.SubElement(case, "failure",
-                              message=f"{c.name}: {_value_text(c.value)} beyond {_value_text(c.bound)}")
+                              message=f"{c.name}: {_value_text(c.value, _unit(c))} beyond "
+                                      f"{_value_text(c.bound, _unit(c))}")
             f.text = c.message
     for v in rep.violations:
         case = ET.SubElement(suite, "testcase", classname=v.scene, name=f"expect {v.quantity}")

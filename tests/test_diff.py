@@ -316,3 +316,9 @@ def test_diff_reads_the_tables_stored_in_new(tmp_path):
     plain = tmp_path / "plain.toml"
     plain.write_text("[tolerances]\n")
     assert _diff(out, new, "--tolerances", str(plain)).exit_code == 1
+
+
+def test_expect_naming_a_scene_outside_the_grid_is_refused_at_load():
+    with pytest.raises(ConfigError, match=r"expect.fails\[0\]: 'source/tip/301rpm' is not a scene of the grid"):
+        parse_config(CAMPAIGN + "[expect]\nfails = [\"source/tip/301rpm\"]\n")
+    assert parse_config(CAMPAIGN + f"[expect]\nholds = [\"{EXT300}\"]\n").expect.holds == (EXT300,)
