@@ -517,14 +517,16 @@ def format_report(rep: DiffReport, width: int = WIDTH) -> str:
     lines = []
     failed = rep.failed_scenes
     if failed:
-        head = f"{'scene':<34} {'check':<34} {'value':>13} {'bound':>13}"
+        head = f"{'scene (+ more failed checks)':<36} {'check':<13} {'solver/quantity':<22} {'value':>14} {'bound':>10}"
         lines += [head[:width], "-" * min(width, len(head))]
         for s in failed:
             c = s.failures[0]
-            more = len(s.failures) - 1
-            scene = _fit(s.label + (f" (+{more})" if more else ""), 34)
-            lines.append(f"{scene:<34} {_fit(c.name, 34):<34} {_fit(_value_text(c.value, _unit(c)), 13):>13} "
-                         f"{_fit(_value_text(c.bound, _unit(c)), 13):>13}"[:width])
+            more = f" (+{len(s.failures) - 1})" if len(s.failures) > 1 else ""
+            scene = _fit(s.label, 36 - len(more)) + more
+            what = c.quantity if c.quantity.startswith(f"{c.solver}_vs_") else c.name[len(c.check) + 1:]
+            value, bound = _value_text(c.value, _unit(c)), _value_text(c.bound, _unit(c))
+            lines.append(f"{scene:<36} {_fit(c.check, 13):<13} {_fit(what, 22):<22} {_fit(value, 14):>14} "
+                         f"{_fit(bound, 10):>10}"[:width])
     for v in rep.violations:
         lines.append(_fit(f"EXPECT {v.message}", width))
     for s in rep.scenes:
