@@ -254,7 +254,11 @@ def scene_checks(base: SceneResult, new: SceneResult, tiers: dict[str, str], tol
     same_grid = _same_grid(base.crank_angle, new.crank_angle)
     for name, sb in base.solutions.items():
         sn = new.solutions.get(name)
-        if not (sb.ok and sn is not None and sn.ok) or not same_grid:
+        if not (sb.ok and sn is not None and sn.ok):
+            continue
+        if not same_grid:
+            add("history", name, "grid", "not compared", "same grid", True, tiers.get(name, ""),
+                "the crank-angle grids differ (another step_deg): only the verdict errors are compared")
             continue
         b = tol.bounds(tiers.get(name, "physics"), name)
         for comp, hb in sb.deflection.items():

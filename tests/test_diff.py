@@ -322,3 +322,20 @@ def test_expect_naming_a_scene_outside_the_grid_is_refused_at_load():
     with pytest.raises(ConfigError, match=r"expect.fails\[0\]: 'source/tip/301rpm' is not a scene of the grid"):
         parse_config(CAMPAIGN + "[expect]\nfails = [\"source/tip/301rpm\"]\n")
     assert parse_config(CAMPAIGN + f"[expect]\nholds = [\"{EXT300}\"]\n").expect.holds == (EXT300,)
+
+
+def test_another_crank_angle_grid_is_matched_by_physical_scene_and_judged_by_verdicts(baseline, tmp_path):
+    """step_deg 30 -> 20: the same physical scenes; histories on other grids are not compared point by point,
+    the verdict errors are, by the `physics` tier (against the linear model: 3.12 points; sampled every 20 instead
+    of 30 deg the errors moved by at most 0.48 points: a regression pin of this campaign)."""
+    other = tmp_path / "step20.h5"
+    run_campaign(parse_config(CAMPAIGN.replace("step_deg = 30.0", "step_deg = 20.0")), other, workers=1,
+                 progress=False)
+    rep = diff_files(baseline, other)
+    assert rep.counts()["matched_by_physical"] == 4
+    assert all("step_deg: 30.0 -> 20.0" in s.settings_differ for s in rep.scenes)
+    grid = [c for s in rep.scenes for c in s.checks if c.check == "history"]
+    assert grid and all(c.quantity == "grid" and c.passed for c in grid)
+    moved = [c for s in rep.scenes for c in s.checks if c.check == "verdict_error"]
+    assert all(c.tier == "physics" and c.bound == 0.0312 for c in moved)
+    assert max(c.value for c in moved) < 0.006 and rep.passed
