@@ -22,8 +22,10 @@ except ModuleNotFoundError:  # pragma: no cover - Python 3.10
     import tomli as tomllib  # type: ignore[no-redef]
 
 from compare import solvers as solver_registry
+from compare.expect import Expectations, parse_expect
 from compare.scenes import FOUR_BAR, MECHANISMS, SLIDER_KIND, Grid, Items, SceneSpec, SpeedSpec
 from compare.solvers import COMPONENTS
+from compare.tolerances import Tolerances, parse_tolerances
 from ked_quasi import rules
 from ked_quasi.linkage import BRANCHES, DIRECTIONS, LINKS, SECTION_RULES, THESIS_RPM, FourBar, thesis_fourbar
 from ked_quasi.massmodel import MASS_MODELS, PLACEMENTS, MassModel, default_payload
@@ -52,6 +54,10 @@ class CampaignConfig:
     name: str
     grid: Grid
     text: str = ""
+    tolerances: Tolerances | None = None
+    """The ``[tolerances]`` table (None: absent; :mod:`compare.tolerances`); not part of any scene key."""
+    expect: Expectations | None = None
+    """The ``[expect]`` table (None: absent; :mod:`compare.expect`); not part of any scene key."""
 
     def scenes(self) -> tuple[SceneSpec, ...]:
         """All scenes of the campaign grid (see :meth:`compare.scenes.Grid.expand`)."""
@@ -125,7 +131,7 @@ def parse_config(text: str, source: str = "campaign config") -> CampaignConfig:
     return validate(doc, text=text, source=source)
 
 
-TOP_TABLES = ("campaign", "linkage", "grid", "dynamic")
+TOP_TABLES = ("campaign", "linkage", "grid", "dynamic", "tolerances", "expect")
 
 
 def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config") -> CampaignConfig:
@@ -177,10 +183,37 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
                       f"({rules.MAX_SCENES}); split the grid into several campaigns (join results with ked merge)")
     elif grid_obj is not None:
         _check_speed_ratios(c, grid_obj)
+    tolerances, expect = _regression_tables(c, doc)
+    if expect and grid_obj is not None and not c.problems:
+        _check_expect_scenes(c, expect, grid_obj)
     if c.problems:
         raise ConfigError(c.problems, source=source)
     assert grid_obj is not None
-    return CampaignConfig(name=name, grid=grid_obj, text=text)
+    return CampaignConfig(name=name, grid=grid_obj, text=text, tolerances=tolerances, expect=expect)
+
+
+def _check_expect_scenes(c: _Checker, expect: Expectations, grid: Grid) -> None:
+    """Every scene an ``[expect]`` table names must be a scene of the grid (label or key prefix)."""
+    scenes = grid.expand()
+    labels = {s.label for s in scenes}
+    keys = [s.key for s in scenes]
+    for name in ("holds", "fails"):
+        for i, ident in enumerate(getattr(expect, name)):
+            if ident not in labels and not any(k.startswith(ident) for k in keys):
+                c.err(f"expect.{name}[{i}]", f"{ident!r} is not a scene of the grid (give a scene label, e.g. "
+                                             f"{sorted(labels)[0]!r}, or a key prefix)")
+
+
+def _regression_tables(c: _Checker, doc: dict[str, Any]) -> tuple[Tolerances | None, Expectations | None]:
+    """The ``[tolerances]`` and ``[expect]`` tables (None where absent), their problems added to ``c``."""
+    tolerances = expect = None
+    if "tolerances" in doc:
+        tolerances, problems = parse_tolerances(doc["tolerances"])
+        c.problems += problems
+    if "expect" in doc:
+        expect, problems = parse_expect(doc["expect"], MASS_MODELS)
+        c.problems += problems
+    return tolerances, expect
 
 
 # --------------------------------------------------------------------------------------------------

@@ -159,6 +159,20 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
     if not no_figures:
         paths = _write_figures(results, fig_dir, workers=1 if scheduler else (workers or default_workers()))
         click.echo(wrap(f"figures: {len(paths)} PNG files (re)drawn in {fig_dir} (index.json: file -> scene)"))
+    if cfg.expect:
+        _report_expectations(results, cfg.expect)
+
+
+def _report_expectations(results: list, expect: Any) -> None:
+    """Print every violated expectation (one line each: scene, quantity, value, bound) and exit 1 if any."""
+    from compare.expect import check_expectations
+
+    violations = check_expectations(results, expect)
+    for v in violations:
+        click.echo(wrap(f"EXPECT {v.message}"))
+    click.echo(wrap(f"expectations: {len(violations)} violated" if violations else "expectations: all met"))
+    if violations:
+        sys.exit(1)
 
 
 def _start_line(cfg: Any, n: int, p: Any, out: Path) -> str:
@@ -195,11 +209,17 @@ def _dry_run(cfg: Any, out: Path, retry_failed: bool) -> None:
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON output.")
 @click.option("--verify", is_flag=True, help="Check the file's integrity and schema; exit 1 on problems.")
 @click.option("--wide", is_flag=True, help=WIDE_HELP)
-def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool, wide: bool) -> None:
+@click.option("--expect", "expect", is_flag=True,
+              help="Check the [expect] table of the campaign config stored in FILE (what the verdicts must be); "
+                   "print each violation (scene, quantity, value, bound) and exit 1 if any.")
+def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool, wide: bool, expect: bool) -> None:
     """Show a results FILE: summary table of its scenes, or one SCENE (key prefix or label) in detail."""
     _regular(file, "FILE")
     if verify:
         _verify(file, as_json)
+        return
+    if expect:
+        _inspect_expect(file, as_json)
         return
     from compare import store
     from compare.inspect import find_scene, format_counts, format_detail, format_table, scene_detail, summary_row
@@ -226,6 +246,28 @@ def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool, wide
                     f"exudyn {info.get('exudyn_version')}, schema version {info.get('schema_version')}"))
     click.echo(format_table(rows, wide=wide))
     click.echo(format_counts(results))
+
+
+def _inspect_expect(file: Path, as_json: bool) -> None:
+    from compare import store
+    from compare.diff import regression_tables, stored_tables
+    from compare.expect import check_expectations
+
+    try:
+        _, exp, problems = regression_tables(stored_tables(file))
+    except (ValueError, store.StoreError) as exc:
+        raise click.UsageError(str(exc)) from None
+    if problems:
+        raise click.UsageError(f"{file}: its stored campaign config: {'; '.join(problems)}")
+    if not exp:
+        raise click.UsageError(f"{file}: its stored campaign config has no [expect] table (nothing to check)")
+    if not as_json:
+        _report_expectations(_results(file), exp)
+        return
+    violations = check_expectations(_results(file), exp)
+    click.echo(json.dumps({"file": str(file), "expect": exp.to_dict(), "met": not violations,
+                           "violations": [v.to_dict() for v in violations]}, indent=2))
+    sys.exit(1 if violations else 0)
 
 
 def _verify(file: Path, as_json: bool) -> None:
