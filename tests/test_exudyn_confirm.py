@@ -129,6 +129,16 @@ steps_per_cycle = 180
     assert "dynamic (Exudyn) in 1 scene (large_deflection" in " ".join(table.split())
 
 
+def test_a_flagged_exudyn_answer_does_not_decide_a_confirmed_check(tmp_path):
+    """ked check --confirm on the thin-section scene at 0.6 rpm: the Exudyn answer is beyond the
+    small-deflection range, so its errors are no measurement: the prediction stands, the flags are the row's."""
+    out = CliRunner().invoke(ked, ["check", "--linkage", _thin_file(tmp_path), "--rpm", "0.6", "--confirm", "--json"])
+    assert out.exit_code == 0, out.output
+    (row,) = json.loads(out.stdout)
+    assert row["decided_by"] == "predicted" and "quasi_static_vs_dynamic" not in row["confirmed"]
+    assert "large_deflection" in row["flags"] and "not a valid measurement" in row["verdict"]
+
+
 @pytest.mark.slow
 def test_thin_section_tip_mass_at_r_9_5_is_not_an_extrapolated_orbit(tmp_path):
     """The case found: r = 9.5 (14.4 rpm), tip mass. The marching extrapolation settles after 76 cycles on a
