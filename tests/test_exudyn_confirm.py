@@ -85,7 +85,8 @@ def _thin_file(tmp_path):
 
 def test_exudyn_answer_beyond_small_deflection_carries_the_flag(tmp_path):
     """Thin sections at 0.6 rpm (r ~ 0.4): the Exudyn steady state settles, but its peak deflection is
-    ~63 mm, above 10 % of the shortest link (crank, 254 mm): flagged, not valid, as the quasi-static one."""
+    ~63 mm, above 10 % of the shortest link (crank, 254 mm): flagged, not valid, as the quasi-static one; and
+    no extrapolated cycle is returned there."""
     out = CliRunner().invoke(ked, ["simulate", "--linkage", _thin_file(tmp_path), "--rpm", "0.6", "--step-deg", "30",
                                    "--steps-per-cycle", "180", "--json"])
     assert out.exit_code == 0, out.output
@@ -94,6 +95,9 @@ def test_exudyn_answer_beyond_small_deflection_carries_the_flag(tmp_path):
     assert data["converged"] and peak > 0.1 * 0.254
     assert "large_deflection" in data["flags"] and data["valid"] is False
     assert "outside the small-deflection range" in out.stderr
+    # the extrapolation (it assumes a linear cycle map) is not used there: the answer is a simulated cycle
+    assert "not used: beyond the small-deflection range" in data["message"]
+    assert "extrapolated from the last" not in data["message"]
     qs = json.loads(CliRunner().invoke(ked, ["quasi", "--linkage", _thin_file(tmp_path), "--rpm", "0.6",
                                              "--step-deg", "30", "--json"]).stdout)
     assert "large_deflection" in qs["flags"]  # the same bound in both tiers
