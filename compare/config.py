@@ -29,7 +29,7 @@ from compare.tolerances import Tolerances, parse_tolerances
 from ked_quasi import rules
 from ked_quasi.linkage import BRANCHES, DIRECTIONS, LINKS, SECTION_RULES, THESIS_RPM, FourBar, thesis_fourbar
 from ked_quasi.massmodel import MASS_MODELS, PLACEMENTS, MassModel, default_payload
-from ked_quasi.scene import variant
+from ked_quasi.scene import Scene, variant
 from ked_quasi.slidercrank import SliderCrank, kind_conflict, simeon_slider_crank, slider_from_table
 
 DEFAULT_TOLERANCE = 0.10
@@ -183,6 +183,7 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
                       f"({rules.MAX_SCENES}); split the grid into several campaigns (join results with ked merge)")
     elif grid_obj is not None:
         _check_speed_ratios(c, grid_obj)
+        _check_linear_size(c, grid_obj)
     tolerances, expect = _regression_tables(c, doc)
     if expect and grid_obj is not None and not c.problems:
         _check_expect_scenes(c, expect, grid_obj)
@@ -305,6 +306,31 @@ def _check_kind_axes(c: _Checker, source: FourBar | SliderCrank, path: str, mech
             variant(source, mech)
         except ValueError as exc:
             c.err("grid.mechanisms", f"{mech!r}: {exc}" + (f" ({path})" if path != "linkage" else ""))
+
+
+LINEAR_SOLVERS = ("linear", "linear_classic")
+"""The solvers that run the linear KED model (its coordinate cap applies to their scenes)."""
+
+
+def _check_linear_size(c: _Checker, grid: Grid) -> None:
+    """A grid that runs the linear model is refused at load when a mass model's lumps exceed the model's
+    coordinate cap for one of its linkages (:func:`ked_linear.size.check_size`, naming the allowed lumps)."""
+    if not any(name in LINEAR_SOLVERS for name in grid.solvers):
+        return
+    from ked_linear.size import check_size
+    from ked_quasi.slidercrank import SliderScene
+
+    for i, linkage in enumerate(grid.linkages):
+        where = "" if len(grid.linkages) == 1 else f" ({_linkage_path(i, len(grid.linkages))})"
+        for j, mm in enumerate(grid.mass_models):
+            scene = (SliderScene(linkage, mm, 1.0, grid.step_deg) if isinstance(linkage, SliderCrank)
+                     else Scene(linkage, mm, 1.0, grid.step_deg))
+            try:
+                check_size(scene, label=f"grid.mass_models[{j}].lumps{where}")
+            except ValueError as exc:
+                c.problems.append(str(exc))
+                c.bad.add("grid.mass_models")
+                return
 
 
 def _check_speed_ratios(c: _Checker, grid: Grid) -> None:

@@ -11,7 +11,9 @@ in every linear observation of the cycles); a coordinate that turns by whole rev
 crank's rotation) is first brought to the phase of the last cycle. An estimate the confirming cycle does
 not reproduce fitted something other than a decaying transient toward a periodic orbit: it is dropped
 (RunRecord.confirmation says why) and the march goes on from the last simulated cycle's end without
-extrapolation: the run is then steady only by two successive simulated cycles."""
+extrapolation: the run is then steady only by two successive simulated cycles. So is a run whose
+estimate lies beyond the small-deflection range of ked_quasi.limits: the extrapolation assumes a linear
+cycle map (a decaying transient of a linear periodic system), which large deflections are not."""
 
 from __future__ import annotations
 
@@ -19,6 +21,8 @@ import math
 
 import exudyn as exu
 import numpy as np
+
+from ked_quasi import limits
 
 from .builder import BuiltModel
 from .cycles import (
@@ -55,6 +59,8 @@ class _CycleCheck:
         self.error: BaseException | None = None
         self.ends: list[tuple[np.ndarray, ...]] = []  # full state at the end of each cycle of tracker.history
         self.pending = False
+        self.linkage = None  # the four-bar or slider-crank (the small-deflection bound of an estimate)
+        self.unused = ""  # why a settled estimate was not used
 
     def record_end(self, mbs) -> None:
         """Record the model's current full state as the end state of the last checked cycle. (Exudyn calls
@@ -89,7 +95,12 @@ class _CycleCheck:
             self.converged, self.result = True, tr.current
             return False
         estimate = tr.settled_estimate()
-        if estimate is not None:
+        found = limits.flags(estimate[:, :3], self.linkage) if estimate is not None else ()
+        if found:  # the extrapolation assumes a linear cycle map: not where the deflections are large
+            tr.rejected = True
+            self.unused = (f"extrapolated orbit after {tr.cycles} cycles not used: beyond the small-deflection "
+                           f"range ({', '.join(found)}), where the extrapolation's linear cycle map does not hold")
+        elif estimate is not None:
             self.converged, self.result, self.extrapolated = True, estimate, True
             return False
         return True
@@ -109,6 +120,7 @@ def march(scene, settings: DynamicSettings, model: BuiltModel, start_note: str, 
     tol = newton_tolerances(settings, scene) if tolerances is None else tolerances
     tracker = SteadyTracker(settings)
     check = _CycleCheck(model, CycleSampler(model, scene, n) if sampler is None else sampler, tracker, h)
+    check.linkage = getattr(scene, "fourbar", None) or scene.linkage
     steps = newton = 0
     t_start, confirmation = 0.0, ""
     while True:
@@ -133,6 +145,7 @@ def march(scene, settings: DynamicSettings, model: BuiltModel, start_note: str, 
             raise SimulationError("no complete steady cycle was simulated", t,
                                   float(np.mod(drive.angle(t), 2.0 * math.pi)))
         if not check.extrapolated:
+            confirmation = confirmation or check.unused
             break
         if check.pending:
             check.record_end(mbs)

@@ -36,7 +36,8 @@ def dynamic_options(f: Any) -> Any:
         click.option("--max-cycles", type=click.IntRange(1, 10_000), default=None,
                      help="Give up after this many constant-speed cycles, 1..1e4 [default: 80]."),
         click.option("--extrapolate/--no-extrapolate", default=None,
-                     help="Accept the steady cycle extrapolated from the last 4 cycles [default: on]."),
+                     help="Accept the steady cycle extrapolated from the last 4 cycles once a cycle simulated "
+                          "from it reproduces it [default: on]."),
         click.option("--sparse/--dense", default=None, help="Exudyn linear solver [default: sparse]."),
         click.option("--start", type=click.Choice(("ramp", "quasi_static")), default=None,
                      help="Start of the constant-speed phase: from rest through the ramp, or at full speed "

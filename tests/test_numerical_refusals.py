@@ -106,3 +106,11 @@ def test_the_speed_ratio_floor_in_campaigns(tmp_path: Path):
     assert_refused(ked("run", str(cfg), "--dry-run"), "grid.speed_ratios")
     ok = ked("quasi", "--rpm", "1", "--json")  # r ~ 1.8e-3: the harness's slowest scenes stay accepted
     assert ok.returncode == 0, ok.stderr[-2000:]
+
+
+def test_a_campaign_running_the_linear_model_refuses_lumps_beyond_its_cap(tmp_path: Path):
+    text = '[campaign]\nname = "lumps"\n{solvers}\n[grid]\nmass_models = [{{name = "distributed", lumps = 64}}]\n'
+    cfg = write(tmp_path, "lumps.toml", text.format(solvers=""))  # the default solvers include the linear model
+    assert_refused(ked("run", str(cfg), "--dry-run"), "grid.mass_models[0].lumps", "allowed: 1..30")
+    cfg = write(tmp_path, "qs.toml", text.format(solvers='solvers = ["quasi_static"]'))
+    assert ked("run", str(cfg), "--dry-run").returncode == 0  # the quasi-static solver takes 64 lumps per link
