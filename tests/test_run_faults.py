@@ -209,7 +209,9 @@ rpm = [30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0, 100.0]
 
 
 @pytest.mark.parametrize("size", ["100k", "150k"])  # the disk fills early, late (the file ends at 125 kB)
-def test_disk_filling_mid_run_ends_in_the_rescue_line_only(tmp_path, size):
+def test_disk_filling_mid_run_ends_in_the_rescue_line_only(tmp_path, size, monkeypatch):
+    # the rescue file goes beside the output, else into the temporary directory: this test's own
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
     disk = tmp_path / "disk"
     disk.mkdir()
     _mount("-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(disk))
