@@ -109,7 +109,10 @@ def test_ctrl_c_stops_a_check_and_its_workers_in_one_line():
     # `ked check` over a range of the distributed model starts worker processes (its work is worth them);
     # a Ctrl-C to the process group while they compute ends it in one line, which says that a check keeps
     # nothing (it stores no results), and takes the workers with it
-    proc = _start(["check", "--mass-model", "distributed", "--rpm-range", "30:600:20", "--workers", "2"],
+    # (60 speeds at 10 lumps a link: worth the workers on any machine; 20 speeds at 5 lumps ran in 6 s and
+    # started none on this project's machine)
+    proc = _start(["check", "--mass-model", "distributed", "--lumps", "10", "--rpm-range", "30:600:60", "--workers",
+                   "2"],
                   start_new_session=True)
     workers = _workers_of(proc, 2)
     assert workers, "no worker process started"
