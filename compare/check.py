@@ -45,7 +45,7 @@ from typing import TYPE_CHECKING, Any
 from compare import metrics, verdict_rule
 from compare.config import default_dynamic
 from compare.execute import run_scene
-from compare.inspect import speed_ratio
+from compare.inspect import rpm_text, speed_ratio
 from compare.results import SceneResult
 from compare.scenes import SceneSpec, SpeedSpec
 from compare.solvers import get as get_solver
@@ -325,7 +325,7 @@ def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, 
     rows: list[CheckRow] = []
     with progress(len(rpms)) if bar is None else contextlib.nullcontext(bar) as bar:
         def done_on_a_worker(j: int, row: CheckRow) -> None:
-            status(bar, f"{row.rpm:g} rpm")
+            status(bar, f"{rpm_text(row.rpm)} rpm")
             advance(bar)
 
         for i, spec in enumerate(specs):
@@ -411,14 +411,14 @@ def check_spec(spec: SceneSpec, rng: LinearRange, margins: VerdictMargins, confi
     """The check of one speed's scene (:func:`spec_for`); ``bar``: a progress bar that says which stage runs."""
     bar = _NoBar() if bar is None else bar
     rpm = spec.speed.value
-    status(bar, f"{rpm:g} rpm")
+    status(bar, f"{rpm_text(rpm)} rpm")
     r = _run(spec)
     if _unresolved(r):
-        status(bar, f"{rpm:g} rpm, {MAX_HARMONICS} harmonics")
+        status(bar, f"{rpm_text(rpm)} rpm, {MAX_HARMONICS} harmonics")
         spec = with_more_harmonics(spec)
         r = _run(spec)
     if confirm:
-        status(bar, f"{rpm:g} rpm, Exudyn")
+        status(bar, f"{rpm_text(rpm)} rpm, Exudyn")
         r = _run(replace(spec, solvers=(*spec.solvers, "dynamic")))
     row = check_row(r, rng, spec.tolerance, margins)
     if spec.extra_settings:

@@ -33,7 +33,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from compare import solvers as registry
-from compare.inspect import speed_ratio
+from compare.inspect import rpm_text, speed_ratio
 from compare.results import SceneResult
 
 _LABELS = {"dx": "dx [mm]", "dy": "dy [mm]", "rotation": "rotation [mrad]"}
@@ -139,7 +139,7 @@ def scene_figure(r: SceneResult) -> Figure:
         verdict = (f"\nquasi-static error vs {registry.label(v.reference)} {v.verdict_error:.1%} -> "
                    f"{'holds' if v.holds else 'FAILS'} (tol {v.tolerance:.0%})")
     fig.suptitle(
-        f"{r.spec.label}  [{r.key}]\n{r.rpm:.4g} rpm, Omega/w1min = "
+        f"{r.spec.label}  [{r.key}]\n{rpm_text(r.rpm)} rpm, Omega/w1min = "
         f"{speed_ratio(r):.3g}, {status}{verdict}",
         fontsize=10,
     )
@@ -273,7 +273,7 @@ def amplification_figure(results: Sequence[SceneResult], tolerance: float | None
         label = family_label(rs[0])
         own = _rpm_per_ratio(rs)
         if per is None and own is not None:
-            label += f" (r = 0.1 at {0.1 * own:.3g} rpm)"
+            label += f" (r = 0.1 at {rpm_text(0.1 * own)} rpm)"
         style = dict(marker=markers[i % len(markers)], ls="-" if fam.startswith("source") else "--", ms=5)
         ax_a.plot(x, amp, label=label, **style)
         ax_e.plot(x, err, label=label, **style)

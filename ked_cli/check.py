@@ -104,6 +104,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     from compare.check import check as run_check
     from compare.check import progress, redraw
     from compare.checkwork import CheckWorkerError, CheckWorkers
+    from compare.inspect import rpm_text
     from ked_cli.quasi import slider_source
     from ked_quasi.massmodel import MassModel, default_payload
     from ked_quasi.scene import variant
@@ -170,9 +171,10 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
                                  break_on_hyphens=False))
     if len(rows) >= 3 and slider is None:  # no Floquet analysis of a slider-crank yet
         for text in ("Critical speeds (local maxima of max |Floquet multiplier|): "
-                     + (", ".join(f"{c.rpm:.4g} rpm (|mu| {c.max_abs:.3g})" for c in crit) or "none in this range"),
+                     + (", ".join(f"{rpm_text(c.rpm)} rpm (|mu| {c.max_abs:.3g})" for c in crit)
+                        or "none in this range"),
                      "Amplification peaks (linear / quasi-static peak): "
-                     + (", ".join(f"{a:.4g} rpm" for a in amp) or "none in this range")):
+                     + (", ".join(f"{rpm_text(a)} rpm" for a in amp) or "none in this range")):
             click.echo(textwrap.fill(text, width=WIDTH, subsequent_indent="  ", break_on_hyphens=False))
     click.echo(textwrap.fill(
         "r = Omega/omega1_min; qs vs lin: the quasi-static answer's history error against the linear KED answer; "
