@@ -308,7 +308,7 @@ def amplification_figure(results: Sequence[SceneResult], tolerance: float | None
         label = "not valid: outside its model's range: " + "; ".join(sorted(reasons))
         ring = dict(marker="o", ms=11, mfc="none", mec=INVALID_COLOR, mew=1.5, ls="none")
         ax_a.plot(invalid_x, invalid_a, **ring)
-        ax_e.plot(invalid_x, invalid_e, label=_wrap_label(label), **ring)
+        ax_e.plot(invalid_x, invalid_e, label=_wrap_label(label, 90), **ring)
     failed = [r for r in results if not r.ok and math.isfinite(speed_ratio(r))]
     for i, r in enumerate(failed):
         for ax in (ax_a, ax_e):
