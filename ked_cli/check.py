@@ -125,7 +125,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
             source = slider
             refuse_fast_slider(spec_for(slider, mechanism, mm, speeds[0], stiffness_scale=stiffness_scale,
                                         direction=direction).scene(speeds[0]), speeds, "--rpm")
-        sweep = len(speeds) >= 3 and slider is None  # critical speeds: local maxima over the range (compare.critical)
+        sweep = len(speeds) >= 3  # critical speeds: local maxima over the range (compare.critical)
         # one bar over the speeds and then the critical-speed sweep; worker processes once the work is worth them
         with progress(len(speeds)) as bar, CheckWorkers(workers) as pool:
             rows = run_check(source, mechanism, mm, speeds, stiffness_scale=stiffness_scale,
@@ -137,7 +137,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
 
                 bar.total = bar.n + sweep_evaluations(rows)
                 redraw(bar)
-                crit, amp, rows = check_critical(rows, load_source(linkage), mechanism, mm, bar=bar, workers=pool,
+                crit, amp, rows = check_critical(rows, source, mechanism, mm, bar=bar, workers=pool,
                                                  stiffness_scale=stiffness_scale, damping_ratio=damping_ratio,
                                                  direction=direction, tolerance=tolerance)
     except ValueError as exc:
@@ -169,7 +169,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
         click.echo(line.rstrip())
         click.echo(textwrap.fill(r.verdict, width=WIDTH, initial_indent=" " * 9, subsequent_indent=" " * 11,
                                  break_on_hyphens=False))
-    if len(rows) >= 3 and slider is None:  # no Floquet analysis of a slider-crank yet
+    if len(rows) >= 3:
         for text in ("Critical speeds (local maxima of max |Floquet multiplier|): "
                      + (", ".join(f"{rpm_text(c.rpm)} rpm (|mu| {c.max_abs:.3g})" for c in crit)
                         or "none in this range"),
