@@ -205,3 +205,35 @@ def test_ked_plot_shows_the_progress_bar_only_on_a_terminal(campaign, tmp_path, 
     plot_cmd.main([str(campaign), "--out", str(tmp_path / "f"), "--workers", "1"], standalone_mode=False)
     text = "".join(err.parts)
     assert ("figures" in text and "figure" in text and "/7" in text) if tty else text == ""
+
+
+def test_ked_run_writes_figures_in_the_format_asked(tmp_path):
+    from ked_cli.campaign import run_cmd
+
+    cfg = tmp_path / "tiny.toml"
+    cfg.write_text(CONFIG.replace('rpm = [60.0, 150.0, 300.0]', 'rpm = [60.0]').replace(
+        'mass_models = ["tip", "extender"]', 'mass_models = ["extender"]'))
+    out = tmp_path / "tiny.h5"
+    run_cmd.main([str(cfg), "--out", str(out), "--workers", "1", "--no-progress", "--figure-format", "pdf"],
+                 standalone_mode=False)
+    figs = tmp_path / "tiny_figures"
+    assert (figs / "amplification.pdf").read_bytes().startswith(b"%PDF")
+    assert [p.suffix for p in figs.glob("scene_*")] == [".pdf"]
+    assert json.loads((figs / "index.json").read_text())[plots.MANIFEST]["results_file"] == str(out.resolve())
+
+
+def test_a_shown_bar_appears_and_ticks_while_one_long_step_runs(monkeypatch):
+    # one step that takes long (an Exudyn run of `ked check --confirm`): the bar is drawn once its delay
+    # has passed, without waiting for the step to end (polled with a generous limit, no fixed sleep)
+    import time
+
+    from compare import progress
+
+    err = _Terminal(True)
+    monkeypatch.setattr(sys, "stderr", err)
+    monkeypatch.setattr(progress, "TICK_S", 0.02)
+    with progress.progress_bar(1, "one long step", delay=0.0):
+        deadline = time.monotonic() + 60.0
+        while "one long step" not in "".join(err.parts) and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert "one long step" in "".join(err.parts) and "0/1" in "".join(err.parts)
