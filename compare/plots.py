@@ -434,9 +434,9 @@ class FigureDirError(ValueError):
     or the figures of another results file."""
 
 
-def _owned(out: Path) -> tuple[dict, set[str], str | None]:
+def _owned(out: Path) -> tuple[dict, set[str], tuple[str, str] | None]:
     """The scene entries of ``out``'s index, the names of the files the harness wrote there and the
-    results file they were drawn from (None: not recorded).  Raises :class:`FigureDirError` if
+    results file they were drawn from (its identity and path; None: not recorded).  Raises :class:`FigureDirError` if
     ``index.json`` exists but is not a figure index of the harness."""
     import json
 
@@ -454,7 +454,8 @@ def _owned(out: Path) -> tuple[dict, set[str], str | None]:
     source = None
     if isinstance(manifest, dict) and manifest.get("written_by") == "ked-harness":
         files = {f for f in manifest.get("files", []) if isinstance(f, str)}
-        source = manifest.get("results_file") if isinstance(manifest.get("results_file"), str) else None
+        if isinstance(manifest.get("results_id"), str):
+            source = (manifest["results_id"], str(manifest.get("results_file")))
     elif legacy and manifest is None:  # written by a harness version before the manifest
         files = set(entries) | {AMPLIFICATION}
     else:
@@ -464,7 +465,17 @@ def _owned(out: Path) -> tuple[dict, set[str], str | None]:
 
 
 def _source_id(source: str | Path | None) -> str | None:
-    return None if source is None else str(Path(source).resolve())
+    """Which results file figures were drawn from: its file name and creation time (a results file moved
+    with its figure directory is still the same one; a copy under another name is not)."""
+    if source is None:
+        return None
+    from compare import store
+
+    try:
+        created = str(store.file_info(source).get("created_utc", ""))
+    except (store.StoreError, OSError):
+        created = ""
+    return f"{Path(source).name}|{created}"
 
 
 def check_figure_dir(out_dir: str | Path, names: Sequence[str] = (), fmt: str = "png",
@@ -478,9 +489,9 @@ def check_figure_dir(out_dir: str | Path, names: Sequence[str] = (), fmt: str = 
         raise FigureDirError(f"{out}: not a directory; the figures need a directory")
     _, files, drawn_from = _owned(out)
     mine = _source_id(source)
-    if mine is not None and drawn_from is not None and drawn_from != mine:
-        raise FigureDirError(f"{out}: holds the figures of another results file ({drawn_from}); they are left "
-                             f"as they are: choose another figure directory for {source}")
+    if mine is not None and drawn_from is not None and drawn_from[0] != mine:
+        raise FigureDirError(f"{out}: holds the figures of another results file ({drawn_from[1]}); they are "
+                             f"left as they are: choose another figure directory for {source}")
     for name in (INDEX, amplification_name(fmt), *names):
         if (out / name).exists() or (out / name).is_symlink():
             if name not in files:
@@ -538,7 +549,8 @@ def write_figures(results: Sequence[SceneResult], out_dir: str | Path, dpi: int 
     index = {names[r.key]: {"key": r.key, "label": r.spec.label, "stamp": _stamp(r, dpi)} for r in results}
     jobs = [(r, out / names[r.key]) for r in results
             if old.get(names[r.key], {}).get("stamp") != _stamp(r, dpi) or not (out / names[r.key]).exists()]
-    head = {"written_by": "ked-harness"} | ({"results_file": _source_id(source)} if source is not None else {})
+    head = {"written_by": "ked-harness"} | ({"results_file": str(Path(source).resolve()),
+                                             "results_id": _source_id(source)} if source is not None else {})
     # the claim first (the files about to be written are the harness's, should it be stopped mid-way);
     # the scene entries only for figures that are there
     claimed = (files | set(index) | {amp_name}) - {INDEX}

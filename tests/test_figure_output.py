@@ -237,3 +237,17 @@ def test_a_shown_bar_appears_and_ticks_while_one_long_step_runs(monkeypatch):
         while "one long step" not in "".join(err.parts) and time.monotonic() < deadline:
             time.sleep(0.01)
         assert "one long step" in "".join(err.parts) and "0/1" in "".join(err.parts)
+
+
+def test_a_results_file_moved_with_its_figures_still_owns_them(campaign, tmp_path):
+    from ked_cli.campaign import plot_cmd
+
+    home = tmp_path / "project"
+    home.mkdir()
+    shutil.copy(campaign, home / "campaign.h5")
+    plot_cmd.main([str(home / "campaign.h5"), "--workers", "1"], standalone_mode=False)
+    moved = tmp_path / "moved"
+    shutil.move(home, moved)  # the user moves the project directory
+    plot_cmd.main([str(moved / "campaign.h5"), "--workers", "1"], standalone_mode=False)  # not refused
+    index = json.loads((moved / "campaign_figures" / "index.json").read_text())
+    assert index[plots.MANIFEST]["results_file"] == str((moved / "campaign.h5").resolve())
