@@ -1,4 +1,5 @@
-"""PNG figures of a campaign (matplotlib object API, Agg canvas, no global pyplot state).
+"""Figures of a campaign, PNG unless asked (:data:`FORMATS`; matplotlib object API, no global pyplot state).
+Each solver has one colour in every figure (:data:`SOLVER_COLORS`).
 
 - ``scene_<label>.png`` (the scene label with ``/`` as ``_``; ``_<key>`` appended only where two
   scenes share a label): every solver's history of every stored component over the crank angle [deg],
@@ -16,7 +17,8 @@
 
 ``index.json`` maps each scene figure to its key, label and a stamp of the stored scene; a figure
 whose stamp is unchanged is not drawn again.  Its entry ``"@ked-harness"`` (not a file) is the manifest:
-``{"written_by": "ked-harness", "files": [...]}``, every file the harness wrote in the directory.  A
+``{"written_by": "ked-harness", "files": [...], "results_file": ..., "results_id": ...}``, every file the
+harness wrote in the directory and the results file they were drawn from (one per directory).  A
 file of the same name that the manifest does not list (the user's own ``index.json``, ``amplification.png``
 or ``scene_*.png``) is never overwritten: :class:`FigureDirError` names it instead.
 """
