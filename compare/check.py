@@ -36,8 +36,6 @@ from __future__ import annotations
 
 import contextlib
 import math
-import sys
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
@@ -45,7 +43,8 @@ from typing import TYPE_CHECKING, Any
 from compare import metrics, verdict_rule
 from compare.config import default_dynamic
 from compare.execute import run_scene
-from compare.inspect import speed_ratio
+from compare.inspect import rpm_text, speed_ratio
+from compare.progress import DELAY_S, NoBar, due, progress_bar
 from compare.results import SceneResult
 from compare.scenes import SceneSpec, SpeedSpec
 from compare.solvers import Solution
@@ -359,7 +358,7 @@ def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, 
     rows: list[CheckRow] = []
     with progress(len(rpms)) if bar is None else contextlib.nullcontext(bar) as bar:
         def done_on_a_worker(j: int, row: CheckRow) -> None:
-            status(bar, f"{row.rpm:g} rpm")
+            status(bar, f"{rpm_text(row.rpm)} rpm")
             advance(bar)
 
         for i, spec in enumerate(specs):
@@ -375,49 +374,21 @@ def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, 
     return rows
 
 
-PROGRESS_DELAY_S = 2.0
+PROGRESS_DELAY_S = DELAY_S
 """A check running longer than this shows a progress bar on stderr (only on a terminal)."""
 
 
-class _NoBar:
-    """The progress bar's interface, doing nothing (not a terminal)."""
-
-    def __init__(self, total: int = 0):
-        self.n, self.total = 0, total
-
-    def __enter__(self) -> _NoBar:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        return None
-
-    def update(self, n: int = 1) -> None:
-        self.n += n
-
-    def refresh(self) -> None:
-        return None
-
-    def set_postfix_str(self, text: str, refresh: bool = True) -> None:
-        return None
+_NoBar = NoBar
 
 
 def progress(total: int) -> Any:
-    """A tqdm bar over ``total`` steps of a check (its speeds, then the critical-speed sweep's Floquet
-    evaluations) on stderr, shown once the check has run :data:`PROGRESS_DELAY_S` (tqdm's delay; it
-    appears at the next step), cleared at the end; a do-nothing bar when stderr is no terminal (tqdm not
-    even imported: it costs start-up time)."""
-    if not (hasattr(sys.stderr, "isatty") and sys.stderr.isatty()):
-        return _NoBar(total)
-    from tqdm import tqdm
-
-    return tqdm(total=total, desc="ked check", unit="step", delay=PROGRESS_DELAY_S, leave=False, file=sys.stderr)
+    """The progress bar (:func:`compare.progress.progress_bar`) over ``total`` steps of a check (its
+    speeds, then the critical-speed sweep's Floquet evaluations), shown after :data:`PROGRESS_DELAY_S`."""
+    return progress_bar(total, "ked check", unit="step", delay=PROGRESS_DELAY_S)
 
 
 def _due(bar: Any) -> bool:
-    """True once ``bar`` has run its delay (:data:`PROGRESS_DELAY_S`): tqdm draws a bar at once on a
-    refresh, so a short check would flash one."""
-    start = getattr(bar, "start_t", None)
-    return start is None or time.time() - start >= getattr(bar, "delay", 0.0)
+    return due(bar)
 
 
 def status(bar: Any, text: str) -> None:
@@ -445,14 +416,14 @@ def check_spec(spec: SceneSpec, rng: LinearRange, margins: VerdictMargins, confi
     """The check of one speed's scene (:func:`spec_for`); ``bar``: a progress bar that says which stage runs."""
     bar = _NoBar() if bar is None else bar
     rpm = spec.speed.value
-    status(bar, f"{rpm:g} rpm")
+    status(bar, f"{rpm_text(rpm)} rpm")
     r = _run(spec)
     if _unresolved(r):
-        status(bar, f"{rpm:g} rpm, {MAX_HARMONICS} harmonics")
+        status(bar, f"{rpm_text(rpm)} rpm, {MAX_HARMONICS} harmonics")
         spec = with_more_harmonics(spec)
         r = _run(spec)
     if confirm:
-        status(bar, f"{rpm:g} rpm, Exudyn")
+        status(bar, f"{rpm_text(rpm)} rpm, Exudyn")
         r = _run(replace(spec, solvers=(*spec.solvers, "dynamic")))
     row = check_row(r, rng, spec.tolerance, margins)
     if spec.extra_settings:

@@ -23,6 +23,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from compare.inspect import rpm_text
+
 if TYPE_CHECKING:
     from compare.runner import LocalPool
 
@@ -166,20 +168,20 @@ class CheckWorkers:
              on_each: Callable[[int, Any], None] | None = None) -> list[Any]:
         """The check rows of the scenes ``specs`` (:func:`compare.check.check_spec`) on the workers."""
         return self.map(row_task, [(s, rng, margins, confirm) for s in specs],
-                        [f"the check at {s.speed.value:g} rpm" for s in specs], on_each,
+                        [f"the check at {rpm_text(s.speed.value)} rpm" for s in specs], on_each,
                         cost=[s.speed.value for s in specs])  # faster: more harmonics, richer bases
 
     def floquet(self, spec: Any, speeds: Sequence[float], on_each: Callable[[int, Any], None] | None = None,
                 ) -> list[float]:
         """The sweep's max |Floquet multiplier| of the scene ``spec`` at each of ``speeds`` on the workers."""
         return self.map(floquet_task, [(spec, r) for r in speeds],
-                        [f"the critical-speed sweep at {r:.4g} rpm" for r in speeds], on_each, cost=speeds)
+                        [f"the critical-speed sweep at {rpm_text(r)} rpm" for r in speeds], on_each, cost=speeds)
 
     def refine(self, spec: Any, brackets: Sequence[tuple[float, ...]], rtol: float,
                on_each: Callable[[int, Any], None] | None = None) -> list[tuple[float, float, int]]:
         """Each bracketed maximum of the sweep refined on the workers: (rpm, max |mu|, evaluations made)."""
         return self.map(refine_task, [(spec, b, rtol) for b in brackets],
-                        [f"the critical speed near {b[1]:.4g} rpm" for b in brackets], on_each)
+                        [f"the critical speed near {rpm_text(b[1])} rpm" for b in brackets], on_each)
 
 
 def _kept(compute: Callable[[], Any]) -> Any:

@@ -23,6 +23,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from compare.inspect import rpm_text
+
 if TYPE_CHECKING:
     from compare.checkwork import CheckWorkers
 
@@ -410,12 +412,12 @@ def mark_near(rows: Sequence[object], speeds: Sequence[CriticalSpeed],
         s = near(row.rpm, [c.rpm for c in speeds])
         if s is not None:
             mu = next(c.max_abs for c in speeds if c.rpm == s)
-            notes.append(f"within {NEAR:.0%} of {s:.4g} rpm, a speed of weakest damping (parametric resonance, max "
-                         f"|Floquet multiplier| {mu:.3g}): free vibrations after a start-up or a disturbance die "
-                         "out slowest there; this alone does not amplify the steady response")
+            notes.append(f"within {NEAR:.0%} of {rpm_text(s)} rpm, a speed of weakest damping (parametric "
+                         f"resonance, max |Floquet multiplier| {mu:.3g}): free vibrations after a start-up or a "
+                         "disturbance die out slowest there; this alone does not amplify the steady response")
         a = near(row.rpm, amplification)
         if a is not None:
-            notes.append(f"within {NEAR:.0%} of the amplification peak {a:.4g} rpm (forced resonance: the "
+            notes.append(f"within {NEAR:.0%} of the amplification peak {rpm_text(a)} rpm (forced resonance: the "
                          "dynamic response is largest relative to the quasi-static one there; keep the operating "
                          "speed away from it)")
         out.append(replace(row, verdict="; ".join([row.verdict, *notes])) if notes else row)
@@ -444,7 +446,7 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
 
     def f(rpm: float) -> float:
         if bar is not None:
-            status(bar, f"critical speeds, {rpm:.4g} rpm")
+            status(bar, f"critical speeds, {rpm_text(rpm)} rpm")
         value = sweep(rpm)
         if bar is not None:
             advance(bar)
@@ -467,13 +469,15 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
         rest = speeds[len(done):]
         if not workers.worth(workers.evaluations, len(rest)):
             return done + [f(r) for r in rest]
-        return done + workers.floquet(spec, rest, on_each=lambda i, v: tick(f"critical speeds, {rest[i]:.4g} rpm"))
+        return done + workers.floquet(spec, rest,
+                                      on_each=lambda i, v: tick(f"critical speeds, {rpm_text(rest[i])} rpm"))
 
     def refine(brackets: list[Bracket], rtol: float) -> list[tuple[float, float]] | None:
         if workers is None or not workers.worth(workers.evaluations, len(brackets), REFINE_EVALUATIONS):
             return None
         done = workers.refine(spec, brackets, rtol,
-                              on_each=lambda i, res: tick(f"critical speed near {brackets[i][1]:.4g} rpm", res[2]))
+                              on_each=lambda i, res: tick(f"critical speed near {rpm_text(brackets[i][1])} rpm",
+                                                          res[2]))
         return [(r, m) for r, m, _ in done]
 
     # one BLAS thread, as in solve_linear: the evaluations are small batched calls where threads only cost

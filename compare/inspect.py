@@ -26,6 +26,16 @@ def _num(x: float | None) -> float | None:
     return None if x is None or (isinstance(x, float) and not math.isfinite(x)) else float(x)
 
 
+def rpm_text(rpm: float) -> str:
+    """A crank speed [rev/min] as a plain number of four significant digits, never in exponent notation
+    (11043.2 -> "11040", 81.818 -> "81.82", 0.5 -> "0.5")."""
+    import numpy as np
+
+    if not math.isfinite(rpm):
+        return str(rpm)
+    return np.format_float_positional(rpm, precision=4, unique=False, fractional=False, trim="-")
+
+
 def speed_ratio(r: SceneResult) -> float:
     """Omega / omega1_min [1] (nan if unknown)."""
     if not (math.isfinite(r.rpm) and math.isfinite(r.omega1_min) and r.omega1_min > 0):
@@ -345,7 +355,7 @@ def format_detail(r: SceneResult) -> str:
                                          f"{r.message})" if not r.ok else ""),
         *_linkage_lines(s),
         f"  mass model  : {s.mass_model.name} (lumps {s.mass_model.lumps}, payload {s.mass_model.payload:.4g} kg)",
-        f"  speed       : {s.speed.label()} -> {r.rpm:.4g} rpm; omega1_min {r.omega1_min:.4g} rad/s; "
+        f"  speed       : {s.speed.label()} -> {rpm_text(r.rpm)} rpm; omega1_min {r.omega1_min:.4g} rad/s; "
         f"Omega/omega1_min = {speed_ratio(r):.4g}",
         f"  stiffness x : {s.stiffness_scale:g}; damping ratio {s.damping_ratio:g}; grid step {s.step_deg:g} deg",
         f"  run stats   : total {r.stats.total_wall_s:.2f} s (frequencies {r.stats.frequencies_wall_s:.2f}); "

@@ -1,4 +1,5 @@
-"""PNG figures of a campaign (matplotlib object API, Agg canvas, no global pyplot state).
+"""Figures of a campaign, PNG unless asked (:data:`FORMATS`; matplotlib object API, no global pyplot state).
+Each solver has one colour in every figure (:data:`SOLVER_COLORS`).
 
 - ``scene_<label>.png`` (the scene label with ``/`` as ``_``; ``_<key>`` appended only where two
   scenes share a label): every solver's history of every stored component over the crank angle [deg],
@@ -16,16 +17,19 @@
 
 ``index.json`` maps each scene figure to its key, label and a stamp of the stored scene; a figure
 whose stamp is unchanged is not drawn again.  Its entry ``"@ked-harness"`` (not a file) is the manifest:
-``{"written_by": "ked-harness", "files": [...]}``, every file the harness wrote in the directory.  A
+``{"written_by": "ked-harness", "files": [...], "results_file": ..., "results_id": ...}``, every file the
+harness wrote in the directory and the results file they were drawn from (one per directory).  A
 file of the same name that the manifest does not list (the user's own ``index.json``, ``amplification.png``
 or ``scene_*.png``) is never overwritten: :class:`FigureDirError` names it instead.
 """
 
 from __future__ import annotations
 
+import contextlib
+import json
 import math
 from collections import defaultdict
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -33,7 +37,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from compare import solvers as registry
-from compare.inspect import speed_ratio
+from compare.inspect import rpm_text, speed_ratio
 from compare.results import SceneResult
 
 _LABELS = {"dx": "dx [mm]", "dy": "dy [mm]", "rotation": "rotation [mrad]"}
@@ -46,6 +50,21 @@ SAMPLED = "quasi_static"
 """The one solver drawn as a line between its samples: its answer is a smooth function of the crank
 angle (inertia loads of the rigid motion).  Every other solver's history may vibrate between the stored
 samples of the scene's grid, so it is drawn as markers (a line would alias vibration into zigzags)."""
+
+
+SOLVER_COLORS = {"quasi_static": "tab:blue", "linear_classic": "tab:purple", "linear": "tab:orange",
+                 "dynamic": "tab:green"}
+"""One colour per solver in every figure (an answer not valid is drawn in :data:`INVALID_COLOR` instead, and
+the others keep theirs)."""
+_OTHER_COLORS = ("tab:brown", "tab:pink", "tab:olive", "tab:cyan", "tab:red")
+
+
+def solver_color(name: str) -> str:
+    """The colour of solver ``name`` (:data:`SOLVER_COLORS`; a registered extra solver gets one of the
+    remaining colours from a checksum of its name: the same in every figure and run)."""
+    import zlib
+
+    return SOLVER_COLORS.get(name) or _OTHER_COLORS[zlib.crc32(name.encode()) % len(_OTHER_COLORS)]
 
 
 def magnification(r: SceneResult) -> float:
@@ -90,7 +109,8 @@ def _line_style(name: str, sol: Any, styles: dict[str, str], ms: float) -> dict[
     fmt = styles[name]
     marker = fmt[0]
     ls = fmt[1:] or "-"
-    kw: dict[str, Any] = dict(marker=marker, ms=ms, ls=ls if name == SAMPLED else "none", lw=1.2)
+    kw: dict[str, Any] = dict(marker=marker, ms=ms, ls=ls if name == SAMPLED else "none", lw=1.2,
+                              color=solver_color(name))
     if not valid(sol):
         kw.update(color=INVALID_COLOR, mfc="none", ls="--" if name == SAMPLED else "none", lw=1.0)
     return kw
@@ -139,7 +159,7 @@ def scene_figure(r: SceneResult) -> Figure:
         verdict = (f"\nquasi-static error vs {registry.label(v.reference)} {v.verdict_error:.1%} -> "
                    f"{'holds' if v.holds else 'FAILS'} (tol {v.tolerance:.0%})")
     fig.suptitle(
-        f"{r.spec.label}  [{r.key}]\n{r.rpm:.4g} rpm, Omega/w1min = "
+        f"{r.spec.label}  [{r.key}]\n{rpm_text(r.rpm)} rpm, Omega/w1min = "
         f"{speed_ratio(r):.3g}, {status}{verdict}",
         fontsize=10,
     )
@@ -252,7 +272,9 @@ def amplification_figure(results: Sequence[SceneResult], tolerance: float | None
 
     A point whose quasi-static answer or reference is outside its model's range (validity flags) is
     circled in grey, its reasons in the legend.  rpm stands beside r: on a second axis at the top where
-    every family has the same omega1_min, else in each family's legend entry (the rpm of r = 0.1)."""
+    every family has the same omega1_min, else in each family's legend entry (the rpm of r = 0.1).  The
+    legend sits below both panels; the error axis is logarithmic where the errors and the tolerance span
+    more than a decade (:func:`error_scale`)."""
     fig = Figure(figsize=(12, 5.5), layout="constrained")
     ax_a, ax_e = fig.subplots(1, 2)
     fams: dict[str, list[SceneResult]] = defaultdict(list)
@@ -273,7 +295,7 @@ def amplification_figure(results: Sequence[SceneResult], tolerance: float | None
         label = family_label(rs[0])
         own = _rpm_per_ratio(rs)
         if per is None and own is not None:
-            label += f" (r = 0.1 at {0.1 * own:.3g} rpm)"
+            label += f" (r = 0.1 at {rpm_text(0.1 * own)} rpm)"
         style = dict(marker=markers[i % len(markers)], ls="-" if fam.startswith("source") else "--", ms=5)
         ax_a.plot(x, amp, label=label, **style)
         ax_e.plot(x, err, label=label, **style)
@@ -288,7 +310,7 @@ def amplification_figure(results: Sequence[SceneResult], tolerance: float | None
         label = "not valid: outside its model's range: " + "; ".join(sorted(reasons))
         ring = dict(marker="o", ms=11, mfc="none", mec=INVALID_COLOR, mew=1.5, ls="none")
         ax_a.plot(invalid_x, invalid_a, **ring)
-        ax_e.plot(invalid_x, invalid_e, label=_wrap_label(label), **ring)
+        ax_e.plot(invalid_x, invalid_e, label=_wrap_label(label, 90), **ring)
     failed = [r for r in results if not r.ok and math.isfinite(speed_ratio(r))]
     for i, r in enumerate(failed):
         for ax in (ax_a, ax_e):
@@ -306,6 +328,13 @@ def amplification_figure(results: Sequence[SceneResult], tolerance: float | None
         tolerance = tols.pop()
     if tolerance is not None:
         ax_e.axhline(100 * tolerance, color="r", lw=1, ls=":", label=f"tolerance {tolerance:.0%}")
+    errors = [100 * r.verdict.verdict_error for rs in fams.values() for r in rs]
+    if error_scale(errors, tolerance) == "log":
+        from matplotlib.ticker import FuncFormatter
+
+        ax_e.set_yscale("log", nonpositive="mask")
+        ax_e.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+        ax_e.set_ylabel(ax_e.get_ylabel() + ", log scale")
     ax_e.set_title("quasi-static error relative to the reference's peak", fontsize=10)
     for ax in (ax_a, ax_e):
         ax.grid(alpha=0.3)
@@ -313,8 +342,27 @@ def amplification_figure(results: Sequence[SceneResult], tolerance: float | None
             top = ax.secondary_xaxis("top", functions=(lambda r, k=per: r * k, lambda n, k=per: n / k))
             top.set_xlabel("crank speed [rpm]", fontsize=9)
     if fams or failed:
-        fig.legend(*ax_e.get_legend_handles_labels(), fontsize=7, loc="outside right upper")
+        handles, labels = ax_e.get_legend_handles_labels()
+        fig.legend(handles, labels, fontsize=7, loc="outside lower center", ncols=min(3, len(labels)),
+                   frameon=False)
     return fig
+
+
+ERROR_DECADES = 1.0
+"""The error axis of the amplification figure is logarithmic where the errors [%] and the tolerance span
+more than this many decades (largest over smallest positive value above 10): on a linear axis the
+tolerance line would sit among errors of 100 % and more, squeezed at the bottom."""
+
+
+def error_scale(errors_pct: Sequence[float], tolerance: float | None = None) -> str:
+    """``"log"`` or ``"linear"``: the scale of an error axis showing ``errors_pct`` [%] and the tolerance
+    line (a fraction, e.g. 0.10) (see :data:`ERROR_DECADES`)."""
+    values = [e for e in errors_pct if math.isfinite(e) and e > 0]
+    if tolerance is not None and tolerance > 0:
+        values.append(100 * tolerance)
+    if len(values) < 2:
+        return "linear"
+    return "log" if math.log10(max(values) / min(values)) > ERROR_DECADES else "linear"
 
 
 def _wrap_label(text: str, width: int = 45) -> str:
@@ -324,27 +372,52 @@ def _wrap_label(text: str, width: int = 45) -> str:
     return (" " if text.startswith(" ") else "") + "\n".join(lines)
 
 
-def _write_scene_png(r: SceneResult, path: Path, dpi: int) -> Path:
-    scene_figure(r).savefig(path, dpi=dpi, metadata={"Title": f"{r.spec.label} [{r.key}]"})
+FORMATS = ("png", "svg", "pdf")
+"""File formats of the figures (matplotlib's writers); PNG unless asked."""
+DPI = 110
+"""Resolution of the figures [dots per inch] unless asked (PNG; SVG and PDF are vector drawings)."""
+
+
+class FigureWriteError(OSError):
+    """A figure (or the index) could not be written: its ``filename`` names the file."""
+
+
+def save_figure(fig: Figure, path: Path, dpi: int = DPI, metadata: dict | None = None) -> Path:
+    """Write ``fig`` to ``path`` (format from its suffix) through a temporary file renamed into place:
+    ``path`` is either its old self or the whole new figure.  An OS failure (a full disk) removes the
+    temporary file and raises :class:`FigureWriteError` naming ``path``."""
+    tmp = path.with_name(path.name + ".tmp")
+    try:
+        fig.savefig(tmp, dpi=dpi, format=path.suffix[1:], metadata=metadata)
+        tmp.replace(path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise FigureWriteError(exc.errno, exc.strerror or str(exc), str(path)) from None
     return path
 
 
-def figure_names(results: Sequence[SceneResult]) -> dict[str, str]:
+def _write_scene_png(r: SceneResult, path: Path, dpi: int) -> Path:
+    return save_figure(scene_figure(r), path, dpi, metadata={"Title": f"{r.spec.label} [{r.key}]"})
+
+
+def figure_names(results: Sequence[SceneResult], fmt: str = "png") -> dict[str, str]:
     """key -> file name of its scene figure: the label, plus the key where labels repeat."""
     safe = {r.key: "scene_" + "".join(ch if ch.isalnum() or ch in "-." else "_" for ch in r.spec.label)
             for r in results}
     counts = defaultdict(int)
     for name in safe.values():
         counts[name] += 1
-    return {k: (f"{n}_{k}" if counts[n] > 1 else n) + ".png" for k, n in safe.items()}
+    return {k: (f"{n}_{k}" if counts[n] > 1 else n) + f".{fmt}" for k, n in safe.items()}
 
 
-def _stamp(r: SceneResult) -> str:
-    """What a scene figure depends on: the stored scene (finished time, status, solvers) and this module."""
-    return f"{r.key}|{r.status}|{r.stats.finished_utc}|{','.join(sorted(r.solutions))}|{_FIGURE_VERSION}"
+def _stamp(r: SceneResult, dpi: int = DPI) -> str:
+    """What a scene figure depends on: the stored scene (finished time, status, solvers), the resolution
+    and this module."""
+    return (f"{r.key}|{r.status}|{r.stats.finished_utc}|{','.join(sorted(r.solutions))}|{_FIGURE_VERSION}"
+            + ("" if dpi == DPI else f"|dpi{dpi}"))
 
 
-_FIGURE_VERSION = 3
+_FIGURE_VERSION = 4
 
 
 MANIFEST = "@ked-harness"
@@ -353,18 +426,25 @@ INDEX = "index.json"
 AMPLIFICATION = "amplification.png"
 
 
+def amplification_name(fmt: str = "png") -> str:
+    """The file name of the amplification figure in format ``fmt``."""
+    return f"amplification.{fmt}"
+
+
 class FigureDirError(ValueError):
-    """The figure directory holds a file of a name the harness would write that the harness did not write."""
+    """The figure directory holds a file of a name the harness would write that the harness did not write,
+    or the figures of another results file."""
 
 
-def _owned(out: Path) -> tuple[dict, set[str]]:
-    """The scene entries of ``out``'s index and the names of the files the harness wrote there.
-    Raises :class:`FigureDirError` if ``index.json`` exists but is not a figure index of the harness."""
+def _owned(out: Path) -> tuple[dict, set[str], tuple[str, str] | None]:
+    """The scene entries of ``out``'s index, the names of the files the harness wrote there and the
+    results file they were drawn from (its identity and path; None: not recorded).  Raises :class:`FigureDirError` if
+    ``index.json`` exists but is not a figure index of the harness."""
     import json
 
     index_path = out / INDEX
     if not index_path.exists() and not index_path.is_symlink():
-        return {}, set()
+        return {}, set(), None
     try:
         data = json.loads(index_path.read_text()) if index_path.is_file() else None
     except (OSError, ValueError):  # includes undecodable bytes
@@ -373,33 +453,59 @@ def _owned(out: Path) -> tuple[dict, set[str]]:
     entries = {k: v for k, v in data.items() if k != MANIFEST} if isinstance(data, dict) else {}
     legacy = bool(entries) and all(isinstance(v, dict) and {"key", "label", "stamp"} <= set(v)
                                    for v in entries.values())
+    source = None
     if isinstance(manifest, dict) and manifest.get("written_by") == "ked-harness":
         files = {f for f in manifest.get("files", []) if isinstance(f, str)}
+        if isinstance(manifest.get("results_id"), str):
+            source = (manifest["results_id"], str(manifest.get("results_file")))
     elif legacy and manifest is None:  # written by a harness version before the manifest
         files = set(entries) | {AMPLIFICATION}
     else:
         raise FigureDirError(f"{index_path}: not a figure index written by ked-harness (a file of yours?); it is "
                              "left as it is: choose another figure directory")
-    return entries, files | {INDEX}
+    return entries, files | {INDEX}, source
 
 
-def check_figure_dir(out_dir: str | Path, names: Sequence[str] = ()) -> None:
+def _source_id(source: str | Path | None) -> str | None:
+    """Which results file figures were drawn from: its file name and creation time (a results file moved
+    with its figure directory is still the same one; a copy under another name is not)."""
+    if source is None:
+        return None
+    from compare import store
+
+    try:
+        created = str(store.file_info(source).get("created_utc", ""))
+    except (store.StoreError, OSError):
+        created = ""
+    return f"{Path(source).name}|{created}"
+
+
+def check_figure_dir(out_dir: str | Path, names: Sequence[str] = (), fmt: str = "png",
+                     source: str | Path | None = None) -> None:
     """Refuse (:class:`FigureDirError`, naming the file) if writing the figures ``names`` (besides the
-    index and the amplification figure) into ``out_dir`` would overwrite a file the harness did not write."""
+    index and the amplification figure in format ``fmt``) into ``out_dir`` would overwrite a file the
+    harness did not write, or if the directory holds the figures of a results file other than ``source``
+    (one figure directory, one index, per results file)."""
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise FigureDirError(f"{out}: not a directory; the figures need a directory")
-    _, files = _owned(out)
-    for name in (INDEX, AMPLIFICATION, *names):
+    _, files, drawn_from = _owned(out)
+    mine = _source_id(source)
+    if mine is not None and drawn_from is not None and drawn_from[0] != mine:
+        raise FigureDirError(f"{out}: holds the figures of another results file ({drawn_from[1]}); they are "
+                             f"left as they are: choose another figure directory for {source}")
+    for name in (INDEX, amplification_name(fmt), *names):
         if (out / name).exists() or (out / name).is_symlink():
             if name not in files:
                 raise FigureDirError(f"{out / name}: exists and was not written by ked-harness (not in its "
                                      f"{INDEX}); it is left as it is: choose another figure directory")
 
 
-def _draw_in_pool(jobs: list[tuple[SceneResult, Path]], dpi: int, workers: int) -> list[Path]:
+def _draw_in_pool(jobs: list[tuple[SceneResult, Path]], dpi: int, workers: int, written: list[Path],
+                  on_each: Callable[[Path], Any] | None) -> None:
     """Scene figures in ``workers`` spawned processes that die with this one (no orphan keeps drawing
-    after kill -9) and are killed at once on an interrupt or failure."""
+    after kill -9) and are killed at once on an interrupt or failure; each figure written is appended to
+    ``written`` as it completes."""
     import concurrent.futures as cf
     import multiprocessing
 
@@ -409,54 +515,91 @@ def _draw_in_pool(jobs: list[tuple[SceneResult, Path]], dpi: int, workers: int) 
     try:
         with _start_children_quietly():
             futures = [pool.submit(_write_scene_png, r, p, dpi) for r, p in jobs]
-        paths = [f.result() for f in futures]
+        for f in cf.as_completed(futures):
+            written.append(f.result())
+            if on_each is not None:
+                on_each(written[-1])
     except BaseException:
         kill_pool(pool)
         raise
     pool.shutdown(wait=True)
-    return paths
 
 
-def write_figures(results: Sequence[SceneResult], out_dir: str | Path, dpi: int = 110,
-                  workers: int = 1) -> list[Path]:
-    """Write the campaign figures into ``out_dir`` (scene figures in ``workers`` processes), skipping
-    scene figures whose stored scene did not change; returns the paths written.  Only files the
-    harness wrote there are replaced (see :class:`FigureDirError`)."""
-    import json
+def figure_count(results: Sequence[SceneResult]) -> int:
+    """How many figures :func:`write_figures` draws at most for ``results`` (a progress bar's total)."""
+    return len(results) + 1
 
+
+def write_figures(results: Sequence[SceneResult], out_dir: str | Path, dpi: int = DPI,
+                  workers: int = 1, fmt: str = "png", source: str | Path | None = None,
+                  on_each: Callable[[Path], Any] | None = None) -> list[Path]:
+    """Write the campaign figures (format ``fmt``, one of :data:`FORMATS`) into ``out_dir`` (scene
+    figures in ``workers`` processes), skipping scene figures whose stored scene did not change; returns
+    the paths written.  Only files the harness wrote there for the results file ``source`` are replaced
+    (see :class:`FigureDirError`).  Each figure goes through a temporary file renamed into place; then
+    the index, the same way, lists only the figures there.  An OS failure (a full disk) raises
+    :class:`FigureWriteError` naming the file, after the index is brought up to date where it can be.
+    ``on_each``: called with each path written (progress)."""
+    if fmt not in FORMATS:
+        raise ValueError(f"figure format {fmt!r}: allowed {', '.join(FORMATS)}")
     out = Path(out_dir)
-    names = figure_names(results)
-    check_figure_dir(out, sorted(names.values()))
+    names = figure_names(results, fmt)
+    amp_name = amplification_name(fmt)
+    check_figure_dir(out, sorted(names.values()), fmt, source)
     out.mkdir(parents=True, exist_ok=True)
-    index_path = out / INDEX
-    old, files = _owned(out)
-    index = {names[r.key]: {"key": r.key, "label": r.spec.label, "stamp": _stamp(r)} for r in results}
+    old, files, _ = _owned(out)
+    index = {names[r.key]: {"key": r.key, "label": r.spec.label, "stamp": _stamp(r, dpi)} for r in results}
     jobs = [(r, out / names[r.key]) for r in results
-            if old.get(names[r.key], {}).get("stamp") != _stamp(r) or not (out / names[r.key]).exists()]
-    manifest = {"written_by": "ked-harness",
-                "files": sorted((files | set(index) | {AMPLIFICATION}) - {INDEX})}
-    if jobs or not (out / INDEX).exists():  # the manifest first: a file being written is already listed
-        _write_index(index_path, {**old, **index, MANIFEST: manifest})
-    if workers > 1 and len(jobs) > 2 * workers:
-        paths = _draw_in_pool(jobs, dpi, workers)
-    else:
-        paths = [_write_scene_png(r, p, dpi) for r, p in jobs]
-    p = out / AMPLIFICATION
-    if jobs or not p.exists() or set(old) != set(index):
-        amplification_figure(results).savefig(p, dpi=dpi)
-        paths.append(p)
+            if old.get(names[r.key], {}).get("stamp") != _stamp(r, dpi) or not (out / names[r.key]).exists()]
+    head = {"written_by": "ked-harness"} | ({"results_file": str(Path(source).resolve()),
+                                             "results_id": _source_id(source)} if source is not None else {})
+    # the claim first (the files about to be written are the harness's, should it be stopped mid-way);
+    # the scene entries only for figures that are there
+    claimed = (files | set(index) | {amp_name}) - {INDEX}
+    kept = {k: v for k, v in old.items() if (out / k).exists()}
+    if jobs or not (out / INDEX).exists() or claimed != files - {INDEX}:
+        _write_index(out / INDEX, {**kept, MANIFEST: head | {"files": sorted(claimed)}})
+    written: list[Path] = []
     try:
-        current = json.loads(index_path.read_text())
+        if workers > 1 and len(jobs) > 2 * workers:
+            _draw_in_pool(jobs, dpi, workers, written, on_each)
+        else:
+            for r, p in jobs:
+                written.append(_write_scene_png(r, p, dpi))
+                if on_each is not None:
+                    on_each(written[-1])
+        p = out / amp_name
+        if jobs or not p.exists() or set(old) != set(index):
+            written.append(save_figure(amplification_figure(results), p, dpi))
+            if on_each is not None:
+                on_each(p)
+    except BaseException:  # the index lists what is there; the first failure is the one reported
+        with contextlib.suppress(OSError):
+            _final_index(out, kept, index, written, claimed, head)
+        raise
+    _final_index(out, kept, index, written, claimed, head)
+    return written
+
+
+def _final_index(out: Path, kept: dict, index: dict, written: list[Path], claimed: set[str], head: dict) -> None:
+    """The index after drawing: the scene entries of the figures there (a figure not redrawn keeps its
+    old entry: its old content is there), the manifest listing the harness's files that exist."""
+    done = {p.name for p in written}
+    entries = kept | {k: v for k, v in index.items() if k in done}
+    final = {**entries, MANIFEST: head | {"files": sorted(f for f in claimed if (out / f).exists())}}
+    try:
+        current = json.loads((out / INDEX).read_text())
     except (OSError, ValueError):
         current = None
-    if current != {**index, MANIFEST: manifest}:
-        _write_index(index_path, {**index, MANIFEST: manifest})
-    return paths
+    if current != final:
+        _write_index(out / INDEX, final)
 
 
 def _write_index(index_path: Path, index: dict) -> None:
-    import json
-
     tmp = index_path.with_name(index_path.name + ".tmp")
-    tmp.write_text(json.dumps(index, indent=1, sort_keys=True))
-    tmp.replace(index_path)
+    try:
+        tmp.write_text(json.dumps(index, indent=1, sort_keys=True))
+        tmp.replace(index_path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise FigureWriteError(exc.errno, exc.strerror or str(exc), str(index_path)) from None

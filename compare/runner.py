@@ -21,7 +21,6 @@ import concurrent.futures as cf
 import multiprocessing
 import os
 import signal
-import sys
 import threading
 import time
 import uuid
@@ -690,7 +689,7 @@ def _compute(p: Plan, out: Path, name: str, text: str, n_scenes: int, *, workers
     """The plan's jobs through :func:`run_tasks`, each finished batch committed; returns the counts of
     ok / failed scenes and the jobs lost.  A failed commit stops the run: the scenes computed meanwhile
     go to a rescue file (:func:`compare.store.rescue`) named in the :class:`~compare.store.CommitError`."""
-    from tqdm import tqdm
+    from compare.progress import progress_bar
 
     counts = {STATUS_OK: 0, STATUS_FAILED: 0}
     unsaved: list[SceneResult] = []
@@ -703,9 +702,8 @@ def _compute(p: Plan, out: Path, name: str, text: str, n_scenes: int, *, workers
         run.append(store.record_run(out, text, name, n_scenes))
         if on_start is not None:
             on_start(p)
-        bars.append(tqdm(total=len(p.jobs), unit="scene", desc=name, disable=not progress, file=sys.stderr,
-                         dynamic_ncols=True, smoothing=0.1))
-        bars[0].set_postfix(ok=0, failed=0, skipped=len(p.skipped))
+        bars.append(progress_bar(len(p.jobs), name, unit="scene", enabled=progress, smoothing=0.1))
+        bars[0].set_postfix(ok=0, failed=0, skipped=len(p.skipped), refresh=False)
 
     def commit(done: list[tuple[Job, SceneResult]]) -> bool:
         batch = [r for _, r in done]

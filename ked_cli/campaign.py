@@ -12,6 +12,8 @@ import click
 DEFAULT_DIR = Path("ked_results")
 LARGE_GRID = 1000
 """A grid this large gets a warning with its estimated run time before anything runs."""
+FIGURE_FORMATS = ("png", "svg", "pdf")
+"""The figure formats offered (compare.plots.FORMATS; not imported here: matplotlib costs start-up time)."""
 SECONDS_PER_SCENE = 2.5
 """Rough cost of one scene with the Exudyn model on one core (the default campaign's median)."""
 
@@ -99,15 +101,19 @@ def _results(file: Path) -> list:
 @click.option("--scheduler", metavar="ADDRESS", default=None,
               help="Run the scenes on a Dask distributed cluster at this scheduler address.")
 @click.option("--figures", "figures", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Directory for the PNG figures [default: <out stem>_figures next to the file].")
+              help="Directory for the figures [default: <out stem>_figures next to the file].")
 @click.option("--no-figures", is_flag=True, help="Do not draw figures.")
+@click.option("--figure-format", "fmt", type=click.Choice(FIGURE_FORMATS), default="png", show_default=True,
+              help="File format of the figures (svg, pdf: vector drawings for reports and papers).")
+@click.option("--dpi", type=click.IntRange(min=20, max=1200), default=110, show_default=True,
+              help="Resolution of the figures [dots per inch].")
 @click.option("--retry-failed", is_flag=True, help="Recompute scenes stored as failed.")
 @click.option("--dry-run", is_flag=True, help="Validate the config, list the scenes and what would run; stop.")
 @click.option("--progress/--no-progress", default=True, help="Show the progress bar.")
 @click.option("--wide", is_flag=True, help=WIDE_HELP)
 def run_cmd(config: Path | None, out: Path | None, workers: int | None, scheduler: str | None,
-            figures: Path | None, no_figures: bool, retry_failed: bool, dry_run: bool, progress: bool,
-            wide: bool) -> None:
+            figures: Path | None, no_figures: bool, fmt: str, dpi: int, retry_failed: bool, dry_run: bool,
+            progress: bool, wide: bool) -> None:
     """Run a comparison campaign (CONFIG: TOML file; none = the embedded default campaign).
 
     Scenes already stored in the results file are skipped, so rerunning resumes an interrupted
@@ -127,7 +133,7 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
         return
     fig_dir = (figures or _figures_dir(out)).absolute()  # still right if the working directory goes away
     if not no_figures:
-        _check_figure_dir(fig_dir)  # before computing: a directory of the user's own files is refused now
+        _check_figure_dir(fig_dir, fmt, out)  # before computing: a directory of the user's own files is refused now
     from compare import store
     from compare.inspect import format_counts, format_table, summary_row
     from compare.runner import (
@@ -157,8 +163,10 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
                     + (f", {summary.lost} lost to a crashed worker (rerun to retry)" if summary.lost else "")
                     + f" in {summary.wall_s:.1f} s; results: {out}"))
     if not no_figures:
-        paths = _write_figures(results, fig_dir, workers=1 if scheduler else (workers or default_workers()))
-        click.echo(wrap(f"figures: {len(paths)} PNG files (re)drawn in {fig_dir} (index.json: file -> scene)"))
+        paths = _write_figures(results, fig_dir, workers=1 if scheduler else (workers or default_workers()),
+                               fmt=fmt, dpi=dpi, source=out, progress=progress)
+        click.echo(wrap(f"figures: {len(paths)} {fmt.upper()} files (re)drawn in {fig_dir} (index.json: file -> "
+                        "scene)"))
     if cfg.expect:
         _report_expectations(results, cfg.expect)
 
@@ -315,32 +323,48 @@ def merge_cmd(src: Path, dest: Path) -> None:
               help="Output directory [default: <file stem>_figures next to the file].")
 @click.option("--workers", type=click.IntRange(min=1), default=None,
               help="Processes drawing the figures [default: available CPUs].")
-def plot_cmd(file: Path, out_dir: Path | None, workers: int | None) -> None:
-    """Draw PNG figures of a results FILE: per-scene histories and coupler curves, amplification vs speed."""
+@click.option("--format", "fmt", type=click.Choice(FIGURE_FORMATS), default="png", show_default=True,
+              help="File format of the figures (svg, pdf: vector drawings for reports and papers).")
+@click.option("--dpi", type=click.IntRange(min=20, max=1200), default=110, show_default=True,
+              help="Resolution of the figures [dots per inch].")
+@click.option("--progress/--no-progress", default=True, help="Show the progress bar (on a terminal).")
+def plot_cmd(file: Path, out_dir: Path | None, workers: int | None, fmt: str, dpi: int, progress: bool) -> None:
+    """Draw figures of a results FILE: per-scene histories and coupler curves, amplification vs speed.
+
+    A figure directory holds the figures of one results file (its index.json names it); figures of
+    another results file there are refused, never overwritten.
+    """
     from compare.runner import default_workers
 
     _regular(file, "FILE")
     results = _results(file)
     target = out_dir or _figures_dir(file)
-    paths = _write_figures(results, target, workers=workers or default_workers())
-    click.echo(wrap(f"{len(paths)} PNG files (re)drawn in {target} ({len(results)} scenes; index.json: "
+    paths = _write_figures(results, target, workers=workers or default_workers(), fmt=fmt, dpi=dpi, source=file,
+                           progress=progress)
+    click.echo(wrap(f"{len(paths)} {fmt.upper()} files (re)drawn in {target} ({len(results)} scenes; index.json: "
                     "file -> scene)"))
 
 
-def _check_figure_dir(fig_dir: Path) -> None:
+
+def _check_figure_dir(fig_dir: Path, fmt: str = "png", source: Path | None = None) -> None:
     from compare.plots import FigureDirError, check_figure_dir
 
     try:
-        check_figure_dir(fig_dir)
+        check_figure_dir(fig_dir, fmt=fmt, source=source)
     except FigureDirError as exc:
         raise click.ClickException(str(exc)) from None
 
 
-def _write_figures(results: list, fig_dir: Path, workers: int) -> list[Path]:
-    """The figures of ``results`` in ``fig_dir``; a file there the harness did not write is refused."""
-    from compare.plots import FigureDirError, write_figures
+def _write_figures(results: list, fig_dir: Path, workers: int, fmt: str = "png", dpi: int = 110,
+                   source: Path | None = None, progress: bool = True) -> list[Path]:
+    """The figures of ``results`` in ``fig_dir`` under a progress bar; a file there the harness did not
+    write, or the figures of another results file, is refused; an OS failure names the file."""
+    from compare.plots import FigureDirError, figure_count, write_figures
+    from compare.progress import progress_bar
 
     try:
-        return write_figures(results, fig_dir, workers=workers)
+        with progress_bar(figure_count(results), "figures", unit="figure", enabled=progress) as bar:
+            return write_figures(results, fig_dir, workers=workers, fmt=fmt, dpi=dpi, source=source,
+                                 on_each=lambda p: bar.update(1))
     except FigureDirError as exc:
         raise click.ClickException(str(exc)) from None

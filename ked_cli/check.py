@@ -112,6 +112,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     from compare.check import check as run_check
     from compare.check import progress, redraw
     from compare.checkwork import CheckWorkerError, CheckWorkers
+    from compare.inspect import rpm_text
     from ked_cli.quasi import slider_source
     from ked_quasi.massmodel import MassModel, default_payload
     from ked_quasi.scene import variant
@@ -134,7 +135,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
                                         direction=direction).scene(speeds[0]), speeds, "--rpm")
         refuse_oversized(spec_for(source, mechanism, mm, speeds[0], stiffness_scale=stiffness_scale,
                                   direction=direction).scene(speeds[0]))
-        sweep = len(speeds) >= 3 and slider is None  # critical speeds: local maxima over the range (compare.critical)
+        sweep = len(speeds) >= 3  # critical speeds: local maxima over the range (compare.critical)
         # one bar over the speeds and then the critical-speed sweep; worker processes once the work is worth them
         with progress(len(speeds)) as bar, CheckWorkers(workers) as pool:
             rows = run_check(source, mechanism, mm, speeds, stiffness_scale=stiffness_scale,
@@ -146,7 +147,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
 
                 bar.total = bar.n + sweep_evaluations(rows)
                 redraw(bar)
-                crit, amp, rows = check_critical(rows, load_source(linkage), mechanism, mm, bar=bar, workers=pool,
+                crit, amp, rows = check_critical(rows, source, mechanism, mm, bar=bar, workers=pool,
                                                  stiffness_scale=stiffness_scale, damping_ratio=damping_ratio,
                                                  direction=direction, tolerance=tolerance)
     except ValueError as exc:
@@ -178,13 +179,14 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
         click.echo(line.rstrip())
         click.echo(textwrap.fill(r.verdict, width=WIDTH, initial_indent=" " * 9, subsequent_indent=" " * 11,
                                  break_on_hyphens=False))
-    if len(rows) >= 3 and slider is None:  # no Floquet analysis of a slider-crank yet
+    if len(rows) >= 3:
         for text in ("Critical speeds, i.e. of weakest damping (parametric resonance: local maxima of max |Floquet "
                      "multiplier|; transients die out slowest): "
-                     + (", ".join(f"{c.rpm:.4g} rpm (|mu| {c.max_abs:.3g})" for c in crit) or "none in this range"),
+                     + (", ".join(f"{rpm_text(c.rpm)} rpm (|mu| {c.max_abs:.3g})" for c in crit)
+                        or "none in this range"),
                      "Amplification peaks (forced resonance: local maxima of the linear / quasi-static peak; keep "
                      "the operating speed away from these): "
-                     + (", ".join(f"{a:.4g} rpm" for a in amp) or "none in this range")):
+                     + (", ".join(f"{rpm_text(a)} rpm" for a in amp) or "none in this range")):
             click.echo(textwrap.fill(text, width=WIDTH, subsequent_indent="  ", break_on_hyphens=False))
     click.echo(textwrap.fill(
         "r = Omega/omega1_min; qs vs lin: the quasi-static answer's history error against the linear KED answer; "

@@ -107,7 +107,9 @@ class SceneOptions:
 
     def describe(self) -> str:
         """One line naming the scene."""
-        return (f"{self.linkage} linkage, {self.mechanism}, mass model {self.mass_model}, {self.rpm:g} rpm, "
+        from compare.inspect import rpm_text
+
+        return (f"{self.linkage} linkage, {self.mechanism}, mass model {self.mass_model}, {rpm_text(self.rpm)} rpm, "
                 f"step {self.step_deg:g} deg, stiffness x{self.stiffness_scale:g}")
 
 

@@ -126,7 +126,10 @@ def _summary(opts: SceneOptions, as_json: bool) -> None:
     if as_json:
         click.echo(json_text(rows))
         return
-    click.echo(wrap(f"Quasi-static KED summary: {opts.linkage} linkage, {opts.rpm:g} rpm, step {opts.step_deg:g} deg"))
+    from compare.inspect import rpm_text
+
+    click.echo(wrap(f"Quasi-static KED summary: {opts.linkage} linkage, {rpm_text(opts.rpm)} rpm, "
+                    f"step {opts.step_deg:g} deg"))
     click.echo(f"{'mechanism':<9} {'mass model':<11} {'peak |d| mm':>11} {'at deg':>7} {'peak rot mrad':>13} "
                f"{'f1 min..max Hz':>15} {'Omega/w1min':>11}")
     for r in rows:
@@ -194,6 +197,8 @@ def solve_slider(scene: Any) -> tuple[dict[str, Any], list[str]]:
 
 
 def _slider_table(opts: SceneOptions, scene: Any, out: dict[str, Any]) -> None:
+    from compare.inspect import rpm_text
+
     mm, sc = scene.mass_model, scene.linkage
     rigid = [lk for lk, r in zip(("crank", "coupler"), sc.rigid) if r]
     click.echo(wrap(f"Quasi-static deflection of a slider-crank: {opts.linkage} (crank {sc.crank:g} m, coupler "
@@ -202,7 +207,7 @@ def _slider_table(opts: SceneOptions, scene: Any, out: dict[str, Any]) -> None:
                f"{sc.slider_mass:g} kg" + (f", rigid {' and '.join(rigid)}" if rigid else "") + f"), mass model "
                f"{mm.name}" + (f" ({mm.lumps} lumps per link)" if mm.name == "distributed" else "")
                + (f", payload {mm.payload:g} kg" if mm.payload else "")
-               + f", {scene.rpm:g} rpm ({scene.omega:.4g} rad/s), step {scene.step_deg:g} deg"))
+               + f", {rpm_text(scene.rpm)} rpm ({scene.omega:.4g} rad/s), step {scene.step_deg:g} deg"))
     click.echo(wrap("theta: crank angle CCW from +x (0: slider at its far dead centre when the offset is 0); dx, dy: "
                      "elastic displacement of P in the global frame; rot: elastic rotation of the section at P "
                      "(CCW +); mid: coupler midspan deflection normal to its chord (CCW normal of A->B); f1: first "

@@ -17,7 +17,7 @@ import pytest
 
 from compare import store
 from compare.config import parse_config
-from compare.inspect import speed_ratio
+from compare.inspect import rpm_text, speed_ratio
 from compare.plots import INVALID_COLOR, amplification_figure, scene_figure
 from compare.runner import run_campaign
 
@@ -99,7 +99,7 @@ def test_amplification_figure_legend_rpm_and_invalid_points(scenes):
     # two families of different omega1_min: the rpm of r = 0.1 in each entry, from the stored rpm and r
     tip = scenes[("tip", 300.0)]
     expected = 0.1 * tip.rpm / speed_ratio(tip)
-    assert any(t.startswith("source, tip") and f"r = 0.1 at {expected:.3g} rpm" in t for t in texts)
+    assert any(t.startswith("source, tip") and f"r = 0.1 at {rpm_text(expected)} rpm" in t for t in texts)
     for ax in fig.axes[:2]:
         assert ax.get_xlabel().startswith("speed ratio r")
 
