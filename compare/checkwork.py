@@ -93,11 +93,10 @@ class CheckWorkers:
 
     @property
     def workers(self) -> int:
-        """How many worker processes at most (the available CPUs unless given)."""
-        if self._workers is None:
-            from compare.runner import default_workers  # only once workers are considered: it imports h5py
+        """How many worker processes at most (the available CPUs, or fewer if given)."""
+        from compare.runner import default_workers  # only once workers are considered: it imports h5py
 
-            self._workers = default_workers()
+        self._workers = min(self._workers or default_workers(), default_workers())
         return self._workers
 
     def __enter__(self) -> CheckWorkers:

@@ -255,7 +255,8 @@ def _ready() -> int:
 
 
 def default_workers() -> int:
-    """Worker processes used when none are given: the CPUs available to this process."""
+    """Worker processes used when none are given, and the most any local pool starts: the CPUs available to
+    this process (the tasks are CPU-bound: more processes than CPUs only share them)."""
     try:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # pragma: no cover - not Linux
@@ -338,7 +339,8 @@ class _LocalBackend:
 
     def __init__(self, workers: int):
         ctx = multiprocessing.get_context("spawn")
-        self.pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=worker_init)
+        self.pool = cf.ProcessPoolExecutor(max_workers=min(workers, default_workers()), mp_context=ctx,
+                                           initializer=worker_init)
         self.futures: list[Any] = []
         try:
             with _single_threaded_children(), _start_children_quietly():  # workers are spawned on submit

@@ -9,6 +9,8 @@ from typing import Any
 
 import click
 
+from ked_cli.options import cap_workers
+
 DEFAULT_DIR = Path("ked_results")
 LARGE_GRID = 1000
 """A grid this large gets a warning with its estimated run time before anything runs."""
@@ -96,7 +98,7 @@ def _results(file: Path) -> list:
 @click.option("--out", "out", type=click.Path(dir_okay=False, path_type=Path),
               help="Results file [default: ked_results/<campaign name>.h5; for a config without a "
                    "[campaign] name: ked_results/<config file name>.h5].")
-@click.option("--workers", type=click.IntRange(min=1), default=None,
+@click.option("--workers", type=click.IntRange(min=1), callback=cap_workers, default=None,
               help="Local worker processes [default: available CPUs].")
 @click.option("--scheduler", metavar="ADDRESS", default=None,
               help="Run the scenes on a Dask distributed cluster at this scheduler address.")
@@ -321,7 +323,7 @@ def merge_cmd(src: Path, dest: Path) -> None:
 @click.argument("file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Output directory [default: <file stem>_figures next to the file].")
-@click.option("--workers", type=click.IntRange(min=1), default=None,
+@click.option("--workers", type=click.IntRange(min=1), callback=cap_workers, default=None,
               help="Processes drawing the figures [default: available CPUs].")
 @click.option("--format", "fmt", type=click.Choice(FIGURE_FORMATS), default="png", show_default=True,
               help="File format of the figures (svg, pdf: vector drawings for reports and papers).")

@@ -11,6 +11,7 @@ import click
 
 from ked_cli.options import (
     RuleType,
+    cap_workers,
     json_text,
     linkage_option,
     load_source,
@@ -71,7 +72,7 @@ def _rpm_range(text: str | None) -> list[float]:
               help="Relative history error accepted.")
 @click.option("--confirm", is_flag=True, help="Also run the Exudyn model and report the three errors it measures.")
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON list, one object per speed.")
-@click.option("--workers", type=click.IntRange(min=1), default=None,
+@click.option("--workers", type=click.IntRange(min=1), callback=cap_workers, default=None,
               help="Local worker processes for the speeds and the critical-speed sweep, used where the time "
                    "they save (estimated from the first two speeds, or sweep evaluations, timed here) exceeds "
                    "their start-up (1: all in this process) [default: available CPUs].")

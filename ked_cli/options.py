@@ -247,3 +247,16 @@ def json_text(value: Any, **dumps: Any) -> str:
         return v
 
     return json.dumps(clean(value), allow_nan=False, **dumps)
+
+
+def cap_workers(ctx: click.Context, param: click.Parameter, value: int | None) -> int | None:
+    """Click callback of every ``--workers``: more local worker processes than the CPUs available are never
+    started (``compare.runner.default_workers``); say so once, on standard error."""
+    if value is not None:
+        from compare.runner import default_workers
+
+        cpus = default_workers()
+        if value > cpus:
+            click.echo(f"ked: --workers {value}: at most {cpus} local worker processes start (the CPUs available "
+                       "to this process)", err=True)
+    return value

@@ -11,6 +11,8 @@ from typing import Any
 
 import click
 
+from ked_cli.options import cap_workers
+
 _DEFAULT_RESULTS = "<harness>/results"
 
 
@@ -19,7 +21,7 @@ def common_options(f: Any) -> Any:
         click.option("--results-dir", type=click.Path(file_okay=False, path_type=Path), default=None,
                      help=f"Where to write: studies/ (HDF5), figures/, README.md [default: {_DEFAULT_RESULTS}, "
                           "the committed results of this checkout]."),
-        click.option("--workers", type=click.IntRange(min=1), default=2, show_default=True,
+        click.option("--workers", type=click.IntRange(min=1), callback=cap_workers, default=2, show_default=True,
                      help="Campaign worker processes."),
         click.option("--fresh", is_flag=True, help="Delete this study's stored HDF5 files first and recompute "
                                                     "everything (default: resume, computing only what is missing)."),

@@ -68,7 +68,8 @@ def test_linear_tier_matches_the_reference_at_low_speed(omega):
 
 
 def test_cli_speeds_option_refuses_bad_ranges_in_one_line():
-    for bad in ("0:100:25", "25:300:0", "a,b", "-50"):
+    # 1e-9 rad/s: a period of 6e9 s the reference would march without bound (it takes 75 s at 1 rad/s)
+    for bad in ("0:100:25", "25:300:0", "a,b", "-50", "1e-9", "1e-9:10:1", "1"):
         res = subprocess.run([sys.executable, "-m", "ked_cli", "benchmark", "simeon", "--speeds", bad],
                              capture_output=True, text=True)
         assert res.returncode == 2 and len(res.stderr.strip().splitlines()) == 1, (bad, res.stderr)
