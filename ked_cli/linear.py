@@ -6,7 +6,7 @@ from typing import Any
 
 import click
 
-from ked_cli.options import SceneOptions, build_scene, build_slider, json_text, scene_options, wrap
+from ked_cli.options import SceneOptions, build_scene, build_slider, json_text, resolve, scene_options, wrap
 from ked_quasi import rules
 
 
@@ -43,7 +43,7 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
     """
     from ked_linear import LinearSettings, describe_flags, result_flags, solve_linear
 
-    opts = SceneOptions.pop(kw)
+    opts = resolve(SceneOptions.pop(kw))  # a user file's scene filled in
     scene = _slider_scene(opts)
     if scene is None:
         scene = build_scene(opts)

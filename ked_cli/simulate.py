@@ -9,7 +9,7 @@ from typing import Any
 
 import click
 
-from ked_cli.options import SceneOptions, build_scene, build_slider, scene_options, wrap
+from ked_cli.options import SceneOptions, build_scene, build_slider, resolve, scene_options, wrap
 
 ELEMENT_TYPES = ("ancf", "gebeam")
 
@@ -94,7 +94,7 @@ def simulate(as_json: bool, **kw: Any) -> None:
     """
     from ked_cli.quasi import slider_source
 
-    opts = SceneOptions.pop(kw)
+    opts = resolve(SceneOptions.pop(kw))  # a user file's scene filled in
     settings = dynamic_settings(kw)
     slider = slider_source(opts.linkage)
     scene = build_slider(opts, slider) if slider is not None else build_scene(opts)
