@@ -154,7 +154,8 @@ def explicit(ctx: click.Context | None, name: str) -> bool:
 
 def file_scene_specs(linkage: str, *, mechanism: str, mass_model: str, lumps: int, payload_kg: float | None,
                      stiffness_scale: float, direction: str | None, rpms: list[float],
-                     damping_ratio: float | None = None, single: bool = True, forced: tuple[str, ...] = (), **settings: Any) -> tuple[Any, ...]:
+                     damping_ratio: float | None = None, single: bool = True, forced: tuple[str, ...] = (),
+                     **settings: Any) -> tuple[Any, ...]:
     """The campaign scenes of a single-scene command on the user's file ``linkage``
     (:func:`compare.config.file_scenes`): the file's ``[grid]``, ``[campaign]``, ``[dynamic]`` and solver tables
     describe the scene, the options given on the command line override them (explicitly; an option left at
