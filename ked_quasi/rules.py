@@ -166,10 +166,10 @@ SECOND_MOMENT = Rule("second_moment", "m^4", 0.0, 1.0, "a link's cross-section (
 DENSITY = Rule("density", "kg/m^3", 0.0, 1e5, "up to 4x the densest metal", lo_open=True)
 MATERIAL_YOUNGS_MODULUS = Rule(
     "youngs_modulus", "Pa", 1e8, 2e12, "a link's material: from stiff polymers (PTFE 0.5 GPa) to diamond "
-    "(1.1e12 Pa)", mixup_low=("moduli are in Pa", "MPa", 1e6, "210 GPa = 2.1e11 Pa for steel"))
+    "(1.1e12 Pa)", mixup_low=("moduli are in Pa", "MPa", 1e6, "steel: 210 GPa = 2.1e11 Pa"))
 MATERIAL_DENSITY = Rule(
     "density", "kg/m^3", 100.0, 1e5, "a link's material: from balsa wood (~150 kg/m^3) to 4x the densest metal",
-    mixup_low=("densities are in kg/m^3", "g/cm^3", 1e3, "7850 kg/m^3 for steel"))
+    mixup_low=("densities are in kg/m^3", "g/cm^3", 1e3, "steel: 7850 kg/m^3"))
 MATERIAL_RULES = {"youngs_modulus": MATERIAL_YOUNGS_MODULUS, "density": MATERIAL_DENSITY}
 USER_SECTION_RULES = {"youngs_modulus": MATERIAL_YOUNGS_MODULUS, "area": AREA, "second_moment": SECOND_MOMENT,
                       "density": MATERIAL_DENSITY}
