@@ -28,7 +28,9 @@ def quasi(as_json: bool, summary: bool, **kw: Any) -> None:
     model defaults to distributed (the links' own mass), the slider's mass is always included, and the JSON
     adds midspan_m: the coupler's midspan deflection normal to its chord.
     """
-    opts = resolve(SceneOptions.pop(kw))  # a user file's scene filled in
+    opts = SceneOptions.pop(kw)
+    if not summary:  # a user file's scene filled in (the summary runs every mechanism and mass model)
+        opts = resolve(opts)
     slider = slider_source(opts.linkage)
     if slider is not None:
         _slider(opts, slider, as_json, summary)
