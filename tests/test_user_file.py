@@ -177,3 +177,17 @@ def test_label_names():
     assert label_names("source/tip/50...", label)
     assert not label_names("cognate/5000rpm", label) and not label_names("source/500rpm", label)
     assert not label_names("5000rpm/source", label)  # segments in the label's order only
+
+
+def test_simulate_runs_the_files_dynamic_settings(tmp_path):
+    """The file's [dynamic] table and damping ratio, not DynamicSettings' defaults (4 elements, 720 steps, 0.02);
+    an option given overrides one of them."""
+    f = tmp_path / "steel.toml"
+    f.write_text(STEEL)
+    res = ked("simulate", "--linkage", str(f), "--json")
+    assert res.returncode == 0, res.stderr
+    solved = json.loads(res.stdout)["solved_settings"]
+    assert (solved["elements_per_link"], solved["steps_per_cycle"], solved["damping_ratio"]) == (2, 360, 0.05)
+    res = ked("simulate", "--linkage", str(f), "--steps-per-cycle", "720", "--json")
+    solved = json.loads(res.stdout)["solved_settings"]
+    assert (solved["elements_per_link"], solved["steps_per_cycle"], solved["damping_ratio"]) == (2, 720, 0.05)
