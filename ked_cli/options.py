@@ -134,15 +134,25 @@ _FILES: dict[str, Any] = {}
 def scene_file(linkage: str) -> Any:
     """The user's file ``--linkage`` names, read once by the campaign's rules (``compare.config.load_scene_file``:
     every table and key checked, as ``ked run`` reads it); every problem on its own line otherwise."""
+    import os
+
     from compare.config import ConfigError, load_scene_file
     from ked_cli.errors import ProblemsError
 
-    if linkage not in _FILES:
+    try:
+        st = os.stat(linkage)
+        key: Any = (linkage, st.st_mtime_ns, st.st_size, st.st_ino)  # a rewritten file is read again
+    except OSError:
+        key = None
+    if key is None or key not in _FILES:
         try:
-            _FILES[linkage] = load_scene_file(linkage)
+            cfg = load_scene_file(linkage)
         except ConfigError as exc:
             raise ProblemsError(exc.source, exc.problems, "--linkage") from None
-    return _FILES[linkage]
+        if key is None:
+            return cfg
+        _FILES[key] = cfg
+    return _FILES[key]
 
 
 def explicit(ctx: click.Context | None, name: str) -> bool:
