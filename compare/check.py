@@ -342,19 +342,25 @@ def linear_range(mass_model: str) -> LinearRange:
 def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, rpms: Sequence[float], *,
           stiffness_scale: float = 1.0, damping_ratio: float = 0.02, direction: str = "ccw", step_deg: float = 10.0,
           tolerance: float = 0.10, confirm: bool = False, bar: Any = None,
-          workers: CheckWorkers | None = None) -> list[CheckRow]:
+          workers: CheckWorkers | None = None, specs: Sequence[SceneSpec] | None = None) -> list[CheckRow]:
     """The design check of one linkage at each of ``rpms`` [rev/min] (see the module docstring).  A
     slider-crank (``source`` a ``SliderCrank``) has no atlas: neither the linear model's limit nor calibrated
     margins (the four-bar atlas's do not apply), so only a measurement (``confirm``) grants a tier below
     nonlinear.  ``bar``: a progress bar (:func:`progress`) advanced per speed; default: one of its own.
     ``workers``: where the speeds after the first two go when their estimated work is worth worker processes
-    (:class:`compare.checkwork.CheckWorkers`; the rows are the same)."""
+    (:class:`compare.checkwork.CheckWorkers`; the rows are the same).  ``specs``: the campaign scenes to check
+    in place of :func:`spec_for`'s (a user file's scenes, :func:`compare.config.file_scenes`: the key and the
+    answer ``ked run`` gives the file)."""
     slider = isinstance(source, SliderCrank)
     rng = LinearRange() if slider else linear_range(mass_model.name)
-
-    specs = [spec_for(source, mechanism, mass_model, rpm, stiffness_scale=stiffness_scale, damping_ratio=damping_ratio,
-                      direction=direction, step_deg=step_deg, tolerance=tolerance) for rpm in rpms]
-    margins = verdict_margins(tolerance, verdict_rule.stratum(specs[0].kind, mass_model.name, mechanism))
+    if specs is None:
+        specs = [spec_for(source, mechanism, mass_model, rpm, stiffness_scale=stiffness_scale,
+                          damping_ratio=damping_ratio, direction=direction, step_deg=step_deg, tolerance=tolerance)
+                 for rpm in rpms]
+    else:
+        specs = [replace(s, solvers=("quasi_static", "linear")) for s in specs]
+    margins = verdict_margins(tolerance, verdict_rule.stratum(specs[0].kind, specs[0].mass_model.name,
+                                                              specs[0].mechanism))
     rows: list[CheckRow] = []
     with progress(len(rpms)) if bar is None else contextlib.nullcontext(bar) as bar:
         def done_on_a_worker(j: int, row: CheckRow) -> None:

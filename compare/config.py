@@ -11,6 +11,7 @@ from __future__ import annotations
 import functools
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from importlib import resources
 from pathlib import Path
@@ -42,7 +43,8 @@ class ConfigError(ValueError):
     """Invalid campaign configuration; ``problems`` lists ``"toml.path: message"`` strings."""
 
     def __init__(self, problems: list[str], source: str = "campaign config"):
-        self.problems = list(problems)
+        self.problems = list(dict.fromkeys(problems))  # each problem once (a shared table is read per link)
+        self.source = source
         lines = [f"{source}: {len(self.problems)} problem(s):"] + [f"  - {p}" for p in self.problems]
         super().__init__("\n".join(lines))
 
@@ -134,12 +136,17 @@ def parse_config(text: str, source: str = "campaign config") -> CampaignConfig:
 TOP_TABLES = ("campaign", "linkage", "grid", "dynamic", "tolerances", "expect")
 
 
-def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config") -> CampaignConfig:
-    """Validate a parsed TOML document; raise :class:`ConfigError` listing every problem."""
+def _extra_tables() -> tuple[str, ...]:
+    """Every solver with settings has its table ([dynamic] is stored apart: its own grid axis and keys)."""
+    return tuple(n for n in solver_registry.names() if n != "dynamic" and solver_registry.get(n).setting_fields())
+
+
+def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config",
+             check_speeds: bool = True) -> CampaignConfig:
+    """Validate a parsed TOML document; raise :class:`ConfigError` listing every problem.  ``check_speeds``
+    False skips the speed-ratio bound of the grid's speeds (a single-scene command checks its own speed)."""
     c = _Checker()
-    # every solver with settings has its table ([dynamic] is stored apart: its own grid axis and keys)
-    extra_tables = tuple(n for n in solver_registry.names()
-                         if n != "dynamic" and solver_registry.get(n).setting_fields())
+    extra_tables = _extra_tables()
     c.keys(doc, "", (*TOP_TABLES, *extra_tables))
     camp = c.table(doc, "campaign")
     c.keys(camp, "campaign", ("name", "tolerance", "outputs", "step_deg", "n_modes", "solvers"))
@@ -181,7 +188,7 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
             "dynamic_variants"))
         c.err("grid", f"{grid_obj.size()} scenes ({axes}) is more than one campaign may hold "
                       f"({rules.MAX_SCENES}); split the grid into several campaigns (join results with ked merge)")
-    elif grid_obj is not None:
+    elif grid_obj is not None and check_speeds:
         _check_speed_ratios(c, grid_obj)
         _check_linear_size(c, grid_obj)
     tolerances, expect = _regression_tables(c, doc)
@@ -421,10 +428,42 @@ _LINKAGE_NUMBERS = ("crank", "coupler", "follower", "extender")
 
 
 def load_linkage(path: str | Path) -> FourBar:
-    """The ``[linkage]`` table of a TOML file (campaign schema; other tables are ignored) as the source
+    """The ``[linkage]`` table of a TOML file (campaign schema; every table name and key checked) as the source
     four-bar; :class:`ConfigError` naming the file and every problem otherwise."""
     p = Path(path)
     doc = _read_toml(p)
+    _single_linkage(doc, p)
+    c = _Checker()
+    c.keys(doc, "", (*TOP_TABLES, *_extra_tables()))  # a misspelt table is refused, never ignored
+    fb = linkage_from_table(c, c.table(doc, "linkage"))
+    if c.problems or fb is None:
+        raise ConfigError(c.problems or ["linkage: missing"], source=str(p))
+    return fb
+
+
+def load_scene_file(path: str | Path) -> CampaignConfig:
+    """A user's linkage file read for a single-scene command (``ked quasi``, ``linear``, ``simulate``, ``check``
+    with ``--linkage FILE``): the whole file by the campaign's rules, as ``ked run`` reads it (every table and
+    key checked, its ``[grid]``, ``[campaign]``, ``[dynamic]`` and solver tables kept), except that the grid's
+    crank speeds are not checked against the speed-ratio bound (the command checks the speed it runs).  A
+    slider-crank file without ``grid.mass_models`` gets ``distributed``, the commands' default for it.
+    :class:`ConfigError` naming the file and every problem otherwise."""
+    p = Path(path)
+    text = _read_text(p)
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError([f"TOML syntax error: {exc}"], source=str(p)) from None
+    _single_linkage(doc, p)
+    tab, grid = doc.get("linkage"), doc.get("grid", {})
+    if (isinstance(tab, dict) and (tab.get("kind") == SLIDER_KIND or tab.get("preset") == "simeon")
+            and isinstance(grid, dict) and "mass_models" not in grid):
+        doc = {**doc, "grid": {**grid, "mass_models": ["distributed"]}}
+    return validate(doc, text=text, source=str(p), check_speeds=False)
+
+
+def _single_linkage(doc: dict[str, Any], p: Path) -> None:
+    """ConfigError unless ``doc`` holds exactly one ``[linkage]`` table (naming the tables found)."""
     if isinstance(doc.get("linkage"), list):
         raise ConfigError(["holds several linkages ([[linkage]] or an array); a linkage file holds one [linkage] "
                            "table (several linkages belong in a campaign config)"], source=str(p))
@@ -436,11 +475,44 @@ def load_linkage(path: str | Path) -> FourBar:
         raise ConfigError([f"no [linkage] table ({found}); a linkage file needs a [linkage] table (lower case) with "
                            "crank, coupler, follower, extender, ground [m], coupler_angle_deg and [linkage.section], "
                            "or preset = \"thesis\""], source=str(p))
-    c = _Checker()
-    fb = linkage_from_table(c, c.table(doc, "linkage"))
-    if c.problems or fb is None:
-        raise ConfigError(c.problems or ["linkage: missing"], source=str(p))
-    return fb
+
+
+SCENE_AXES = {"mechanisms": "--mechanism", "mass_models": "--mass-model", "stiffness_scales": "--stiffness-scale",
+              "damping_ratios": "--damping-ratio", "directions": "--direction", "dynamic_variants": ""}
+"""The grid axes that describe one scene of a file, and the option choosing each on the command line."""
+
+
+def file_scenes(config: CampaignConfig, given: dict[str, Any], rpms: Sequence[float] | None = None,
+                **settings: Any) -> tuple[SceneSpec, ...]:
+    """The scenes a single-scene command runs on a user's file: the file's grid, as ``ked run`` expands it,
+    with each axis of :data:`SCENE_AXES` the command line gives (``given``: axis -> the one value) in place of
+    the file's, at the crank speeds ``rpms`` [rev/min] (None: the file's ``grid.rpm``).  ``settings``: fields
+    of the grid the command line gives explicitly (e.g. ``tolerance``, ``step_deg``).  An axis of several
+    values that the command line does not choose: ValueError naming the axis, its values and the option."""
+    g = config.grid
+    fields: dict[str, Any] = {}
+    for axis, option in SCENE_AXES.items():
+        values = (given[axis],) if axis in given else getattr(g, axis)
+        if len(values) > 1:
+            shown = ", ".join(_axis_text(v) for v in values)
+            how = f"choose one with {option}" if option else "a single-scene command runs one: keep one"
+            raise ValueError(f"grid.{axis}: the file holds {len(values)} values ({shown}); {how}")
+        fields[axis] = tuple(values)
+    if rpms is None:
+        if any(s.kind != "rpm" for s in g.speeds):
+            raise ValueError("grid.speed_ratios: a single-scene command runs at a crank speed in rpm; give --rpm")
+        speeds = g.speeds
+    else:
+        speeds = tuple(SpeedSpec("rpm", float(r)) for r in rpms)
+    return replace(g, speeds=speeds, **fields, **settings).expand()
+
+
+def _axis_text(v: Any) -> str:
+    if isinstance(v, MassModel):
+        return v.name
+    if isinstance(v, tuple):
+        return "{" + ", ".join(f"{k} = {x!r}" for k, x in v) + "}"
+    return f"{v:g}" if isinstance(v, float) else str(v)
 
 
 def linkage_from_table(c: _Checker, tab: dict[str, Any]) -> FourBar | SliderCrank | None:
@@ -501,7 +573,7 @@ def _sections(c: _Checker, tab: dict[str, Any], base: list[dict[str, float]] | N
         own = c.table(per, link, path=f"linkage.sections.{link}")
         c.keys(own, f"linkage.sections.{link}", SECTION_KEYS)
         props = {}
-        for key, rule in SECTION_RULES.items():
+        for key, rule in rules.USER_SECTION_RULES.items():  # the plausibility bounds of a user's material
             if key in own:
                 props[key] = c.rule(own, f"linkage.sections.{link}.{key}", rule)
             elif key in common:

@@ -393,10 +393,32 @@ def spec_sort_key(s: Any) -> tuple:
 
 
 def find_scene(results: Sequence[SceneResult], ident: str) -> SceneResult:
-    """Scene whose key starts with ``ident`` or whose label equals it; ValueError if none/ambiguous."""
+    """Scene whose key starts with ``ident`` or whose label equals it, or that a label the summary table prints
+    names (:func:`label_names`: segments every scene shares dropped, a long label cut with "..."); ValueError
+    if none/ambiguous."""
     hits = [r for r in results if r.key.startswith(ident) or r.spec.label == ident]
+    if not hits:
+        hits = [r for r in results if label_names(ident, r.spec.label)]
     if not hits:
         raise ValueError(f"no scene matches {ident!r}")
     if len(hits) > 1:
         raise ValueError(f"{ident!r} is ambiguous: {', '.join(r.key for r in hits)}")
     return hits[0]
+
+
+def label_names(shown: str, label: str) -> bool:
+    """True when ``shown``, a label as a table prints it, names the scene ``label``: its "/"-separated segments
+    are segments of ``label`` in their order (the table drops the segments every scene shares), the last one
+    possibly cut with "..." (a label too long for the table)."""
+    cut = shown.endswith("...")
+    want = (shown[:-3] if cut else shown).split("/")
+    have = label.split("/")
+    i = 0
+    for n, seg in enumerate(want):
+        last = n == len(want) - 1
+        while i < len(have) and not (have[i] == seg or (last and cut and have[i].startswith(seg))):
+            i += 1
+        if i == len(have):
+            return False
+        i += 1
+    return bool(shown)

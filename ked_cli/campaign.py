@@ -76,11 +76,12 @@ def _regular(path: Path, what: str) -> None:
 
 def _load(config: Path | None) -> Any:
     from compare.config import ConfigError, load_config
+    from ked_cli.errors import ProblemsError
 
     try:
         return load_config(config)
     except ConfigError as exc:
-        raise click.UsageError(str(exc).replace("\n", " ")) from None
+        raise ProblemsError(exc.source, exc.problems) from None
 
 
 def _results(file: Path) -> list:

@@ -12,6 +12,8 @@ import click
 from ked_cli.options import (
     RuleType,
     cap_workers,
+    file_scene_specs,
+    is_file,
     json_text,
     linkage_option,
     load_source,
@@ -120,28 +122,43 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
 
     speeds = list(rpms) + _rpm_range(rpm_range) or [300.0]
     slider = slider_source(linkage)
-    if slider is not None:
+    specs = None
+    if is_file(linkage):  # the file's scene (grid, campaign, solver tables), the options given overriding it
+        specs = file_scene_specs(linkage, mechanism=mechanism, mass_model=mass_model, lumps=lumps,
+                                 payload_kg=payload_kg, stiffness_scale=stiffness_scale, direction=direction,
+                                 rpms=list(rpms) + _rpm_range(rpm_range), damping_ratio=damping_ratio, single=False,
+                                 tolerance=tolerance)
+        s0 = specs[0]
+        speeds = [s.speed.value for s in specs]
+        mechanism, mass_model, stiffness_scale, direction = s0.mechanism, s0.mass_model.name, s0.stiffness_scale, \
+            s0.direction
+        damping_ratio, tolerance, lumps, payload_kg = s0.damping_ratio, s0.tolerance, s0.mass_model.lumps, \
+            s0.mass_model.payload
+    elif slider is not None:
         mass_model = _slider_mass_model(mechanism, mass_model)
     try:
         mm = MassModel(mass_model, lumps=lumps, payload=default_payload(mass_model) if payload_kg is None
-                       else payload_kg)
+                       else payload_kg) if specs is None else specs[0].mass_model
         from compare.check import spec_for
 
         if slider is None:
             source = load_source(linkage)
-            refuse_fast(variant(source, mechanism, stiffness_scale, direction), mm, speeds, 10.0, "--rpm")
+            refuse_fast(variant(source, mechanism, stiffness_scale, direction), mm, speeds,
+                        specs[0].step_deg if specs else 10.0, "--rpm")
         else:
             source = slider
-            refuse_fast_slider(spec_for(slider, mechanism, mm, speeds[0], stiffness_scale=stiffness_scale,
-                                        direction=direction).scene(speeds[0]), speeds, "--rpm")
-        refuse_oversized(spec_for(source, mechanism, mm, speeds[0], stiffness_scale=stiffness_scale,
-                                  direction=direction).scene(speeds[0]))
+            first = specs[0] if specs else spec_for(slider, mechanism, mm, speeds[0], stiffness_scale=stiffness_scale,
+                                                    direction=direction)
+            refuse_fast_slider(first.scene(speeds[0]), speeds, "--rpm")
+        first = specs[0] if specs else spec_for(source, mechanism, mm, speeds[0], stiffness_scale=stiffness_scale,
+                                                direction=direction)
+        refuse_oversized(first.scene(speeds[0]))
         sweep = len(speeds) >= 3  # critical speeds: local maxima over the range (compare.critical)
         # one bar over the speeds and then the critical-speed sweep; worker processes once the work is worth them
         with progress(len(speeds)) as bar, CheckWorkers(workers) as pool:
             rows = run_check(source, mechanism, mm, speeds, stiffness_scale=stiffness_scale,
                              damping_ratio=damping_ratio, direction=direction, tolerance=tolerance, confirm=confirm,
-                             bar=bar, workers=pool)
+                             bar=bar, workers=pool, specs=specs)
             crit, amp = (), ()
             if sweep:
                 from compare.critical import check_critical, sweep_evaluations

@@ -31,6 +31,20 @@ class UserError(click.ClickException):
     """A problem the user can fix, with its one-line message (exit status 1)."""
 
 
+class ProblemsError(click.UsageError):
+    """Bad input with several problems (an invalid config or linkage file): one line each, each once, every line
+    naming the file (exit status 2)."""
+
+    def __init__(self, source: str, problems: list[str], hint: str = "") -> None:
+        self.source, self.problems = source, list(dict.fromkeys(problems))
+        self.hint = hint
+        super().__init__("\n".join(self.lines()))
+
+    def lines(self) -> list[str]:
+        where = f"{self.source} ({self.hint})" if self.hint else self.source
+        return [f"{where}: {p}" for p in self.problems]
+
+
 LOW_MEMORY = ("not enough memory to load the numerical libraries (the memory limit, ulimit -v, is too low: they "
               "need about 500 MB of address space); raise the limit, e.g. ulimit -v unlimited")
 MIN_ADDRESS_SPACE = 512 * 2**20
@@ -160,6 +174,10 @@ def _run(command: Callable[..., object]) -> None:
         raise_if_stopped()  # the command ended although a stop was asked for: its interrupt was lost
     except click.exceptions.Exit as exc:
         sys.exit(exc.exit_code)
+    except ProblemsError as exc:
+        for line in exc.lines():
+            click.echo(f"ked: {line}", err=True)
+        sys.exit(EXIT_USAGE)
     except click.UsageError as exc:
         hint = f" (try '{exc.ctx.command_path} --help')" if exc.ctx is not None else ""
         click.echo(f"ked: {first_line(exc.format_message())}{hint}", err=True)

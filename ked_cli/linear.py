@@ -10,8 +10,12 @@ from ked_cli.options import (
     SceneOptions,
     build_scene,
     build_slider,
+    explicit,
+    file_spec,
+    is_file,
     json_text,
     refuse_oversized,
+    resolve,
     scene_options,
     wrap,
 )
@@ -53,7 +57,7 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
 
     from ked_linear import LinearSettings, describe_flags, result_flags, solve_linear
 
-    opts = SceneOptions.pop(kw)
+    opts = resolve(SceneOptions.pop(kw))  # a user file's scene filled in
     scene = _slider_scene(opts)
     if scene is None:
         scene = build_scene(opts)
@@ -63,6 +67,9 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
         opts = replace(opts, mass_model=scene.mass_model.name)  # the mass model solved (distributed by default)
     refuse_oversized(scene)
     linkage = getattr(scene, "fourbar", None) or scene.linkage
+    if is_file(opts.linkage):  # the file's damping and [linear] settings, where the options do not set them
+        damping_ratio, damping_reference_hz, max_harmonics = _file_settings(
+            opts, damping_ratio, damping_reference_hz, max_harmonics)
     try:
         settings = LinearSettings(damping_ratio=damping_ratio, damping_reference_hz=damping_reference_hz,
                                   prestress=prestress, max_harmonics=max_harmonics)
@@ -123,3 +130,19 @@ def _slider_scene(opts: SceneOptions) -> Any:
 
     sc = slider_source(opts.linkage)
     return None if sc is None else build_slider(opts, sc)
+
+
+def _file_settings(opts: SceneOptions, damping_ratio: float, reference_hz: float | None,
+                   max_harmonics: int) -> tuple[float, float | None, int]:
+    """The damping ratio, its reference frequency and the harmonics cap of the user file's scene (its grid's
+    damping ratio, its ``[dynamic]`` damping reference, its ``[linear]`` table), each option given overriding."""
+    ctx = click.get_current_context()
+    spec = file_spec(opts, damping_ratio if explicit(ctx, "damping_ratio") else None)
+    own = spec.settings_for("linear")
+    if not explicit(ctx, "damping_ratio"):
+        damping_ratio = spec.damping_ratio
+    if reference_hz is None:
+        reference_hz = spec.shared_settings().get("damping_reference_hz", own.get("damping_reference_hz"))
+    if not explicit(ctx, "max_harmonics"):
+        max_harmonics = int(own.get("max_harmonics", max_harmonics))
+    return damping_ratio, reference_hz, max_harmonics

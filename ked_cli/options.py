@@ -115,39 +115,153 @@ class SceneOptions:
 
 def load_source(linkage: str) -> Any:
     """The source four-bar of ``--linkage``; a UsageError naming the option and the file otherwise."""
-    from compare.config import ConfigError, load_linkage
     from ked_quasi.linkage import thesis_fourbar
 
     if linkage == "thesis":
         return thesis_fourbar()
     _refuse_slider_crank(linkage)
+    return scene_file(linkage).linkage
+
+
+def is_file(linkage: str) -> bool:
+    """True when ``--linkage`` names a file (not a preset)."""
+    from ked_quasi.presets import slider_linkage
+
+    return linkage != "thesis" and slider_linkage(linkage) is None
+
+
+_FILES: dict[str, Any] = {}
+
+
+def scene_file(linkage: str) -> Any:
+    """The user's file ``--linkage`` names, read once by the campaign's rules (``compare.config.load_scene_file``:
+    every table and key checked, as ``ked run`` reads it); every problem on its own line otherwise."""
+    import os
+
+    from compare.config import ConfigError, load_scene_file
+    from ked_cli.errors import ProblemsError
+
     try:
-        return load_linkage(linkage)
-    except ConfigError as exc:
-        problems = "; ".join(exc.problems)
-        raise click.BadParameter(f"{linkage}: {problems}", param_hint="--linkage") from None
+        st = os.stat(linkage)
+        key: Any = (linkage, st.st_mtime_ns, st.st_size, st.st_ino)  # a rewritten file is read again
+    except OSError:
+        key = None
+    if key is None or key not in _FILES:
+        try:
+            cfg = load_scene_file(linkage)
+        except ConfigError as exc:
+            raise ProblemsError(exc.source, exc.problems, "--linkage") from None
+        if key is None:
+            return cfg
+        _FILES[key] = cfg
+    return _FILES[key]
+
+
+def explicit(ctx: click.Context | None, name: str) -> bool:
+    """True when the option ``name`` was given on the command line (not its default)."""
+    if ctx is None or name not in ctx.params:
+        return False
+    return ctx.get_parameter_source(name) not in (click.core.ParameterSource.DEFAULT, None)
+
+
+def file_scene_specs(linkage: str, *, mechanism: str, mass_model: str, lumps: int, payload_kg: float | None,
+                     stiffness_scale: float, direction: str | None, rpms: list[float],
+                     damping_ratio: float | None = None, single: bool = True, forced: tuple[str, ...] = (),
+                     **settings: Any) -> tuple[Any, ...]:
+    """The campaign scenes of a single-scene command on the user's file ``linkage``
+    (:func:`compare.config.file_scenes`): the file's ``[grid]``, ``[campaign]``, ``[dynamic]`` and solver tables
+    describe the scene, the options given on the command line override them (explicitly; an option left at
+    its default does not).  ``rpms``: the speeds given (empty: the file's).  ``single``: one scene only.
+    ``settings``: grid fields to set when their option was given (``tolerance``, ``step_deg``); ``forced``: options
+    to take as given (a command looping over mechanisms or mass models)."""
+    from dataclasses import replace
+
+    from compare.config import file_scenes
+    from ked_quasi.massmodel import MassModel, default_payload
+
+    cfg = scene_file(linkage)
+    ctx = click.get_current_context(silent=True)
+
+    def _explicit(ctx: click.Context | None, name: str) -> bool:
+        return name in forced or explicit(ctx, name)
+
+    given: dict[str, Any] = {}
+    for axis, opt, value in (("mechanisms", "mechanism", mechanism),
+                             ("stiffness_scales", "stiffness_scale", stiffness_scale),
+                             ("damping_ratios", "damping_ratio", damping_ratio),
+                             ("directions", "direction", direction)):
+        if _explicit(ctx, opt) and value is not None:
+            given[axis] = value
+    mm_fields = {"lumps": lumps} if _explicit(ctx, "lumps") else {}
+    if _explicit(ctx, "payload_kg") and payload_kg is not None:
+        mm_fields["payload"] = payload_kg
+    if _explicit(ctx, "mass_model"):
+        same = [m for m in cfg.grid.mass_models if m.name == mass_model]
+        base = same[0] if len(same) == 1 else MassModel(mass_model, payload=default_payload(mass_model))
+        given["mass_models"] = replace(base, **mm_fields)
+    elif mm_fields and len(cfg.grid.mass_models) == 1:
+        given["mass_models"] = replace(cfg.grid.mass_models[0], **mm_fields)
+    chosen = {k: v for k, v in settings.items() if _explicit(ctx, k)}
+    try:
+        specs = file_scenes(cfg, given, rpms or None, **chosen)
+    except ValueError as exc:
+        raise click.UsageError(f"{linkage}: {exc}") from None
+    if single and len(specs) > 1:
+        shown = ", ".join(f"{s.speed.value:g}" for s in specs)
+        raise click.BadParameter(f"{linkage}: grid.rpm: the file holds {len(specs)} speeds ({shown} rpm); choose "
+                                 "one", param_hint="--rpm")
+    return specs
+
+
+def file_spec(o: SceneOptions, damping_ratio: float | None = None, forced: tuple[str, ...] = ()) -> Any:
+    """The one campaign scene the options describe on the user's file ``o.linkage`` (:func:`file_scene_specs`)."""
+    ctx = click.get_current_context(silent=True)
+    return file_scene_specs(o.linkage, mechanism=o.mechanism, mass_model=o.mass_model, lumps=o.lumps,
+                            payload_kg=o.payload_kg, stiffness_scale=o.stiffness_scale, direction=o.direction,
+                            rpms=[o.rpm] if explicit(ctx, "rpm") else [], damping_ratio=damping_ratio,
+                            forced=forced, step_deg=o.step_deg)[0]
 
 
 def _refuse_slider_crank(linkage: str) -> None:
     """BadParameter when ``--linkage`` names a slider-crank (for the commands that take only a four-bar)."""
     from ked_quasi.presets import slider_linkage
-    from ked_quasi.slidercrank import load_slider_crank
+    from ked_quasi.slidercrank import SliderCrank
 
-    try:
-        slider = slider_linkage(linkage) or load_slider_crank(linkage)
-    except ValueError:
-        slider = True
-    if slider is not None:
+    if slider_linkage(linkage) is not None or isinstance(scene_file(linkage).linkage, SliderCrank):
         raise click.BadParameter(f"{linkage}: this command does not take a slider-crank yet ('ked quasi', 'linear', "
                                  "'simulate', 'check' and 'run' do); it takes a four-bar: thesis or a TOML file "
                                  "with a four-bar [linkage] table", param_hint="--linkage")
 
 
+def resolve(o: SceneOptions) -> SceneOptions:
+    """The options with a user file's scene filled in (what the command runs and prints); unchanged for a
+    preset linkage."""
+    from dataclasses import replace
+
+    if not is_file(o.linkage):
+        return o
+    spec = file_spec(o)
+    return replace(o, mechanism=spec.mechanism, mass_model=spec.mass_model.name, rpm=spec.speed.value,
+                   step_deg=spec.step_deg, lumps=spec.mass_model.lumps, payload_kg=spec.mass_model.payload,
+                   stiffness_scale=spec.stiffness_scale, direction=spec.direction)
+
+
 def build_scene(o: SceneOptions, mechanism: str | None = None, mass_model: str | None = None) -> Any:
     """The ``ked_quasi.Scene`` the options describe (the campaign's construction: the same numbers)."""
+    from dataclasses import replace
+
     from ked_quasi.scene import build_scene as build
 
     source = load_source(o.linkage)
+    if is_file(o.linkage):  # the file's scene, the options given overriding it
+        spec = file_spec(replace(o, mechanism=mechanism or o.mechanism, mass_model=mass_model or o.mass_model),
+                         forced=(("mechanism",) if mechanism else ()) + (("mass_model",) if mass_model else ()))
+        try:
+            scene = spec.scene(spec.speed.value)
+        except ValueError as exc:
+            raise click.UsageError(str(exc)) from None
+        refuse_fast(scene.fourbar, scene.mass_model, [scene.rpm], scene.step_deg, "--rpm")
+        return scene
     try:
         scene = build(source, mechanism or o.mechanism, mass_model or o.mass_model, o.rpm, o.step_deg, o.lumps,
                       o.payload_kg, o.stiffness_scale, o.direction)
@@ -170,6 +284,15 @@ def build_slider(o: SceneOptions, sc: Any, refuse_fast: bool = True) -> Any:
     if o.mechanism != "source":
         raise click.BadParameter("a slider-crank has no Roberts cognate; use --mechanism source",
                                  param_hint="--mechanism")
+    if is_file(o.linkage):  # the file's scene, the options given overriding it
+        spec = file_spec(o)
+        try:
+            scene = spec.scene(spec.speed.value)
+        except ValueError as exc:
+            raise click.UsageError(str(exc)) from None
+        if refuse_fast:
+            refuse_fast_slider(scene, [scene.rpm], "--rpm", slider_natural_frequencies)
+        return scene
     try:
         scene = build_slider_scene(sc, o.mass_model if given else "distributed", o.rpm, o.step_deg, o.lumps,
                                    o.payload_kg, o.stiffness_scale, o.direction)

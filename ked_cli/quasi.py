@@ -8,7 +8,7 @@ from typing import Any
 
 import click
 
-from ked_cli.options import SceneOptions, build_scene, json_text, scene_options, wrap
+from ked_cli.options import SceneOptions, build_scene, file_spec, is_file, json_text, resolve, scene_options, wrap
 
 
 @click.command("quasi")
@@ -29,6 +29,8 @@ def quasi(as_json: bool, summary: bool, **kw: Any) -> None:
     adds midspan_m: the coupler's midspan deflection normal to its chord.
     """
     opts = SceneOptions.pop(kw)
+    if not summary:  # a user file's scene filled in (the summary runs every mechanism and mass model)
+        opts = resolve(opts)
     slider = slider_source(opts.linkage)
     if slider is not None:
         _slider(opts, slider, as_json, summary)
@@ -141,16 +143,15 @@ def _summary(opts: SceneOptions, as_json: bool) -> None:
 # -- slider-crank -----------------------------------------------------------------------------------
 def slider_source(linkage: str) -> Any:
     """The slider-crank ``--linkage`` names (a preset or a TOML file with kind = "slider-crank"), else None."""
+    from ked_cli.options import scene_file
     from ked_quasi.presets import slider_linkage
-    from ked_quasi.slidercrank import load_slider_crank
+    from ked_quasi.slidercrank import SliderCrank
 
     preset = slider_linkage(linkage)
-    if preset is not None:
+    if preset is not None or linkage == "thesis":
         return preset
-    try:
-        return load_slider_crank(linkage)
-    except ValueError as exc:
-        raise click.BadParameter(str(exc), param_hint="--linkage") from None
+    lk = scene_file(linkage).linkage  # the whole file checked, as ked run checks it
+    return lk if isinstance(lk, SliderCrank) else None
 
 
 def _slider(opts: SceneOptions, sc: Any, as_json: bool, summary: bool) -> None:
@@ -167,14 +168,18 @@ def _slider(opts: SceneOptions, sc: Any, as_json: bool, summary: bool) -> None:
                                  param_hint="--mechanism")
     mass_model = opts.mass_model if given else "distributed"
     try:
-        scene = build_slider_scene(sc, mass_model, opts.rpm, opts.step_deg, opts.lumps, opts.payload_kg,
-                                   opts.stiffness_scale, opts.direction)
+        if is_file(opts.linkage):  # the file's scene, the options given overriding it
+            spec = file_spec(opts)
+            scene = spec.scene(spec.speed.value)
+        else:
+            scene = build_slider_scene(sc, mass_model, opts.rpm, opts.step_deg, opts.lumps, opts.payload_kg,
+                                       opts.stiffness_scale, opts.direction)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
     out, msgs = solve_slider(scene)
     f1_min = min((f for f in out["f1_hz"] if f is not None), default=float("nan"))
     try:
-        rules.check_speed_ratio(scene.omega / (2.0 * math.pi * f1_min), opts.rpm, f1_min, "value")
+        rules.check_speed_ratio(scene.omega / (2.0 * math.pi * f1_min), scene.rpm, f1_min, "value")
     except ValueError as exc:
         raise click.BadParameter(str(exc).removeprefix("value = "), param_hint="--rpm") from None
     for m in msgs:

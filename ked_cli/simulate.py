@@ -9,7 +9,17 @@ from typing import Any
 
 import click
 
-from ked_cli.options import SceneOptions, build_scene, build_slider, scene_options, wrap
+from ked_cli.options import (
+    SceneOptions,
+    build_scene,
+    build_slider,
+    explicit,
+    file_spec,
+    is_file,
+    resolve,
+    scene_options,
+    wrap,
+)
 
 ELEMENT_TYPES = ("ancf", "gebeam")
 
@@ -56,16 +66,17 @@ def dynamic_options(f: Any) -> Any:
     return f
 
 
-def dynamic_settings(kw: dict[str, Any]) -> Any:
-    """``DynamicSettings`` from the options given (unset ones keep their defaults)."""
+def dynamic_settings(kw: dict[str, Any], base: dict[str, Any] | None = None) -> Any:
+    """``DynamicSettings`` from the options given over ``base`` (a file's ``[dynamic]`` settings; unset ones keep
+    their defaults)."""
     from exudyn_models.settings import DynamicSettings
 
     names = ("element", "elements_per_link", "steps_per_cycle", "spectral_radius", "damping_ratio",
              "damping_reference_hz", "ramp_cycles", "steady_tol", "max_cycles", "extrapolate", "sparse",
              "start", "periodic", "refine", "refine_budget_s")
     given = {n: kw.pop(n) for n in names if n in kw}
-    given = {n: v for n, v in given.items() if v is not None}
-    if "max_cycles" in given:
+    given = {**(base or {}), **{n: v for n, v in given.items() if v is not None}}
+    if "max_cycles" in given and "min_cycles" not in given:
         given["min_cycles"] = min(DynamicSettings().min_cycles, given["max_cycles"])
     try:
         return DynamicSettings(**given)
@@ -96,8 +107,12 @@ def simulate(as_json: bool, **kw: Any) -> None:
     """
     from ked_cli.quasi import slider_source
 
-    opts = SceneOptions.pop(kw)
-    settings = dynamic_settings(kw)
+    opts = resolve(SceneOptions.pop(kw))  # a user file's scene filled in
+    base = {}
+    if is_file(opts.linkage):  # the file's [dynamic] table and damping ratio, the options given overriding them
+        ctx = click.get_current_context()
+        base = dict(file_spec(opts, kw["damping_ratio"] if explicit(ctx, "damping_ratio") else None).dynamic)
+    settings = dynamic_settings(kw, base)
     slider = slider_source(opts.linkage)
     scene = build_slider(opts, slider) if slider is not None else build_scene(opts)
     from exudyn_models.simulate import SimulationError, simulate_steady_state

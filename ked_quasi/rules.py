@@ -35,6 +35,9 @@ class Rule:
     mixup: tuple[str, str, float] | None = None
     """For a value above ``hi``: (what the unit is, the smaller unit a user may have meant, its factor to
     the SI unit), e.g. ("lengths are in metres", "mm", 1e-3): the refusal names the likely mix-up."""
+    mixup_low: tuple[str, str, float, str] | None = None
+    """For a value below ``lo``: (what the unit is, the larger unit a user may have meant, its factor to the
+    SI unit, an example in SI), e.g. ("densities are in kg/m^3", "g/cm^3", 1e3, "7850 kg/m^3 for steel")."""
 
     def allowed(self) -> str:
         """The allowed range as text, e.g. ``a number in (0, 1e+05] rpm``."""
@@ -59,6 +62,10 @@ class Rule:
             what, small, factor = self.mixup
             raise ValueError(f"{label} = {v:g} {self.unit}: {what} ({v:g} {small} = {v * factor:g} {self.unit}); "
                              f"must be {self.allowed()} ({self.why})")
+        if below and v > 0 and self.mixup_low is not None:
+            what, big, factor, example = self.mixup_low
+            raise ValueError(f"{label} = {v:g} {self.unit}: {what} ({v:g} {big} = {v * factor:g} {self.unit}; "
+                             f"{example}); must be {self.allowed()} ({self.why})")
         if below or above:
             raise ValueError(f"{label}: must be {self.allowed()} ({self.why}); got {value!r}")
         return v
@@ -157,6 +164,19 @@ SECOND_MOMENT = Rule("second_moment", "m^4", 0.0, 1.0, "a link's cross-section (
                      "closed-form checks use stiff links up to 1 m^4)", lo_open=True,
                      mixup=("second moments are in m^4", "mm^4", 1e-12))
 DENSITY = Rule("density", "kg/m^3", 0.0, 1e5, "up to 4x the densest metal", lo_open=True)
+MATERIAL_YOUNGS_MODULUS = Rule(
+    "youngs_modulus", "Pa", 1e8, 2e12, "a link's material: from stiff polymers (PTFE 0.5 GPa) to diamond "
+    "(1.1e12 Pa)", mixup_low=("moduli are in Pa", "MPa", 1e6, "steel: 210 GPa = 2.1e11 Pa"))
+MATERIAL_DENSITY = Rule(
+    "density", "kg/m^3", 100.0, 1e5, "a link's material: from balsa wood (~150 kg/m^3) to 4x the densest metal",
+    mixup_low=("densities are in kg/m^3", "g/cm^3", 1e3, "steel: 7850 kg/m^3"))
+MATERIAL_RULES = {"youngs_modulus": MATERIAL_YOUNGS_MODULUS, "density": MATERIAL_DENSITY}
+USER_SECTION_RULES = {"youngs_modulus": MATERIAL_YOUNGS_MODULUS, "area": AREA, "second_moment": SECOND_MOMENT,
+                      "density": MATERIAL_DENSITY}
+"""Plausibility bounds of a user's material constants (TOML files and the command line), naming the likely
+unit mix-up.  The :class:`~ked_quasi.linkage.Section` dataclass keeps the wider physical ranges of
+:data:`YOUNGS_MODULUS` and :data:`DENSITY`: a scaled modulus (``stiffness_scale`` from 1e-6 to 1e6) and the
+idealized sections of closed-form checks (nearly massless links) are sections too, but no material."""
 STIFFNESS_SCALE = Rule("stiffness_scale", "", 0.0, 1e6, "a factor on every Young's modulus", lo_open=True)
 
 # -- mass model ---------------------------------------------------------------------------------

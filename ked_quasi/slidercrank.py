@@ -416,7 +416,7 @@ def slider_from_table(tab: dict[str, Any]) -> SliderCrank:
             if extra:
                 raise ValueError(f"{path}: unknown key(s) {', '.join(extra)}; allowed: {', '.join(SECTION_KEYS)}")
         props = {}
-        for key, rule in SECTION_RULES.items():
+        for key, rule in rules.USER_SECTION_RULES.items():  # the plausibility bounds of a user's material
             src, path = (own, f"linkage.sections.{link}") if key in own else (common, "linkage.section")
             if key not in src:
                 raise ValueError(f"linkage.section.{key}: missing for the {link} (in [linkage.section] or "
