@@ -285,6 +285,13 @@ SCHEDULER_TIMEOUT_S = 10.0
 """How long ``--scheduler ADDRESS`` waits for the scheduler to answer."""
 
 
+WORKER_WAIT_S = float(os.environ.get("KED_WORKER_WAIT_S", "120"))
+"""How long a run on a Dask cluster waits without any worker (none joined yet, or every one left) before it
+stops, saying so [s]; the environment variable ``KED_WORKER_WAIT_S`` sets it."""
+CLUSTER_POLL_S = 1.0
+"""How often a run on a Dask cluster looks at the cluster while it waits for results [s]."""
+
+
 class SchedulerError(ValueError):
     """The Dask scheduler address is malformed or nothing answers there."""
 
@@ -407,7 +414,23 @@ class _DaskBackend:
         except (OSError, TimeoutError, ValueError) as exc:
             raise SchedulerError(f"--scheduler {address!r}: the Dask scheduler did not answer within {timeout_s:g} s "
                                  f"({type(exc).__name__})") from None
+        self.address = address
         self.futures: list[Any] = []
+        self._no_workers_since: float | None = None
+        self.check_workers()
+
+    def check_workers(self) -> None:
+        """Raise :class:`SchedulerError` once the cluster has had no worker for :data:`WORKER_WAIT_S`."""
+        if self.client.scheduler_info().get("workers"):
+            self._no_workers_since = None
+            return
+        now = time.monotonic()
+        if self._no_workers_since is None:
+            self._no_workers_since = now
+        if now - self._no_workers_since >= WORKER_WAIT_S:  # the caller stops the run (cancels, closes)
+            raise SchedulerError(f"--scheduler {self.address!r}: no Dask worker on this cluster for "
+                                 f"{WORKER_WAIT_S:g} s (waiting for one to take the tasks); start one with "
+                                 f"`dask worker {self.address}`")
 
     def submit_all(self, fn: Callable[..., Any], calls: dict[Any, tuple[Any, ...]]) -> dict[Any, Any]:
         # unique task keys: never reuse a result another run left on a long-lived cluster
@@ -421,9 +444,20 @@ class _DaskBackend:
         self.client.cancel([f for f in self.futures if not f.done()])
 
     def batches(self, futures: Iterable[Any]) -> Iterator[list[Any]]:
+        """Finished futures as they come, looking at the cluster every :data:`CLUSTER_POLL_S` while none does: a
+        cluster without workers ends the run (:meth:`check_workers`) instead of a wait without end."""
         from distributed import as_completed
 
-        yield from as_completed(list(futures), loop=self.client.loop).batches()
+        ready = as_completed(list(futures), loop=self.client.loop)
+        looked = time.monotonic()
+        while not ready.is_empty():
+            if ready.has_ready():
+                yield ready.next_batch(block=False)
+            elif time.monotonic() - looked >= CLUSTER_POLL_S:
+                self.check_workers()
+                looked = time.monotonic()
+            else:
+                time.sleep(0.02)
 
     def result(self, fut: Any) -> Any:
         return fut.result()
