@@ -320,6 +320,10 @@ def writer_lock(path: str | Path, wait_s: float = 0.0) -> Iterator[None]:
         if _same_file(fd, lock):
             break
         os.close(fd)  # the previous holder removed the lock file after we opened it: lock the new one
+    if not _claim(fd):
+        os.close(fd)
+        raise CommitError(f"{lock}: a file the harness did not make is in the way of its writer lock; move or "
+                          "rename it (the harness never writes into or deletes files it did not create)")
     try:
         yield
     finally:
@@ -328,6 +332,30 @@ def writer_lock(path: str | Path, wait_s: float = 0.0) -> Iterator[None]:
         except OSError:
             pass
         os.close(fd)
+
+
+LOCK_MARK = b"ked-harness writer lock\n"
+"""What every writer lock file holds (then the holder's process id): a file without it is not the harness's."""
+
+
+def _claim(fd: int) -> bool:
+    """Under the lock: True when the lock file is the harness's (empty because this process just created
+    it, or marked by an earlier holder), now marked with this process; False for someone else's file."""
+    st = os.fstat(fd)
+    head = os.pread(fd, len(LOCK_MARK), 0)
+    if head != LOCK_MARK and not (st.st_size == 0 and _recent(st.st_mtime_ns)):
+        return False
+    os.ftruncate(fd, 0)
+    os.pwrite(fd, LOCK_MARK + f"{os.getpid()}\n".encode(), 0)
+    return True
+
+
+def _recent(mtime_ns: int, within_s: float = 60.0) -> bool:
+    """Whether a file modified at ``mtime_ns`` was made in the last ``within_s`` seconds (a lock file this
+    or another harness process created just now and has not marked yet)."""
+    import time
+
+    return abs(time.time_ns() - mtime_ns) <= within_s * 1e9
 
 
 def _same_file(fd: int, path: Path) -> bool:
