@@ -318,7 +318,9 @@ def _verify_ok_scene(arrays: Any, r: SceneResult, stored_rows: Any, version: int
 
 
 def _verify_stored_metrics(r: SceneResult, stored_rows: Any, version: int) -> list[str]:
-    """The stored metrics (for readers without the harness) must be those of the stored histories."""
+    """The stored metrics (for readers without the harness) must be those of the stored histories: every
+    stored field recomputed from them (the verdict error and ``pair_holds`` by today's measure or, in a
+    file an older layout wrote, the worst component's), and no row of a pair the histories do not give."""
     try:
         rows = stored_rows()
     except (KeyError, ValueError, TypeError) as exc:
@@ -327,18 +329,50 @@ def _verify_stored_metrics(r: SceneResult, stored_rows: Any, version: int) -> li
         where = {4: f" rows in /{METRIC_TABLE}", 3: " table"}.get(version, " group")
         return [f"missing {METRICS}{where}"] if r.metrics else []
     p = []
-    for name, m in r.metrics.items():
-        for c in m.components:
-            row = rows.get((m.solver, m.reference, c.component))
-            if row is None:
-                if version >= 2 or c.component in ("dx", "dy", "rotation"):
-                    p.append(f"missing {METRICS} of {name}/{c.component}")
-                continue
-            same = (bool(row.get("holds", not c.holds)) == c.holds
-                    and np.isclose(float(row.get("history_error", np.nan)), c.history_error, rtol=1e-12))
-            if not same:
-                p.append(f"{METRICS} of {name}/{c.component}: stored values differ from the histories")
+    computed = {(m.solver, m.reference, c.component): (m, c) for m in r.metrics.values() for c in m.components}
+    for k, (m, c) in computed.items():
+        row = rows.get(k)
+        if row is None:
+            if version >= 2 or c.component in ("dx", "dy", "rotation"):
+                p.append(f"missing {METRICS} of {m.name}/{c.component}")
+            continue
+        bad = _metric_fields_differ(row, metric_rows({m.name: m})[k], m)
+        if bad:
+            p.append(f"{METRICS} of {m.name}/{c.component}: stored values differ from the histories "
+                     f"({', '.join(bad)})")
+    p += [f"{METRICS} of {'/'.join(k)}: stored, but the stored histories give no such pair" for k in rows
+          if k not in computed]
     return p
+
+
+def _metric_fields_differ(row: dict[str, Any], want: dict[str, Any], m: PairMetrics) -> list[str]:
+    """The stored fields of one metric row that differ from those recomputed (``want``); a field not
+    stored (older layouts stored fewer) is not compared."""
+    bad = []
+    for n, v in want.items():
+        if n not in row:
+            continue
+        s = row[n]
+        if n == "verdict_error":  # today's measure, or the worst component's that older layouts stored
+            ok = any(_close(s, x) for x in (m.verdict_error, m.worst_component_error))
+        elif n == "pair_holds":  # the verdict of the stored verdict error (checked above)
+            measure = float(row.get("verdict_error", m.verdict_error))
+            ok = bool(s) == bool(measure < m.tolerance)
+        elif isinstance(v, (bool, str)):
+            ok = (bool(s) if isinstance(v, bool) else text(s)) == v
+        else:
+            ok = _close(s, v, atol=1e-9 if n == "phase_shift_rad" else 0.0)
+        if not ok:
+            bad.append(n)
+    return bad
+
+
+def _close(a: Any, b: float, atol: float = 0.0) -> bool:
+    try:
+        a = float(a)
+    except (TypeError, ValueError):
+        return False
+    return bool(np.isclose(a, b, rtol=1e-9, atol=atol, equal_nan=True))
 
 
 # -- schema version 4: per-file tables, one group of arrays per scene --------------------------------
@@ -701,11 +735,55 @@ class TableFile:
         if not self.complete(key):
             return [f"incomplete (no complete=1 in /{SCENE_TABLE})"]
         row = self.row(key)
-        missing = [a for a in (*SCENE_ATTRS, "json") if a not in row]
+        missing = [a for a in (*SCENE_ATTRS, "json", *_ROW_FIELDS) if a not in row]
         if missing:
             return [f"missing column(s) {', '.join(missing)} of /{SCENE_TABLE}"]
-        return _verify_read(key, text(row["key"]), text(row["status"]), lambda: self.read_scene(key),
-                            self.arrays(key), lambda: self.metric_rows(key), 4)
+        p = _verify_read(key, text(row["key"]), text(row["status"]), lambda: self.read_scene(key),
+                         self.arrays(key), lambda: self.metric_rows(key), 4)
+        return p + _verify_parameter_columns(row) + _verify_solution_rows(self.solution_rows(key))
+
+
+_ROW_FIELDS = ("warnings", "failure_class", *_RUN_STAT_FIELDS)
+"""Columns of /scene_table every layout's scenes have besides :data:`SCENE_ATTRS` and ``json``."""
+_NEWER_PARAMETERS = ("kind", "solvers", "json")
+"""Parameter columns an older layout did not store (carried over without them), or stored otherwise."""
+
+
+def _verify_parameter_columns(row: dict[str, Any]) -> list[str]:
+    """The readable parameter columns of a scene row: each present and equal to what its ``json`` gives."""
+    try:
+        want = parameter_row(SceneSpec.from_dict(json.loads(text(row["json"]))))
+    except (KeyError, ValueError, TypeError):
+        return []  # reported by the read of the scene
+    missing = [c for c in want if c not in row and c not in _NEWER_PARAMETERS]
+    if missing:
+        return [f"missing column(s) {', '.join(missing)} of /{SCENE_TABLE}"]
+    differ = [c for c, v in want.items() if c in row and c != "json" and not _same_cell(row[c], v)]
+    if not differ:
+        return []
+    return [f"column(s) {', '.join(differ)} of /{SCENE_TABLE} differ from the scene's parameters (json)"]
+
+
+def _same_cell(stored: Any, want: Any) -> bool:
+    if isinstance(want, str) or isinstance(stored, (str, bytes)):
+        return text(stored) == str(want)
+    try:
+        a, b = np.asarray(stored, dtype=np.float64), np.asarray(want, dtype=np.float64)
+    except (TypeError, ValueError):
+        return False
+    return a.shape == b.shape and bool(np.allclose(a, b, rtol=1e-12, atol=0.0, equal_nan=True))
+
+
+def _verify_solution_rows(rows: list[dict[str, Any]]) -> list[str]:
+    """Every solution row of a scene with the columns a reader needs and a known status."""
+    p = []
+    for r in rows:
+        missing = [c for c in ("solver", "status", "settings_json", "stats_json", "fidelity") if c not in r]
+        if missing:
+            return [f"missing column(s) {', '.join(missing)} of /{SOLUTION_TABLE}"]
+        if text(r["status"]) not in (STATUS_OK, STATUS_FAILED):
+            p.append(f"solution {text(r['solver'])}: unknown status {text(r['status'])!r}")
+    return p
 
 
 def verify_tables(f: h5py.File) -> list[str]:

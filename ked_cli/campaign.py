@@ -255,16 +255,27 @@ def _verify(file: Path, as_json: bool) -> None:
 @click.argument("src", type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.argument("dest", type=click.Path(dir_okay=False, path_type=Path))
 def merge_cmd(src: Path, dest: Path) -> None:
-    """Add the scenes of results file SRC (e.g. a rescue file) that DEST lacks to DEST (SRC unchanged)."""
+    """Add the scenes of results file SRC (e.g. a rescue file) that DEST lacks to DEST (SRC unchanged).
+
+    Every scene of SRC is checked as `ked inspect SRC --verify` checks it; only the scenes that verify
+    are carried.  Each refused scene gets one line on stderr (its key and why), and the command then
+    exits with status 1 (the scenes that verified are merged).  A merge that would make DEST fail
+    `ked inspect DEST --verify` changes nothing and exits 1."""
     from compare import store
 
     _regular(src, "SRC")
     _regular(dest, "DEST")
     try:
-        added, kept = store.merge(src, dest)
+        report = store.merge(src, dest)
     except (store.StoreError, store.CommitError, store.LockedError) as exc:
         raise click.ClickException(str(exc)) from None
-    click.echo(wrap(f"{added} scene(s) added to {dest}; {kept} already there (kept)"))
+    for key, why in report.refused.items():  # one line each, like an error (greppable): not wrapped
+        click.echo(f"ked: refused scene {key} of {src}: {why}", err=True)
+    click.echo(wrap(f"{report.added} scene(s) added to {dest}; {report.kept} already there (kept)"
+                    + (f"; {len(report.refused)} refused (they fail `ked inspect {src} --verify`)"
+                       if report.refused else "")))
+    if report.refused:
+        sys.exit(1)
 
 
 @click.command("plot")
