@@ -758,7 +758,8 @@ def _verify_parameter_columns(row: dict[str, Any]) -> list[str]:
     missing = [c for c in want if c not in row and c not in _NEWER_PARAMETERS]
     if missing:
         return [f"missing column(s) {', '.join(missing)} of /{SCENE_TABLE}"]
-    differ = [c for c, v in want.items() if c in row and c != "json" and not _same_cell(row[c], v)]
+    differ = [c for c, v in want.items() if c in row and c != "json" and not _same_cell(row[c], v)
+              and not (c in _NEWER_PARAMETERS and text(row[c]) == "")]  # filled in for an older layout's rows
     if not differ:
         return []
     return [f"column(s) {', '.join(differ)} of /{SCENE_TABLE} differ from the scene's parameters (json)"]

@@ -452,7 +452,8 @@ def _record_run(f: h5py.File, config_text: str, campaign_name: str, n_scenes: in
 
 def commit(path: str | Path, results: Iterable[SceneResult], run: int = -1) -> None:
     """Atomically add (or replace) the scene groups of ``results`` in the results file; a replaced
-    scene keeps the stored solutions of solvers the new result did not run."""
+    scene keeps the stored solutions of solvers the new result did not run.  ``run``: the run record
+    the scenes belong to (default: the file's last one, see :func:`record_run`)."""
     results = list(results)
     if not results:
         return
@@ -466,6 +467,8 @@ def commit(path: str | Path, results: Iterable[SceneResult], run: int = -1) -> N
 
 def _commit(f: h5py.File, results: list[SceneResult], run: int) -> None:
     _require_current(f)
+    if run < 0:  # no run given: the scenes belong to the file's last run record
+        run = max((int(r["run"]) for r in h5layout.table_rows(f, RUNS)), default=run)
     view = h5layout.TableFile(f)
     scenes = f.require_group(SCENES)
     new: dict[str, SceneResult] = {}
@@ -1137,8 +1140,7 @@ def rescue(results: list[SceneResult], out: str | Path, config_text: str, campai
     for directory in (out.parent, Path(tempfile.gettempdir()), Path.home() / ".cache" / "ked-harness"):
         path = directory / name
         try:
-            record_run(path, config_text, campaign_name, len(results))
-            commit(path, results)
+            commit(path, results, record_run(path, config_text, campaign_name, len(results)))
             return path
         except (CommitError, OSError) as exc:
             reasons.append(str(exc))
