@@ -788,20 +788,16 @@ def _verify_solution_rows(rows: list[dict[str, Any]]) -> list[str]:
 
 
 def verify_tables(f: h5py.File) -> list[str]:
-    """Table-level problems of a version-4 file: every column of every table as long as its ``rows``
-    and with a ``units`` attribute."""
+    """Table-level problems of a version-4 file: every column of every table (and of the study tables
+    under ``/study``) as long as its ``rows``, and with a ``units`` attribute (study tables of older
+    files have none)."""
+    from compare import tables
+
     p = []
     for name in TABLES:
-        g = f.get(name)
-        if g is None:
-            continue
-        if not isinstance(g, h5py.Group) or "rows" not in g.attrs:
-            p.append(f"/{name}: not a table (a group with a rows attribute)")
-            continue
-        n = int(g.attrs["rows"])
-        for col, ds in g.items():
-            if not isinstance(ds, h5py.Dataset) or len(ds) != n:
-                p.append(f"/{name}/{col}: {getattr(ds, 'shape', 'not a column')} rows, the table has {n}")
-            elif "units" not in ds.attrs:
-                p.append(f"/{name}/{col}: no units attribute")
+        if name in f:
+            p += tables.verify_table(f[name], f"/{name}")
+    study = f.get("study")
+    for name, g in (study.items() if isinstance(study, h5py.Group) else ()):
+        p += tables.verify_table(g, f"/study/{name}", units=False)
     return p

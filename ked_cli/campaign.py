@@ -202,6 +202,10 @@ def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool, wide
         _verify(file, as_json)
         return
     from compare import store
+
+    if store.file_kind(file) == "atlas":
+        _inspect_atlas(file, scene, as_json)
+        return
     from compare.inspect import find_scene, format_counts, format_detail, format_table, scene_detail, summary_row
     from ked_cli.options import json_text
 
@@ -228,25 +232,50 @@ def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool, wide
     click.echo(format_counts(results))
 
 
+def _inspect_atlas(file: Path, scene: str | None, as_json: bool) -> None:
+    """An atlas file: its summary (it has no scenes to show one by one)."""
+    from compare.atlas import store as atlas_store
+    from ked_cli.options import json_text
+
+    if scene:
+        raise click.ClickException(f"{file}: an atlas file has tables, not scenes; SCENE {scene!r} cannot be shown "
+                                   "(leave it out for the atlas's summary)")
+    try:
+        summary = atlas_store.summary(file)
+    except Exception as exc:  # damage: HDF5 reports it as OSError, KeyError, ValueError or RuntimeError
+        raise click.ClickException(f"{file}: the atlas tables are unreadable ({type(exc).__name__}: "
+                                   f"{str(exc).splitlines()[0][:200] if str(exc) else ''}); check it with "
+                                   "`ked inspect FILE --verify`") from None
+    if as_json:
+        click.echo(json_text({"file": str(file), **summary}, indent=2, default=str))
+        return
+    click.echo(wrap(f"{file}:"))
+    for line in atlas_store.describe(summary):
+        click.echo(wrap(line))
+
+
 def _verify(file: Path, as_json: bool) -> None:
     from compare import store
 
     problems = store.verify(file)
     # a writer running now (it holds the lock) owns its temporary file: not stale
     stale = [] if store.is_locked(file) else store.stale_temp_files(file)
+    atlas = store.file_kind(file) == "atlas"
     try:
-        n = len(store.stored_status(file))
+        n = 0 if atlas else len(store.stored_status(file))
     except store.StoreError:
         n = 0
+    what = "atlas file" if atlas else f"{n} complete scenes"
     if as_json:
-        click.echo(json.dumps({"file": str(file), "valid": not problems, "scenes": n, "problems": problems,
-                               "stale_temp_files": [str(p) for p in stale]}, indent=2))
+        click.echo(json.dumps({"file": str(file), "kind": "atlas" if atlas else "campaign", "valid": not problems,
+                               "scenes": n, "problems": problems, "stale_temp_files": [str(p) for p in stale]},
+                              indent=2))
     else:
         for p in problems:  # one line per problem, like an error (greppable): not wrapped
             click.echo(f"PROBLEM {p}")
         for p in stale:
             click.echo(f"note: stale temporary file (ignored, removed by the next run): {p}")
-        click.echo(wrap(f"{file}: {'INVALID' if problems else 'valid'}, {n} complete scenes"
+        click.echo(wrap(f"{file}: {'INVALID' if problems else 'valid'}, {what}"
                         + (f", {len(problems)} problem(s)" if problems else "")))
     sys.exit(1 if problems else 0)
 
