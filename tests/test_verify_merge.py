@@ -188,7 +188,7 @@ def test_the_atlas_file_is_verified_and_summarised():
 @pytest.mark.parametrize("name, damage, words", [
     ("short_column", lambda h: _truncate(h["families"], "history_error"), "/families/history_error"),
     ("bad_code", lambda h: h["families/code"].__setitem__((0, 0), 9), "/families/code"),
-    ("no_ratios", lambda h: h.attrs.__delitem__("ratios"), "ratios"),
+    ("no_ratios", lambda h: h.attrs.__delitem__("ratios"), "missing file attribute 'ratios'"),
 ])
 def test_a_damaged_atlas_file_is_invalid(tmp_path, name, damage, words):
     f = tmp_path / f"{name}.h5"
