@@ -787,6 +787,11 @@ def _verify_solution_rows(rows: list[dict[str, Any]]) -> list[str]:
     return p
 
 
+_REQUIRED = {METRIC_TABLE: tuple(METRIC_COLUMNS), SOLUTION_TABLE: tuple(SOLUTION_COLUMNS), RUNS: tuple(RUN_COLUMNS)}
+"""The columns every version-4 file's tables have (an upgrade writes them too); the scene table's are
+checked per row (:func:`_verify_parameter_columns`)."""
+
+
 def verify_tables(f: h5py.File) -> list[str]:
     """Table-level problems of a version-4 file: every column of every table (and of the study tables
     under ``/study``) as long as its ``rows``, and with a ``units`` attribute (study tables of older
@@ -797,6 +802,10 @@ def verify_tables(f: h5py.File) -> list[str]:
     for name in TABLES:
         if name in f:
             p += tables.verify_table(f[name], f"/{name}")
+            g = f[name]
+            missing = [c for c in _REQUIRED.get(name, ()) if c not in g] if isinstance(g, h5py.Group) else []
+            if missing:
+                p.append(f"/{name}: missing column(s) {', '.join(missing)}")
     study = f.get("study")
     for name, g in (study.items() if isinstance(study, h5py.Group) else ()):
         p += tables.verify_table(g, f"/study/{name}", units=False)

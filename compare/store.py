@@ -1179,7 +1179,11 @@ def merge(src: str | Path, dest: str | Path, wait_s: float = MERGE_WAIT_S) -> Me
     check_ours(dest)
     check_writable(dest)
     offered = read_scenes(src)
-    _, checks = verify_scenes(src)
+    damage, checks = verify_scenes(src)
+    if damage:  # the file's own tables or records are damaged: none of its scenes is carried
+        more = f" and {len(damage) - 1} more problem(s)" if len(damage) > 1 else ""
+        raise StoreError(f"{target(src)}: fails `ked inspect --verify` ({damage[0]}{more}); refusing to merge "
+                         "from it; nothing was merged")
     refused = {k: p[0] + (f" (and {len(p) - 1} more problem(s))" if len(p) > 1 else "")
                for k, p in sorted(checks.items()) if p}
     carried = [r for r in offered if r.key not in refused]

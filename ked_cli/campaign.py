@@ -288,8 +288,8 @@ def merge_cmd(src: Path, dest: Path) -> None:
 
     Every scene of SRC is checked as `ked inspect SRC --verify` checks it; only the scenes that verify
     are carried.  Each refused scene gets one line on stderr (its key and why), and the command then
-    exits with status 1 (the scenes that verified are merged).  A merge that would make DEST fail
-    `ked inspect DEST --verify` changes nothing and exits 1."""
+    exits with status 1 (the scenes that verified are merged).  A SRC whose tables are damaged, or a
+    merge that would make DEST fail `ked inspect DEST --verify`, changes nothing and exits 1."""
     from compare import store
 
     _regular(src, "SRC")

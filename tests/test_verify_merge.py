@@ -156,6 +156,20 @@ def test_merge_carries_only_scenes_that_verify(current, other, tmp_path, name, d
     assert shown.returncode == 0 and bad[:8] not in shown.stdout, shown.stdout
 
 
+@pytest.mark.parametrize("name, damage, words", [
+    ("no_pair_holds", lambda h, key: h["metric_table"].__delitem__("pair_holds"), "missing column(s) pair_holds"),
+    ("no_runs", lambda h, key: h.__delitem__("runs"), "missing table /runs"),
+])
+def test_merge_from_a_file_with_damaged_tables_merges_nothing(current, other, tmp_path, name, damage, words):
+    """Damage of a table (not of one scene): one line naming the file and the problem, DEST unchanged."""
+    src, _ = damaged(current, tmp_path, name, damage)
+    dest = tmp_path / "dest.h5"
+    shutil.copyfile(other, dest)
+    before = dest.read_bytes()
+    one_line(ked("merge", str(src), str(dest)), str(src), words)
+    assert dest.read_bytes() == before
+
+
 def test_merge_of_a_valid_file_says_nothing_refused(current, other, tmp_path):
     dest = tmp_path / "dest.h5"
     shutil.copyfile(other, dest)
