@@ -23,7 +23,7 @@ from compare.scenes import SceneSpec, canonical_json
 from compare.solvers import COMPONENT_UNITS, COMPONENTS, STATUS_FAILED, Solution
 from ked_quasi.linkage import LINKS, direction_sign
 from ked_quasi.rules import steps_per_turn
-from ked_quasi.units import rpm_to_rad_s
+from ked_quasi.units import rad_s_to_rpm, rpm_to_rad_s
 
 SOLUTIONS = "solutions"
 METRICS = "metrics"
@@ -299,6 +299,8 @@ def _verify_ok_scene(arrays: Any, r: SceneResult, stored_rows: Any, version: int
     n = steps_per_turn(spec.step_deg)
     shapes = {"crank_angle": (n,), "coupler_point": (n, 2), "natural_frequencies": (n, spec.n_modes)}
     p += [f"{ds} shape {arrays[ds].shape} != {shape}" for ds, shape in shapes.items() if arrays[ds].shape != shape]
+    if not p:
+        p += _verify_frame(r, n)
     for solver in spec.solvers:
         s = r.solutions.get(solver)
         if s is None:
@@ -315,6 +317,26 @@ def _verify_ok_scene(arrays: Any, r: SceneResult, stored_rows: Any, version: int
     if len(spec.solvers) > 1 and r.verdict is None:
         p.append("no verdict: the quasi-static solution or a reference is missing")
     return p + _verify_stored_metrics(r, stored_rows, version)
+
+
+def _verify_frame(r: SceneResult, n: int) -> list[str]:
+    """What the stored arrays give, recomputed: the crank-angle grid of the step, omega1_min = 2 pi
+    times the lowest first natural frequency, the crank speed resolved from the scene's speed."""
+    p = []
+    grid = np.deg2rad(np.arange(n) * r.spec.step_deg)
+    if not np.allclose(r.crank_angle, grid, rtol=1e-12, atol=1e-12):
+        p.append(f"crank_angle is not the grid of step {r.spec.step_deg} deg")
+    f1 = np.asarray(r.natural_frequencies)[:, 0]
+    omega1_min = 2.0 * math.pi * float(np.nanmin(f1)) if np.any(np.isfinite(f1)) else math.nan
+    if not _close(r.omega1_min, omega1_min):
+        p.append(f"omega1_min_rad_s {r.omega1_min} is not 2 pi x the lowest stored first natural frequency "
+                 f"({omega1_min})")
+        return p
+    speed = r.spec.speed
+    rpm = speed.value if speed.kind == "rpm" else rad_s_to_rpm(speed.value * r.omega1_min)
+    if not _close(r.rpm, rpm):
+        p.append(f"rpm {r.rpm} is not the scene's speed ({rpm} rev/min)")
+    return p
 
 
 def _verify_stored_metrics(r: SceneResult, stored_rows: Any, version: int) -> list[str]:

@@ -81,11 +81,14 @@ def widen_warnings(h: h5py.File, key: str) -> None:
     ("no_column", lambda h, key: h["scene_table"].__delitem__("mass_model"), "missing column(s) mass_model"),
     ("no_such_run", lambda h, key: edit_rows(h, "scene_table", key, run=7), "run 7 of /scene_table is not in /runs"),
     ("unwritable", widen_warnings, "a write into this file fails"),
+    ("frequencies", lambda h, key: h["scenes"][key]["natural_frequencies"].__setitem__(
+        Ellipsis, 2.0 * h["scenes"][key]["natural_frequencies"][()]), "is not 2 pi x the lowest stored first"),
 ])
 def test_verify_finds_damage_to_every_table(current, tmp_path, name, damage, words):
     """Every stored pair_holds inverted (a reader without the harness would get inverted verdicts; the
     verdict recomputed from the stored histories says which is right), the run records deleted, a column
-    of the scene table deleted, a scene of a run that does not exist, a column a writer cannot append to."""
+    of the scene table deleted, a scene of a run that does not exist, a column a writer cannot append to,
+    natural frequencies changed after the fact (omega1_min = 2 pi min f1 no longer holds)."""
     f, _ = damaged(current, tmp_path, name, damage)
     res = ked("inspect", str(f), "--verify")
     assert res.returncode == 1 and "INVALID" in res.stdout, res.stdout + res.stderr
