@@ -810,8 +810,8 @@ def _verify_solution_rows(rows: list[dict[str, Any]]) -> list[str]:
 
 
 _REQUIRED = {METRIC_TABLE: tuple(METRIC_COLUMNS), SOLUTION_TABLE: tuple(SOLUTION_COLUMNS), RUNS: tuple(RUN_COLUMNS)}
-"""The columns every version-4 file's tables have (an upgrade writes them too); the scene table's are
-checked per row (:func:`_verify_parameter_columns`)."""
+"""The columns every non-empty table of a version-4 file has (an upgrade writes them too); the scene
+table's are checked per row (:func:`_verify_parameter_columns`)."""
 
 
 def verify_tables(f: h5py.File) -> list[str]:
@@ -825,7 +825,8 @@ def verify_tables(f: h5py.File) -> list[str]:
         if name in f:
             p += tables.verify_table(f[name], f"/{name}")
             g = f[name]
-            missing = [c for c in _REQUIRED.get(name, ()) if c not in g] if isinstance(g, h5py.Group) else []
+            filled = isinstance(g, h5py.Group) and tables.n_rows(g) > 0  # an empty table has no columns
+            missing = [c for c in _REQUIRED.get(name, ()) if c not in g] if filled else []
             if missing:
                 p.append(f"/{name}: missing column(s) {', '.join(missing)}")
     study = f.get("study")
