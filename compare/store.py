@@ -690,26 +690,26 @@ _FILE_ATTRS = ("schema", "schema_version", "created_utc", "modified_utc", "harne
 def verify(path: str | Path) -> list[str]:
     """Integrity and schema check; returns a list of problems (empty = valid).  A campaign file's
     scenes are checked one by one (:func:`verify_scenes`); an atlas file by its own checks
-    (:func:`compare.atlas.store.verify`)."""
+    (:func:`compare.atlas.layout.verify`)."""
     kind = file_kind(path)
     if kind == "atlas":
-        from compare.atlas import store as atlas_store
+        from compare.atlas import layout as atlas_layout
 
-        return atlas_store.verify(Path(path))
+        return atlas_layout.verify(Path(path))
     problems, scenes = verify_scenes(path)
     return problems + [f"/{SCENES}/{key}: {p}" for key, ps in scenes.items() for p in ps]
 
 
 def file_kind(path: str | Path) -> str:
     """"campaign" (results and study files), "atlas", or "" (not HDF5, or not a harness file)."""
-    from compare.atlas import store as atlas_store
+    from compare.atlas import layout as atlas_layout
 
     try:
         with h5py.File(Path(path), "r") as f:
             schema = h5layout.text(f.attrs.get("schema", ""))
     except Exception:  # not HDF5, or damaged: the readers say which
         return ""
-    return {SCHEMA: "campaign", atlas_store.SCHEMA: "atlas"}.get(schema, "")
+    return {SCHEMA: "campaign", atlas_layout.SCHEMA: "atlas"}.get(schema, "")
 
 
 def verify_scenes(path: str | Path) -> tuple[list[str], dict[str, list[str]]]:
