@@ -743,10 +743,17 @@ def verify_scenes(path: str | Path) -> tuple[list[str], dict[str, list[str]]]:
             names = list(f[SCENES])
         except Exception as exc:  # HDF5 reports damage as OSError, KeyError, ValueError or RuntimeError
             return problems + [f"{path}: /{SCENES} is unreadable ({type(exc).__name__}: {_short(exc)})"], {}
+        runs = {int(n) for n in f[RUNS]} if isinstance(f.get(RUNS), h5py.Group) else None
+        if runs is None:
+            problems.append(f"/: missing group /{RUNS} (the record of the runs that wrote the scenes)")
         scenes: dict[str, list[str]] = {}
         for name in names:
             try:
-                scenes[name] = h5layout.verify_scene(name, f[SCENES][name], version)
+                g = f[SCENES][name]
+                scenes[name] = h5layout.verify_scene(name, g, version)
+                run = g.attrs.get("run") if isinstance(g, h5py.Group) and h5layout.complete(g) else None
+                if run is not None and (runs is None or int(run) not in runs):
+                    scenes[name].append(f"run {run} is not in /{RUNS}")
             except Exception as exc:
                 scenes[name] = [f"unreadable ({type(exc).__name__}: {_short(exc)}) in {path}"]
     return problems, scenes

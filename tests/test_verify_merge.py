@@ -118,6 +118,18 @@ def test_a_label_that_contradicts_the_layout_is_refused_not_shown_empty(current,
     assert dest.read_bytes() == before
 
 
+def test_an_older_layouts_runs_are_checked_too(tmp_path):
+    """A real version-3 file: its /runs deleted, or a scene of a run it does not record, is invalid."""
+    for name, damage, words in (("no_runs", lambda h: h.__delitem__("runs"), "missing group /runs"),
+                                ("no_run", lambda h: h["runs"].__delitem__("0006"), "run 6 is not in /runs")):
+        f = tmp_path / f"{name}.h5"
+        shutil.copyfile(DATA / "schema_v3.h5", f)
+        assert store.verify(f) == []
+        with h5py.File(f, "r+") as h:
+            damage(h)
+        assert any(words in p for p in store.verify(f)), (name, store.verify(f))
+
+
 def test_a_version_2_file_labelled_1_is_refused(tmp_path):
     """A real version-2 file whose label says 1: read as version 1 its scenes have no solutions (before:
     merged as "2 scene(s) added")."""
