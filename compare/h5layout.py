@@ -23,7 +23,7 @@ from compare.scenes import SceneSpec, canonical_json
 from compare.solvers import COMPONENT_UNITS, COMPONENTS, STATUS_FAILED, Solution
 from ked_quasi.linkage import LINKS, direction_sign
 from ked_quasi.rules import steps_per_turn
-from ked_quasi.units import rpm_to_rad_s
+from ked_quasi.units import rad_s_to_rpm, rpm_to_rad_s
 
 SOLUTIONS = "solutions"
 METRICS = "metrics"
@@ -302,6 +302,8 @@ def _verify_ok_scene(arrays: Any, r: SceneResult, stored_rows: Any, version: int
     n = steps_per_turn(spec.step_deg)
     shapes = {"crank_angle": (n,), "coupler_point": (n, 2), "natural_frequencies": (n, spec.n_modes)}
     p += [f"{ds} shape {arrays[ds].shape} != {shape}" for ds, shape in shapes.items() if arrays[ds].shape != shape]
+    if not p:
+        p += _verify_frame(r, n)
     for solver in spec.solvers:
         s = r.solutions.get(solver)
         if s is None:
@@ -320,8 +322,30 @@ def _verify_ok_scene(arrays: Any, r: SceneResult, stored_rows: Any, version: int
     return p + _verify_stored_metrics(r, stored_rows, version)
 
 
+def _verify_frame(r: SceneResult, n: int) -> list[str]:
+    """What the stored arrays give, recomputed: the crank-angle grid of the step, omega1_min = 2 pi
+    times the lowest first natural frequency, the crank speed resolved from the scene's speed."""
+    p = []
+    grid = np.deg2rad(np.arange(n) * r.spec.step_deg)
+    if not np.allclose(r.crank_angle, grid, rtol=1e-12, atol=1e-12):
+        p.append(f"crank_angle is not the grid of step {r.spec.step_deg} deg")
+    f1 = np.asarray(r.natural_frequencies)[:, 0]
+    omega1_min = 2.0 * math.pi * float(np.nanmin(f1)) if np.any(np.isfinite(f1)) else math.nan
+    if not _close(r.omega1_min, omega1_min):
+        p.append(f"omega1_min_rad_s {r.omega1_min} is not 2 pi x the lowest stored first natural frequency "
+                 f"({omega1_min})")
+        return p
+    speed = r.spec.speed
+    rpm = speed.value if speed.kind == "rpm" else rad_s_to_rpm(speed.value * r.omega1_min)
+    if not _close(r.rpm, rpm):
+        p.append(f"rpm {r.rpm} is not the scene's speed ({rpm} rev/min)")
+    return p
+
+
 def _verify_stored_metrics(r: SceneResult, stored_rows: Any, version: int) -> list[str]:
-    """The stored metrics (for readers without the harness) must be those of the stored histories."""
+    """The stored metrics (for readers without the harness) must be those of the stored histories: every
+    stored field recomputed from them (the verdict error and ``pair_holds`` by today's measure or, in a
+    file an older layout wrote, the worst component's), and no row of a pair the histories do not give."""
     try:
         rows = stored_rows()
     except (KeyError, ValueError, TypeError) as exc:
@@ -330,18 +354,50 @@ def _verify_stored_metrics(r: SceneResult, stored_rows: Any, version: int) -> li
         where = {4: f" rows in /{METRIC_TABLE}", 3: " table"}.get(version, " group")
         return [f"missing {METRICS}{where}"] if r.metrics else []
     p = []
-    for name, m in r.metrics.items():
-        for c in m.components:
-            row = rows.get((m.solver, m.reference, c.component))
-            if row is None:
-                if version >= 2 or c.component in ("dx", "dy", "rotation"):
-                    p.append(f"missing {METRICS} of {name}/{c.component}")
-                continue
-            same = (bool(row.get("holds", not c.holds)) == c.holds
-                    and np.isclose(float(row.get("history_error", np.nan)), c.history_error, rtol=1e-12))
-            if not same:
-                p.append(f"{METRICS} of {name}/{c.component}: stored values differ from the histories")
+    computed = {(m.solver, m.reference, c.component): (m, c) for m in r.metrics.values() for c in m.components}
+    for k, (m, c) in computed.items():
+        row = rows.get(k)
+        if row is None:
+            if version >= 2 or c.component in ("dx", "dy", "rotation"):
+                p.append(f"missing {METRICS} of {m.name}/{c.component}")
+            continue
+        bad = _metric_fields_differ(row, metric_rows({m.name: m})[k], m)
+        if bad:
+            p.append(f"{METRICS} of {m.name}/{c.component}: stored values differ from the histories "
+                     f"({', '.join(bad)})")
+    p += [f"{METRICS} of {'/'.join(k)}: stored, but the stored histories give no such pair" for k in rows
+          if k not in computed]
     return p
+
+
+def _metric_fields_differ(row: dict[str, Any], want: dict[str, Any], m: PairMetrics) -> list[str]:
+    """The stored fields of one metric row that differ from those recomputed (``want``); a field not
+    stored (older layouts stored fewer) is not compared."""
+    bad = []
+    for n, v in want.items():
+        if n not in row:
+            continue
+        s = row[n]
+        if n == "verdict_error":  # today's measure, or the worst component's that older layouts stored
+            ok = any(_close(s, x) for x in (m.verdict_error, m.worst_component_error))
+        elif n == "pair_holds":  # the verdict of the stored verdict error (checked above)
+            measure = float(row.get("verdict_error", m.verdict_error))
+            ok = bool(s) == bool(measure < m.tolerance)
+        elif isinstance(v, (bool, str)):
+            ok = (bool(s) if isinstance(v, bool) else text(s)) == v
+        else:
+            ok = _close(s, v, atol=1e-9 if n == "phase_shift_rad" else 0.0)
+        if not ok:
+            bad.append(n)
+    return bad
+
+
+def _close(a: Any, b: float, atol: float = 0.0) -> bool:
+    try:
+        a = float(a)
+    except (TypeError, ValueError):
+        return False
+    return bool(np.isclose(a, b, rtol=1e-9, atol=atol, equal_nan=True))
 
 
 # -- schema version 4: per-file tables, one group of arrays per scene --------------------------------
@@ -739,32 +795,81 @@ class TableFile:
         if not self.complete(key):
             return [f"incomplete (no complete=1 in /{SCENE_TABLE})"]
         row = self.row(key)
-        missing = [a for a in (*SCENE_ATTRS, "json") if a not in row]
+        missing = [a for a in (*SCENE_ATTRS, "json", *_ROW_FIELDS) if a not in row]
         if missing:
             return [f"missing column(s) {', '.join(missing)} of /{SCENE_TABLE}"]
-        return _verify_read(key, text(row["key"]), text(row["status"]), lambda: self.read_scene(key),
-                            self.arrays(key), lambda: self.metric_rows(key), 4)
+        p = _verify_read(key, text(row["key"]), text(row["status"]), lambda: self.read_scene(key),
+                         self.arrays(key), lambda: self.metric_rows(key), 4)
+        return p + _verify_parameter_columns(row) + _verify_solution_rows(self.solution_rows(key))
+
+
+_ROW_FIELDS = ("warnings", "failure_class", *_RUN_STAT_FIELDS)
+"""Columns of /scene_table every layout's scenes have besides :data:`SCENE_ATTRS` and ``json``."""
+_NEWER_PARAMETERS = ("kind", "solvers", "json")
+"""Parameter columns an older layout did not store (carried over without them), or stored otherwise."""
+
+
+def _verify_parameter_columns(row: dict[str, Any]) -> list[str]:
+    """The readable parameter columns of a scene row: each present and equal to what its ``json`` gives."""
+    try:
+        want = parameter_row(SceneSpec.from_dict(json.loads(text(row["json"]))))
+    except (KeyError, ValueError, TypeError):
+        return []  # reported by the read of the scene
+    missing = [c for c in want if c not in row and c not in _NEWER_PARAMETERS]
+    if missing:
+        return [f"missing column(s) {', '.join(missing)} of /{SCENE_TABLE}"]
+    differ = [c for c, v in want.items() if c in row and c != "json" and not _same_cell(row[c], v)
+              and not (c in _NEWER_PARAMETERS and text(row[c]) == "")]  # filled in for an older layout's rows
+    if not differ:
+        return []
+    return [f"column(s) {', '.join(differ)} of /{SCENE_TABLE} differ from the scene's parameters (json)"]
+
+
+def _same_cell(stored: Any, want: Any) -> bool:
+    if isinstance(want, str) or isinstance(stored, (str, bytes)):
+        return text(stored) == str(want)
+    try:
+        a, b = np.asarray(stored, dtype=np.float64), np.asarray(want, dtype=np.float64)
+    except (TypeError, ValueError):
+        return False
+    return a.shape == b.shape and bool(np.allclose(a, b, rtol=1e-12, atol=0.0, equal_nan=True))
+
+
+def _verify_solution_rows(rows: list[dict[str, Any]]) -> list[str]:
+    """Every solution row of a scene with the columns a reader needs and a known status."""
+    p = []
+    for r in rows:
+        missing = [c for c in ("solver", "status", "settings_json", "stats_json", "fidelity") if c not in r]
+        if missing:
+            return [f"missing column(s) {', '.join(missing)} of /{SOLUTION_TABLE}"]
+        if text(r["status"]) not in (STATUS_OK, STATUS_FAILED):
+            p.append(f"solution {text(r['solver'])}: unknown status {text(r['status'])!r}")
+    return p
+
+
+_REQUIRED = {METRIC_TABLE: tuple(METRIC_COLUMNS), SOLUTION_TABLE: tuple(SOLUTION_COLUMNS), RUNS: tuple(RUN_COLUMNS)}
+"""The columns every non-empty table of a version-4 file has (an upgrade writes them too); the scene
+table's are checked per row (:func:`_verify_parameter_columns`)."""
 
 
 def verify_tables(f: h5py.File) -> list[str]:
-    """Table-level problems of a version-4 file: every column of every table as long as its ``rows``
-    and with a ``units`` attribute."""
+    """Table-level problems of a version-4 file: every column of every table (and of the study tables
+    under ``/study``) as long as its ``rows``, and with a ``units`` attribute (study tables of older
+    files have none)."""
     from compare import tables
 
     p = []
     for name in TABLES:
-        g = f.get(name)
-        if g is None:
-            continue
-        if not isinstance(g, h5py.Group) or "rows" not in g.attrs:
-            p.append(f"/{name}: not a table (a group with a rows attribute)")
-            continue
-        n = int(g.attrs["rows"])
-        for col, ds in tables.column_items(g):
-            if not isinstance(ds, h5py.Dataset) or len(ds) != n:
-                p.append(f"/{name}/{col}: {getattr(ds, 'shape', 'not a column')} rows, the table has {n}")
-            elif "units" not in ds.attrs:
-                p.append(f"/{name}/{col}: no units attribute")
+        if name in f:
+            p += tables.verify_table(f[name], f"/{name}")
+            g = f[name]
+            filled = isinstance(g, h5py.Group) and tables.n_rows(g) > 0  # an empty table has no columns
+            missing = [c for c in _REQUIRED.get(name, ()) if c not in g] if filled else []
+            if missing:
+                p.append(f"/{name}: missing column(s) {', '.join(missing)}")
+    study = f.get("study")
+    for name, g in (study.items() if isinstance(study, h5py.Group) else ()):
+        p += tables.verify_table(g, f"/study/{name}", units=False)
     return p
 
 

@@ -485,7 +485,8 @@ def _record_run(f: h5py.File, config_text: str, campaign_name: str, n_scenes: in
 
 def commit(path: str | Path, results: Iterable[SceneResult], run: int = -1) -> None:
     """Atomically add (or replace) the scene groups of ``results`` in the results file; a replaced
-    scene keeps the stored solutions of solvers the new result did not run."""
+    scene keeps the stored solutions of solvers the new result did not run.  ``run``: the run record
+    the scenes belong to (default: the file's last one, see :func:`record_run`)."""
     results = list(results)
     if not results:
         return
@@ -499,6 +500,8 @@ def commit(path: str | Path, results: Iterable[SceneResult], run: int = -1) -> N
 
 def _commit(f: h5py.File, results: list[SceneResult], run: int) -> None:
     _require_current(f)
+    if run < 0:  # no run given: the scenes belong to the file's last run record
+        run = max((int(r["run"]) for r in h5layout.table_rows(f, RUNS)), default=run)
     view = h5layout.TableFile(f)
     scenes = f.require_group(SCENES)
     new: dict[str, SceneResult] = {}
@@ -557,7 +560,37 @@ def _scenes(f: h5py.File, path: Path) -> tuple[h5py.Group | None, int]:
     if version is None or version not in READABLE_VERSIONS:
         raise StoreError(f"{path}: not a ked-harness results file of a supported schema version "
                          f"({SCHEMA!r}, versions {READABLE_VERSIONS})")
+    contradiction = layout_contradiction(f, version)
+    if contradiction:
+        raise StoreError(f"{path}: {contradiction}; refusing to read it (check it with `ked inspect FILE --verify`)")
     return scenes, version
+
+
+def layout_contradiction(f: h5py.File, version: int) -> str:
+    """What in the file contradicts its ``schema_version`` label ("" if nothing): tables that only
+    version 4 has in an older file, a scene group of another version's layout."""
+    try:
+        if version < 4:
+            tables = [f"/{t}" for t in h5layout.TABLES if t != RUNS and t in f]
+            if isinstance(f.get(RUNS), h5py.Group) and "rows" in f[RUNS].attrs:
+                tables.append(f"/{RUNS} as a table")
+            if tables:
+                return (f"schema version label {version} contradicts the layout (it holds {', '.join(tables)}, "
+                        f"which only version {SCHEMA_VERSION} has)")
+        scenes = f.get(SCENES)
+        for key, g in (scenes.items() if isinstance(scenes, h5py.Group) else ()):
+            if not isinstance(g, h5py.Group):
+                continue
+            if version >= 4 and ("parameters" in g or "complete" in g.attrs):
+                return (f"schema version label {version} contradicts the layout (/{SCENES}/{key} is a scene group "
+                        "of an older version, with its parameters inside)")
+            foreign = _foreign_members(g, version) if version < 4 else []
+            if foreign:
+                return (f"schema version label {version} contradicts the layout (/{SCENES}/{key} holds "
+                        f"{', '.join(foreign[:3])}, which a version-{version} file cannot have)")
+    except Exception as exc:  # damage: reported by the readers
+        return f"unreadable layout ({type(exc).__name__}: {_short(exc)})"
+    return ""
 
 
 def _open(path: Path) -> h5py.File:
@@ -688,52 +721,130 @@ _FILE_ATTRS = ("schema", "schema_version", "created_utc", "modified_utc", "harne
 
 
 def verify(path: str | Path) -> list[str]:
-    """Integrity and schema check; returns a list of problems (empty = valid)."""
+    """Integrity and schema check; returns a list of problems (empty = valid).  A campaign file's
+    scenes are checked one by one (:func:`verify_scenes`); an atlas file by its own checks
+    (:func:`compare.atlas.layout.verify`)."""
+    kind = file_kind(path)
+    if kind == "atlas":
+        from compare.atlas import layout as atlas_layout
+
+        return atlas_layout.verify(Path(path))
+    problems, scenes = verify_scenes(path)
+    return problems + [f"/{SCENES}/{key}: {p}" for key, ps in scenes.items() for p in ps]
+
+
+def file_kind(path: str | Path) -> str:
+    """"campaign" (results and study files), "atlas", or "" (not HDF5, or not a harness file)."""
+    from compare.atlas import layout as atlas_layout
+
+    try:
+        with h5py.File(Path(path), "r") as f:
+            schema = h5layout.text(f.attrs.get("schema", ""))
+    except Exception:  # not HDF5, or damaged: the readers say which
+        return ""
+    return {SCHEMA: "campaign", atlas_layout.SCHEMA: "atlas"}.get(schema, "")
+
+
+def verify_scenes(path: str | Path) -> tuple[list[str], dict[str, list[str]]]:
+    """The checks of ``ked inspect --verify`` of a campaign file: (problems of the file, key -> problems
+    of that scene; a key with an empty list verified).  ``ked merge`` carries only the scenes that
+    verify."""
     path = Path(path)
     try:
         f = h5py.File(path, "r")
     except OSError as exc:
-        return [f"{path}: cannot open as HDF5: {_short(exc)}"]
+        return [f"{path}: cannot open as HDF5: {_short(exc)}"], {}
     with f:
         try:
             problems = [f"/: missing file attribute {a!r}" for a in _FILE_ATTRS if a not in f.attrs]
             version = schema_version(f)
         except Exception as exc:  # damage
-            return [f"{path}: file attributes unreadable ({type(exc).__name__}: {_short(exc)})"]
+            return [f"{path}: file attributes unreadable ({type(exc).__name__}: {_short(exc)})"], {}
         if version is None:
-            return problems + [f"/: schema attribute is not {SCHEMA!r}: not a ked-harness results file"]
+            return problems + [f"/: schema attribute is not {SCHEMA!r}: not a ked-harness results file"], {}
         if version not in READABLE_VERSIONS:
-            return problems + [f"/: schema version {version} is not one of {READABLE_VERSIONS}"]
+            return problems + [f"/: schema version {version} is not one of {READABLE_VERSIONS}"], {}
+        contradiction = layout_contradiction(f, version)
+        if contradiction:
+            return problems + [f"{path}: {contradiction}"], {}
         if version >= 4:
-            return problems + _verify_v4(f, path)
+            more, scenes = _verify_v4(f, path)
+            return problems + more, scenes
         try:
             if SCENES not in f:
-                return problems + [f"/: missing group /{SCENES}"]
+                return problems + [f"/: missing group /{SCENES}"], {}
             names = list(f[SCENES])
-        except Exception as exc:  # HDF5 reports damage as OSError, KeyError, ValueError, RuntimeError
-            return problems + [f"{path}: /{SCENES} is unreadable ({type(exc).__name__}: {_short(exc)})"]
+        except Exception as exc:  # HDF5 reports damage as OSError, KeyError, ValueError or RuntimeError
+            return problems + [f"{path}: /{SCENES} is unreadable ({type(exc).__name__}: {_short(exc)})"], {}
+        runs = {int(n) for n in f[RUNS]} if isinstance(f.get(RUNS), h5py.Group) else None
+        if runs is None:
+            problems.append(f"/: missing group /{RUNS} (the record of the runs that wrote the scenes)")
+        scenes: dict[str, list[str]] = {}
         for name in names:
             try:
-                problems += [f"/{SCENES}/{name}: {p}" for p in h5layout.verify_scene(name, f[SCENES][name], version)]
+                g = f[SCENES][name]
+                scenes[name] = h5layout.verify_scene(name, g, version)
+                run = g.attrs.get("run") if isinstance(g, h5py.Group) and h5layout.complete(g) else None
+                if run is not None and (runs is None or int(run) not in runs):
+                    scenes[name].append(f"run {run} is not in /{RUNS}")
             except Exception as exc:
-                problems.append(f"{path}: /{SCENES}/{name} is unreadable ({type(exc).__name__}: {_short(exc)})")
-    return problems
+                scenes[name] = [f"unreadable ({type(exc).__name__}: {_short(exc)}) in {path}"]
+    return problems, scenes
 
 
-def _verify_v4(f: h5py.File, path: Path) -> list[str]:
+def _verify_v4(f: h5py.File, path: Path) -> tuple[list[str], dict[str, list[str]]]:
     try:
         problems = h5layout.verify_tables(f)
         view = h5layout.TableFile(f)
         names = list(view.index)
         problems += [f"/{SCENES}/{g}: no row in /{h5layout.SCENE_TABLE}" for g in view.orphans()]
+        runs = _run_numbers(f)
     except Exception as exc:  # HDF5 reports damage as OSError, KeyError, ValueError, RuntimeError
-        return [f"{path}: the scene tables are unreadable ({type(exc).__name__}: {_short(exc)})"]
+        return [f"{path}: the scene tables are unreadable ({type(exc).__name__}: {_short(exc)})"], {}
+    if runs is None:
+        problems.append(f"/: missing table /{RUNS} (the record of the runs that wrote the scenes)")
+    scenes: dict[str, list[str]] = {}
     for name in names:
         try:
-            problems += [f"/{SCENES}/{name}: {p}" for p in view.verify_scene(name)]
+            scenes[name] = view.verify_scene(name) + _verify_run_of(view, name, runs)
         except Exception as exc:
-            problems.append(f"{path}: /{SCENES}/{name} is unreadable ({type(exc).__name__}: {_short(exc)})")
-    return problems
+            scenes[name] = [f"unreadable ({type(exc).__name__}: {_short(exc)}) in {path}"]
+    if names and not problems and not any(scenes.values()):
+        problems += _verify_writable(f, path, view.read_scene(names[0]))
+    return problems, scenes
+
+
+def _run_numbers(f: h5py.File) -> set[int] | None:
+    """The run numbers of ``/runs`` (None: no such table)."""
+    if RUNS not in f:
+        return None
+    return {int(r["run"]) for r in h5layout.table_rows(f, RUNS)}
+
+
+def _verify_run_of(view: Any, key: str, runs: set[int] | None) -> list[str]:
+    if not view.complete(key) or "run" not in view.row(key):
+        return []
+    run = view.row(key)["run"]
+    if runs is None or int(run) not in runs:
+        return [f"run {run} of /{h5layout.SCENE_TABLE} is not in /{RUNS}"]
+    return []
+
+
+def _verify_writable(f: h5py.File, path: Path, probe: SceneResult) -> list[str]:
+    """A write into the file (a run record and a new scene, as `ked run` and `ked merge` do) tried on a
+    copy in memory: a damage of the tables that only a writer trips over is a problem now."""
+    from compare.scenes import SpeedSpec
+
+    spec = dataclasses.replace(probe.spec, speed=SpeedSpec("rpm", float(np.nextafter(probe.rpm, np.inf))))
+    fresh = dataclasses.replace(probe, spec=spec)
+    try:
+        buf = io.BytesIO(path.read_bytes())
+        with _open_memory(buf, new=False) as copy:
+            _commit(copy, [fresh], _record_run(copy, "", "verify", 1))
+    except Exception as exc:  # whatever a writer would meet
+        return [f"{path}: a write into this file fails ({type(exc).__name__}: {_short(exc)}): `ked run` and "
+                "`ked merge` cannot add scenes to it"]
+    return []
 
 
 # --------------------------------------------------------------------------------------------------
@@ -1070,8 +1181,7 @@ def rescue(results: list[SceneResult], out: str | Path, config_text: str, campai
     for directory in (out.parent, Path(tempfile.gettempdir()), Path.home() / ".cache" / "ked-harness"):
         path = directory / name
         try:
-            record_run(path, config_text, campaign_name, len(results))
-            commit(path, results)
+            commit(path, results, record_run(path, config_text, campaign_name, len(results)))
             return path
         except (CommitError, OSError) as exc:
             reasons.append(str(exc))
@@ -1086,24 +1196,62 @@ MERGE_WAIT_S = 60.0
 """How long ``ked merge`` waits for another writer of DEST (a merge or a campaign) to finish [s]."""
 
 
-def merge(src: str | Path, dest: str | Path, wait_s: float = MERGE_WAIT_S) -> tuple[int, int]:
+@dataclasses.dataclass(frozen=True)
+class MergeReport:
+    """What ``ked merge`` did: ``added`` scenes carried into DEST, ``kept`` offered scenes DEST already
+    held, ``refused``: key -> why a scene of SRC was not carried (it fails the checks of
+    ``ked inspect --verify``)."""
+
+    added: int
+    kept: int
+    refused: dict[str, str]
+
+
+def merge(src: str | Path, dest: str | Path, wait_s: float = MERGE_WAIT_S) -> MergeReport:
     """Add the scenes of results file ``src`` that ``dest`` lacks (or holds only as failed) to ``dest``
-    (created if missing); returns (added, kept).  Both files must be harness files; ``src`` is not
-    changed.  Holds ``dest``'s writer lock (waiting up to ``wait_s`` [s] for another writer) from
-    reading ``dest`` to its atomic replacement, and writes the run record and the scenes in one
+    (created if missing).  Both files must be harness files; ``src`` is not changed.  Every scene of
+    ``src`` is checked as ``ked inspect --verify`` checks it (:func:`verify_scenes`); only those that
+    verify are carried, the others are returned as refused.  The new ``dest`` is verified before it
+    replaces the old one: a merge that would add a problem to ``dest`` raises :class:`StoreError` and
+    changes nothing.  Holds ``dest``'s writer lock (waiting up to ``wait_s`` [s] for another writer)
+    from reading ``dest`` to its atomic replacement, and writes the run record and the scenes in one
     transaction."""
     check_ours(src)
     check_ours(dest)
     check_writable(dest)
     offered = read_scenes(src)
+    damage, checks = verify_scenes(src)
+    if damage:  # the file's own tables or records are damaged: none of its scenes is carried
+        more = f" and {len(damage) - 1} more problem(s)" if len(damage) > 1 else ""
+        raise StoreError(f"{target(src)}: fails `ked inspect --verify` ({damage[0]}{more}); refusing to merge "
+                         "from it; nothing was merged")
+    refused = {k: p[0] + (f" (and {len(p) - 1} more problem(s))" if len(p) > 1 else "")
+               for k, p in sorted(checks.items()) if p}
+    carried = [r for r in offered if r.key not in refused]
     config = str(file_info(src).get("campaign_config", ""))
     with writer_lock(dest, wait_s=wait_s):
         check_ours(dest)
         have = stored_status(dest)
-        new = [r for r in offered if have.get(r.key) is None or (have.get(r.key) == "failed" and r.ok)]
+        new = [r for r in carried if have.get(r.key) is None or (have.get(r.key) == "failed" and r.ok)]
         if new or not target(dest).exists():
+            before = set(verify(dest)) if target(dest).exists() else set()
             upgrade(dest)
             with transaction(dest, repack=True) as f, _hdf5_errors(target(dest)):
                 run = _record_run(f, config, f"merge of {target(src).name}", len(new))
                 _commit(f, new, run)
-    return len(new), len(offered) - len(new)
+                f.flush()
+                added = [p for p in _verify_image(f, target(dest)) if p not in before]
+                if added:
+                    raise StoreError(f"{target(dest)}: refusing to merge {target(src).name}: the result would not "
+                                     f"verify ({added[0]}); {target(dest)} is unchanged")
+    return MergeReport(len(new), len(carried) - len(new), refused)
+
+
+def _verify_image(f: h5py.File, path: Path) -> list[str]:
+    """:func:`verify` of the open in-memory file ``f`` (written to a private file beside ``path``)."""
+    tmp = _tmp_beside(path)
+    try:
+        tmp.write_bytes(f.id.get_file_image())
+        return [p.replace(str(tmp), str(path)) for p in verify(tmp)]
+    finally:
+        _discard(tmp)

@@ -241,6 +241,24 @@ def read_table(g: h5py.Group) -> dict[str, np.ndarray]:
     return {name: read_column(ds) for name, ds in column_items(g) if isinstance(ds, h5py.Dataset)}
 
 
+def verify_table(g: object, where: str, ratios: int | None = None, per_ratio: Sequence[str] = (),
+                 units: bool = True) -> list[str]:
+    """Problems of one stored table (``where``: its path for the messages): a group with a ``rows``
+    attribute, every column a dataset of that many rows (with a ``units`` attribute, if ``units``);
+    the columns ``per_ratio`` (when ``ratios`` is given) of shape (rows, ratios)."""
+    if not isinstance(g, h5py.Group) or ROWS not in g.attrs:
+        return [f"{where}: not a table (a group with a rows attribute)"]
+    n, p = int(g.attrs[ROWS]), []
+    for col, ds in column_items(g):
+        if not isinstance(ds, h5py.Dataset) or len(ds) != n:
+            p.append(f"{where}/{col}: {getattr(ds, 'shape', 'not a column')} rows, the table has {n}")
+        elif units and UNITS not in ds.attrs:
+            p.append(f"{where}/{col}: no units attribute")
+        elif ratios is not None and col in per_ratio and ds.shape != (n, ratios):
+            p.append(f"{where}/{col}: shape {ds.shape}, not (rows, ratios) = ({n}, {ratios})")
+    return p
+
+
 def n_rows(g: h5py.Group) -> int:
     return int(g.attrs.get(ROWS, 0))
 

@@ -233,6 +233,10 @@ def inspect_cmd(file: Path, scene: str | None, as_json: bool, verify: bool, wide
         _inspect_expect(file, as_json)
         return
     from compare import store
+
+    if store.file_kind(file) == "atlas":
+        _inspect_atlas(file, scene, as_json)
+        return
     from compare.inspect import find_scene, format_counts, format_detail, format_table, scene_detail, summary_row
     from ked_cli.options import json_text
 
@@ -281,25 +285,50 @@ def _inspect_expect(file: Path, as_json: bool) -> None:
     sys.exit(1 if violations else 0)
 
 
+def _inspect_atlas(file: Path, scene: str | None, as_json: bool) -> None:
+    """An atlas file: its summary (it has no scenes to show one by one)."""
+    from compare.atlas import store as atlas_store
+    from ked_cli.options import json_text
+
+    if scene:
+        raise click.ClickException(f"{file}: an atlas file has tables, not scenes; SCENE {scene!r} cannot be shown "
+                                   "(leave it out for the atlas's summary)")
+    try:
+        summary = atlas_store.summary(file)
+    except Exception as exc:  # damage: HDF5 reports it as OSError, KeyError, ValueError or RuntimeError
+        raise click.ClickException(f"{file}: the atlas tables are unreadable ({type(exc).__name__}: "
+                                   f"{str(exc).splitlines()[0][:200] if str(exc) else ''}); check it with "
+                                   "`ked inspect FILE --verify`") from None
+    if as_json:
+        click.echo(json_text({"file": str(file), **summary}, indent=2, default=str))
+        return
+    click.echo(wrap(f"{file}:"))
+    for line in atlas_store.describe(summary):
+        click.echo(wrap(line))
+
+
 def _verify(file: Path, as_json: bool) -> None:
     from compare import store
 
     problems = store.verify(file)
     # a writer running now (it holds the lock) owns its temporary file: not stale
     stale = [] if store.is_locked(file) else store.stale_temp_files(file)
+    atlas = store.file_kind(file) == "atlas"
     try:
-        n = len(store.stored_status(file))
+        n = 0 if atlas else len(store.stored_status(file))
     except store.StoreError:
         n = 0
+    what = "atlas file" if atlas else f"{n} complete scenes"
     if as_json:
-        click.echo(json.dumps({"file": str(file), "valid": not problems, "scenes": n, "problems": problems,
-                               "stale_temp_files": [str(p) for p in stale]}, indent=2))
+        click.echo(json.dumps({"file": str(file), "kind": "atlas" if atlas else "campaign", "valid": not problems,
+                               "scenes": n, "problems": problems, "stale_temp_files": [str(p) for p in stale]},
+                              indent=2))
     else:
         for p in problems:  # one line per problem, like an error (greppable): not wrapped
             click.echo(f"PROBLEM {p}")
         for p in stale:
             click.echo(f"note: stale temporary file (ignored, removed by the next run): {p}")
-        click.echo(wrap(f"{file}: {'INVALID' if problems else 'valid'}, {n} complete scenes"
+        click.echo(wrap(f"{file}: {'INVALID' if problems else 'valid'}, {what}"
                         + (f", {len(problems)} problem(s)" if problems else "")))
     sys.exit(1 if problems else 0)
 
@@ -308,16 +337,27 @@ def _verify(file: Path, as_json: bool) -> None:
 @click.argument("src", type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.argument("dest", type=click.Path(dir_okay=False, path_type=Path))
 def merge_cmd(src: Path, dest: Path) -> None:
-    """Add the scenes of results file SRC (e.g. a rescue file) that DEST lacks to DEST (SRC unchanged)."""
+    """Add the scenes of results file SRC (e.g. a rescue file) that DEST lacks to DEST (SRC unchanged).
+
+    Every scene of SRC is checked as `ked inspect SRC --verify` checks it; only the scenes that verify
+    are carried.  Each refused scene gets one line on stderr (its key and why), and the command then
+    exits with status 1 (the scenes that verified are merged).  A SRC whose tables are damaged, or a
+    merge that would make DEST fail `ked inspect DEST --verify`, changes nothing and exits 1."""
     from compare import store
 
     _regular(src, "SRC")
     _regular(dest, "DEST")
     try:
-        added, kept = store.merge(src, dest)
+        report = store.merge(src, dest)
     except (store.StoreError, store.CommitError, store.LockedError) as exc:
         raise click.ClickException(str(exc)) from None
-    click.echo(wrap(f"{added} scene(s) added to {dest}; {kept} already there (kept)"))
+    for key, why in report.refused.items():  # one line each, like an error (greppable): not wrapped
+        click.echo(f"ked: refused scene {key} of {src}: {why}", err=True)
+    click.echo(wrap(f"{report.added} scene(s) added to {dest}; {report.kept} already there (kept)"
+                    + (f"; {len(report.refused)} refused (they fail `ked inspect {src} --verify`)"
+                       if report.refused else "")))
+    if report.refused:
+        sys.exit(1)
 
 
 @click.command("plot")

@@ -17,6 +17,10 @@ from ked_quasi import MassModel
 from tests.conftest import small_fourbar
 
 THETA = np.arange(12) * (2 * np.pi / 12)
+F1 = 20 + np.cos(THETA)
+"""[Hz] the synthetic first natural frequency over the cycle; omega1_min = 2 pi min F1 (as the harness
+computes it, and --verify recomputes it)."""
+OMEGA1_MIN = 2 * np.pi * float(F1.min())
 
 
 def spec(rpm: float = 300.0, outputs=("dx", "dy", "rotation")) -> SceneSpec:
@@ -39,11 +43,11 @@ def ok_result(rpm: float = 300.0, outputs=("dx", "dy", "rotation")) -> SceneResu
                             stats={"wall_s": 3.0, "steps": 400, "cycles": 4, "converged": True}, fidelity=10),
     }
     return SceneResult(
-        spec=s, status="ok", rpm=rpm, omega1_min=100.0, crank_angle=THETA,
+        spec=s, status="ok", rpm=rpm, omega1_min=OMEGA1_MIN, crank_angle=THETA,
         coupler_point=np.column_stack([np.cos(THETA), np.sin(THETA)]),
-        natural_frequencies=np.column_stack([20 + np.cos(THETA), 50 + np.sin(THETA)]), solutions=solutions,
+        natural_frequencies=np.column_stack([F1, 50 + np.sin(THETA)]), solutions=solutions,
         metrics=all_pairs(THETA, {"quasi_static": qs, "dynamic": dyn}, {"quasi_static": 0, "dynamic": 10},
-                          omega=rpm * np.pi / 30, omega1_min=100.0, tolerance=0.1),
+                          omega=rpm * np.pi / 30, omega1_min=OMEGA1_MIN, tolerance=0.1),
         stats=RunStats(1.0, 6.5, "host:1", "2026-01-01T00:00:00+00:00"),
     )
 

@@ -35,9 +35,7 @@ import h5py
 import numpy as np
 
 from compare import store, tables
-
-SCHEMA = "ked-harness/atlas"
-SCHEMA_VERSION = 1
+from compare.atlas.layout import CODES, SCHEMA, SCHEMA_VERSION, verify  # noqa: F401 (the atlas file's names)
 
 
 class AtlasFileError(ValueError):
@@ -123,3 +121,46 @@ def attrs(path: Path) -> dict[str, Any]:
             except json.JSONDecodeError:
                 out[k] = v
         return out
+
+
+
+def summary(path: Path) -> dict[str, Any]:
+    """What ``ked inspect`` shows of an atlas file: its attributes, the linkages drawn and accepted, the
+    families by status and per-ratio code, the confirmed and threshold scenes."""
+    meta = attrs(path)
+    out: dict[str, Any] = {"kind": "atlas", **{k: meta.get(k) for k in ("schema", "schema_version", "created_utc",
+                                                                        "modified_utc", "seed", "harness_version")}}
+    out["ratios"] = meta.get("ratios")
+    links = read(path, "linkages")
+    out["linkages"] = len(links.get("index", ()))
+    out["accepted"] = int(np.sum(links["accepted"])) if "accepted" in links else 0
+    fam = read(path, "families")
+    out["families"] = len(fam.get("status", ()))
+    status = fam.get("status", np.array([], dtype=object))
+    out["families_by_status"] = {str(k): int(v) for k, v in zip(*np.unique(status, return_counts=True))}
+    codes = np.asarray(fam.get("code", np.zeros((0, 0))))
+    out["ratio_points_by_code"] = {name: int(np.sum(codes == c)) for c, name in
+                                   zip(CODES, ("ok", "unstable", "failed", "not computed"))}
+    for name in ("confirm", "threshold"):
+        t = read(path, name)
+        out[name] = len(t.get("status", ()))
+        out[f"{name}_ok"] = int(np.sum(t["status"] == "ok")) if "status" in t else 0
+    margins = meta.get("verdict_margins")
+    out["verdict_margin_tolerances_percent"] = sorted(margins) if isinstance(margins, dict) else []
+    return out
+
+
+def describe(s: dict[str, Any]) -> list[str]:
+    """The lines of ``ked inspect`` for an atlas :func:`summary`."""
+    ratios = s.get("ratios") or []
+    codes = ", ".join(f"{n} {k}" for k, n in s["ratio_points_by_code"].items())
+    lines = [f"atlas file (schema {s['schema']} version {s['schema_version']}), seed {s['seed']}, created "
+             f"{s['created_utc']}, modified {s['modified_utc']}, harness {s.get('harness_version')}",
+             f"{s['linkages']} linkages drawn, {s['accepted']} accepted; {s['families']} families ("
+             + ", ".join(f"{n} {k}" for k, n in s["families_by_status"].items()) + ")",
+             f"{len(ratios)} speed ratios r = Omega/omega1_min"
+             + (f" from {min(ratios):g} to {max(ratios):g}" if ratios else "") + f"; ratio points: {codes}",
+             f"{s['confirm']} Exudyn-confirmed scenes ({s['confirm_ok']} ok), {s['threshold']} threshold scenes "
+             f"({s['threshold_ok']} ok); verdict margins for tolerances "
+             + (", ".join(f"{t} %" for t in s["verdict_margin_tolerances_percent"]) or "none")]
+    return lines

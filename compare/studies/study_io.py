@@ -4,7 +4,7 @@
 * derived study tables stored next to the scenes in ``/study/<table>`` of the same HDF5 file, tables
   of :mod:`compare.tables` (one dataset per column, numbers as float64, flags as uint8, text as UTF-8;
   units from the column names), written atomically with :func:`compare.store.transaction`;
-  ``ked inspect --verify`` checks the scenes only.
+  ``ked inspect --verify`` checks the scenes and the shapes of these tables.
 """
 
 from __future__ import annotations
