@@ -591,8 +591,19 @@ def _final_index(out: Path, kept: dict, index: dict, written: list[Path], claime
         current = json.loads((out / INDEX).read_text())
     except (OSError, ValueError):
         current = None
-    if current != final:
+    if _moved_only(current, final):  # the same results file by another path (moved, a bind mount): record it
+        with contextlib.suppress(OSError):  # where it can be: nothing else changed (a read-only copy stays valid)
+            _write_index(out / INDEX, final)
+    elif current != final:
         _write_index(out / INDEX, final)
+
+
+def _moved_only(current: object, final: dict) -> bool:
+    """Whether the index on disk differs from ``final`` only in the results file's path (same results id)."""
+    if not isinstance(current, dict) or not isinstance(current.get(MANIFEST), dict):
+        return False
+    path = final[MANIFEST].get("results_file")
+    return current != final and {**current, MANIFEST: {**current[MANIFEST], "results_file": path}} == final
 
 
 def _write_index(index_path: Path, index: dict) -> None:

@@ -345,8 +345,11 @@ def _claim(fd: int) -> bool:
     head = os.pread(fd, len(LOCK_MARK), 0)
     if head != LOCK_MARK and not (st.st_size == 0 and _recent(st.st_mtime_ns)):
         return False
-    os.ftruncate(fd, 0)
-    os.pwrite(fd, LOCK_MARK + f"{os.getpid()}\n".encode(), 0)
+    try:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, LOCK_MARK + f"{os.getpid()}\n".encode(), 0)
+    except OSError:  # a full disk: the lock holds unmarked (the commit reports the disk, naming the file)
+        pass
     return True
 
 
