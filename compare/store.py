@@ -430,6 +430,11 @@ def check_ours(path: str | Path) -> None:
         return
     try:
         with h5py.File(path, "r") as f:
+            try:
+                list(f.attrs.keys())
+            except (RuntimeError, KeyError) as exc:  # HDF5 reports damaged metadata so
+                raise StoreError(f"{path}: damaged: its file attributes cannot be read ({_short(exc)}); refusing to "
+                                 f"use it; `ked inspect {path.name} --verify` lists the damage") from None
             version = schema_version(f)
             if version is None:
                 raise StoreError(f"{path}: not a ked-harness results file (no schema attribute {SCHEMA!r}); "
