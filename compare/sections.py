@@ -19,8 +19,9 @@ class SectionError(ValueError):
 
 
 def check_markers(path: str | Path) -> None:
-    """Raise :class:`SectionError` naming ``path`` unless every section in it is one BEGIN marker
-    followed by its END marker, sections neither nested nor repeated (a missing file is fine)."""
+    """Raise :class:`SectionError` naming ``path`` unless it is a README the harness made (it holds section
+    markers) whose every section is one BEGIN marker followed by its END marker, sections neither nested nor
+    repeated (a missing file is fine: it will be created)."""
     path = Path(path)
     if not path.exists():
         return
@@ -29,6 +30,10 @@ def check_markers(path: str | Path) -> None:
     except (OSError, UnicodeDecodeError) as exc:
         raise SectionError(f"{path}: cannot be read as UTF-8 text ({exc})") from None
     open_name, seen = None, set()
+    if not _MARKER.search(text):
+        raise SectionError(f"{path}: not a results README the harness made (it has no section markers "
+                           "'<!-- BEGIN name -->'); the harness writes only into files it created: give "
+                           "--results-dir a directory of its own")
     for m in _MARKER.finditer(text):
         kind, name = m.groups()
         if kind == "BEGIN" and open_name is None and name not in seen:

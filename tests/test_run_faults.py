@@ -346,6 +346,21 @@ def test_malformed_study_readme_markers_are_named_in_one_line(tmp_path):
     assert readme.read_text() == text
 
 
+def test_a_users_own_readme_is_never_appended_to(tmp_path):
+    # a README the harness did not make (no section markers) in --results-dir: refused before anything is
+    # computed, in one line naming it; the file stays byte for byte
+    from compare.sections import SectionError, write_section
+
+    readme = tmp_path / "README.md"
+    text = "# My project\n\nNotes I wrote myself.\n"
+    readme.write_text(text)
+    res = ked("study", "stability", "--results-dir", str(tmp_path), "--report-only")
+    assert_one_line_error(res, "README.md", "not a results README the harness made", code=1)
+    with pytest.raises(SectionError, match="README.md"):
+        write_section(readme, "stability", "new text")
+    assert readme.read_text() == text and sorted(p.name for p in tmp_path.iterdir()) == ["README.md"]
+
+
 def test_inspect_json_is_strict_json_where_a_value_is_nan(tmp_path, qs_results):
     import json
 
