@@ -733,9 +733,8 @@ def _compute(p: Plan, out: Path, name: str, text: str, n_scenes: int, *, workers
     run: list[int] = []
     bars: list[Any] = []
 
-    def ready() -> None:  # the workers are there: now the file is written
+    def ready() -> None:  # the workers are there (the run's record is written with its first scenes)
         store.remove_stale_temp_files(out)
-        run.append(store.record_run(out, text, name, n_scenes))
         if on_start is not None:
             on_start(p)
         bars.append(progress_bar(len(p.jobs), name, unit="scene", enabled=progress, smoothing=0.1))
@@ -745,7 +744,10 @@ def _compute(p: Plan, out: Path, name: str, text: str, n_scenes: int, *, workers
         batch = [r for _, r in done]
         if not failure:
             try:
-                store.commit(out, batch, run[0])
+                if run:
+                    store.commit(out, batch, run[0])
+                else:
+                    run.append(store.commit_first(out, batch, text, name, n_scenes))
             except store.CommitError as exc:  # keep what is computed; stop starting new scenes
                 failure.append(exc)
         if failure:

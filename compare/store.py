@@ -130,6 +130,16 @@ def check_writable(path: str | Path) -> None:
     parent = next((p for p in (path.parent, *path.parent.parents) if p.exists()), None)
     if parent is not None and not os.access(parent, os.W_OK | os.X_OK):
         raise CommitError(f"{parent}: directory is not writable; give an --out file in a writable directory")
+    if parent is not None:  # a commit writes a whole new copy beside the file
+        st = os.statvfs(parent)
+        free, need = st.f_bavail * st.f_frsize, (path.stat().st_size if path.exists() else 0) + COMMIT_HEADROOM
+        if free < need:
+            raise CommitError(f"{path}: cannot be written (No space left on device: {free // 1024} kB free, a "
+                              f"commit needs about {need // 1024} kB); free space and rerun")
+
+
+COMMIT_HEADROOM = 64 * 1024
+"""Bytes a commit needs on top of a copy of the file (a run record and a few scenes) [B]."""
 
 
 @contextmanager
@@ -489,6 +499,21 @@ def _record_run(f: h5py.File, config_text: str, campaign_name: str, n_scenes: in
                  "n_scenes": int(n_scenes), **prov})
     h5layout.write_runs(f, runs)
     return number
+
+
+def commit_first(path: str | Path, results: Iterable[SceneResult], config_text: str, campaign_name: str,
+                 n_scenes: int) -> int:
+    """:func:`record_run` and :func:`commit` in one atomic transaction: a run's record exists only together
+    with its first scenes (a commit that fails leaves no run record behind).  Returns the run number."""
+    try:
+        check_ours(path)
+        upgrade(path)
+    except StoreError as exc:  # a commit that cannot happen: the caller saves the scenes elsewhere
+        raise CommitError(str(exc)) from exc
+    with transaction(path, repack=True) as f, _hdf5_errors(target(path)):
+        run = _record_run(f, config_text, campaign_name, n_scenes)
+        _commit(f, list(results), run)
+    return run
 
 
 def commit(path: str | Path, results: Iterable[SceneResult], run: int = -1) -> None:

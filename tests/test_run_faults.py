@@ -7,6 +7,7 @@ without a traceback, with a non-zero exit status, and keep everything committed.
 
 from __future__ import annotations
 
+import errno
 import os
 import signal
 import subprocess
@@ -414,3 +415,29 @@ def test_too_low_memory_limit_is_one_line(tmp_path, qs_config, limit_kb):
     res = subprocess.run([*KED, "run", str(qs_config), "--out", str(tmp_path / "m.h5"), "--no-progress",
                           "--no-figures"], capture_output=True, text=True, timeout=120, preexec_fn=limit)
     assert_one_line_error(res, "memory", "ulimit -v", code=1)
+
+
+def test_a_failed_commit_adds_no_run_record(tmp_path, monkeypatch):
+    # the first commit of a run fails (injected: the disk fails as the scenes are written): the run's record
+    # must not be in the file either (it is written with the run's first scenes, in one transaction), and the
+    # scenes computed go to the rescue file
+    out = tmp_path / "r.h5"
+    run_campaign(parse_config(QS), out, workers=1, progress=False)
+    runs_before, before = store.file_info(out)["n_runs"], out.read_bytes()
+
+    real, calls = store._commit, []
+
+    def disk_fails_once(*args, **kwargs):  # the run's first commit fails; the rescue file's is written
+        calls.append(1)
+        if len(calls) == 1:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(store, "_commit", disk_fails_once)
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+    more = QS.replace("rpm = [", "rpm = [135.0, ")
+    with pytest.raises(store.CommitError, match="rescue"):
+        run_campaign(parse_config(more), out, workers=1, progress=False)
+    monkeypatch.undo()
+    assert store.file_info(out)["n_runs"] == runs_before and out.read_bytes() == before
+    assert [p for p in tmp_path.iterdir() if ".rescue-" in p.name]
