@@ -665,8 +665,12 @@ def _args(job: Job) -> tuple[SceneSpec, tuple[solvers.Solver, ...], dict[str, So
 
 def stored_plan(scenes: Sequence[SceneSpec], out: str | Path, retry_failed: bool = False) -> Plan:
     """:func:`plan` against the results file ``out``, read once (only the scenes of ``scenes``), after
-    refusing to resume onto solutions computed with other settings (:func:`check_stored_settings`)."""
+    refusing to resume onto solutions computed with other settings (:func:`check_stored_settings`).  With
+    ``retry_failed`` the scenes that fail ``ked inspect --verify``'s checks count as not stored."""
     stored = {r.key: r for r in store.read_scenes(out, [s.key for s in scenes])} if scenes else {}
+    if retry_failed and stored:  # a damaged scene (a history deleted, ...) is computed again, whole
+        damaged = {k for k, problems in store.verify_scenes(out)[1].items() if problems}
+        stored = {k: r for k, r in stored.items() if k not in damaged}
     solutions = {k: r.solutions for k, r in stored.items()}
     check_stored_settings(scenes, solutions)
     return plan(scenes, {k: r.status for k, r in stored.items()}, retry_failed, solutions)

@@ -441,3 +441,23 @@ def test_a_failed_commit_adds_no_run_record(tmp_path, monkeypatch):
     monkeypatch.undo()
     assert store.file_info(out)["n_runs"] == runs_before and out.read_bytes() == before
     assert [p for p in tmp_path.iterdir() if ".rescue-" in p.name]
+
+
+def test_retry_failed_repairs_a_scene_whose_history_was_deleted(tmp_path):
+    # a stored ok scene loses its solution datasets (damage): `--retry-failed` must compute it again, whole,
+    # so that the file verifies afterwards (before: "1 ok" and the file still INVALID)
+    import h5py
+
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(QS)
+    out = tmp_path / "r.h5"
+    assert ked("run", str(cfg), "--out", str(out), "--no-progress", "--no-figures").returncode == 0
+    with h5py.File(out, "r+") as f:
+        key = sorted(f["scenes"])[0]
+        del f["scenes"][key]["solutions"]["quasi_static"]
+    assert store.verify(out)  # damaged
+    res = ked("run", str(cfg), "--out", str(out), "--no-progress", "--no-figures", "--retry-failed")
+    assert res.returncode == 0, res.stderr
+    assert store.verify(out) == []
+    (scene,) = [r for r in store.read_scenes(out) if r.key == key]
+    assert scene.solutions["quasi_static"].ok and scene.solutions["quasi_static"].deflection
