@@ -523,6 +523,9 @@ def commit(path: str | Path, results: Iterable[SceneResult], run: int = -1) -> N
     results = list(results)
     if not results:
         return
+    if not target(path).exists():  # a later commit of a run: its file was there (its first commit made it)
+        raise CommitError(f"{target(path)}: the results file is gone (deleted while the run wrote into it); not "
+                          "made again without its run record")
     try:
         upgrade(path)
     except StoreError as exc:  # a commit that cannot happen: the caller saves the scenes elsewhere
@@ -1212,6 +1215,9 @@ def rescue(results: list[SceneResult], out: str | Path, config_text: str, campai
     name = f"{out.stem}.rescue-{stamp}-{os.getpid()}.h5"
     reasons = []
     for directory in (out.parent, Path(tempfile.gettempdir()), Path.home() / ".cache" / "ked-harness"):
+        if directory != Path.home() / ".cache" / "ked-harness" and not directory.is_dir():
+            reasons.append(f"{directory}: no such directory (not made again)")
+            continue  # a directory deleted during the run is not re-created
         path = directory / name
         try:
             commit(path, results, record_run(path, config_text, campaign_name, len(results)))

@@ -434,7 +434,6 @@ def test_a_failed_commit_adds_no_run_record(tmp_path, monkeypatch):
         return real(*args, **kwargs)
 
     monkeypatch.setattr(store, "_commit", disk_fails_once)
-    monkeypatch.setenv("TMPDIR", str(tmp_path))
     more = QS.replace("rpm = [", "rpm = [135.0, ")
     with pytest.raises(store.CommitError, match="rescue"):
         run_campaign(parse_config(more), out, workers=1, progress=False)
@@ -461,3 +460,29 @@ def test_retry_failed_repairs_a_scene_whose_history_was_deleted(tmp_path):
     assert store.verify(out) == []
     (scene,) = [r for r in store.read_scenes(out) if r.key == key]
     assert scene.solutions["quasi_static"].ok and scene.solutions["quasi_static"].deflection
+
+
+def test_an_output_directory_deleted_mid_run_is_not_made_again(tmp_path, monkeypatch):
+    # the user deletes the output directory while the run writes into it: the next commit must not make it
+    # again with a file no command can read (no schema attributes, no run record); the scenes computed go to
+    # a rescue file elsewhere that verifies
+    import shutil
+
+    work = tmp_path / "work"
+    spare = tmp_path / "spare"
+    spare.mkdir()
+    import tempfile
+
+    monkeypatch.setattr(tempfile, "tempdir", str(spare))  # where the rescue file goes (beside out is gone)
+    seen: list[str] = []
+
+    def delete_after_first(r) -> None:
+        seen.append(r.key)
+        if len(seen) == 1:
+            shutil.rmtree(work)
+
+    with pytest.raises(store.CommitError) as err:
+        run_campaign(parse_config(FILLS), work / "r.h5", workers=1, progress=False, on_result=delete_after_first)
+    assert not work.exists()
+    rescued = [p for p in spare.iterdir() if ".rescue-" in p.name]
+    assert len(rescued) == 1 and str(rescued[0]) in str(err.value) and store.verify(rescued[0]) == []
