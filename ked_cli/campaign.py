@@ -377,15 +377,23 @@ def plot_cmd(file: Path, out_dir: Path | None, workers: int | None, fmt: str, dp
     A figure directory holds the figures of one results file (its index.json names it); figures of
     another results file there are refused, never overwritten.
     """
+    from compare import store
     from compare.runner import default_workers
 
     _regular(file, "FILE")
     results = _results(file)
+    damaged = {k: v for k, v in store.verify_scenes(file)[1].items() if v}
+    for key, problems in sorted(damaged.items()):  # a damaged scene is not drawn (its arrays do not fit)
+        click.echo(f"ked: {file}: scene {key} is damaged ({problems[0][:200]}); not drawn (`ked inspect "
+                   f"{file.name} --verify` lists the damage)", err=True)
+    results = [r for r in results if r.key not in damaged]
     target = out_dir or _figures_dir(file)
     paths = _write_figures(results, target, workers=workers or default_workers(), fmt=fmt, dpi=dpi, source=file,
                            progress=progress)
     click.echo(wrap(f"{len(paths)} {fmt.upper()} files (re)drawn in {target} ({len(results)} scenes; index.json: "
                     "file -> scene)"))
+    if damaged:
+        sys.exit(1)
 
 
 

@@ -486,3 +486,26 @@ def test_an_output_directory_deleted_mid_run_is_not_made_again(tmp_path, monkeyp
     assert not work.exists()
     rescued = [p for p in spare.iterdir() if ".rescue-" in p.name]
     assert len(rescued) == 1 and str(rescued[0]) in str(err.value) and store.verify(rescued[0]) == []
+
+
+def test_plot_names_a_scene_whose_history_was_cut(tmp_path):
+    # a history cut from 36 rows to 5 (damage): `ked plot` draws the intact scenes and names the damaged
+    # one in one line with the file, exit 1 (before: "internal error" naming nothing)
+    import h5py
+
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(QS)
+    out = tmp_path / "r.h5"
+    assert ked("run", str(cfg), "--out", str(out), "--no-progress", "--no-figures").returncode == 0
+    with h5py.File(out, "r+") as f:
+        key = sorted(f["scenes"])[0]
+        sol = f["scenes"][key]["solutions"]
+        old = sol["quasi_static"]
+        cut, attrs = old[:5], {k: v for k, v in old.attrs.items() if k != "DIMENSION_LIST"}
+        del sol["quasi_static"]
+        sol.create_dataset("quasi_static", data=cut).attrs.update(attrs)
+    res = ked("plot", str(out), "--no-progress")
+    assert res.returncode == 1 and "Traceback" not in res.stderr and "internal error" not in res.stderr, res.stderr
+    err = res.stderr.strip().splitlines()
+    assert len(err) == 1 and str(out) in err[0] and key in err[0] and "damaged" in err[0], err
+    assert len(list((tmp_path / "r_figures").glob("scene_*.png"))) == 3  # the three intact scenes
