@@ -19,7 +19,9 @@ _DEFAULT_RESULTS = "<harness>/results"
 def common_options(f: Any) -> Any:
     opts = [
         click.option("--results-dir", type=click.Path(file_okay=False, path_type=Path), default=None,
-                     help=f"Where to write: studies/ (HDF5), figures/, README.md [default: {_DEFAULT_RESULTS}, "
+                     help=f"Where to write: studies/ (HDF5), figures/, README.md (a README.md already there must be "
+                          "one the harness made: it is never written into otherwise) "
+                          f"[default: {_DEFAULT_RESULTS}, "
                           "the committed results of this checkout]."),
         click.option("--workers", type=click.IntRange(min=1), callback=cap_workers, default=2, show_default=True,
                      help="Campaign worker processes."),
