@@ -425,7 +425,7 @@ def mark_near(rows: Sequence[object], speeds: Sequence[CriticalSpeed],
 
 
 def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_model: object, bar: Any = None,
-                   workers: CheckWorkers | None = None,
+                   workers: CheckWorkers | None = None, base: object = None,
                    **spec_kw: object) -> tuple[tuple[CriticalSpeed, ...], tuple[float, ...], list[object]]:
     """For the rows of a design check (:func:`compare.check.check`, same linkage and keywords of
     :func:`compare.check.spec_for`): its critical speeds (refined with the Floquet part alone), the
@@ -440,7 +440,7 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
     from compare.check import advance, redraw, spec_for, status
     from ked_linear.solver import single_threaded_blas
 
-    spec = spec_for(source, mechanism, mass_model, rows[0].rpm, **spec_kw)
+    spec = base if base is not None else spec_for(source, mechanism, mass_model, rows[0].rpm, **spec_kw)
     rpms = [r.rpm for r in rows]
     sweep = floquet_max_abs(spec)
 

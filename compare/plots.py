@@ -509,9 +509,10 @@ def _draw_in_pool(jobs: list[tuple[SceneResult, Path]], dpi: int, workers: int, 
     import concurrent.futures as cf
     import multiprocessing
 
-    from compare.runner import _start_children_quietly, kill_pool, worker_init
+    from compare.runner import _start_children_quietly, default_workers, kill_pool, worker_init
 
-    pool = cf.ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"), initializer=worker_init)
+    pool = cf.ProcessPoolExecutor(min(workers, default_workers()), mp_context=multiprocessing.get_context("spawn"),
+                                  initializer=worker_init)
     try:
         with _start_children_quietly():
             futures = [pool.submit(_write_scene_png, r, p, dpi) for r, p in jobs]

@@ -333,7 +333,8 @@ def writer_lock(path: str | Path, wait_s: float = 0.0) -> Iterator[None]:
     if not _claim(fd):
         os.close(fd)
         raise CommitError(f"{lock}: a file the harness did not make is in the way of its writer lock; move or "
-                          "rename it (the harness never writes into or deletes files it did not create)")
+                          "rename it (the harness never writes into or deletes files it did not create; an empty "
+                          "one left by an interrupted run may be deleted)")
     try:
         yield
     finally:
@@ -765,7 +766,7 @@ def verify(path: str | Path) -> list[str]:
         from compare.atlas import layout as atlas_layout
 
         return atlas_layout.verify(Path(path))
-    problems, scenes = verify_scenes(path)
+    problems, scenes = verify_scenes(path, trial_write=True)
     return problems + [f"/{SCENES}/{key}: {p}" for key, ps in scenes.items() for p in ps]
 
 
@@ -781,10 +782,11 @@ def file_kind(path: str | Path) -> str:
     return {SCHEMA: "campaign", atlas_layout.SCHEMA: "atlas"}.get(schema, "")
 
 
-def verify_scenes(path: str | Path) -> tuple[list[str], dict[str, list[str]]]:
+def verify_scenes(path: str | Path, trial_write: bool = False) -> tuple[list[str], dict[str, list[str]]]:
     """The checks of ``ked inspect --verify`` of a campaign file: (problems of the file, key -> problems
     of that scene; a key with an empty list verified).  ``ked merge`` carries only the scenes that
-    verify."""
+    verify.  ``trial_write``: also commit a probe scene into an in-memory copy (damage only a write hits;
+    :func:`verify` does, the callers that want the scenes' problems only need not)."""
     path = Path(path)
     try:
         f = h5py.File(path, "r")
@@ -804,7 +806,7 @@ def verify_scenes(path: str | Path) -> tuple[list[str], dict[str, list[str]]]:
         if contradiction:
             return problems + [f"{path}: {contradiction}"], {}
         if version >= 4:
-            more, scenes = _verify_v4(f, path)
+            more, scenes = _verify_v4(f, path, trial_write)
             return problems + more, scenes
         try:
             if SCENES not in f:
@@ -828,7 +830,7 @@ def verify_scenes(path: str | Path) -> tuple[list[str], dict[str, list[str]]]:
     return problems, scenes
 
 
-def _verify_v4(f: h5py.File, path: Path) -> tuple[list[str], dict[str, list[str]]]:
+def _verify_v4(f: h5py.File, path: Path, trial_write: bool = False) -> tuple[list[str], dict[str, list[str]]]:
     try:
         problems = h5layout.verify_tables(f)
         view = h5layout.TableFile(f)
@@ -845,7 +847,7 @@ def _verify_v4(f: h5py.File, path: Path) -> tuple[list[str], dict[str, list[str]
             scenes[name] = view.verify_scene(name) + _verify_run_of(view, name, runs)
         except Exception as exc:
             scenes[name] = [f"unreadable ({type(exc).__name__}: {_short(exc)}) in {path}"]
-    if names and not problems and not any(scenes.values()):
+    if trial_write and names and not problems and not any(scenes.values()):
         problems += _verify_writable(f, path, view.read_scene(names[0]))
     return problems, scenes
 

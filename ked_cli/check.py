@@ -166,6 +166,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
                 bar.total = bar.n + sweep_evaluations(rows)
                 redraw(bar)
                 crit, amp, rows = check_critical(rows, source, mechanism, mm, bar=bar, workers=pool,
+                                                 base=specs[0] if specs else None,
                                                  stiffness_scale=stiffness_scale, damping_ratio=damping_ratio,
                                                  direction=direction, tolerance=tolerance)
     except ValueError as exc:

@@ -87,6 +87,9 @@ def diff_cmd(baseline: Path, new: Path, tol_file: Path | None, as_json: bool, ju
         rep = diff_files(baseline, new, tol, exp)
     except store.StoreError as exc:
         raise click.UsageError(str(exc)) from None
+    except (KeyError, RuntimeError, OSError) as exc:  # HDF5 reports a damaged file so
+        raise click.UsageError(f"{baseline} or {new}: damaged ({type(exc).__name__}: {str(exc)[:200]}); "
+                               "`ked inspect FILE --verify` names the damage") from None
     if junit is not None:
         _regular(junit, "--junit")
         junit.write_text(junit_xml(rep), encoding="utf-8")

@@ -13,7 +13,7 @@ from ked_cli.errors import check_memory_limit, run_guarded
 COMMANDS = {
     "run": ("ked_cli.campaign", "run_cmd", "Run a comparison campaign (the default one without CONFIG)."),
     "inspect": ("ked_cli.campaign", "inspect_cmd", "Show a results file: summary, one scene, or --verify."),
-    "plot": ("ked_cli.campaign", "plot_cmd", "Draw the PNG figures of a results file."),
+    "plot": ("ked_cli.campaign", "plot_cmd", "Draw the figures (PNG, SVG or PDF) of a results file."),
     "diff": ("ked_cli.diff", "diff_cmd", "Compare a results file with a baseline on agreement tolerances (CI)."),
     "merge": ("ked_cli.campaign", "merge_cmd", "Add the scenes of one results file (e.g. a rescue file) to another."),
     "quasi": ("ked_cli.quasi", "quasi", "Quasi-static KED solve of one scene."),

@@ -375,7 +375,8 @@ def json_text(value: Any, **dumps: Any) -> str:
 def cap_workers(ctx: click.Context, param: click.Parameter, value: int | None) -> int | None:
     """Click callback of every ``--workers``: more local worker processes than the CPUs available are never
     started (``compare.runner.default_workers``); say so once, on standard error."""
-    if value is not None:
+    given = ctx.get_parameter_source(param.name) == click.core.ParameterSource.COMMANDLINE
+    if value is not None and given:
         from compare.runner import default_workers
 
         cpus = default_workers()

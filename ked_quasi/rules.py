@@ -170,7 +170,6 @@ MATERIAL_YOUNGS_MODULUS = Rule(
 MATERIAL_DENSITY = Rule(
     "density", "kg/m^3", 100.0, 1e5, "a link's material: from balsa wood (~150 kg/m^3) to 4x the densest metal",
     mixup_low=("densities are in kg/m^3", "g/cm^3", 1e3, "steel: 7850 kg/m^3"))
-MATERIAL_RULES = {"youngs_modulus": MATERIAL_YOUNGS_MODULUS, "density": MATERIAL_DENSITY}
 USER_SECTION_RULES = {"youngs_modulus": MATERIAL_YOUNGS_MODULUS, "area": AREA, "second_moment": SECOND_MOMENT,
                       "density": MATERIAL_DENSITY}
 """Plausibility bounds of a user's material constants (TOML files and the command line), naming the likely

@@ -16,7 +16,6 @@ l1 sin(theta) + l2 sin(phi) = offset.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -321,38 +320,6 @@ def build_slider_scene(sc: SliderCrank, mass_model: str = "distributed", rpm: fl
         sc = sc.with_direction(direction)
     mm = MassModel(mass_model, lumps=lumps, payload=default_payload(mass_model) if payload is None else payload)
     return SliderScene(sc, mm, rpm, step_deg)
-
-
-def load_slider_crank(path: str) -> SliderCrank | None:
-    """The slider-crank of a linkage TOML file whose ``[linkage]`` table has ``kind = "slider-crank"``; None
-    for any other file (a four-bar table, or a file that cannot be read: the four-bar loader reports it);
-    ValueError naming the file and the TOML path for a slider-crank table with a bad value."""
-    try:
-        import tomllib
-    except ModuleNotFoundError:  # Python < 3.11
-        import tomli as tomllib  # type: ignore[no-redef]
-    if not os.path.isfile(path):  # a FIFO would block here; the four-bar loader names what it is
-        return None
-    try:
-        with open(path, "rb") as fh:
-            doc = tomllib.load(fh)
-    except (OSError, ValueError):
-        return None
-    tab = doc.get("linkage")
-    if kind_conflict(tab):
-        raise ValueError(f"{path}: {kind_conflict(tab)}")
-    if not is_slider_table(tab):
-        return None
-    if tab.get("preset") == "simeon":
-        extra = sorted(set(tab) - {"preset", "kind"})
-        if extra:
-            raise ValueError(f"{path}: linkage: unknown key(s) {', '.join(extra)} beside preset = 'simeon'; allowed: "
-                             "preset, kind")
-        return simeon_slider_crank()
-    try:
-        return slider_from_table(tab)
-    except ValueError as exc:
-        raise ValueError(f"{path}: {exc}") from None
 
 
 # -- linkage TOML table ------------------------------------------------------------------------
