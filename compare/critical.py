@@ -433,6 +433,8 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
     progress bar (``compare.check.progress``) advanced per Floquet evaluation.  ``workers``: a
     :class:`compare.checkwork.CheckWorkers` that takes a round of evaluations, or the refinements of the
     maxima, when it finds them worth its worker processes (the same evaluations, the same answer).
+    ``base``: the campaign scene whose speed the sweep varies (a user file's, with its own step and solver
+    settings, as its rows were checked), else :func:`compare.check.spec_for`'s.
 
     The rows' own max |mu| (their linear solves') are the sweep's samples: exact where the solve's Floquet
     analysis is the sweep's (:func:`sweep_exact`), else approximate (within their Floquet error: they find
