@@ -442,17 +442,22 @@ def test_a_failed_commit_adds_no_run_record(tmp_path, monkeypatch):
     assert [p for p in tmp_path.iterdir() if ".rescue-" in p.name]
 
 
+def _stored_campaign(tmp_path: Path) -> tuple[Path, Path, str]:
+    """(config, results file, key of its first scene) of the quasi-static campaign QS run by `ked run`."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(QS)
+    out = tmp_path / "r.h5"
+    assert ked("run", str(cfg), "--out", str(out), "--no-progress", "--no-figures").returncode == 0
+    return cfg, out, sorted(r.key for r in store.read_scenes(out))[0]
+
+
 def test_retry_failed_repairs_a_scene_whose_history_was_deleted(tmp_path):
     # a stored ok scene loses its solution datasets (damage): `--retry-failed` must compute it again, whole,
     # so that the file verifies afterwards (before: "1 ok" and the file still INVALID)
     import h5py
 
-    cfg = tmp_path / "c.toml"
-    cfg.write_text(QS)
-    out = tmp_path / "r.h5"
-    assert ked("run", str(cfg), "--out", str(out), "--no-progress", "--no-figures").returncode == 0
+    cfg, out, key = _stored_campaign(tmp_path)
     with h5py.File(out, "r+") as f:
-        key = sorted(f["scenes"])[0]
         del f["scenes"][key]["solutions"]["quasi_static"]
     assert store.verify(out)  # damaged
     res = ked("run", str(cfg), "--out", str(out), "--no-progress", "--no-figures", "--retry-failed")
@@ -493,12 +498,8 @@ def test_plot_names_a_scene_whose_history_was_cut(tmp_path):
     # one in one line with the file, exit 1 (before: "internal error" naming nothing)
     import h5py
 
-    cfg = tmp_path / "c.toml"
-    cfg.write_text(QS)
-    out = tmp_path / "r.h5"
-    assert ked("run", str(cfg), "--out", str(out), "--no-progress", "--no-figures").returncode == 0
+    cfg, out, key = _stored_campaign(tmp_path)
     with h5py.File(out, "r+") as f:
-        key = sorted(f["scenes"])[0]
         sol = f["scenes"][key]["solutions"]
         old = sol["quasi_static"]
         cut, attrs = old[:5], {k: v for k, v in old.attrs.items() if k != "DIMENSION_LIST"}
