@@ -603,7 +603,7 @@ def _mass_models(c: _Checker, grid: dict[str, Any]) -> tuple[MassModel, ...]:
             continue
         c.keys(item, p, ("name", "lumps", "payload_kg", "joint_split", "placement"))
         name = c.string(item, f"{p}.name", required=True, choices=MASS_MODELS)
-        vals = dict(name=name, lumps=c.rule(item, f"{p}.lumps", rules.LUMPS, default=5),
+        vals = dict(name=name, lumps=c.rule(item, f"{p}.lumps", rules.LUMPS, default=rules.DEFAULT_LUMPS),
                     payload=c.rule(item, f"{p}.payload_kg", rules.PAYLOAD_KG, default=default_payload(name)),
                     joint_split=c.rule(item, f"{p}.joint_split", rules.JOINT_SPLIT, default=0.5),
                     placement=c.string(item, f"{p}.placement", default="midpoint", choices=PLACEMENTS))

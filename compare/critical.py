@@ -382,12 +382,15 @@ def floquet_max_abs(spec: object, steps: int = SWEEP_STEPS) -> Callable[[float],
     from compare.execute import settings_of
     from compare.solvers import get as get_solver
     from ked_linear import linkage_system, multipliers
+    from ked_linear.lumping import dynamic_scene
     from ked_linear.solver import reduced_stability
 
-    settings = settings_of(get_solver("linear"), spec)
+    given = settings_of(get_solver("linear"), spec)
+    reference: list[Any] = []  # the scene's damping reference, computed once (speed-free)
 
     def f(rpm: float) -> float:
-        scene = spec.scene(rpm)
+        scene, settings = dynamic_scene(spec.scene(rpm), reference[0] if reference else given)
+        reference[:1] = [settings]
         system = linkage_system(scene, settings).system
         red = reduced_stability(scene, system, settings) if steps == SWEEP_STEPS else None
         if red is not None:

@@ -59,7 +59,7 @@ def _rpm_range(text: str | None) -> list[float]:
 @click.option("--rpm", "rpms", multiple=True, type=RuleType(rules.RPM),
               help=f"Crank speed(s): {rules.RPM.allowed()}; repeatable [default: 300].")
 @click.option("--rpm-range", default=None, metavar="START:STOP:N", help="N crank speeds from START to STOP rpm.")
-@click.option("--lumps", type=RuleType(rules.LUMPS), default=5, show_default=True,
+@click.option("--lumps", type=RuleType(rules.LUMPS), default=rules.DEFAULT_LUMPS, show_default=True,
               help=f"Lumps per distributed link (extender, distributed models): {rules.LUMPS.allowed()}.")
 @click.option("--payload-kg", type=RuleType(rules.PAYLOAD_KG), default=None,
               help="Point mass at P [kg] [default: 2 lb for tip, else 0].")

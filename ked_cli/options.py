@@ -72,7 +72,7 @@ def scene_options(f: Callable) -> Callable:
                      help=f"Crank speed: {rules.RPM.allowed()}."),
         click.option("--step-deg", type=RuleType(check=rules.check_step_deg), default=10.0, show_default=True,
                      help=f"Crank-angle grid step: {rules.STEP_DEG.allowed()}, dividing 360."),
-        click.option("--lumps", type=RuleType(rules.LUMPS), default=5, show_default=True,
+        click.option("--lumps", type=RuleType(rules.LUMPS), default=rules.DEFAULT_LUMPS, show_default=True,
                      help=f"Lumps per distributed link (extender, distributed models): {rules.LUMPS.allowed()}."),
         click.option("--payload-kg", type=RuleType(rules.PAYLOAD_KG), default=None,
                      help=f"Point mass at P: {rules.PAYLOAD_KG.allowed()} [default: 2 lb for tip, else 0]."),

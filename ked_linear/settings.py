@@ -12,12 +12,15 @@ HARMONICS = rules.Rule("harmonics", "", 1, 64, "crank harmonics with dynamic res
 TOLERANCE = rules.Rule("tolerance", "", 1e-12, 0.1, "relative error of the history (a fraction of its peak)")
 FLOQUET_STEPS = rules.Rule("floquet_steps", "per cycle", 8, 65536, "time steps of the monodromy propagator",
                            integer=True)
+DYNAMIC_LUMPS = rules.Rule("dynamic_lumps", "per link", 1, 256, "lumps per distributed link carrying the inertia "
+                           "of the elastic motion (at most the scene's own)", integer=True)
 FLOQUET_TOLERANCE = rules.Rule("floquet_tolerance", "", 1e-12, 0.5, "absolute error of the largest |multiplier|")
 
 RULES: dict[str, rules.Rule | rules.Choice | rules.Flag] = {
     "damping_ratio": rules.DAMPING_RATIO, "damping_reference_hz": rules.DAMPING_REFERENCE_HZ,
     "prestress": rules.Flag("prestress"), "harmonics": HARMONICS, "max_harmonics": HARMONICS,
-    "tolerance": TOLERANCE, "floquet_steps": FLOQUET_STEPS, "floquet_tolerance": FLOQUET_TOLERANCE,
+    "tolerance": TOLERANCE, "dynamic_lumps": DYNAMIC_LUMPS, "floquet_steps": FLOQUET_STEPS,
+    "floquet_tolerance": FLOQUET_TOLERANCE,
 }
 """The allowed values of every :class:`LinearSettings` field: the class and the campaign config's
 ``[linear]`` table check each value with the same rule."""
@@ -42,6 +45,11 @@ class LinearSettings:
         automatic (64, 128, ... until the change of max |multiplier| is below ``floquet_tolerance``; damped
         extender and distributed models then try the reduced system first, ``ked_linear.reduction``).
     floquet_tolerance: target absolute error of max |multiplier|.
+    dynamic_lumps: lumps per distributed link of the model that carries the inertia of the elastic motion
+        (dynamic response, Floquet multipliers, frozen frequencies) when the scene has more; the answer is
+        that model's plus the static correction, the quasi-static answer on the scene's own lumps minus that on
+        ``dynamic_lumps`` (mode-acceleration style: the dynamic part converges in the lumps much faster than
+        the quasi-static part, docs/linear_model.md).  None: the scene's own lumps throughout.
     """
 
     damping_ratio: float = 0.02
@@ -52,6 +60,7 @@ class LinearSettings:
     tolerance: float = 1e-3
     floquet_steps: int | None = None
     floquet_tolerance: float = 1e-3
+    dynamic_lumps: int | None = 5
 
     def __post_init__(self) -> None:
         rules.check_fields(self, RULES)

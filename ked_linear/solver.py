@@ -18,6 +18,7 @@ from ked_quasi.solver import natural_frequencies
 from .corotating import periodic_steady_state
 from .floquet import FloquetResult, floquet
 from .linkage import frequencies_of, linkage_system
+from .lumping import coarse_scene, first_frequencies, static_correction
 from .periodic import PeriodicSystem
 from .reduction import Reductions, link_frames, reduced_floquet
 from .result import (  # noqa: F401  (the answer's type and flags, re-exported where they were defined)
@@ -151,11 +152,33 @@ def solve_linear(scene: Scene, settings: LinearSettings | None = None) -> Linear
     scene goes to :func:`ked_linear.slider.solve_slider_linear`."""
     keep_freed_memory()
     with single_threaded_blas():
-        if _is_slider(scene):
-            from .slider import solve_slider_linear
+        coarse = coarse_scene(scene, settings.dynamic_lumps) if isinstance(settings, LinearSettings) else None
+        if coarse is None:
+            return _solve_kind(scene, settings)
+        return _on_fewer_lumps(scene, coarse, settings)
 
-            return solve_slider_linear(scene, settings)
-        return _solve_linear(scene, settings)
+
+def _solve_kind(scene: Scene, settings: LinearSettings | None) -> LinearResult:
+    if _is_slider(scene):
+        from .slider import solve_slider_linear
+
+        return solve_slider_linear(scene, settings)
+    return _solve_linear(scene, settings)
+
+
+def _on_fewer_lumps(scene: Scene, coarse: Scene, settings: LinearSettings) -> LinearResult:
+    """The answer of the model on ``settings.dynamic_lumps`` plus the static correction to the scene's own lumps
+    (:mod:`ked_linear.lumping`); the damping reference and the speed ratio are the scene's own (its frozen first
+    frequency, as the Exudyn model's damping reference)."""
+    t0 = time.perf_counter()
+    f1 = first_frequencies(scene)
+    f_ref = float(np.nanmean(f1)) if settings.damping_reference_hz is None else settings.damping_reference_hz
+    res = _solve_kind(coarse, replace(settings, damping_reference_hz=f_ref))
+    fix = static_correction(scene, coarse) if res.stable else np.zeros((scene.crank_angles.size, 4))
+    extra = {"midspan": res.midspan + fix[:, 3]} if getattr(res, "midspan", None) is not None else {}
+    return replace(res, deflection=res.deflection + fix[:, :3], settings=settings,
+                   speed_ratio=float(scene.omega / (2.0 * np.pi * np.nanmin(f1))),
+                   wall_s=time.perf_counter() - t0, **extra)
 
 
 REDUCE_FROM = 8

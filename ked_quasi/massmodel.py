@@ -49,7 +49,7 @@ class MassModel:
     """
 
     name: str
-    lumps: int = 5
+    lumps: int = rules.DEFAULT_LUMPS
     payload: float = 0.0
     joint_split: float = 0.5
     placement: str = "midpoint"

@@ -27,6 +27,11 @@ def make_settings(overrides: dict[str, Any], damping_ratio: float) -> Any:
     return settings_class()(**{"damping_ratio": damping_ratio, **overrides})
 
 
+def legacy_defaults() -> dict[str, Any]:
+    """``dynamic_lumps`` was added later: older runs carried the inertia on the scene's own lumps (None)."""
+    return {"dynamic_lumps": None}
+
+
 NUMERICAL_FAILURE = "linear model failed numerically"
 """The start of the message of a linear solve that failed numerically (a singular or non-finite matrix)."""
 
@@ -69,7 +74,7 @@ def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Sol
 
 SOLVER = register(Solver(
     name="linear", label="linear KED", fidelity=5, settings_class=settings_class, make_settings=make_settings,
-    run=run, setting_rules=setting_rules,
+    run=run, setting_rules=setting_rules, legacy_defaults=legacy_defaults,
     description="linear time-periodic KED (ked_linear): frozen structure plus the inertia of the elastic motion, "
                 "periodic steady state and Floquet stability",
 ))
@@ -89,5 +94,6 @@ def run_classic(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS
 CLASSIC = register(Solver(
     name="linear_classic", label="linear KED (no prestress)", fidelity=4, settings_class=settings_class,
     make_settings=make_classic_settings, run=run_classic, setting_rules=setting_rules,
+    legacy_defaults=legacy_defaults,
     description="the classical linear KED model: as 'linear' without the geometric stiffness of the axial forces",
 ))
