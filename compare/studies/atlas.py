@@ -13,6 +13,7 @@ from compare.atlas import published
 from compare.atlas.analysis import default_path
 from compare.atlas.calibration import store_margins
 from compare.atlas.confirm import run_confirm
+from compare.atlas.reconfirm import reconfirm
 from compare.atlas.report import write_report
 from compare.atlas.repredict import repredict
 from compare.atlas.run import run_atlas
@@ -40,7 +41,10 @@ def run(paths: StudyPaths, *, workers: int = 2, fresh: bool = False, report_only
     if not report_only:
         summary["run"] = vars(run_atlas(path, linkages=linkages, seed=seed, workers=workers, scheduler=scheduler,
                                         progress=progress, echo=echo))
-        # rows whose prediction columns an older linear model made: predicted again before anything is added
+        # confirmed rows whose quasi-static answer an older lumping made: confirmed again, then rows whose
+        # prediction columns an older linear model made: predicted again, before anything is added
+        summary["reconfirmed"] = reconfirm(path, seed=seed, workers=workers, scheduler=scheduler,
+                                           progress=progress, echo=echo)
         summary["repredicted"] = repredict(path, seed=seed, workers=workers, scheduler=scheduler, progress=progress,
                                            echo=echo)
         if confirm > 0:
