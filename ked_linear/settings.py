@@ -60,7 +60,7 @@ class LinearSettings:
     tolerance: float = 1e-3
     floquet_steps: int | None = None
     floquet_tolerance: float = 1e-3
-    dynamic_lumps: int | None = 5
+    dynamic_lumps: int | None = 10
 
     def __post_init__(self) -> None:
         rules.check_fields(self, RULES)

@@ -27,9 +27,9 @@ def small_fourbar() -> FourBar:
 
 
 MASS_MODEL_CASES = {
-    "tip": MassModel("tip", payload=THESIS_TIP_MASS_KG),
-    "joints": MassModel("joints"),
-    "extender": MassModel("extender"),
+    "tip": MassModel("tip", lumps=5, payload=THESIS_TIP_MASS_KG),
+    "joints": MassModel("joints", lumps=5),
+    "extender": MassModel("extender", lumps=5),  # 5 lumps: these cases test numerics, not the lumping
     "distributed": MassModel("distributed", lumps=4, payload=0.3),
 }
 

@@ -12,7 +12,7 @@ import pytest
 from compare import h5layout
 from compare.config import ConfigError, default_config_text, load_config, parse_config
 from compare.scenes import SceneSpec, SpeedSpec
-from ked_quasi import MassModel
+from ked_quasi import MassModel, rules
 from tests.conftest import small_fourbar
 
 EXPLICIT = """
@@ -159,7 +159,7 @@ def test_grid_expansion_and_speed_kinds():
     assert len(scenes) == 2 * 2 * 3 * 2 * 2
     assert len({s.key for s in scenes}) == len(scenes)
     assert {s.speed.kind for s in scenes} == {"rpm", "ratio"}
-    assert scenes[0].mass_model == MassModel("tip", 5, 0.90718474, 0.5, "midpoint")  # thesis 2 lb, exact
+    assert scenes[0].mass_model == MassModel("tip", rules.DEFAULT_LUMPS, 0.90718474, 0.5, "midpoint")  # thesis 2 lb
     assert dict(scenes[0].dynamic) == {"steps_per_cycle": 72, "damping_ratio": 0.02}
 
 
@@ -167,7 +167,7 @@ def _spec(**changes) -> SceneSpec:
     base = dict(
         linkage=small_fourbar(),
         mechanism="source",
-        mass_model=MassModel("tip", payload=1.0),
+        mass_model=MassModel("tip", lumps=5, payload=1.0),
         speed=SpeedSpec("rpm", 300.0),
         stiffness_scale=1.0,
         damping_ratio=0.02,

