@@ -246,6 +246,42 @@ def test_repredict_reproduces_the_predictions_stored_by_the_same_code(atlas, tmp
     assert "threshold" in atlas_store.attrs(path)[repredict.ATTR]
 
 
+def test_reconfirm_redoes_rows_of_an_older_lumping_and_resumes(atlas, tmp_path):
+    # a threshold row of the distributed model stored without a record of its lumping counts as made with the
+    # former 5 lumps: `reconfirm` runs it again (all three solvers) and replaces it in place with what today's
+    # code computes (the same code made the row here, so the recomputed columns equal the originals: a second
+    # implementation path, compare.atlas.confirm.confirm_scene, run once more); rows of other mass models and
+    # of tables with today's record stay; the record is written, and a second call computes nothing
+    import shutil
+
+    from compare.atlas import confirm, reconfirm
+
+    path = tmp_path / "atlas.h5"
+    shutil.copy(atlas["path"], path)
+    linkage = int(atlas_store.read(path, "families")["linkage"][0])
+    point = confirm.ConfirmPoint(linkage, "source", "distributed", 0.2, 0.02, 0.1)
+    table = "threshold"
+    confirm.confirm_points(path, [point], table, SEED, workers=1, scheduler=None, progress=False,
+                           echo=lambda s: None)
+    made = atlas_store.read(path, table)
+    meta = atlas_store.attrs(path)
+    assert meta[confirm.ATTR][table] == confirm.lumping()
+    assert reconfirm.reconfirm(path, seed=SEED, workers=1, echo=lambda s: None) == {"threshold": 0, "confirm": 0}
+    lumps_by = {k: v for k, v in meta[confirm.ATTR].items() if k != table}  # as written by an older harness
+    tampered = {c: list(v) for c, v in made.items()}
+    row = list(made["key"]).index(point.key)
+    tampered["qs_vs_dyn"][row] = 9.0
+    atlas_store.write(path, {confirm.ATTR: lumps_by}, replaces={table: tampered})
+    lumped = [i for i, m in enumerate(made["mass_model"]) if m in ("extender", "distributed")]
+    assert [p.key for p in reconfirm.stale_points(path, table)] == [made["key"][i] for i in lumped]
+    assert reconfirm.reconfirm(path, seed=SEED, workers=1, echo=lambda s: None)[table] == len(lumped)
+    after = atlas_store.read(path, table)
+    for c in ("qs_vs_dyn", "qs_vs_linear", "linear_vs_dyn"):
+        np.testing.assert_allclose(after[c], made[c], rtol=1e-9, equal_nan=True)
+    assert atlas_store.attrs(path)[confirm.ATTR][table] == confirm.lumping()
+    assert reconfirm.reconfirm(path, seed=SEED, workers=1, echo=lambda s: None)[table] == 0
+
+
 def test_tolerance_bound_covers_the_quantile_as_stated():
     # independent check by simulation: for uniform(0, 1) samples of 100 the bound must lie above the 0.95
     # quantile (0.95) in at least 95 % of the draws (the chosen order statistic k = 99 covers it with probability

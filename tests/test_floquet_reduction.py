@@ -281,7 +281,7 @@ def _atlas_system(index: int, ratio: float, mechanism: str = "source", mass_mode
     from compare.atlas.generate import generate
 
     linkage = next(lk for lk in generate(index + 1).linkages if lk.index == index)
-    mm = next(m for m in linkage.mass_models if m.name == mass_model)
+    mm = replace(next(m for m in linkage.mass_models if m.name == mass_model), lumps=5)  # the references' lumps
     base = spec_of(linkage, mechanism, mm, ratio).scene(1.0)
     scene = replace(base, rpm=ratio * float(np.min(natural_frequencies(base, n_modes=1)[:, 0])) * 60.0)
     settings = LinearSettings(damping_ratio=0.02)

@@ -556,3 +556,23 @@ def test_distributed_model_needs_its_resonant_harmonics_and_the_estimate_says_so
             # against 1.9e-4: pessimistic, the ratio of the last two changes is pre-asymptotic)
             assert true <= auto.error_estimate
             assert true < 1e-3
+
+
+def test_dynamic_lumps_with_the_static_correction(thesis):
+    # ked_linear.lumping: the answer on 20 lumps per link from dynamics on 10 plus the static correction
+    # (1) equals the full 20-lump model within 0.5 % of the peak at r = 0.05 (a second implementation: the
+    #     same equations on all 20 lumps; the dynamic part converges in the lumps faster than the static one),
+    # (2) equals the 20-lump quasi-static answer in the quasi-static limit (r = 1e-3: within 6 zeta r of the
+    #     peak, the damping forces of the quasi-static motion, docs/linear_model.md's low-speed limit), and
+    # (3) is the plain model bit for bit when the scene has no more lumps than the dynamic ones
+    base = Scene(thesis, MassModel("distributed", lumps=20), 30.0, 10.0)
+    for r, other, tol in ((0.05, None, 5e-3), (1e-3, "quasi-static", 6 * 0.02 * 1e-3)):
+        scene = replace(base, rpm=_rpm_for_ratio(base, r))
+        got = solve_linear(scene, LinearSettings(dynamic_lumps=10)).deflection
+        ref = (solve_quasi_static(scene).deflection if other else
+               solve_linear(scene, LinearSettings(dynamic_lumps=None)).deflection)
+        assert relative_change(got, ref, XY) < tol, (r, relative_change(got, ref, XY))
+    few = replace(base, mass_model=MassModel("distributed", lumps=8))
+    a = solve_linear(few, LinearSettings(dynamic_lumps=10)).deflection
+    b = solve_linear(few, LinearSettings(dynamic_lumps=None)).deflection
+    assert np.array_equal(a, b)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+from dataclasses import replace
 
 import h5py
 import numpy as np
@@ -28,9 +29,12 @@ from ked_quasi.massmodel import MassModel
 from ked_quasi.slider_static import solve_slider_quasi_static
 from ked_quasi.slidercrank import SliderScene, simeon_slider_crank
 
-DEFAULT_CAMPAIGN_KEYS_SHA256 = "bf2372bd39b02dc955d556bde0ed1c9b489e447eb1e59e0abecd2b1d333bc9c2"  # pin: 20 lumps by default
-"""SHA-256 of the default campaign's 40 scene keys, comma-joined in grid order, computed with the harness
-before the slider-crank entered the scene specs (regression pin of a contract: four-bar keys never change)."""
+DEFAULT_CAMPAIGN_KEYS_SHA256 = "d4ad256c158f5ba449a4e0b7acd871fc9d3f717f683cd80ad015087c1d854962"
+"""SHA-256 of the default campaign's 40 scene keys at 5 lumps per link (the default then), comma-joined in grid
+order, computed with the harness before the slider-crank entered the scene specs (regression pin of a contract:
+four-bar keys never change)."""
+DEFAULT_CAMPAIGN_KEYS_SHA256_20_LUMPS = "bf2372bd39b02dc955d556bde0ed1c9b489e447eb1e59e0abecd2b1d333bc9c2"
+"""The same at today's default of 20 lumps per link (regression pin)."""
 
 SLIDER_CAMPAIGN = """
 [campaign]
@@ -52,9 +56,12 @@ steps_per_cycle = 360
 
 
 def test_default_campaign_keys_unchanged():
-    keys = [s.key for s in load_config(None).scenes()]
+    scenes = load_config(None).scenes()
+    keys = [s.key for s in scenes]
     assert len(keys) == 40
-    assert hashlib.sha256(",".join(keys).encode()).hexdigest() == DEFAULT_CAMPAIGN_KEYS_SHA256
+    assert hashlib.sha256(",".join(keys).encode()).hexdigest() == DEFAULT_CAMPAIGN_KEYS_SHA256_20_LUMPS
+    old = [replace(s, mass_model=replace(s.mass_model, lumps=5)).key for s in scenes]
+    assert hashlib.sha256(",".join(old).encode()).hexdigest() == DEFAULT_CAMPAIGN_KEYS_SHA256
 
 
 def test_stored_reference_keys_unchanged():

@@ -34,6 +34,22 @@ FACTORS = (0.6, 1.0, 1.4, 2.0, 3.0)
 """Speed ratios of a confirmed family as multiples of its quasi-static 10 % limit."""
 
 
+ATTR = "lumps_by"
+"""Atlas file attribute (JSON: table -> {"lumps", "dynamic_lumps"}): the lumping of the quasi-static and linear
+answers of the table's rows (``compare.atlas.reconfirm`` confirms again the rows an older lumping made)."""
+LEGACY = {"lumps": 5, "dynamic_lumps": None}
+"""The lumping of the rows of a table without an :data:`ATTR` entry (5 lumps per link throughout, the default
+before it was raised)."""
+
+
+def lumping() -> dict[str, int | None]:
+    """Today's default lumping: lumps per link of the scene and of the linear model's dynamics."""
+    from ked_linear.settings import LinearSettings
+    from ked_quasi.rules import DEFAULT_LUMPS
+
+    return {"lumps": DEFAULT_LUMPS, "dynamic_lumps": LinearSettings().dynamic_lumps}
+
+
 @dataclass(frozen=True)
 class ConfirmPoint:
     """One scene to confirm: family, multiple of its r10, speed ratio r, the family's atlas r10."""
@@ -166,6 +182,9 @@ def confirm_points(path: Path, points: Sequence[ConfirmPoint], table: str, seed:
         with store.writer_lock(path):
             info = atlas_store.attrs(path)
             meta = {k: info[k] for k in ("seed", "ratios", "ranges", "settings")}
+            if not done:  # a new table: its rows are made with today's lumping
+                made = info.get(ATTR) if isinstance(info.get(ATTR), dict) else {}
+                meta[ATTR] = {**made, table: lumping()}
             run_records(todo, confirm_scene,
                         lambda recs: atlas_store.write(path, meta, appends={table: confirm_columns(recs)}),
                         lambda p, reason: [failed_confirm(p, reason)], args=lambda p: (links[p.linkage], p),

@@ -19,25 +19,12 @@ from typing import Any
 import numpy as np
 
 from compare.atlas import store as atlas_store
-from compare.atlas.confirm import ConfirmPoint, confirm_scene, failed_confirm
+from compare.atlas.confirm import ATTR, LEGACY, ConfirmPoint, confirm_scene, failed_confirm, lumping
 from compare.atlas.generate import candidate
 from ked_linear.lumping import LUMPED
-from ked_quasi.rules import DEFAULT_LUMPS
 
-ATTR = "lumps_by"
-"""Atlas file attribute (JSON: table -> {"lumps", "dynamic_lumps"} of its rows' quasi-static and linear answers)."""
 DONE_ATTR = "reconfirmed"
 """Atlas file attribute (JSON: table -> keys of the rows confirmed again so far by an unfinished run)."""
-LEGACY = {"lumps": 5, "dynamic_lumps": None}
-"""The lumping of the rows of a table without a :data:`ATTR` entry (5 lumps per link throughout, the default
-before it was raised)."""
-
-
-def lumping() -> dict[str, int | None]:
-    """Today's default lumping: lumps per link of the scene and of the linear model's dynamics."""
-    from ked_linear.settings import LinearSettings
-
-    return {"lumps": DEFAULT_LUMPS, "dynamic_lumps": LinearSettings().dynamic_lumps}
 TABLES = ("threshold", "confirm")
 
 
