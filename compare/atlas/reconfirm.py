@@ -68,6 +68,8 @@ def reconfirm(path: Path, *, seed: int = 0, workers: int = 2, scheduler: str | N
                             workers=workers, scheduler=scheduler, progress=progress, label=f"{table} again")
         _finish(path, table)
         out[table] = len(todo)
+    if any(out.values()):
+        atlas_store.compact(path)  # replaced rows leave the old ones' space behind
     return out
 
 

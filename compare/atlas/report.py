@@ -310,6 +310,25 @@ def drawn_from(atlas: Path) -> str:
             "linkage and confirms the new scenes with Exudyn.")
 
 
+def lumping_text(atlas: Path) -> str:
+    """Which lumping (lumps per link of the quasi-static answer, of the linear model's dynamics) made each table's
+    extender and distributed scenes (file attribute ``lumps_by``; a table without an entry: the former 5)."""
+    from compare.atlas.confirm import ATTR, LEGACY
+
+    made = atlas_store.attrs(atlas).get(ATTR)
+    made = made if isinstance(made, dict) else {}
+
+    def says(table: str) -> str:
+        m = made.get(table, LEGACY)
+        dyn = m.get("dynamic_lumps")
+        return f"{m.get('lumps')} lumps per link" + (f", the linear model's dynamics on {dyn}" if dyn else "")
+
+    return ("**Lumping** of the extender and distributed scenes (the other mass models have no lumps): family sweeps "
+            f"{says('families')}; Exudyn-confirmed samples {says('confirm')} (confirmed) and {says(TABLE)} "
+            "(threshold). A table made with an older lumping is confirmed again by `ked study atlas` "
+            "(`compare.atlas.reconfirm`); the family sweeps are recomputed only from a fresh atlas (`--fresh`).")
+
+
 def markdown(f: fd.AtlasFindings, atlas: Path, readme: Path, figs: dict[str, Path]) -> str:
     """The README section from the findings (figure and atlas paths relative to the README)."""
     rel = {k: os.path.relpath(v.resolve(), readme.resolve().parent) for k, v in figs.items()}
@@ -322,7 +341,7 @@ def markdown(f: fd.AtlasFindings, atlas: Path, readme: Path, figs: dict[str, Pat
          "recomputed once (`compare.atlas.repredict`, the file attribute `predicted_by` names the code) "
          f"(stored: `{os.path.relpath(atlas.resolve(), readme.resolve().parent)}`, "
          f"{atlas.stat().st_size / 1e6:.1f} MB; figures `figures/atlas_*.png`).", "",
-         *sample_text(f.sample), "",
+         *sample_text(f.sample), "", lumping_text(atlas), "",
          f"**Setup.** Every family (linkage x mechanism x mass model: {f.families} families) is swept over "
          f"r = Omega/omega1_min in {', '.join(f'{r:g}' for r in info.get('ratios', RATIOS))} (omega1_min: lowest "
          "first frozen natural frequency over the cycle), each scene a campaign scene solved by the registered "

@@ -188,7 +188,10 @@ def run_atlas(path: Path, *, linkages: int = 1000, seed: int = 0, workers: int =
     todo = [lk for lk in sample.linkages[:linkages] if lk.index not in done]
     store.check_writable(path)
     with store.writer_lock(path):
-        atlas_store.write(path, info, replaces={"linkages": linkage_columns(sample)})
+        from compare.atlas.confirm import ATTR, lumping
+
+        made = {} if done else {ATTR: {"families": lumping()}}  # a new atlas: its sweeps use today's lumping
+        atlas_store.write(path, {**info, **made}, replaces={"linkages": linkage_columns(sample)})
         if todo:
             _compute(path, todo, info, workers=workers, scheduler=scheduler, ratios=tuple(ratios),
                      progress=progress, echo=echo)
