@@ -40,7 +40,7 @@ import numpy as np
 from compare import metrics, read_scenes
 from compare import solvers as registry
 from compare.execute import frame, message_of, settings_of
-from compare.runner import run_tasks
+from compare.executor import run_tasks
 from compare.scenes import SceneSpec
 
 BEYOND = 1e-3

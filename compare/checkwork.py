@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 from compare.inspect import rpm_text
 
 if TYPE_CHECKING:
-    from compare.runner import LocalPool
+    from compare.executor import LocalPool
 
 POOL_START_S = 1.0
 """What starting the pool of workers costs a check [s]: 0.8 s measured for two on this project's 2-core
@@ -94,7 +94,7 @@ class CheckWorkers:
     @property
     def workers(self) -> int:
         """How many worker processes at most (the available CPUs, or fewer if given)."""
-        from compare.runner import default_workers  # only once workers are considered: it imports h5py
+        from compare.executor import default_workers  # only once workers are considered: it imports h5py
 
         self._workers = min(self._workers or default_workers(), default_workers())
         return self._workers
@@ -133,7 +133,7 @@ class CheckWorkers:
         out first, so that no worker is left with a long one at the end).  A task's failure is raised here
         as the sequential check would raise it (``ValueError``, ``MemoryError``), a worker that died as
         :class:`CheckWorkerError` naming the call."""
-        from compare.runner import LocalPool, WorkerStartError, crash_reason, run_tasks
+        from compare.executor import LocalPool, WorkerStartError, crash_reason, run_tasks
 
         out: list[Any] = [None] * len(calls)
 

@@ -509,7 +509,7 @@ def _draw_in_pool(jobs: list[tuple[SceneResult, Path]], dpi: int, workers: int, 
     import concurrent.futures as cf
     import multiprocessing
 
-    from compare.runner import _start_children_quietly, default_workers, kill_pool, worker_init
+    from compare.executor import _start_children_quietly, default_workers, kill_pool, worker_init
 
     pool = cf.ProcessPoolExecutor(min(workers, default_workers()), mp_context=multiprocessing.get_context("spawn"),
                                   initializer=worker_init)

@@ -138,15 +138,9 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
     if not no_figures:
         _check_figure_dir(fig_dir, fmt, out)  # before computing: a directory of the user's own files is refused now
     from compare import store
+    from compare.executor import SchedulerError, WorkerError, WorkerStartError, default_workers
     from compare.inspect import format_counts, format_table, summary_row
-    from compare.runner import (
-        SchedulerError,
-        SettingsMismatchError,
-        WorkerError,
-        WorkerStartError,
-        default_workers,
-        run_campaign,
-    )
+    from compare.runner import SettingsMismatchError, run_campaign
 
     try:
         summary = run_campaign(cfg, out, workers=workers, scheduler=scheduler, retry_failed=retry_failed,
@@ -378,7 +372,7 @@ def plot_cmd(file: Path, out_dir: Path | None, workers: int | None, fmt: str, dp
     another results file there are refused, never overwritten.
     """
     from compare import store
-    from compare.runner import default_workers
+    from compare.executor import default_workers
 
     _regular(file, "FILE")
     results = _results(file)

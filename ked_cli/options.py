@@ -377,7 +377,7 @@ def cap_workers(ctx: click.Context, param: click.Parameter, value: int | None) -
     started (``compare.runner.default_workers``); say so once, on standard error."""
     given = ctx.get_parameter_source(param.name) == click.core.ParameterSource.COMMANDLINE
     if value is not None and given:
-        from compare.runner import default_workers
+        from compare.executor import default_workers
 
         cpus = default_workers()
         if value > cpus:

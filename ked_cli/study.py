@@ -125,7 +125,7 @@ def atlas(linkages: int, seed: int, scheduler: str | None, confirm: int, thresho
           **common: Any) -> None:
     """Validity atlas: the quasi-static and linear models' limits over a sample of four-bars."""
     from compare.atlas.store import AtlasFileError
-    from compare.runner import SchedulerError
+    from compare.executor import SchedulerError
     from ked_cli.errors import UserError
 
     try:

@@ -254,7 +254,7 @@ def test_reconfirm_redoes_rows_of_an_older_lumping_and_resumes(atlas, tmp_path):
     # of tables with today's record stay; the record is written, and a second call computes nothing
     import shutil
 
-    from compare.atlas import confirm, reconfirm
+    from compare.atlas import confirm, lumps, reconfirm
 
     path = tmp_path / "atlas.h5"
     shutil.copy(atlas["path"], path)
@@ -265,20 +265,20 @@ def test_reconfirm_redoes_rows_of_an_older_lumping_and_resumes(atlas, tmp_path):
                            echo=lambda s: None)
     made = atlas_store.read(path, table)
     meta = atlas_store.attrs(path)
-    assert meta[confirm.ATTR][table] == confirm.lumping()
+    assert meta[lumps.ATTR][table] == lumps.lumping()
     assert reconfirm.reconfirm(path, seed=SEED, workers=1, echo=lambda s: None) == {"threshold": 0, "confirm": 0}
-    lumps_by = {k: v for k, v in meta[confirm.ATTR].items() if k != table}  # as written by an older harness
+    lumps_by = {k: v for k, v in meta[lumps.ATTR].items() if k != table}  # as written by an older harness
     tampered = {c: list(v) for c, v in made.items()}
     row = list(made["key"]).index(point.key)
     tampered["qs_vs_dyn"][row] = 9.0
-    atlas_store.write(path, {confirm.ATTR: lumps_by}, replaces={table: tampered})
+    atlas_store.write(path, {lumps.ATTR: lumps_by}, replaces={table: tampered})
     lumped = [i for i, m in enumerate(made["mass_model"]) if m in ("extender", "distributed")]
     assert [p.key for p in reconfirm.stale_points(path, table)] == [made["key"][i] for i in lumped]
     assert reconfirm.reconfirm(path, seed=SEED, workers=1, echo=lambda s: None)[table] == len(lumped)
     after = atlas_store.read(path, table)
     for c in ("qs_vs_dyn", "qs_vs_linear", "linear_vs_dyn"):
         np.testing.assert_allclose(after[c], made[c], rtol=1e-9, equal_nan=True)
-    assert atlas_store.attrs(path)[confirm.ATTR][table] == confirm.lumping()
+    assert atlas_store.attrs(path)[lumps.ATTR][table] == lumps.lumping()
     assert reconfirm.reconfirm(path, seed=SEED, workers=1, echo=lambda s: None)[table] == 0
 
 

@@ -9,7 +9,7 @@ import time
 
 import pytest
 
-from compare import runner
+from compare import executor as runner
 
 distributed = pytest.importorskip("distributed")
 

@@ -166,3 +166,12 @@ def test_no_import_cycles():
     found = cycles(import_graph())
     assert not found, f"{len(found)} import cycle(s) among {', '.join(PACKAGES)}:\n" + "\n".join(
         " -> ".join(cycle) for cycle in found)
+
+
+def test_the_executor_imports_nothing_of_the_campaign():
+    # the executor (worker pools, Dask, crash isolation) is its own room: it may read the stop flag and nothing
+    # else of the harness, so that every pool (campaigns, atlas, design check, figures) can use it
+    graph = import_graph()
+    assert graph["compare.executor"] <= {"compare.stopping"}, graph["compare.executor"]
+    assert graph["compare.stopping"] == set()
+    assert not any("compare.runner" in graph[m] for m in ("compare.atlas.run", "compare.checkwork", "compare.plots"))

@@ -26,28 +26,13 @@ from compare import solvers as registry
 from compare.atlas import store as atlas_store
 from compare.atlas.compute import RATIOS, flag_bits, spec_of, xy
 from compare.atlas.generate import Linkage, candidate
+from compare.atlas.lumps import ATTR, lumping
 from compare.execute import frame, solve_one
 from compare.tables import columns
 from ked_quasi.massmodel import MASS_MODELS
 
 FACTORS = (0.6, 1.0, 1.4, 2.0, 3.0)
 """Speed ratios of a confirmed family as multiples of its quasi-static 10 % limit."""
-
-
-ATTR = "lumps_by"
-"""Atlas file attribute (JSON: table -> {"lumps", "dynamic_lumps"}): the lumping of the quasi-static and linear
-answers of the table's rows (``compare.atlas.reconfirm`` confirms again the rows an older lumping made)."""
-LEGACY = {"lumps": 5, "dynamic_lumps": None}
-"""The lumping of the rows of a table without an :data:`ATTR` entry (5 lumps per link throughout, the default
-before it was raised)."""
-
-
-def lumping() -> dict[str, int | None]:
-    """Today's default lumping: lumps per link of the scene and of the linear model's dynamics."""
-    from ked_linear.settings import LinearSettings
-    from ked_quasi.rules import DEFAULT_LUMPS
-
-    return {"lumps": DEFAULT_LUMPS, "dynamic_lumps": LinearSettings().dynamic_lumps}
 
 
 @dataclass(frozen=True)

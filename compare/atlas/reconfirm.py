@@ -19,8 +19,9 @@ from typing import Any
 import numpy as np
 
 from compare.atlas import store as atlas_store
-from compare.atlas.confirm import ATTR, LEGACY, ConfirmPoint, confirm_scene, failed_confirm, lumping
+from compare.atlas.confirm import ConfirmPoint, confirm_scene, failed_confirm
 from compare.atlas.generate import candidate
+from compare.atlas.lumps import ATTR, LEGACY, lumping
 from ked_linear.lumping import LUMPED
 
 DONE_ATTR = "reconfirmed"

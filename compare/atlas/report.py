@@ -313,7 +313,7 @@ def drawn_from(atlas: Path) -> str:
 def lumping_text(atlas: Path) -> str:
     """Which lumping (lumps per link of the quasi-static answer, of the linear model's dynamics) made each table's
     extender and distributed scenes (file attribute ``lumps_by``; a table without an entry: the former 5)."""
-    from compare.atlas.confirm import ATTR, LEGACY
+    from compare.atlas.lumps import ATTR, LEGACY
 
     made = atlas_store.attrs(atlas).get(ATTR)
     made = made if isinstance(made, dict) else {}

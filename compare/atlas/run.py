@@ -147,7 +147,7 @@ def run_records(tasks: Sequence[Any], fn: Callable[..., Any], commit: Callable[[
 
     from tqdm import tqdm
 
-    from compare.runner import crash_reason, run_tasks
+    from compare.executor import crash_reason, run_tasks
 
     pending: list[Any] = []
     last = [time.monotonic()]
@@ -172,7 +172,7 @@ def run_atlas(path: Path, *, linkages: int = 1000, seed: int = 0, workers: int =
               ratios: Sequence[float] = RATIOS, progress: bool = False,
               echo: Callable[[str], Any] = print) -> RunSummary:
     """Compute every linkage of ``generate(linkages, seed)`` not yet stored in ``path`` (see module docstring)."""
-    from compare.runner import exit_if_starting_worker
+    from compare.executor import exit_if_starting_worker
 
     exit_if_starting_worker()  # a worker importing a script without a main guard writes nothing
     t0 = time.perf_counter()
@@ -180,7 +180,7 @@ def run_atlas(path: Path, *, linkages: int = 1000, seed: int = 0, workers: int =
     info = meta(seed, ratios)
     atlas_store.check_atlas(path, info)
     if scheduler:  # an unreachable cluster is reported before anything is written
-        from compare.runner import probe_scheduler
+        from compare.executor import probe_scheduler
 
         probe_scheduler(scheduler)
     done = stored_linkages(path)
@@ -188,7 +188,7 @@ def run_atlas(path: Path, *, linkages: int = 1000, seed: int = 0, workers: int =
     todo = [lk for lk in sample.linkages[:linkages] if lk.index not in done]
     store.check_writable(path)
     with store.writer_lock(path):
-        from compare.atlas.confirm import ATTR, lumping
+        from compare.atlas.lumps import ATTR, lumping
 
         made = {} if done else {ATTR: {"families": lumping()}}  # a new atlas: its sweeps use today's lumping
         atlas_store.write(path, {**info, **made}, replaces={"linkages": linkage_columns(sample)})
