@@ -9,7 +9,7 @@ and in its consistent, locking-free form ("geometric": the rod's geometric stiff
 which Exudyn's geometrically nonlinear beams contain), and, to size the axial force's share, both models
 without the slider mass (its inertia is the main axial load).  Also the quasi-static answer's
 error (80 lumps on the rod) against the reference.  Exudyn runs
-exudyn_models.slider_midspan_history (6 ANCF elements, 1080 steps per cycle, Simeon's damping ratio at
+ked_bench.exudyn_tier.slider_midspan_history (6 ANCF elements, 1080 steps per cycle, Simeon's damping ratio at
 the rod's first bending frequency).
 
     .venv/bin/python benchmarks/bench_slider_exudyn.py [--omega 25 50 ...] [--json FILE]
@@ -28,7 +28,7 @@ import numpy as np
 
 from exudyn_models import DynamicSettings
 from exudyn_models.simulate import simulate_steady_state
-from exudyn_models.slider_simeon import simeon_damping, simeon_scene, slider_midspan_history
+from ked_bench.exudyn_tier import simeon_damping, simeon_scene, slider_midspan_history
 from ked_bench.simeon import SimeonModel, SimeonParameters, integrate
 from ked_quasi.slider_static import solve_slider_quasi_static
 from ked_quasi.slidercrank import build_slider_scene, simeon_slider_crank

@@ -5,7 +5,7 @@ quasi-static state, or after a smooth start-up ramp), and the coupler-point defl
 one periodic steady cycle (solved directly or marched to), on the same scene definition and kinematics
 as ked_quasi. Newton failures are retried along a refinement ladder; failures are classified. A
 slider-crank scene (ked_quasi.slidercrank.SliderScene) runs its own model (slider_builder, slider_simulate)
-through the same machinery; slider_midspan_history gives Simeon's benchmark mechanism's midspan history.
+through the same machinery (Simeon's benchmark mechanism in the Exudyn tier: ked_bench.exudyn_tier).
 """
 
 from .builder import BuiltModel, build_model
@@ -15,7 +15,6 @@ from .modal import frozen_natural_frequencies
 from .refine import Attempt
 from .settings import ELEMENT_TYPES, LEGACY_DEFAULTS, PERIODIC_METHODS, STARTS, DynamicSettings
 from .simulate import DynamicResult, simulate_steady_state
-from .slider_simeon import slider_midspan_history
 
 __all__ = [
     "ELEMENT_TYPES",
@@ -33,5 +32,4 @@ __all__ = [
     "rayleigh_beta",
     "reference_frequency",
     "simulate_steady_state",
-    "slider_midspan_history",
 ]

@@ -1,5 +1,5 @@
 """The elastic slider-crank run to periodic steady state: sampling, tolerances, damping reference (Simeon's
-benchmark mechanism: exudyn_models.slider_simeon).
+benchmark mechanism: ked_bench.exudyn_tier).
 
 The run is the four-bar's (exudyn_models.simulate: refinement ladder, failure classes, DynamicResult) with
 the slider-crank's own model (exudyn_models.slider_builder) and sampler; the constant-speed phase is

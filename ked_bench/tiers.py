@@ -13,7 +13,7 @@ the rod's mass in midpoint lumps, :data:`QS_LUMPS` and :data:`LUMPS`, the slider
   the reference model (linear stiffness) has no geometric stiffness, so this is the like-for-like
   comparison; the harness's default linear tier (prestress on) is compared too, and the difference is the
   geometric stiffening of the rod by its axial inertia load, a model difference of size ~ r^2;
-* dynamic (Exudyn): :func:`exudyn_midspan` (``exudyn_models.slider_midspan_history``).
+* dynamic (Exudyn): :func:`exudyn_midspan` (``ked_bench.exudyn_tier.slider_midspan_history``).
 
 The reference's default (linear stiffness) lacks the rod's geometric stiffening by its axial force, which
 the harness's Exudyn beams (geometrically nonlinear) and prestressed linear tier contain; optionally the
@@ -92,13 +92,13 @@ def linear_midspan(omega: float, samples: int = 72, lumps: int = LUMPS, prestres
 
 def exudyn_midspan(omega: float, samples: int = 72) -> np.ndarray:
     """The Exudyn tier's steady-state midspan deflection [m] of the benchmark's slider-crank at crank speed
-    ``omega`` [rad/s] on ``samples`` crank angles from 0 (``exudyn_models.slider_midspan_history``: 6 ANCF
+    ``omega`` [rad/s] on ``samples`` crank angles from 0 (``ked_bench.exudyn_tier.slider_midspan_history``: 6 ANCF
     elements on the rod, 1080 steps per cycle, damping as :func:`linear_settings`; the sign of the
     reference's q1, the CCW normal of the rod's chord).
 
     Raises ``exudyn_models.SimulationError`` when no run goes through, RuntimeError when the run did not
     settle to a periodic steady state (no answer: the benchmark reports ``dynamic_error`` null)."""
-    from exudyn_models.slider_simeon import slider_midspan_history
+    from ked_bench.exudyn_tier import slider_midspan_history
 
     _, midspan, res = slider_midspan_history(omega, step_deg=360.0 / samples)
     if not res.converged:

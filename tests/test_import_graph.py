@@ -175,3 +175,21 @@ def test_the_executor_imports_nothing_of_the_campaign():
     assert graph["compare.executor"] <= {"compare.stopping"}, graph["compare.executor"]
     assert graph["compare.stopping"] == set()
     assert not any("compare.runner" in graph[m] for m in ("compare.atlas.run", "compare.checkwork", "compare.plots"))
+
+
+LAYERS = ("ked_cli", ("ked_bench", "compare"), ("exudyn_models", "ked_linear"), "ked_quasi")
+"""The packages from the top: commands, products (the benchmark, the campaign engine and its design check),
+models (Exudyn, the linear model), the scene model and quasi-static solver.  A package imports only packages
+below its own layer (the two models of one layer know nothing of each other), and ked_bench may use the
+engine's metrics (products -> engine)."""
+ALLOWED_SIDEWAYS = {("ked_bench", "compare")}
+
+
+def test_packages_import_only_downwards():
+    # every edge between packages, function-level imports included, follows LAYERS
+    rank = {p: i for i, layer in enumerate(LAYERS) for p in ((layer,) if isinstance(layer, str) else layer)}
+    wrong = sorted({(m.split(".")[0], e.split(".")[0]) for m, es in import_graph().items() for e in es
+                    if m.split(".")[0] != e.split(".")[0]
+                    and rank[e.split(".")[0]] <= rank[m.split(".")[0]]
+                    and (m.split(".")[0], e.split(".")[0]) not in ALLOWED_SIDEWAYS})
+    assert not wrong, f"imports against the layers {LAYERS}: {wrong}"

@@ -16,7 +16,7 @@ import pytest
 from exudyn_models import DynamicSettings
 from exudyn_models.simulate import simulate_steady_state
 from exudyn_models.slider_builder import SliderInputError
-from exudyn_models.slider_simeon import simeon_damping, simeon_scene, slider_midspan_history
+from ked_bench.exudyn_tier import simeon_damping, simeon_scene, slider_midspan_history
 from ked_quasi.linkage import Section
 from ked_quasi.slider_static import solve_slider_quasi_static
 from ked_quasi.slidercrank import SliderCrank, build_slider_scene, simeon_slider_crank

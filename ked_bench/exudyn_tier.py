@@ -1,5 +1,6 @@
 """Simeon's flexible slider-crank (ked_bench.simeon) in the Exudyn tier: its scene, its damping, and the
-midspan history the benchmark compares (exudyn_models.slider_builder / slider_simulate)."""
+midspan history the benchmark compares (exudyn_models.slider_builder / slider_simulate).  The benchmark knows
+the model, never the other way round."""
 
 from __future__ import annotations
 
@@ -8,17 +9,16 @@ from dataclasses import replace
 
 import numpy as np
 
+from exudyn_models.settings import DynamicSettings
+from exudyn_models.simulate import simulate_steady_state
 from ked_quasi.slidercrank import SliderScene
-
-from .settings import DynamicSettings
-from .simulate import simulate_steady_state
 
 
 def simeon_damping() -> tuple[float, float]:
     """(damping ratio [1], reference frequency [Hz]) matching Simeon's damped model: his first bending mode's
     ratio DQ11 / (2 sqrt(KQ11 MQ11)) (2.59 %) at the rod's first bending frequency (pinned-pinned, 203.2 Hz),
     both from ked_bench.simeon."""
-    from ked_bench.simeon import SimeonParameters, rod_matrices
+    from .simeon import SimeonParameters, rod_matrices
 
     par = SimeonParameters(damped=True)
     rod = rod_matrices(par)
