@@ -8,7 +8,6 @@ and message) and whatever else was computed is kept.  Units: SI, crank speed in 
 
 from __future__ import annotations
 
-import math
 import os
 import socket
 import time
@@ -58,7 +57,7 @@ def frame(spec: SceneSpec) -> Frame:
     probe = spec.scene(spec.speed.value if spec.speed.kind == "rpm" else 1.0)
     of = natural_frequencies if spec.kind == FOUR_BAR else slider_natural_frequencies  # its frozen structure
     freqs = np.asarray(of(probe, n_modes=spec.n_modes), dtype=float)
-    omega1_min = 2.0 * math.pi * float(np.nanmin(freqs[:, 0]))
+    omega1_min = units.omega1_min(freqs[:, 0])
     rpm = resolve_rpm(spec, omega1_min)
     return Frame(spec.scene(rpm), rpm, omega1_min, freqs, time.perf_counter() - t0)
 

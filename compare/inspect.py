@@ -19,6 +19,7 @@ from typing import Any
 from compare import solvers as registry
 from compare.metrics import VERDICT_METRIC, pair_name
 from compare.results import SceneResult
+from ked_quasi import units
 from ked_quasi.units import rpm_to_rad_s
 
 
@@ -38,9 +39,7 @@ def rpm_text(rpm: float) -> str:
 
 def speed_ratio(r: SceneResult) -> float:
     """Omega / omega1_min [1] (nan if unknown)."""
-    if not (math.isfinite(r.rpm) and math.isfinite(r.omega1_min) and r.omega1_min > 0):
-        return math.nan
-    return rpm_to_rad_s(r.rpm) / r.omega1_min
+    return units.speed_ratio(rpm_to_rad_s(r.rpm), r.omega1_min)
 
 
 def short_reason(r: SceneResult, n: int = 60) -> str:

@@ -107,6 +107,7 @@ def _table(opts: SceneOptions, scene: Any, out: dict[str, Any]) -> None:
 def _summary(opts: SceneOptions, as_json: bool) -> None:
     import numpy as np
 
+    from ked_quasi import units
     from ked_quasi.massmodel import MASS_MODELS
     from ked_quasi.solver import natural_frequencies, solve_quasi_static
 
@@ -124,7 +125,7 @@ def _summary(opts: SceneOptions, as_json: bool) -> None:
                          "peak_at_deg": float(scene.crank_angles_deg[mag.argmax()]),
                          "peak_rotation_rad": float(np.abs(res.deflection[:, 2]).max()),
                          "f1_min_hz": float(f1.min()), "f1_max_hz": float(f1.max()),
-                         "speed_ratio": float(scene.omega / (2 * np.pi * f1.min()))})
+                         "speed_ratio": units.speed_ratio(scene.omega, units.omega1_min(f1))})
     if as_json:
         click.echo(json_text(rows))
         return
@@ -155,7 +156,7 @@ def slider_source(linkage: str) -> Any:
 
 
 def _slider(opts: SceneOptions, sc: Any, as_json: bool, summary: bool) -> None:
-    from ked_quasi import rules
+    from ked_quasi import rules, units
     from ked_quasi.slidercrank import build_slider_scene
 
     ctx = click.get_current_context()
@@ -179,7 +180,7 @@ def _slider(opts: SceneOptions, sc: Any, as_json: bool, summary: bool) -> None:
     out, msgs = solve_slider(scene)
     f1_min = min((f for f in out["f1_hz"] if f is not None), default=float("nan"))
     try:
-        rules.check_speed_ratio(scene.omega / (2.0 * math.pi * f1_min), scene.rpm, f1_min, "value")
+        rules.check_speed_ratio(units.speed_ratio(scene.omega, 2.0 * math.pi * f1_min), scene.rpm, f1_min, "value")
     except ValueError as exc:
         raise click.BadParameter(str(exc).removeprefix("value = "), param_hint="--rpm") from None
     for m in msgs:

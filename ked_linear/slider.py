@@ -45,6 +45,7 @@ from ked_quasi.slider_static import (
     slider_topology,
 )
 from ked_quasi.slidercrank import SliderScene, slider_kinematics, slider_lumps
+from ked_quasi.units import omega1_min, speed_ratio
 
 from .floquet import floquet
 from .periodic import Coefficients, PeriodicSystem, steady_state
@@ -297,7 +298,7 @@ def solve_slider_linear(scene: SliderScene, settings: LinearSettings | None = No
         floquet_max_abs=fl.max_abs, floquet_error=fl.error_estimate, floquet_steps=fl.steps,
         harmonics=ss.solution.harmonics, collocation_points=ss.solution.points, error_estimate=ss.error_estimate,
         damping_reference_hz=ls.damping_reference_hz, damping_beta=ls.damping_beta,
-        speed_ratio=float(scene.omega / (2.0 * np.pi * np.nanmin(f1))),
+        speed_ratio=speed_ratio(scene.omega, omega1_min(f1)),
         frozen_f1_hz=slider_frozen_frequencies(scene, theta, settings.prestress)[:, 0], settings=settings,
         wall_s=time.perf_counter() - t0,
     )

@@ -14,6 +14,7 @@ import numpy as np
 
 from ked_quasi.scene import Scene
 from ked_quasi.solver import natural_frequencies
+from ked_quasi.units import omega1_min, speed_ratio
 
 from .corotating import periodic_steady_state
 from .floquet import FloquetResult, floquet
@@ -177,7 +178,7 @@ def _on_fewer_lumps(scene: Scene, coarse: Scene, settings: LinearSettings) -> Li
     fix = static_correction(scene, coarse) if res.stable else np.zeros((scene.crank_angles.size, 4))
     extra = {"midspan": res.midspan + fix[:, 3]} if getattr(res, "midspan", None) is not None else {}
     return replace(res, deflection=res.deflection + fix[:, :3], settings=settings,
-                   speed_ratio=float(scene.omega / (2.0 * np.pi * np.nanmin(f1))),
+                   speed_ratio=speed_ratio(scene.omega, omega1_min(f1)),
                    wall_s=time.perf_counter() - t0, **extra)
 
 
@@ -256,7 +257,7 @@ def _solve_linear(scene: Scene, settings: LinearSettings | None) -> LinearResult
         harmonics=ss.harmonics, collocation_points=ss.points, radau_steps=ss.radau_steps,
         error_estimate=ss.error_estimate,
         damping_reference_hz=ls.damping_reference_hz, damping_beta=ls.damping_beta,
-        speed_ratio=float(scene.omega / (2.0 * np.pi * np.min(f1))),
+        speed_ratio=speed_ratio(scene.omega, omega1_min(f1)),
         frozen_f1_hz=frequencies_of(ls.system.coefficients(theta).stiffness, ls.system.mass)[:, 0],
         settings=settings,
         wall_s=time.perf_counter() - t0,
