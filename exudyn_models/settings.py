@@ -102,7 +102,7 @@ class DynamicSettings:
     elements_per_link: int = 4
     steps_per_cycle: int = 720
     spectral_radius: float = 0.9
-    damping_ratio: float = 0.02
+    damping_ratio: float = rules.DEFAULT_DAMPING_RATIO
     damping_reference_hz: float | None = None
     ramp_cycles: float = 0.5
     steady_tol: float = 2e-3

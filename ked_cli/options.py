@@ -15,10 +15,9 @@ from typing import Any
 import click
 
 from ked_quasi import rules
+from ked_quasi.cognates import MECHANISMS
 from ked_quasi.linkage import DIRECTIONS
 from ked_quasi.massmodel import MASS_MODELS
-
-MECHANISMS = ("source", "cognate")
 
 
 class RuleType(click.ParamType):

@@ -52,7 +52,7 @@ class LinearSettings:
         the quasi-static part, docs/linear_model.md).  None: the scene's own lumps throughout.
     """
 
-    damping_ratio: float = 0.02
+    damping_ratio: float = rules.DEFAULT_DAMPING_RATIO
     damping_reference_hz: float | None = None
     prestress: bool = True
     harmonics: int | None = None

@@ -205,6 +205,8 @@ SPEED_RATIO = Rule("speed_ratio", "", MIN_SPEED_RATIO, 10.0,
 STEP_DEG = Rule("step_deg", "deg", 0.01, 45.0,
                 "at least 8 samples per turn to resolve peaks and harmonics, at most 36 000 angles; "
                 "it must divide 360")
+DEFAULT_DAMPING_RATIO = 0.02
+"""The modal damping ratio of every solver, campaign and check when none is given (2 %, steel linkages)."""
 DAMPING_RATIO = Rule("damping_ratio", "", 0.0, 0.99, "a modal damping ratio below critical")
 DAMPING_REFERENCE_HZ = Rule("damping_reference_hz", "Hz", 0.0, 1e6, "the frequency at which the damping ratio "
                             "holds: a natural frequency of the linkage", lo_open=True)

@@ -31,6 +31,7 @@ from compare.atlas.generate import Linkage
 from compare.execute import frame, resolve_rpm, solve_one
 from compare.limits import TOLERANCES, Limit, one_mode_curves, one_mode_limit, validity_limit
 from compare.scenes import SceneSpec, SpeedSpec
+from ked_quasi import rules
 from ked_quasi.harmonics import significant_harmonic
 from ked_quasi.massmodel import MassModel
 from ked_quasi.solver import solve_quasi_static
@@ -38,7 +39,7 @@ from ked_quasi.solver import solve_quasi_static
 RATIOS = (0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.09, 0.10, 0.115, 0.13, 0.15, 0.175, 0.2, 0.25, 0.3, 0.4, 0.5)
 """The speed-ratio sweep r = Omega / omega1_min (dense where the limits are)."""
 STOP_ERROR = 0.20
-DAMPING = 0.02
+DAMPING = rules.DEFAULT_DAMPING_RATIO
 STEP_DEG = 10.0
 # per-ratio status codes
 OK, UNSTABLE, FAILED, NOT_COMPUTED = 0, 1, 2, 3

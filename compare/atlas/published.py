@@ -15,9 +15,10 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from ked_quasi.massmodel import MASS_MODELS
+
 RESOURCE = "atlas_limits.json"
 """The file's name inside the ``compare`` package."""
-MASS_MODELS = ("tip", "joints", "extender", "distributed")
 
 
 def build(atlas: str | Path) -> dict[str, Any]:

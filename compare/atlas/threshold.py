@@ -24,11 +24,11 @@ import numpy as np
 
 from compare.atlas import store as atlas_store
 from compare.atlas.confirm import ConfirmPoint, confirm_points
+from ked_quasi.cognates import MECHANISMS
 from ked_quasi.massmodel import MASS_MODELS
 
 BAND = 0.25
 """Half width of the threshold band: scenes at r within +-25 % of their family's r10."""
-MECHANISMS = ("source", "cognate")
 TABLE = "threshold"
 DEFAULT_THRESHOLD = 400
 """Scenes of the default threshold sample's first draw (50 per stratum)."""

@@ -29,13 +29,14 @@ from compare.scenes import SceneSpec
 from compare.sections import write_section
 from compare.studies.validity_data import RETRY_MAX_RATIO, Point, linkage_json, quasi_static_loads, read_points
 from compare.studies.validity_summary import FamilySummary, summarize
+from ked_quasi.rules import DEFAULT_DAMPING_RATIO
 
 CONFIGS = ("validity_thesis.toml", "validity_resonance.toml", "validity_fine_source_a.toml",
            "validity_fine_source_b.toml", "validity_fine_cognate_a.toml", "validity_fine_cognate_b.toml",
            "validity_stiff.toml", "validity_slender.toml", "validity_damping.toml", "validity_direction.toml")
 """The study's campaigns, in report order (files under ``results/studies/``)."""
 REFINE_FILE = "validity_refine.h5"
-REFERENCE_DAMPING = 0.02
+REFERENCE_DAMPING = DEFAULT_DAMPING_RATIO
 REFERENCE_DIRECTION = "ccw"
 REFINE_FACTOR = 2
 SECTION = "validity"
