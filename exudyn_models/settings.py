@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from ked_quasi import rules
 
 ELEMENT_TYPES = ("ancf", "gebeam")
-STARTS = ("ramp", "quasi_static")
+STARTS = ("ramp", "quasi_static", "linear")
 PERIODIC_METHODS = ("off", "anderson")
 
 RULES: dict[str, rules.Rule | rules.Choice | rules.Flag] = {
@@ -84,7 +84,10 @@ class DynamicSettings:
         of ramp_cycles (the original behaviour); "quasi_static": at full speed from crank angle 0, every
         node on its rigid-kinematics position, velocity and acceleration plus the quasi-static deflected
         shape (Exudyn static solve of the frozen linkage under the d'Alembert loads -M a_rigid) and its
-        rate; ramp_cycles is then unused. See exudyn_models.start.
+        rate; ramp_cycles is then unused; "linear": as "quasi_static", with the static solves under the loads of
+        the whole motion of the linear model's periodic steady state (its elastic accelerations too), so the
+        start lies on that orbit (falls back to "quasi_static" where the linear answer is unavailable). See
+        exudyn_models.start.
     periodic: "off": march cycle after cycle (steady-state test and extrapolation as above);
         "anderson": solve the periodic orbit directly: the full Exudyn state at the start of a cycle is
         the unknown of the fixed point x = Phi(x) (Phi = one simulated crank cycle), accelerated by

@@ -59,7 +59,7 @@ from .refine import Attempt, failure_hint, ladder, over_budget, rung_settings
 from .settings import DynamicSettings
 from .slider_builder import check_slider_settings, is_slider_scene
 from .slider_simulate import run_slider, slider_reference_frequency
-from .start import quasi_static_state, set_initial_state
+from .start import linear_state, quasi_static_state, set_initial_state
 
 __all__ = ["Attempt", "DynamicResult", "SimulationError", "extrapolate_limit", "newton_abs_tolerance",
            "simulate_steady_state", "solver_settings"]
@@ -133,8 +133,8 @@ def _run(scene, settings: DynamicSettings, damping_beta: float) -> RunRecord:
 def _run_as_given(scene, settings: DynamicSettings, damping_beta: float) -> RunRecord:
     model = build_model(scene, settings, damping_beta=damping_beta)
     note = "ramp"
-    if settings.start == "quasi_static":
-        st = quasi_static_state(model, scene)
+    if settings.start != "ramp":
+        st = (linear_state if settings.start == "linear" else quasi_static_state)(model, scene)
         set_initial_state(model, st.q, st.v, st.a)
         note = st.note
     if settings.periodic == "anderson":

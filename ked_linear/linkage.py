@@ -37,9 +37,10 @@ class LinkageSystem:
     damping_beta: float
 
 
-def linkage_system(scene: Scene, settings: LinearSettings) -> LinkageSystem:
+def linkage_system(scene: Scene, settings: LinearSettings, masses: bool = False) -> LinkageSystem:
     """The linear KED equations of ``scene`` as a :class:`~ked_linear.periodic.PeriodicSystem` (a slider-crank
-    scene: :func:`ked_linear.slider.slider_system`)."""
+    scene: :func:`ked_linear.slider.slider_system`); ``masses``: its output is every mass coordinate (the
+    identity) instead of dx, dy, rotation of P."""
     from ked_quasi.slidercrank import SliderScene
 
     if isinstance(scene, SliderScene):
@@ -52,8 +53,9 @@ def linkage_system(scene: Scene, settings: LinearSettings) -> LinkageSystem:
 
     def direct(theta: np.ndarray) -> Coefficients:
         cs = condensed_structure(scene, theta, prestress=settings.prestress)
+        out = np.broadcast_to(np.eye(cs.mass.size), cs.stiffness.shape) if masses else cs.output
         return Coefficients(stiffness=cs.stiffness, damping=beta * cs.material_stiffness, load=cs.load,
-                            output=cs.output)
+                            output=out)
 
     # sampled once, interpolated on the uniform grids of the periodic solve and the Floquet propagator
     coefficients = SampledCoefficients(direct, start=SAMPLING_START)
