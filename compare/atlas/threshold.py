@@ -24,11 +24,11 @@ import numpy as np
 
 from compare.atlas import store as atlas_store
 from compare.atlas.confirm import ConfirmPoint, confirm_points
-from ked_quasi.massmodel import MASS_MODELS
+from compare.atlas.kinds import FOUR_BAR, AtlasKind, kind_of
 
 BAND = 0.25
 """Half width of the threshold band: scenes at r within +-25 % of their family's r10."""
-MECHANISMS = ("source", "cognate")
+MECHANISMS = FOUR_BAR.mechanisms
 TABLE = "threshold"
 DEFAULT_THRESHOLD = 400
 """Scenes of the default threshold sample's first draw (50 per stratum)."""
@@ -38,13 +38,14 @@ DEFAULT_TOP_UP = 400
 
 
 def select_threshold(families: dict[str, np.ndarray], n: int, seed: int = 0,
-                     band: float = BAND, draw: int = 0) -> list[ConfirmPoint]:
-    """The stratified threshold sample of ``n`` scenes (see the module docstring); ``draw`` > 0 an
-    independent further draw of the same design (its own random stream), which tops up every stratum."""
+                     band: float = BAND, draw: int = 0, kind: AtlasKind = FOUR_BAR) -> list[ConfirmPoint]:
+    """The stratified threshold sample of ``n`` scenes over the strata of ``kind`` (see the module
+    docstring); ``draw`` > 0 an independent further draw of the same design (its own random stream), which
+    tops up every stratum."""
     rng = np.random.default_rng([seed, 2] if draw == 0 else [seed, 2, draw])
     r10 = np.asarray(families.get("r10", []), float)
     status = np.asarray(families.get("r10_status", []), dtype=object)
-    strata = [(mm, mech) for mm in MASS_MODELS for mech in MECHANISMS]
+    strata = [(mm, mech) for mm in kind.mass_models for mech in kind.mechanisms]
     quota = [n // len(strata) + (j < n % len(strata)) for j in range(len(strata))]
     points: list[ConfirmPoint] = []
     for (mm, mech), q in zip(strata, quota):
@@ -68,7 +69,8 @@ def run_threshold(path: Path, *, n: int = DEFAULT_THRESHOLD, top_up: int = DEFAU
     """Confirm the threshold sample's scenes (``n`` of the first draw, ``top_up`` of the second) not yet
     stored in the atlas file (resumable)."""
     atlas_store.check_atlas(path, {"seed": seed})
-    families = atlas_store.read(path, "families")
-    points = select_threshold(families, n, seed) + (select_threshold(families, top_up, seed, draw=1) if top_up else [])
+    families, kind = atlas_store.read(path, "families"), kind_of(path)
+    points = select_threshold(families, n, seed, kind=kind) + (
+        select_threshold(families, top_up, seed, draw=1, kind=kind) if top_up else [])
     return confirm_points(path, list({p.key: p for p in points}.values()), TABLE, seed, workers=workers,
                           scheduler=scheduler, progress=progress, echo=echo)
