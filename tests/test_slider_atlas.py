@@ -158,3 +158,16 @@ def test_check_simeon_reads_the_published_slider_margins():
         pytest.skip(f"{stratum} not calibrated in the published limits")
     row = _simeon_check(100.0)
     assert row["tier"] == "quasi-static" and row["decided_by"] == "predicted" and stratum in row["margins_source"]
+
+
+def test_speed_at_error_inverts_a_power_law_sweep():
+    # Expected: on a sweep e = c r^2 (the inertia loads' scaling near rest) the power-law interpolation between
+    # grid ratios is exact, r = sqrt(target / c); a sweep that starts above the target or never reaches it: nan.
+    from compare.atlas.compute import RATIOS
+    from compare.atlas.threshold import speed_at_error
+
+    r = np.asarray(RATIOS)
+    e = 4.0 * r**2
+    for target in (0.07, 0.1, 0.105):
+        assert speed_at_error(r, e, target) == pytest.approx(math.sqrt(target / 4.0), rel=1e-12)
+    assert math.isnan(speed_at_error(r, e, 2.0)) and math.isnan(speed_at_error(r, e + 0.5, 0.1))

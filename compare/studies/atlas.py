@@ -29,8 +29,9 @@ SLIDER_LINKAGES = 200
 SLIDER_CONFIRM = 150
 """Scenes of the slider atlas's confirmed sample (the linear model's limits per mass model)."""
 SLIDER_THRESHOLD = 300
-"""Scenes of each of the slider threshold sample's two draws (100 per slider stratum each): with no unsafe
-call a stratum needs 122 Exudyn answers for the 3 % bound."""
+"""Scenes of each of the slider threshold sample's three draws (100 per slider stratum each: two of the
+four-bar's design, one aimed at predicted errors 0.7-1.05 x the tolerance): with no unsafe call a stratum
+needs 122 Exudyn answers for the 3 % bound."""
 
 
 def atlas_file(paths: StudyPaths) -> Path:
@@ -47,7 +48,7 @@ def run_slider(path: Path, *, linkages: int = SLIDER_LINKAGES, seed: int = 0, wo
                scheduler: str | None = None, confirm: int = SLIDER_CONFIRM, threshold: int = SLIDER_THRESHOLD,
                progress: bool = False, echo: Callable[[str], Any] = print) -> dict[str, Any]:
     """Compute (resume) the slider atlas at ``path``: its generated slider-cranks' families, the confirmed
-    sample and the two threshold draws of ``threshold`` scenes each (its margins: ``store_margins``)."""
+    sample and the three threshold draws of ``threshold`` scenes each (its margins: ``store_margins``)."""
     from compare.atlas.kinds import SLIDER
 
     out: dict[str, Any] = {"atlas": str(path)}
@@ -60,8 +61,8 @@ def run_slider(path: Path, *, linkages: int = SLIDER_LINKAGES, seed: int = 0, wo
         out["confirm"] = run_confirm(path, n=confirm, seed=seed, workers=workers, scheduler=scheduler,
                                      progress=progress, echo=echo)
     if threshold > 0:
-        out["threshold"] = run_threshold(path, n=threshold, top_up=threshold, seed=seed, workers=workers,
-                                         scheduler=scheduler, progress=progress, echo=echo)
+        out["threshold"] = run_threshold(path, n=threshold, top_up=threshold, targeted=threshold, seed=seed,
+                                         workers=workers, scheduler=scheduler, progress=progress, echo=echo)
     return out
 
 
