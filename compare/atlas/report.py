@@ -19,7 +19,7 @@ from compare.atlas import store as atlas_store
 from compare.atlas.analysis import crossed, first_crossings
 from compare.atlas.compute import RATIOS, spec_of, xy
 from compare.atlas.generate import candidate
-from compare.atlas.threshold import TABLE
+from compare.atlas.threshold import TABLE, TARGET
 from compare.execute import frame, solve_one
 from compare.markdown import median_range, num, table
 from compare.sections import write_section
@@ -342,6 +342,9 @@ def slider_text(slider: Path, readme: Path) -> list[str]:
         [np.asarray(t.get("dyn_wall_s", []), float) for t in (conf, thr)])))
     strata = cal.strata_margins(slider) if thr else {}
     rel = os.path.relpath(slider.resolve(), readme.resolve().parent)
+    lo, hi = TARGET
+    x = np.asarray(thr.get("qs_vs_linear", []), float) / 0.10
+    aimed = int(np.sum((x >= lo) & (x <= hi)))
     r = RANGES
     return [
         "### Slider-crank strata (`compare.atlas.slider_generate`)", "",
@@ -353,7 +356,9 @@ def slider_text(slider: Path, readme: Path) -> list[str]:
         f"{r.slenderness[0]:g}-{r.slenderness[1]:g}, the crank rigid in half of them, payload and slider mass "
         f"{r.payload_ratio[0]:g}-{r.payload_ratio[1]:g} x the link / rod mass; mass models tip, joints, distributed "
         f"({len(fam.get('linkage', []))} families, the same sweep, confirmed sample and threshold design as the "
-        f"four-bars, Exudyn with the same settings). {len(thr.get('key', []))} threshold scenes, "
+        "four-bars, plus a third threshold draw aimed at predicted errors "
+        f"{lo:g}-{hi:g} x the tolerance (`compare.atlas.threshold.select_targeted`); Exudyn with the same settings). "
+        f"{len(thr.get('key', []))} threshold scenes ({aimed} predicted at {lo:g}-{hi:g} x 10 %), "
         f"{len(conf.get('key', []))} confirmed; solver time stored in the file {cpu / 60:.0f} CPU-min (family sweeps "
         "and Exudyn). Its margins are calibrated by the same code, per stratum:", "",
         *(strata_table(strata) if strata else ["No slider threshold sample yet: no slider stratum grants a tier."])]
