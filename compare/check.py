@@ -320,13 +320,13 @@ def _row_flags(qs: Solution | None, lin: Solution | None, dyn: Solution | None) 
     return tuple(sorted(found))
 
 
-def linear_range(mass_model: str) -> LinearRange:
-    """The linear model's limits for a mass model from the atlas (published with the package:
-    :mod:`compare.atlas.published`); NaN limits when there are none."""
-    from compare.atlas.published import read
+def linear_range(mass_model: str, kind: str = "four-bar") -> LinearRange:
+    """The linear model's limits for a mass model of a linkage ``kind`` from its atlas (published with the
+    package: :mod:`compare.atlas.published`); NaN limits when there are none."""
+    from compare.atlas.published import kind_limits, read
 
     rec = read()
-    t = rec.get("limits", {}).get(mass_model)
+    t = kind_limits(rec, kind).get(mass_model)
     if not isinstance(t, dict):
         return LinearRange()
 
@@ -344,21 +344,21 @@ def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, 
           tolerance: float = 0.10, confirm: bool = False, bar: Any = None,
           workers: CheckWorkers | None = None, specs: Sequence[SceneSpec] | None = None) -> list[CheckRow]:
     """The design check of one linkage at each of ``rpms`` [rev/min] (see the module docstring).  A
-    slider-crank (``source`` a ``SliderCrank``) has no atlas: neither the linear model's limit nor calibrated
-    margins (the four-bar atlas's do not apply), so only a measurement (``confirm``) grants a tier below
-    nonlinear.  ``bar``: a progress bar (:func:`progress`) advanced per speed; default: one of its own.
+    slider-crank (``source`` a ``SliderCrank``) uses its own atlas's limits and margins (the slider atlas: the
+    four-bar atlas's do not apply); where its stratum has no calibration only a measurement (``confirm``)
+    grants the quasi-static tier.  ``bar``: a progress bar (:func:`progress`) advanced per speed; default: one
+    of its own.
     ``workers``: where the speeds after the first two go when their estimated work is worth worker processes
     (:class:`compare.checkwork.CheckWorkers`; the rows are the same).  ``specs``: the campaign scenes to check
     in place of :func:`spec_for`'s (a user file's scenes, :func:`compare.config.file_scenes`: the key and the
     answer ``ked run`` gives the file)."""
-    slider = isinstance(source, SliderCrank)
-    rng = LinearRange() if slider else linear_range(mass_model.name)
     if specs is None:
         specs = [spec_for(source, mechanism, mass_model, rpm, stiffness_scale=stiffness_scale,
                           damping_ratio=damping_ratio, direction=direction, step_deg=step_deg, tolerance=tolerance)
                  for rpm in rpms]
     else:
         specs = [replace(s, solvers=("quasi_static", "linear")) for s in specs]
+    rng = linear_range(specs[0].mass_model.name, specs[0].kind)
     margins = verdict_margins(tolerance, verdict_rule.stratum(specs[0].kind, specs[0].mass_model.name,
                                                               specs[0].mechanism))
     rows: list[CheckRow] = []

@@ -93,7 +93,8 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     measured against Exudyn decide the tier.
 
     A slider-crank (--linkage simeon or a TOML [linkage] table with kind = "slider-crank"; mass model
-    distributed unless given) has no validity atlas: only --confirm grants a tier below nonlinear.
+    distributed unless given) is judged by the slider atlas's limits and its own strata's margins; a
+    stratum without calibration grants no quasi-static tier from a prediction (run --confirm).
 
     \b
     JSON keys per speed: speed_ratio, quasi_static_peak_m, linear_peak_m,

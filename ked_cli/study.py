@@ -121,15 +121,19 @@ def stability(ladder: bool, retry_failed: bool, **common: Any) -> None:
 @click.option("--threshold-top-up", type=click.IntRange(min=0), default=400, show_default=True,
               help="Scenes of a second, independent draw of the same threshold design, so that every stratum (mass "
                    "model x mechanism) has the Exudyn answers its own margins need (0: none).")
+@click.option("--slider-linkages", type=click.IntRange(min=0), default=200, show_default=True,
+              help="Generated slider-cranks in the slider atlas (results/atlas/slider_atlas.h5: its own families, "
+                   "confirmed and threshold samples, margins per slider stratum; more resumes and extends; 0: none).")
 def atlas(linkages: int, seed: int, scheduler: str | None, confirm: int, threshold: int, threshold_top_up: int,
-          **common: Any) -> None:
-    """Validity atlas: the quasi-static and linear models' limits over a sample of four-bars."""
+          slider_linkages: int, **common: Any) -> None:
+    """Validity atlas: the quasi-static and linear models' limits over a sample of four-bars and of
+    slider-cranks."""
     from compare.atlas.store import AtlasFileError
     from compare.executor import SchedulerError
     from ked_cli.errors import UserError
 
     try:
         _run("atlas", linkages=linkages, seed=seed, scheduler=scheduler, confirm=confirm, threshold=threshold,
-             threshold_top_up=threshold_top_up, **common)
+             threshold_top_up=threshold_top_up, slider_linkages=slider_linkages, **common)
     except (AtlasFileError, SchedulerError) as exc:
         raise UserError(str(exc)) from None

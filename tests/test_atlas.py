@@ -311,12 +311,14 @@ def test_study_through_the_cli(tmp_path):
     from ked_cli.main import cli
 
     args = ["study", "atlas", "--results-dir", str(tmp_path), "--linkages", "4", "--confirm", "8", "--threshold", "8",
-            "--seed", "3"]
+            "--seed", "3", "--slider-linkages", "2"]
     res = CliRunner().invoke(cli, args)
     assert res.exit_code == 0, res.output
     res = CliRunner().invoke(cli, args + ["--report-only"])
     assert res.exit_code == 0, res.output
-    assert section_of((tmp_path / "README.md").read_text(), "atlas")
+    text = section_of((tmp_path / "README.md").read_text(), "atlas")
+    assert text and "### Slider-crank strata" in text and "slider-crank/tip/source" in text
+    assert (tmp_path / "atlas" / "slider_atlas.h5").exists()
 
 
 def test_run_on_a_running_scheduler(tmp_path):

@@ -272,13 +272,16 @@ def threshold_margins(path: object, tolerance: float = 0.10) -> Margins:
 
 
 def strata_margins(path: object, tolerance: float = 0.10) -> dict[str, Margins]:
-    """:func:`choose_margins` on each stratum (linkage kind x mass model x mechanism,
+    """:func:`choose_margins` on each stratum (the file's linkage kind x mass model x mechanism,
     :func:`compare.verdict_rule.stratum`) of the threshold scenes alone: a stratum's bias never hides behind
     the others.  A stratum with fewer than :data:`MIN_STRATUM` Exudyn answers grants no quasi-static tier
     (``holds_below`` 0, ``bound_met`` False)."""
     from dataclasses import replace
 
+    from compare.atlas.kinds import kind_of
+
     d = threshold_data(path, tolerance)
+    kind = kind_of(Path(path)).name  # type: ignore[arg-type]
     out = {}
     for mm, mech in sorted(set(zip(d.mass_model, d.mechanism))):
         s = (d.mass_model == mm) & (d.mechanism == mech)
@@ -287,7 +290,7 @@ def strata_margins(path: object, tolerance: float = 0.10) -> dict[str, Margins]:
             e, r, r_lin, ok = d.e[s], d.r[s], d.r_linear[s], d.linear_ok[s]
             stats = call_stats(calls(e, r, r_lin, ok, tolerance, 0.0, mg.fails_above), d.measured[s], tolerance)
             mg = replace(mg, holds_below=0.0, bound_met=False, stats=stats)
-        out[stratum(FOUR_BAR, str(mm), str(mech))] = mg
+        out[stratum(kind, str(mm), str(mech))] = mg
     return out
 
 

@@ -85,7 +85,7 @@ def failed_record(index: int, mechanism: str, mm: MassModel, reason: str, n: int
 
 def spec_of(linkage: Linkage, mechanism: str, mass_model: MassModel, r: float) -> SceneSpec:
     """The campaign scene of one family at speed ratio ``r``."""
-    return SceneSpec(linkage=linkage.fourbar, mechanism=mechanism, mass_model=mass_model, speed=SpeedSpec("ratio", r),
+    return SceneSpec(linkage=linkage.source, mechanism=mechanism, mass_model=mass_model, speed=SpeedSpec("ratio", r),
                      stiffness_scale=1.0, damping_ratio=DAMPING, direction="ccw", step_deg=STEP_DEG, n_modes=1,
                      outputs=("dx", "dy", "rotation"), tolerance=0.10, dynamic=(("damping_ratio", DAMPING),),
                      solvers=("quasi_static", "linear"))
@@ -101,9 +101,12 @@ def flag_bits(flags: tuple[str, ...]) -> int:
 
 
 def _loads_and_shape(scene: object) -> tuple[np.ndarray, np.ndarray, float]:
+    from ked_quasi.slider_static import solve_slider_quasi_static
+    from ked_quasi.slidercrank import SliderScene
+
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = solve_quasi_static(scene)
+        res = (solve_slider_quasi_static if isinstance(scene, SliderScene) else solve_quasi_static)(scene)
     mu = np.asarray(res.transmission_angle)
     return res.loads, res.deflection[:, :2], float(np.degrees(np.min(np.minimum(mu, np.pi - mu))))
 

@@ -25,9 +25,9 @@ from compare import metrics
 from compare import solvers as registry
 from compare.atlas import store as atlas_store
 from compare.atlas.compute import RATIOS, flag_bits, spec_of, xy
-from compare.atlas.generate import Linkage, candidate
+from compare.atlas.generate import Linkage
 from compare.atlas.lumps import ATTR, lumping
-from compare.execute import frame, solve_one
+from compare.execute import frame, linkage_of, solve_one
 from compare.tables import columns
 from ked_quasi.massmodel import MASS_MODELS
 
@@ -82,14 +82,16 @@ def _strata_pick(rows: list[int], r10: np.ndarray, k: int, rng: np.random.Genera
     return [int(rng.choice(chunk)) for chunk in np.array_split(np.array(order), min(k, len(order))) if len(chunk)]
 
 
-def select(families: dict[str, np.ndarray], n: int, seed: int = 0, r_max: float = RATIOS[-1]) -> list[ConfirmPoint]:
-    """The stratified sample of about ``n`` scenes (see the module docstring)."""
+def select(families: dict[str, np.ndarray], n: int, seed: int = 0, r_max: float = RATIOS[-1],
+           mass_models: Sequence[str] = MASS_MODELS) -> list[ConfirmPoint]:
+    """The stratified sample of about ``n`` scenes over ``mass_models`` (the atlas kind's; see the module
+    docstring)."""
     rng = np.random.default_rng([seed, 1])
     r10 = np.asarray(families.get("r10", []), float)
     crossed = [i for i, s in enumerate(families.get("r10_status", [])) if s == "crossed" and np.isfinite(r10[i])]
     points: list[ConfirmPoint] = []
-    per_mm = [n // len(MASS_MODELS) + (j < n % len(MASS_MODELS)) for j in range(len(MASS_MODELS))]
-    for mm, quota in zip(MASS_MODELS, per_mm):
+    per_mm = [n // len(mass_models) + (j < n % len(mass_models)) for j in range(len(mass_models))]
+    for mm, quota in zip(mass_models, per_mm):
         rows = [i for i in crossed if families["mass_model"][i] == mm]
         picked = _strata_pick(rows, r10, math.ceil(quota / len(FACTORS)), rng) if rows and quota else []
         mine = [p for i in picked for p in _family_points(families, i, r_max)]
@@ -114,7 +116,7 @@ def confirm_scene(linkage: Linkage, point: ConfirmPoint) -> ConfirmRecord:
     except Exception as exc:  # cannot be set up
         return failed_confirm(point, f"setup: {exc}")
     sol = {name: solve_one(registry.get(name), spec, fr.scene) for name in ("quasi_static", "linear", "dynamic")}
-    return _record(base, sol, fr.scene.fourbar)
+    return _record(base, sol, linkage_of(fr.scene))
 
 
 def _record(base: dict[str, Any], sol: dict[str, registry.Solution], fb: Any) -> ConfirmRecord:
@@ -122,7 +124,7 @@ def _record(base: dict[str, Any], sol: dict[str, registry.Solution], fb: Any) ->
     h = {k: xy(s) if s.ok else None for k, s in sol.items()}
     dyn, qs, lin = h["dynamic"], h["quasi_static"], h["linear"]
     failed = [f"{k}: {s.message}" for k, s in sol.items() if not s.ok]
-    shortest = min(fb.crank, fb.coupler, fb.follower, fb.extender, fb.ground)
+    shortest = shortest_link(fb)
 
     def err(fn: Callable[[np.ndarray, np.ndarray], float], a: np.ndarray | None, b: np.ndarray | None) -> float:
         return fn(a, b) if a is not None and b is not None else nan
@@ -138,6 +140,13 @@ def _record(base: dict[str, Any], sol: dict[str, registry.Solution], fb: Any) ->
     )
 
 
+def shortest_link(linkage: Any) -> float:
+    """The shortest link of an analysed linkage [m] (a four-bar's five lengths, a slider-crank's two)."""
+    if hasattr(linkage, "shortest_link"):
+        return float(linkage.shortest_link)
+    return min(linkage.crank, linkage.coupler, linkage.follower, linkage.extender, linkage.ground)
+
+
 def confirm_columns(records: Sequence[ConfirmRecord]) -> dict[str, list[Any]]:
     return columns([asdict(rec) for rec in records])
 
@@ -145,8 +154,11 @@ def confirm_columns(records: Sequence[ConfirmRecord]) -> dict[str, list[Any]]:
 def run_confirm(path: Path, *, n: int = 200, seed: int = 0, workers: int = 2, scheduler: str | None = None,
                 progress: bool = False, echo: Callable[[str], Any] = print) -> dict[str, int]:
     """Confirm the sample's scenes not yet stored in the atlas file (resumable)."""
+    from compare.atlas.kinds import kind_of
+
     atlas_store.check_atlas(path, {"seed": seed})  # the sample's linkages are regenerated from the seed
-    return confirm_points(path, select(atlas_store.read(path, "families"), n, seed), "confirm", seed,
+    mms = kind_of(path).mass_models
+    return confirm_points(path, select(atlas_store.read(path, "families"), n, seed, mass_models=mms), "confirm", seed,
                           workers=workers, scheduler=scheduler, progress=progress, echo=echo)
 
 
@@ -163,6 +175,9 @@ def confirm_points(path: Path, points: Sequence[ConfirmPoint], table: str, seed:
     if todo:
         echo(f"atlas: {len(todo)} {what} to confirm with Exudyn")
         t0 = time.perf_counter()
+        from compare.atlas.kinds import kind_of
+
+        candidate = kind_of(path).candidate
         links = {p.linkage: candidate(seed, p.linkage) for p in todo}
         with store.writer_lock(path):
             info = atlas_store.attrs(path)

@@ -23,7 +23,9 @@ when it is crank-drivable and not near toggle; otherwise the reason is kept.  SI
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import numpy as np
 
@@ -95,12 +97,17 @@ class Linkage:
     def index(self) -> int:
         return self.design.index
 
+    @property
+    def source(self) -> FourBar:
+        """The analysed source linkage."""
+        return self.fourbar
+
 
 @dataclass(frozen=True)
 class Reject:
     """A candidate left out, and why."""
 
-    design: Design
+    design: Any  # the Design of its linkage kind's generator
     reason: str
 
     @property
@@ -113,11 +120,12 @@ class Sample:
     """``generate``'s answer: accepted linkages and rejects, both by candidate index."""
 
     seed: int
-    linkages: tuple[Linkage, ...]
+    linkages: tuple[Any, ...]  # Linkage of its kind's generator
     rejects: tuple[Reject, ...]
 
 
-def _log_uniform(rng: np.random.Generator, lo_hi: tuple[float, float]) -> float:
+def log_uniform(rng: np.random.Generator, lo_hi: tuple[float, float]) -> float:
+    """A draw log-uniform on ``lo_hi``."""
     return float(math.exp(rng.uniform(math.log(lo_hi[0]), math.log(lo_hi[1]))))
 
 
@@ -126,25 +134,30 @@ def draw(seed: int, index: int, ranges: Ranges = RANGES) -> Design:
     rng = np.random.default_rng([seed, index])
     u = rng.uniform
     return Design(
-        index=index, ground_m=_log_uniform(rng, ranges.ground_m), crank_ratio=float(u(*ranges.crank_ratio)),
+        index=index, ground_m=log_uniform(rng, ranges.ground_m), crank_ratio=float(u(*ranges.crank_ratio)),
         coupler_ratio=float(u(*ranges.coupler_ratio)), follower_ratio=float(u(*ranges.follower_ratio)),
         extender_ratio=float(u(*ranges.extender_ratio)), coupler_angle_deg=float(u(*ranges.coupler_angle_deg)),
         branch=str(rng.choice(["open", "crossed"])), material=str(rng.choice(list(MATERIALS))),
-        shape=str(rng.choice(SHAPES)), slenderness=_log_uniform(rng, ranges.slenderness),
-        bar_aspect=float(u(*ranges.bar_aspect)), payload_ratio=_log_uniform(rng, ranges.payload_ratio),
+        shape=str(rng.choice(SHAPES)), slenderness=log_uniform(rng, ranges.slenderness),
+        bar_aspect=float(u(*ranges.bar_aspect)), payload_ratio=log_uniform(rng, ranges.payload_ratio),
         payload_all=bool(rng.uniform() < 0.5),
     )
 
 
 def section(d: Design) -> Section:
     """The common section: radius of gyration ground / slenderness; rod d = 4 r_g, bar h = sqrt(12) r_g."""
-    E, rho = MATERIALS[d.material]
-    rg = d.ground_m / d.slenderness
-    if d.shape == "rod":
+    return round_or_bar(d.material, d.shape, d.ground_m / d.slenderness, d.bar_aspect)
+
+
+def round_or_bar(material: str, shape: str, rg: float, bar_aspect: float) -> Section:
+    """A section of ``material`` with radius of gyration ``rg`` [m]: a round rod (d = 4 rg) or a bar
+    (in-plane depth h = sqrt(12) rg, width ``bar_aspect`` x h)."""
+    E, rho = MATERIALS[material]
+    if shape == "rod":
         dia = 4.0 * rg
         return Section(E, math.pi * dia**2 / 4.0, math.pi * dia**4 / 64.0, rho)
     h = math.sqrt(12.0) * rg
-    b = d.bar_aspect * h
+    b = bar_aspect * h
     return Section(E, b * h, b * h**3 / 12.0, rho)
 
 
@@ -210,17 +223,23 @@ def candidate(seed: int, index: int, ranges: Ranges = RANGES) -> Linkage | Rejec
 
 def generate(n: int, seed: int = 0, ranges: Ranges = RANGES, max_candidates: int | None = None) -> Sample:
     """The first ``n`` accepted linkages of ``seed`` and every reject drawn on the way."""
+    return accept_first(lambda i: candidate(seed, i, ranges), n, seed, max_candidates)
+
+
+def accept_first(draw_one: Callable[[int], Any], n: int, seed: int, max_candidates: int | None = None) -> Sample:
+    """The first ``n`` accepted candidates ``draw_one(0), draw_one(1), ...`` (a linkage or a :class:`Reject`)
+    and every reject drawn on the way (any linkage kind's generator)."""
     if n < 0:
         raise ValueError(f"n must be >= 0; got {n}")
     cap = 50 * n + 100 if max_candidates is None else max_candidates
-    ok: list[Linkage] = []
+    ok: list[Any] = []
     bad: list[Reject] = []
     index = 0
     while len(ok) < n:
         if index >= cap:
             raise ValueError(f"only {len(ok)} of {n} linkages accepted in {cap} candidates")
-        c = candidate(seed, index, ranges)
-        (ok if isinstance(c, Linkage) else bad).append(c)
+        c = draw_one(index)
+        (bad if isinstance(c, Reject) else ok).append(c)
         index += 1
     return Sample(seed, tuple(ok), tuple(bad))
 

@@ -19,7 +19,7 @@ from compare.atlas import store as atlas_store
 from compare.atlas.analysis import crossed, first_crossings
 from compare.atlas.compute import RATIOS, spec_of, xy
 from compare.atlas.generate import candidate
-from compare.atlas.threshold import TABLE
+from compare.atlas.threshold import TABLE, TARGET
 from compare.execute import frame, solve_one
 from compare.markdown import median_range, num, table
 from compare.sections import write_section
@@ -131,8 +131,8 @@ def headline(h: fd.Headline, strata: dict[str, cal.Margins] | None = None) -> st
                  f"{len(granted)} of the {len(strata)} four-bar strata grant the quasi-static tier from a prediction "
                  f"(margins {margins} "
                  f"x the tolerance), every stratum's unsafe-call rate with a 95 % upper bound of at most "
-                 f"{worst:.1%} (table below); a stratum without enough data, and every slider-crank, grants none and "
-                 "says so.")
+                 f"{worst:.1%} (table below); a stratum without enough data grants none and says so (the "
+                 "slider-crank strata: their own atlas and table).")
     return text
 
 
@@ -329,8 +329,45 @@ def lumping_text(atlas: Path) -> str:
             "(`compare.atlas.reconfirm`); the family sweeps are recomputed only from a fresh atlas (`--fresh`).")
 
 
-def markdown(f: fd.AtlasFindings, atlas: Path, readme: Path, figs: dict[str, Path]) -> str:
-    """The README section from the findings (figure and atlas paths relative to the README)."""
+def slider_text(slider: Path, readme: Path) -> list[str]:
+    """The slider atlas's part of the README section: what it holds and one row per slider stratum (count,
+    unsafe, over-cautious, 95 % bounds, margins), from ``strata_margins`` of the slider atlas file."""
+    from compare.atlas.slider_generate import RANGES
+
+    fam, thr = atlas_store.read(slider, "families"), atlas_store.read(slider, TABLE)
+    conf = atlas_store.read(slider, "confirm")
+    links = atlas_store.read(slider, "linkages")
+    n_link = int(np.sum(links["accepted"])) if "accepted" in links else 0
+    cpu = float(np.nansum(fam.get("wall_s", []))) + float(np.nansum(np.concatenate(
+        [np.asarray(t.get("dyn_wall_s", []), float) for t in (conf, thr)])))
+    strata = cal.strata_margins(slider) if thr else {}
+    rel = os.path.relpath(slider.resolve(), readme.resolve().parent)
+    lo, hi = TARGET
+    x = np.asarray(thr.get("qs_vs_linear", []), float) / 0.10
+    aimed = int(np.sum((x >= lo) & (x <= hi)))
+    r = RANGES
+    return [
+        "### Slider-crank strata (`compare.atlas.slider_generate`)", "",
+        f"A separate atlas of {n_link} generated slider-cranks (`{rel}`, {slider.stat().st_size / 1e6:.1f} MB; "
+        f"computed by `ked study atlas --slider-linkages {n_link}`, resumable): crank {r.crank_m[0]:g}-"
+        f"{r.crank_m[1]:g} m and crank/rod {r.crank_rod_ratio[0]:g}-{r.crank_rod_ratio[1]:g} log-uniform, slider "
+        f"offset {r.offset_ratio[0]:g}-{r.offset_ratio[1]:g} x rod, coupler point {r.coupler_point[0]:g}-"
+        f"{r.coupler_point[1]:g} of the rod from the crank pin, steel or aluminium rods and bars of rod slenderness "
+        f"{r.slenderness[0]:g}-{r.slenderness[1]:g}, the crank rigid in half of them, payload and slider mass "
+        f"{r.payload_ratio[0]:g}-{r.payload_ratio[1]:g} x the link / rod mass; mass models tip, joints, distributed "
+        f"({len(fam.get('linkage', []))} families, the same sweep, confirmed sample and threshold design as the "
+        "four-bars, plus a third threshold draw aimed at predicted errors "
+        f"{lo:g}-{hi:g} x the tolerance (`compare.atlas.threshold.select_targeted`); Exudyn with the same settings). "
+        f"{len(thr.get('key', []))} threshold scenes ({aimed} predicted at {lo:g}-{hi:g} x 10 %), "
+        f"{len(conf.get('key', []))} confirmed; solver time stored in the file {cpu / 60:.0f} CPU-min (family sweeps "
+        "and Exudyn). Its margins are calibrated by the same code, per stratum:", "",
+        *(strata_table(strata) if strata else ["No slider threshold sample yet: no slider stratum grants a tier."])]
+
+
+def markdown(f: fd.AtlasFindings, atlas: Path, readme: Path, figs: dict[str, Path],
+             slider: Path | None = None) -> str:
+    """The README section from the findings (figure and atlas paths relative to the README); ``slider``: the
+    slider atlas file, whose strata get their own table (:func:`slider_text`)."""
     rel = {k: os.path.relpath(v.resolve(), readme.resolve().parent) for k, v in figs.items()}
     strata = cal.strata_margins(atlas) if f.threshold is not None else {}
     info = f.info
@@ -378,6 +415,7 @@ def markdown(f: fd.AtlasFindings, atlas: Path, readme: Path, figs: dict[str, Pat
          "### Calibration at the threshold (`ked check`'s quasi-static call)", "",
          *([drawn_from(atlas), ""] if drawn_from(atlas) else []),
          *threshold_text(f.threshold, strata), "", f"![threshold]({rel['threshold']})", "",
+         *([*slider_text(slider, readme), ""] if slider is not None else []),
          "### Exudyn-confirmed sample (context: mostly far from the threshold)", "",
          "Stratified (`compare.atlas.confirm`): per mass model, families drawn from equal strata of their r* (10 %), "
          "each at r = 0.6, 1, 1.4, 2, 3 x r* (interpolated r*, capped at 0.5); quasi-static, linear and Exudyn "
@@ -391,8 +429,8 @@ def markdown(f: fd.AtlasFindings, atlas: Path, readme: Path, figs: dict[str, Pat
     return "\n".join(L) + "\n"
 
 
-def write_report(atlas: Path, figures_dir: Path, readme: Path) -> dict[str, Any]:
-    """Figures and the README section from the stored atlas."""
+def write_report(atlas: Path, figures_dir: Path, readme: Path, slider: Path | None = None) -> dict[str, Any]:
+    """Figures and the README section from the stored atlas (and the slider atlas file ``slider``, if any)."""
     info, fam, links, conf = load(atlas)
     thr, margins = threshold_of(atlas)
     feats = features(fam, links)
@@ -409,7 +447,7 @@ def write_report(atlas: Path, figures_dir: Path, readme: Path) -> dict[str, Any]
             "threshold": figures.threshold(thr.e, thr.measured, thr.mass_model, thr.factor, margins.tolerance,
                                            margins.holds_below, margins.fails_above, figures_dir / FIGURES[6])
             if thr is not None and margins is not None else figures_dir / FIGURES[6]}
-    write_section(readme, SECTION, markdown(found, atlas, readme, figs))
+    write_section(readme, SECTION, markdown(found, atlas, readme, figs, slider))
     return {"figures": [str(p) for p in figs.values()], "readme": str(readme), "families": len(fam["linkage"]),
             "confirmed": len(conf.get("key", []))}
 

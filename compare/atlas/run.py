@@ -31,7 +31,8 @@ from compare.atlas.compute import (
     failed_record,
     families_of,
 )
-from compare.atlas.generate import Linkage, Sample, generate, ranges_dict
+from compare.atlas.generate import Linkage, Reject, Sample
+from compare.atlas.kinds import FOUR_BAR, AtlasKind
 from compare.tables import columns
 from ked_quasi.massmodel import MASS_MODELS, MassModel
 
@@ -51,9 +52,9 @@ class RunSummary:
     wall_s: float
 
 
-def meta(seed: int, ratios: Sequence[float]) -> dict[str, Any]:
-    """The file attributes of an atlas run (JSON-able)."""
-    return {"seed": seed, "ratios": list(ratios), "ranges": ranges_dict(),
+def meta(seed: int, ratios: Sequence[float], kind: AtlasKind = FOUR_BAR) -> dict[str, Any]:
+    """The file attributes of an atlas run of linkages of ``kind`` (JSON-able)."""
+    return {"seed": seed, "ratios": list(ratios), "ranges": kind.ranges(),
             "settings": {"damping_ratio": DAMPING, "step_deg": STEP_DEG, "stop_error": STOP_ERROR,
                          "tolerances": list(TOLERANCES), "direction": "ccw", "solvers": ["quasi_static", "linear"]}}
 
@@ -64,17 +65,23 @@ def linkage_columns(sample: Sample) -> dict[str, list[Any]]:
     names = ("index", "accepted", "reason", *asdict(rows[0].design)) if rows else ()
     cols: dict[str, list[Any]] = {k: [] for k in names}
     for c in rows:
-        ok = isinstance(c, Linkage)
+        ok = not isinstance(c, Reject)
         for k, v in asdict(c.design).items():
             cols[k].append(v)
         cols["accepted"].append(ok)
         cols["reason"].append("" if ok else c.reason)
-    for name, get in (("mechanisms", lambda c: ",".join(c.mechanisms)), ("cognate_reason", lambda c: c.cognate_reason),
-                      ("min_transmission_deg", lambda c: c.min_transmission_deg),
-                      ("cognate_min_transmission_deg", lambda c: c.cognate_min_transmission_deg)):
-        cols[name] = [get(c) if isinstance(c, Linkage) else ("" if name in ("mechanisms", "cognate_reason") else np.nan)
+    text = ("mechanisms", "cognate_reason")
+    for name in ("mechanisms", "cognate_reason", "min_transmission_deg", "cognate_min_transmission_deg"):
+        if sample.linkages and not hasattr(sample.linkages[0], name):
+            continue  # a column of another linkage kind (a slider-crank has no cognate)
+        cols[name] = [_linkage_value(c, name) if not isinstance(c, Reject) else ("" if name in text else np.nan)
                       for c in rows]
     return cols
+
+
+def _linkage_value(c: Any, name: str) -> Any:
+    v = getattr(c, name)
+    return ",".join(v) if name == "mechanisms" else v
 
 
 def family_columns(records: Sequence[FamilyRecord]) -> dict[str, list[Any]]:
@@ -170,21 +177,22 @@ def run_records(tasks: Sequence[Any], fn: Callable[..., Any], commit: Callable[[
 
 def run_atlas(path: Path, *, linkages: int = 1000, seed: int = 0, workers: int = 2, scheduler: str | None = None,
               ratios: Sequence[float] = RATIOS, progress: bool = False,
-              echo: Callable[[str], Any] = print) -> RunSummary:
-    """Compute every linkage of ``generate(linkages, seed)`` not yet stored in ``path`` (see module docstring)."""
+              echo: Callable[[str], Any] = print, kind: AtlasKind = FOUR_BAR) -> RunSummary:
+    """Compute every linkage of ``kind.generate(linkages, seed)`` not yet stored in ``path`` (see module
+    docstring)."""
     from compare.executor import exit_if_starting_worker
 
     exit_if_starting_worker()  # a worker importing a script without a main guard writes nothing
     t0 = time.perf_counter()
     path = store.target(path)
-    info = meta(seed, ratios)
+    info = meta(seed, ratios, kind)
     atlas_store.check_atlas(path, info)
     if scheduler:  # an unreachable cluster is reported before anything is written
         from compare.executor import probe_scheduler
 
         probe_scheduler(scheduler)
     done = stored_linkages(path)
-    sample = generate(max(linkages, len(done)), seed)  # a prefix of the same draws: keeps every stored linkage
+    sample = kind.generate(max(linkages, len(done)), seed)  # a prefix of the same draws: keeps every stored linkage
     todo = [lk for lk in sample.linkages[:linkages] if lk.index not in done]
     store.check_writable(path)
     with store.writer_lock(path):
