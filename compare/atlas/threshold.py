@@ -45,10 +45,23 @@ def select_threshold(families: dict[str, np.ndarray], n: int, seed: int = 0,
     tops up every stratum."""
     rng = np.random.default_rng([seed, 2] if draw == 0 else [seed, 2, draw])
     r10 = np.asarray(families.get("r10", []), float)
+    points: list[ConfirmPoint] = []
+    for i, mm, mech in _picks(families, n, kind, rng):
+        f = float(rng.uniform(1.0 - band, 1.0 + band))
+        r = round(f * float(r10[i]), 6)
+        points.append(ConfirmPoint(int(families["linkage"][i]), mech, mm, round(r / float(r10[i]), 4), r,
+                                   float(r10[i])))
+    return points
+
+
+def _picks(families: dict[str, np.ndarray], n: int, kind: AtlasKind, rng: np.random.Generator):
+    """(family row, mass model, mechanism) of about ``n`` families split evenly over the strata of ``kind``:
+    per stratum, its crossed families in equal chunks of their r10, one drawn from each (lazily: the caller
+    draws its own numbers from ``rng`` between two picks)."""
+    r10 = np.asarray(families.get("r10", []), float)
     status = np.asarray(families.get("r10_status", []), dtype=object)
     strata = [(mm, mech) for mm in kind.mass_models for mech in kind.mechanisms]
     quota = [n // len(strata) + (j < n % len(strata)) for j in range(len(strata))]
-    points: list[ConfirmPoint] = []
     for (mm, mech), q in zip(strata, quota):
         rows = [i for i in range(r10.size) if status[i] == "crossed" and np.isfinite(r10[i])
                 and families["mass_model"][i] == mm and families["mechanism"][i] == mech]
@@ -56,12 +69,7 @@ def select_threshold(families: dict[str, np.ndarray], n: int, seed: int = 0,
             continue
         order = np.array(sorted(rows, key=lambda i: r10[i]))
         for chunk in np.array_split(order, min(q, order.size)):
-            i = int(rng.choice(chunk))
-            f = float(rng.uniform(1.0 - band, 1.0 + band))
-            r = round(f * float(r10[i]), 6)
-            points.append(ConfirmPoint(int(families["linkage"][i]), mech, mm, round(r / float(r10[i]), 4), r,
-                                       float(r10[i])))
-    return points
+            yield int(rng.choice(chunk)), mm, mech
 
 
 TARGET = (0.7, 1.05)
@@ -94,23 +102,13 @@ def select_targeted(families: dict[str, np.ndarray], ratios: Sequence[float], n:
     rng = np.random.default_rng([seed, 2, 99])
     r10 = np.asarray(families.get("r10", []), float)
     hist = np.asarray(families.get("history_error", np.zeros((0, len(ratios)))), float)
-    status = np.asarray(families.get("r10_status", []), dtype=object)
-    strata = [(mm, mech) for mm in kind.mass_models for mech in kind.mechanisms]
-    quota = [n // len(strata) + (j < n % len(strata)) for j in range(len(strata))]
     points: list[ConfirmPoint] = []
-    for (mm, mech), q in zip(strata, quota):
-        rows = [i for i in range(r10.size) if status[i] == "crossed" and np.isfinite(r10[i])
-                and families["mass_model"][i] == mm and families["mechanism"][i] == mech]
-        if not rows or not q:
-            continue
-        order = np.array(sorted(rows, key=lambda i: r10[i]))
-        for chunk in np.array_split(order, min(q, order.size)):
-            i = int(rng.choice(chunk))
-            r = speed_at_error(np.asarray(ratios, float), hist[i], float(rng.uniform(*TARGET)) * tolerance)
-            if np.isfinite(r):
-                r = round(r, 6)
-                points.append(ConfirmPoint(int(families["linkage"][i]), mech, mm, round(r / float(r10[i]), 4), r,
-                                           float(r10[i])))
+    for i, mm, mech in _picks(families, n, kind, rng):
+        r = speed_at_error(np.asarray(ratios, float), hist[i], float(rng.uniform(*TARGET)) * tolerance)
+        if np.isfinite(r):
+            r = round(r, 6)
+            points.append(ConfirmPoint(int(families["linkage"][i]), mech, mm, round(r / float(r10[i]), 4), r,
+                                       float(r10[i])))
     return points
 
 
