@@ -282,6 +282,22 @@ def test_reconfirm_redoes_rows_of_an_older_lumping_and_resumes(atlas, tmp_path):
     assert reconfirm.reconfirm(path, seed=SEED, workers=1, echo=lambda s: None)[table] == 0
 
 
+def test_an_exudyn_answer_beyond_the_small_deflection_range_is_no_reference(atlas, tmp_path):
+    # the harness's own rule (ked_quasi.limits): a deflection above MAX_DEFLECTION_FRACTION of the shortest link
+    # is outside the range of the small-deflection comparison, so the calibration leaves that scene out
+    import shutil
+
+    from ked_quasi.limits import MAX_DEFLECTION_FRACTION
+
+    path = tmp_path / "atlas.h5"
+    shutil.copy(atlas["path"], path)
+    cols = {c: list(v) for c, v in atlas_store.read(path, "threshold").items()}
+    assert np.isfinite(calibration.threshold_data(path).measured[0])
+    cols["deflection_ratio"][0] = 2.0 * MAX_DEFLECTION_FRACTION
+    atlas_store.write(path, {}, replaces={"threshold": cols})
+    assert np.isnan(calibration.threshold_data(path).measured[0])
+
+
 def test_tolerance_bound_covers_the_quantile_as_stated():
     # independent check by simulation: for uniform(0, 1) samples of 100 the bound must lie above the 0.95
     # quantile (0.95) in at least 95 % of the draws (the chosen order statistic k = 99 covers it with probability

@@ -49,6 +49,7 @@ from compare.atlas.threshold import BAND, TABLE
 
 # re-exported: the calibration's vocabulary
 from compare.verdict_rule import BORDERLINE, CALL_NAMES, NOT_QUASI_STATIC, QUASI_STATIC, calls, stratum  # noqa: F401
+from ked_quasi.limits import MAX_DEFLECTION_FRACTION
 
 FOUR_BAR = "four-bar"
 """The linkage kind of every atlas scene."""
@@ -246,12 +247,14 @@ class ThresholdData:
 def threshold_data(path: object, tolerance: float = 0.10) -> ThresholdData:
     """The threshold scenes of an atlas file: the /threshold table and the /confirm scenes within the band
     (r within +-25 % of the family's r10), joined with each mass model's lower-band linear limit
-    (:func:`compare.atlas.analysis.limits`, :func:`compare.atlas.analysis.lower_band`)."""
+    (:func:`compare.atlas.analysis.limits`, :func:`compare.atlas.analysis.lower_band`).  A scene whose Exudyn
+    answer failed, or lies beyond the small-deflection range (peak deflection over the shortest link above
+    ``ked_quasi.limits.MAX_DEFLECTION_FRACTION``: not a valid reference), has no measured error."""
     p = Path(path)  # type: ignore[arg-type]
     thr, conf = store.read(p, TABLE), store.read(p, "confirm")
     in_band = np.abs(np.asarray(conf.get("factor", []), float) - 1.0) <= BAND + 1e-12
     cols = ("qs_vs_linear", "linear_flags", "status", "qs_vs_dyn", "r", "mass_model", "mechanism", "factor",
-            "linkage")
+            "linkage", "deflection_ratio")
     t = {c: np.concatenate([np.asarray(thr.get(c, []), dtype=object), np.asarray(conf.get(c, []),
                                                                                  dtype=object)[in_band]])
          for c in cols}
@@ -260,7 +263,9 @@ def threshold_data(path: object, tolerance: float = 0.10) -> ThresholdData:
     bands = {m: lower_band(limits(m, p), tolerance) for m in sorted(set(mm))}
     e = t["qs_vs_linear"].astype(float)
     ok = np.isfinite(e) & (t["linear_flags"].astype(int) == 0)
-    measured = np.where(t["status"] == "ok", t["qs_vs_dyn"].astype(float), math.nan)
+    # an Exudyn answer beyond the small-deflection range (ked_quasi.limits) is no valid reference: left out
+    valid = (t["status"] == "ok") & ~(t["deflection_ratio"].astype(float) > MAX_DEFLECTION_FRACTION)
+    measured = np.where(valid, t["qs_vs_dyn"].astype(float), math.nan)
     return ThresholdData(e, measured, t["r"].astype(float), np.array([bands[m] for m in mm], float), ok, mm,
                          t["mechanism"], t["factor"].astype(float), sample, t["linkage"].astype(int))
 
