@@ -1,175 +1,144 @@
-"""Link stress histories of the quasi-static tier against beam-table closed forms.
+"""Link stress histories against closed forms and independent statics.
 
-Expected values come from statics, not from the code: a link pinned at both ends carries the bending moment
-of a simply supported beam under the transverse components of its loads (Roark / any beam table, point load
-P at a from the left end of a span L: M(x) = P x (L - a) / L for x <= a, P a (L - x) / L for x >= a,
-superposed over the lumps); a link clamped at one end and free of moment at the other is a cantilever
-(M at the root = P a for a transverse point load P at distance a from the root).
+Each test names where its expected value comes from: beam tables (simply supported beam under a linearly
+varying load), free-body statics of the frozen linkage, the solid circle's section properties, and the
+quasi-static limit of the linear model.
 """
 
-from __future__ import annotations
-
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
-from ked_quasi.linkage import Section
-from ked_quasi.slider_static import _frozen, inertia_loads
-from ked_quasi.slidercrank import build_slider_scene, simeon_slider_crank
-from ked_quasi.stress import link_stress, quasi_static_stress, slider_stress
+from ked_quasi import MassModel, Scene, SliderScene, simeon_slider_crank, thesis_fourbar
+from ked_quasi.kinematics import joint_positions
+from ked_quasi.linkage import THESIS_SECTION, Section
+from ked_quasi.stress import history_error, quasi_static_stress
+from ked_quasi.units import INCH
 
-ANGLES = np.deg2rad([0.0, 30.0, 100.0, 200.0, 290.0])
-
-
-def _scene(rpm: float = 1000.0):
-    return build_slider_scene(simeon_slider_crank(), "distributed", rpm=rpm)
+THETA = math.radians(40.0)
+RPM = 300.0
 
 
-def _simply_supported(q: np.ndarray, a: np.ndarray, x: np.ndarray, L: float) -> np.ndarray:
-    """Beam table: moment (n, len(x)) of a simply supported span L under point loads q (n, k) at a (k,)."""
-    xx, aa = x[:, None], a[None, :]
-    influence = np.where(xx <= aa, xx * (L - aa) / L, aa * (L - xx) / L)  # (len(x), k)
-    return q @ influence.T
+def _cx(a, b):
+    return a[0] * b[1] - a[1] * b[0]
 
 
-def test_slider_rod_is_a_simply_supported_beam_under_its_inertia_loads():
-    """The rod (pinned at the crank pin and the slider) under the frozen structure's d'Alembert loads:
-    M along it equals the simply supported beam's point-load superposition of the loads' components
-    normal to the rod (sagging positive for loads along the CCW normal: the code's sign is the opposite,
-    hogging positive, pinned here by comparing -M)."""
-    scene = _scene()
-    lm, topo, kin, _ = _frozen(scene, ANGLES)
-    loads = inertia_loads(scene, topo, lm, kin)
-    rod = np.array([lk == "coupler" for lk in topo.node_link])
-    e = (kin.zB - kin.zA) / np.abs(kin.zB - kin.zA)
-    normal = 1j * e
-    q = (loads[..., 0] + 1j * loads[..., 1]) * np.conj(normal)[:, None]
-    L = scene.linkage.coupler
-    a = topo.node_s[rod] * L
-    ls = quasi_static_stress(scene, ANGLES).links["coupler"]
-    x = np.r_[ls.s0, ls.s1[-1]] * L
-    expected = _simply_supported(q.real[:, rod], a, x, L)
-    got = np.concatenate([ls.moment[:, :, 0], ls.moment[:, -1:, 1]], axis=1)
-    peak = np.abs(expected).max()
-    assert peak > 1.0  # a real bending load at 1000 rpm
-    np.testing.assert_allclose(-got, expected, atol=1e-9 * peak)
-    # pinned ends: no moment (beam table boundary condition)
-    np.testing.assert_allclose(got[:, [0, -1]], 0.0, atol=1e-9 * peak)
-
-
-def test_slider_crank_is_a_cantilever_under_a_point_load_on_it():
-    """A transverse point load P on the crank at fraction s (nothing else loaded): the rod is a two-force
-    member the slider cannot hold, so the crank is a cantilever, M_root = P s L_crank, M = 0 at the pin; the
-    rod carries nothing."""
-    scene = _scene()
-    _, topo, kin, _ = _frozen(scene, ANGLES)
-    P, s = 250.0, 0.5
-    k = topo.node_of("crank", s)
-    normal = 1j * kin.zA / np.abs(kin.zA)
-    loads = np.zeros((ANGLES.size, topo.n_nodes, 2))
-    loads[:, k, 0], loads[:, k, 1] = P * normal.real, P * normal.imag
-    h = slider_stress(scene, ANGLES, loads)
-    crank, rod = h.links["crank"], h.links["coupler"]
-    Lc = scene.linkage.crank
-    np.testing.assert_allclose(np.abs(crank.moment[:, 0, 0]), P * s * Lc, rtol=1e-10)
-    np.testing.assert_allclose(crank.moment[:, -1, 1], 0.0, atol=1e-9 * P * Lc)
-    np.testing.assert_allclose(crank.moment_at(0.75), crank.moment[:, 0, 0] * 0.0, atol=1e-9 * P * Lc)
-    np.testing.assert_allclose(np.abs(crank.moment_at(0.25)), P * (s - 0.25) * Lc, rtol=1e-10)
-    np.testing.assert_allclose(crank.axial, 0.0, atol=1e-9 * P)
-    np.testing.assert_allclose(rod.moment, 0.0, atol=1e-9 * P * Lc)
-    # sigma = N/A + |M| c / I at the root (N = 0): the section's flexure formula
-    sec = scene.linkage.section("crank")
-    np.testing.assert_allclose(crank.sigma_max, P * s * Lc * sec.extreme_fibre / sec.second_moment, rtol=1e-10)
-    np.testing.assert_allclose(crank.sigma_min, -crank.sigma_max, rtol=1e-10)
-
-
-def test_fibre_stress_is_axial_plus_flexure_with_signs():
-    """sigma_max/min = N/A +- |M| c/I (flexure formula), extremes over the element ends."""
-    sec = Section(youngs_modulus=2e11, area=1e-4, second_moment=1e-9, density=7800.0, fibre_distance=0.005)
-    forces = np.array([[[1000.0, 200.0, 0.0], [1000.0, 0.0, -5.0]]])  # (n=1, E=2, (N, V, M))
-    ls = link_stress("rod", sec, 0.2, np.array([0.0, 0.5]), np.array([0.5, 1.0]), forces)
-    # element 0: M_i = M_j + L V = 0 + 0.1 * 200 = 20 N m; element 1: |M| = 5 N m at both ends
-    assert ls.moment[0, 0, 0] == pytest.approx(20.0)
-    assert ls.sigma_max[0] == pytest.approx(1000.0 / 1e-4 + 20.0 * 0.005 / 1e-9)
-    assert ls.sigma_min[0] == pytest.approx(1000.0 / 1e-4 - 20.0 * 0.005 / 1e-9)
-    assert ls.peak == pytest.approx(ls.sigma_max[0])  # tension side: 110 MPa against -90 MPa
+def _acceleration(position, theta, omega, h=1e-3):
+    """omega^2 d2x/dtheta2 by 5-point central differences of a rigid position (constant crank speed)."""
+    p = [np.asarray(position(theta + k * h), float) for k in (-2, -1, 0, 1, 2)]
+    return omega**2 * (-p[0] + 16 * p[1] - 30 * p[2] + 16 * p[3] - p[4]) / (12 * h * h)
 
 
 def test_default_fibre_distance_is_the_solid_circle():
-    """A = pi r^2, I = pi r^4 / 4 -> c = r = 2 sqrt(I/A)."""
-    r = 0.01
-    sec = Section(youngs_modulus=2e11, area=math.pi * r**2, second_moment=math.pi * r**4 / 4, density=7800.0)
-    assert sec.extreme_fibre == pytest.approx(r)
-    assert sec.section_modulus == pytest.approx(math.pi * r**3 / 4)
+    """The thesis's 0.5 in round bar: A = pi r^2, I = pi r^4 / 4 give r = 2 sqrt(I/A) = 0.25 in (within the
+    rounding of the thesis's A = 0.19634 in^2 for pi/16 = 0.196350 in^2: 3e-5)."""
+    assert THESIS_SECTION.extreme_fibre == pytest.approx(0.25 * INCH, rel=5e-5)
 
 
 def test_fibre_distance_below_the_radius_of_gyration_is_refused():
+    """I = integral y^2 dA <= A c^2 for any section: c < sqrt(I/A) is no section."""
     with pytest.raises(ValueError, match="Section.fibre_distance"):
-        Section(youngs_modulus=2e11, area=1e-4, second_moment=1e-8, density=7800.0, fibre_distance=0.001)
+        replace(THESIS_SECTION, fibre_distance=0.1 * INCH)
+    with pytest.raises(ValueError, match="Section.fibre_distance"):
+        replace(THESIS_SECTION, fibre_distance=-1.0)
+    sec = replace(THESIS_SECTION, fibre_distance=0.3 * INCH)
+    assert Section.from_dict(sec.to_dict()) == sec and "fibre_distance" not in THESIS_SECTION.to_dict()
 
 
-def test_stress_vanishes_as_speed_squared():
-    """Inertia loads scale with omega^2 at fixed angles, so does every stress (quasi-static, linear statics)."""
-    lo = quasi_static_stress(_scene(100.0), ANGLES).links["coupler"]
-    hi = quasi_static_stress(_scene(1000.0), ANGLES).links["coupler"]
-    np.testing.assert_allclose(hi.sigma_max, 100.0 * lo.sigma_max, rtol=1e-9)
+def test_crank_free_body_with_a_tip_mass():
+    """Massless links, tip mass m at P, frozen at 40 deg, 300 rpm.  Independent statics: the follower is a
+    two-force member (force t along B-Q on the body); moments about A on the coupler body give t; the pin force
+    on the crank at A is F_A = -m a_P + t u; the crank is a cantilever from M with the end load F_A:
+    M_root = (A - M) x F_A (beam table: M = F L for the transverse component), N = F_A . e, M(A) = 0;
+    sigma = N/A +- |M| c/I with c = 0.25 in."""
+    m = 0.907
+    fb = thesis_fourbar()
+    scene = Scene(fb, MassModel("tip", payload=m), rpm=RPM)
+    omega = RPM * 2 * math.pi / 60
+    j = joint_positions(fb, THETA)
+    A, B, Q, M, P = (np.asarray(j[k], float).reshape(-1)[-2:] for k in ("A", "B", "Q", "M", "P"))
+    aP = _acceleration(lambda t: np.asarray(joint_positions(fb, t)["P"]).reshape(-1), THETA, omega)
+    F = -m * aP
+    u = (B - Q) / np.linalg.norm(B - Q)
+    t = -_cx(P - A, F) / _cx(B - A, u)
+    FA = F + t * u
+    L = np.linalg.norm(A - M)
+    e = (A - M) / L
+    m_root, n_axial = _cx(A - M, FA), FA @ e
+
+    crank = quasi_static_stress(scene, np.array([THETA])).links["crank"]
+    assert abs(crank.moment[0, 0, 0]) == pytest.approx(abs(m_root), rel=1e-6)
+    assert abs(crank.moment[0, -1, 1]) < 1e-9 * abs(m_root)
+    assert crank.axial[0, 0] == pytest.approx(n_axial, rel=1e-6)
+    c = 0.25 * INCH  # the round bar's radius (the default rule's, within the thesis's rounding of A)
+    expected = n_axial / THESIS_SECTION.area + abs(m_root) * c / THESIS_SECTION.second_moment
+    assert crank.sigma_max[0] == pytest.approx(expected, rel=5e-5)
+    assert crank.sigma_min[0] == pytest.approx(expected - 2 * abs(m_root) * c / THESIS_SECTION.second_moment,
+                                               rel=5e-5)
+    follower = quasi_static_stress(scene, np.array([THETA])).links["follower"]
+    assert np.abs(follower.moment).max() < 1e-9 * abs(m_root)  # a two-force member bends nowhere
+    assert abs(follower.axial[0, 0]) == pytest.approx(abs(t), rel=1e-6)
 
 
-def _four_bar(rpm: float = 300.0):
-    from ked_quasi.presets import make_scene
+@pytest.mark.parametrize("deg", [30.0, 90.0, 200.0])
+def test_simeon_rod_is_a_simply_supported_beam(deg):
+    """Simeon's rod, pinned at the crank and at the slider, loaded by its own transverse inertia
+    w(s) = -mu a_n(s), linear from w_A at A to w_B at B.  Beam tables (simply supported, uniform plus
+    triangular load): M(L/2) = w L^2/8 for uniform w, w0 L^2/16 for a triangle, so M_mid = (w_A + w_B) L^2/16
+    (axial loads and the loads at the supports bend nothing).  40 lumps: the midpoint rule's O(1/n^2)."""
+    sc = simeon_slider_crank()
+    omega = 150.0
+    scene = SliderScene(sc, MassModel("distributed", lumps=40), rpm=omega * 60 / (2 * math.pi))
+    theta = math.radians(deg)
+    r, L = sc.crank, sc.coupler
 
-    return make_scene("thesis", "source", "distributed", rpm=rpm)
+    def ends(t):
+        A = np.array([r * math.cos(t), r * math.sin(t)])
+        B = np.array([r * math.cos(t) + math.sqrt(L * L - (r * math.sin(t)) ** 2), 0.0])
+        return np.r_[A, B]
 
+    x = ends(theta)
+    acc = _acceleration(ends, theta, omega)
+    e = (x[2:] - x[:2]) / L
+    n = np.array([-e[1], e[0]])
+    mu = sc.section("coupler").mass_per_length
+    wA, wB = -mu * acc[:2] @ n, -mu * acc[2:] @ n
+    expected = (wA + wB) * L * L / 16
 
-def test_four_bar_follower_is_a_simply_supported_beam_under_its_inertia_loads():
-    """The follower (pinned at the ground pivot and at B) under the frozen structure's d'Alembert loads of its
-    own lumps: M along it equals the simply supported beam's point-load superposition (beam table)."""
-    from ked_quasi.massmodel import lumps
-    from ked_quasi.solver import inertia_loads as four_bar_loads
-    from ked_quasi.structure import geometry, topology
-
-    scene = _four_bar()
-    lm = lumps(scene.fourbar, scene.mass_model)
-    topo = topology(lm)
-    geo = geometry(scene.fourbar, topo, ANGLES)
-    loads = four_bar_loads(scene, topo, lm, ANGLES)
-    on = np.array([lk == "follower" for lk in topo.node_link]) & (topo.node_s > 0) & (topo.node_s < 1)
-    assert on.sum() >= 1
-    first = topo.elem_link.index("follower")
-    axis = geo.z_axis[:, first]
-    q = ((loads[..., 0] + 1j * loads[..., 1]) * np.conj(1j * axis)[:, None]).real[:, on]
-    L = scene.fourbar.length("follower")
-    ls = quasi_static_stress(scene, ANGLES).links["follower"]
-    x = np.r_[ls.s0, ls.s1[-1]] * L
-    expected = _simply_supported(q, topo.node_s[on] * L, x, L)
-    got = np.concatenate([ls.moment[:, :, 0], ls.moment[:, -1:, 1]], axis=1)
-    peak = np.abs(expected).max()
-    assert peak > 0.1
-    sign = np.sign(np.sum(got * expected))  # the code's moment sign convention (hogging or sagging)
-    np.testing.assert_allclose(sign * got, expected, atol=1e-9 * peak)
+    rod = quasi_static_stress(scene, np.array([theta])).links["coupler"]
+    assert abs(rod.moment_at(0.5)[0]) == pytest.approx(abs(expected), rel=2e-3)
+    ends_moment = np.abs([rod.moment[0, 0, 0], rod.moment[0, -1, 1]])
+    assert ends_moment.max() < 1e-9 * abs(expected)  # pins carry no moment
 
 
-def test_four_bar_crank_is_a_cantilever_under_a_point_load_on_it():
-    """A transverse point load P on the clamped crank only: coupler and follower cannot hold a force at A (the
-    follower is a two-force member not through A), so M_root = P s L_crank (beam table cantilever)."""
-    from ked_quasi.massmodel import lumps
-    from ked_quasi.stress import four_bar_stress_from_loads
-    from ked_quasi.structure import geometry, topology
+def test_linear_equals_quasi_static_at_one_rpm():
+    """At 1 rpm the elastic accelerations are ~(Omega/omega_1)^2 ~ 1e-6 of the rigid ones: the linear model's
+    stress must equal the quasi-static one within 0.1 % of the peak, on every link (distributed mass on 12 lumps:
+    the dynamics on 10 and the static correction; and the tip mass)."""
+    from ked_linear.stress import linear_stress
 
-    scene = _four_bar()
-    topo = topology(lumps(scene.fourbar, scene.mass_model))
-    geo = geometry(scene.fourbar, topo, ANGLES)
-    k = next(i for i, (lk, s) in enumerate(zip(topo.node_link, topo.node_s)) if lk == "crank" and 0 < s < 1)
-    s = float(topo.node_s[k])
-    normal = 1j * geo.zA / np.abs(geo.zA)
-    P = 100.0
-    loads = np.zeros((ANGLES.size, topo.n_nodes, 2))
-    loads[:, k, 0], loads[:, k, 1] = P * normal.real, P * normal.imag
-    h = four_bar_stress_from_loads(scene, ANGLES, loads)
-    Lc = scene.fourbar.length("crank")
-    crank = h.links["crank"]
-    np.testing.assert_allclose(np.abs(crank.moment[:, 0, 0]), P * s * Lc, rtol=1e-9)
-    np.testing.assert_allclose(crank.moment[:, -1, 1], 0.0, atol=1e-9 * P * Lc)
-    for lk in ("coupler", "extender", "follower"):
-        np.testing.assert_allclose(h.links[lk].moment, 0.0, atol=1e-9 * P * Lc)
+    for mm in (MassModel("distributed", lumps=12), MassModel("tip", payload=0.907)):
+        scene = Scene(thesis_fourbar(), mm, rpm=1.0)
+        err = history_error(linear_stress(scene), quasi_static_stress(scene))
+        assert set(err) == {"crank", "coupler", "extender", "follower"}
+        assert max(err.values()) < 1e-3, err
+
+
+def test_linear_refuses_a_slider_crank_by_name():
+    from ked_linear.stress import linear_stress
+
+    scene = SliderScene(simeon_slider_crank(), MassModel("distributed", lumps=4), rpm=100.0)
+    with pytest.raises(ValueError, match="scene"):
+        linear_stress(scene)
+
+
+def test_stress_scales_with_speed_squared():
+    """Quasi-static loads are -m a_rigid, a_rigid ~ Omega^2 at constant crank speed: every section force and
+    stress scales as the speed squared."""
+    mm = MassModel("distributed", lumps=4)
+    a = quasi_static_stress(Scene(thesis_fourbar(), mm, rpm=100.0))
+    b = quasi_static_stress(Scene(thesis_fourbar(), mm, rpm=300.0))
+    for lk in a.links:
+        np.testing.assert_allclose(b.links[lk].moment, 9 * a.links[lk].moment, rtol=1e-9, atol=1e-12)
