@@ -174,6 +174,8 @@ class CheckRow:
     floquet_reduced: bool = False
     """Whether the reduced system's Floquet analysis gave ``floquet_max_abs``
     (``ked_linear.LinearResult.floquet_reduced``); else the full model's propagator did."""
+    stress: dict[str, float] = field(default_factory=dict)
+    """Link stresses and fatigue factors (:func:`compare.stresscheck.stress_keys`); empty where not computed."""
 
 
 def spec_for(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, rpm: float, *,
@@ -342,7 +344,8 @@ def linear_range(mass_model: str, kind: str = "four-bar") -> LinearRange:
 def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, rpms: Sequence[float], *,
           stiffness_scale: float = 1.0, damping_ratio: float = 0.02, direction: str = "ccw", step_deg: float = 10.0,
           tolerance: float = 0.10, confirm: bool = False, bar: Any = None,
-          workers: CheckWorkers | None = None, specs: Sequence[SceneSpec] | None = None) -> list[CheckRow]:
+          workers: CheckWorkers | None = None, specs: Sequence[SceneSpec] | None = None,
+          material: Any = None) -> list[CheckRow]:
     """The design check of one linkage at each of ``rpms`` [rev/min] (see the module docstring).  A
     slider-crank (``source`` a ``SliderCrank``) uses its own atlas's limits and margins (the slider atlas: the
     four-bar atlas's do not apply); where its stratum has no calibration only a measurement (``confirm``)
@@ -351,7 +354,8 @@ def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, 
     ``workers``: where the speeds after the first two go when their estimated work is worth worker processes
     (:class:`compare.checkwork.CheckWorkers`; the rows are the same).  ``specs``: the campaign scenes to check
     in place of :func:`spec_for`'s (a user file's scenes, :func:`compare.config.file_scenes`: the key and the
-    answer ``ked run`` gives the file)."""
+    answer ``ked run`` gives the file).  ``material``: a :class:`ked_quasi.fatigue.Material` for the fatigue
+    safety factors of the rows' stress keys (:mod:`compare.stresscheck`)."""
     if specs is None:
         specs = [spec_for(source, mechanism, mass_model, rpm, stiffness_scale=stiffness_scale,
                           damping_ratio=damping_ratio, direction=direction, step_deg=step_deg, tolerance=tolerance)
@@ -369,11 +373,11 @@ def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, 
 
         for i, spec in enumerate(specs):
             if workers is not None and workers.worth(workers.speeds, len(specs) - i):
-                rows += workers.rows(specs[i:], rng, margins, confirm, on_each=done_on_a_worker)
+                rows += workers.rows(specs[i:], rng, margins, confirm, on_each=done_on_a_worker, material=material)
                 break
 
             def one(spec: SceneSpec = spec) -> CheckRow:
-                return check_spec(spec, rng, margins, confirm, bar)
+                return check_spec(spec, rng, margins, confirm, bar, material)
 
             rows.append(one() if workers is None else workers.speeds.timed(one))
             advance(bar)
@@ -418,8 +422,9 @@ def advance(bar: Any) -> None:
 
 
 def check_spec(spec: SceneSpec, rng: LinearRange, margins: VerdictMargins, confirm: bool = False,
-                bar: Any = None) -> CheckRow:
-    """The check of one speed's scene (:func:`spec_for`); ``bar``: a progress bar that says which stage runs."""
+                bar: Any = None, material: Any = None) -> CheckRow:
+    """The check of one speed's scene (:func:`spec_for`); ``bar``: a progress bar that says which stage runs;
+    ``material``: a :class:`ked_quasi.fatigue.Material` for the fatigue safety factors (None: none)."""
     bar = _NoBar() if bar is None else bar
     rpm = spec.speed.value
     status(bar, f"{rpm_text(rpm)} rpm")
@@ -437,7 +442,17 @@ def check_spec(spec: SceneSpec, rng: LinearRange, margins: VerdictMargins, confi
                else "on the co-rotating reduced basis")
         row = replace(row, verdict=f"{row.verdict} [linear model solved {how}: the default at most 32 "
                                    "harmonics did not converge]")
-    return row
+    return replace(row, stress=_stress(spec, r, material))
+
+
+def _stress(spec: SceneSpec, r: SceneResult, material: Any) -> dict[str, float]:
+    """The stress keys of one computed scene (:mod:`compare.stresscheck`); the linear tier where it answered."""
+    from compare.execute import settings_of
+    from compare.stresscheck import stress_keys
+
+    lin = r.solutions.get("linear")
+    settings = settings_of(get_solver("linear"), spec) if lin is not None else None
+    return stress_keys(spec.scene(r.rpm), settings, lin is not None and lin.ok, material)
 
 
 def _run(spec: SceneSpec) -> SceneResult:

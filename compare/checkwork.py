@@ -164,9 +164,9 @@ class CheckWorkers:
 
 
     def rows(self, specs: Sequence[Any], rng: Any, margins: Any, confirm: bool,
-             on_each: Callable[[int, Any], None] | None = None) -> list[Any]:
+             on_each: Callable[[int, Any], None] | None = None, material: Any = None) -> list[Any]:
         """The check rows of the scenes ``specs`` (:func:`compare.check.check_spec`) on the workers."""
-        return self.map(row_task, [(s, rng, margins, confirm) for s in specs],
+        return self.map(row_task, [(s, rng, margins, confirm, None, material) for s in specs],
                         [f"the check at {rpm_text(s.speed.value)} rpm" for s in specs], on_each,
                         cost=[s.speed.value for s in specs])  # faster: more harmonics, richer bases
 

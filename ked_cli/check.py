@@ -73,6 +73,11 @@ def _rpm_range(text: str | None) -> list[float]:
 @click.option("--tolerance", type=RuleType(rules.TOLERANCE), default=0.10, show_default=True,
               help="Relative history error accepted.")
 @click.option("--confirm", is_flag=True, help="Also run the Exudyn model and report the three errors it measures.")
+@click.option("--ultimate-strength", type=float, default=None, metavar="PA",
+              help="Ultimate tensile strength S_u of the links' material [Pa], for the fatigue safety factor.")
+@click.option("--endurance-limit", type=float, default=None, metavar="PA",
+              help="Corrected endurance limit S_e of the links' material [Pa] (at most S_u), for the fatigue "
+                   "safety factor (Goodman: 1/n = sigma_a/S_e + sigma_m/S_u at the link's worst fibre).")
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON list, one object per speed.")
 @click.option("--workers", type=click.IntRange(min=1), callback=cap_workers, default=None,
               help="Local worker processes for the speeds and the critical-speed sweep, used where the time "
@@ -80,7 +85,8 @@ def _rpm_range(text: str | None) -> list[float]:
                    "their start-up (1: all in this process) [default: available CPUs].")
 def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...], rpm_range: str | None,
           lumps: int, payload_kg: float | None, stiffness_scale: float, direction: str, damping_ratio: float,
-          tolerance: float, confirm: bool, as_json: bool, workers: int | None) -> None:
+          tolerance: float, confirm: bool, ultimate_strength: float | None, endurance_limit: float | None,
+          as_json: bool, workers: int | None) -> None:
     """Design check: per speed, r = Omega/omega1_min, the quasi-static and linear peaks, how far the
     quasi-static answer is from the linear model, Floquet max |mu|, the one-mode estimate of the
     quasi-static error, the tier needed (quasi-static / borderline / linear / nonlinear) and a verdict.
@@ -111,12 +117,18 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     multiplier|, refined by the Floquet part alone, and of the amplification linear /
     quasi-static peak; else empty), floquet_steps (propagator steps per cycle behind
     floquet_max_abs), floquet_reduced (true when the reduced system's Floquet analysis
-    gave it).
+    gave it), stress (per link: quasi_static_peak_pa_<link> and linear_peak_pa_<link>,
+    the peak |normal stress| [Pa] over the link and the cycle; stress_error_<link>, the
+    quasi-static stress history's error against the linear one, peak-normalised; with
+    --ultimate-strength and --endurance-limit: goodman_quasi_static, goodman_linear, the
+    smallest Goodman safety factor over the links, and goodman_overstatement =
+    goodman_quasi_static / goodman_linear - 1; a slider-crank: the quasi-static keys).
     """
     from compare.check import check as run_check
     from compare.check import progress, redraw
     from compare.checkwork import CheckWorkerError, CheckWorkers
     from compare.inspect import rpm_text
+    from compare.stresscheck import fatigue_line
     from ked_cli.quasi import slider_source
     from ked_quasi.massmodel import MassModel, default_payload
     from ked_quasi.scene import variant
@@ -138,6 +150,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     elif slider is not None:
         mass_model = _slider_mass_model(mechanism, mass_model)
     try:
+        material = _material(ultimate_strength, endurance_limit)
         mm = MassModel(mass_model, lumps=lumps, payload=default_payload(mass_model) if payload_kg is None
                        else payload_kg) if specs is None else specs[0].mass_model
         from compare.check import spec_for
@@ -159,7 +172,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
         with progress(len(speeds)) as bar, CheckWorkers(workers) as pool:
             rows = run_check(source, mechanism, mm, speeds, stiffness_scale=stiffness_scale,
                              damping_ratio=damping_ratio, direction=direction, tolerance=tolerance, confirm=confirm,
-                             bar=bar, workers=pool, specs=specs)
+                             bar=bar, workers=pool, specs=specs, material=material)
             crit, amp = (), ()
             if sweep:
                 from compare.critical import check_critical, sweep_evaluations
@@ -199,6 +212,9 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
         click.echo(line.rstrip())
         click.echo(textwrap.fill(r.verdict, width=WIDTH, initial_indent=" " * 9, subsequent_indent=" " * 11,
                                  break_on_hyphens=False))
+        if r.stress:
+            click.echo(textwrap.fill(fatigue_line(r.stress), width=WIDTH, initial_indent=" " * 9,
+                                     subsequent_indent=" " * 11, break_on_hyphens=False))
     if len(rows) >= 3:
         for text in ("Critical speeds, i.e. of weakest damping (parametric resonance: local maxima of max |Floquet "
                      "multiplier|; transients die out slowest): "
@@ -213,6 +229,23 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
         "1-mode est.: its one-mode harmonic estimate; |mu|: Floquet max |multiplier| of the linear model"
         + ("; Exudyn: the errors measured against Exudyn" if confirm else ""),
         width=WIDTH, subsequent_indent="  ", break_on_hyphens=False))
+
+
+def _material(ultimate_strength: float | None, endurance_limit: float | None) -> object:
+    """The fatigue material of --ultimate-strength and --endurance-limit (both or neither)."""
+    from ked_quasi.fatigue import Material
+
+    if ultimate_strength is None and endurance_limit is None:
+        return None
+    if ultimate_strength is None or endurance_limit is None:
+        missing = "--ultimate-strength" if ultimate_strength is None else "--endurance-limit"
+        raise ValueError(f"{missing}: the fatigue safety factor needs both --ultimate-strength and "
+                         "--endurance-limit (Pa)")
+    try:
+        return Material(ultimate_strength=ultimate_strength, endurance_limit=endurance_limit)
+    except ValueError as exc:
+        text = str(exc).replace("Material.ultimate_strength", "--ultimate-strength")
+        raise ValueError(text.replace("Material.endurance_limit", "--endurance-limit")) from None
 
 
 def _slider_mass_model(mechanism: str, mass_model: str) -> str:

@@ -38,25 +38,54 @@ class Section:
     """Uniform cross-section and material of one link.
 
     youngs_modulus [Pa], area [m^2], second_moment (about the axis normal to the plane) [m^4],
-    density [kg/m^3].
+    density [kg/m^3]; fibre_distance [m]: the distance c of the extreme fibres from the neutral axis (for the
+    bending stress M c / I); None (default) takes the solid circle of the section's A and I, r = 2 sqrt(I/A)
+    (:attr:`extreme_fibre`).  A given c must be at least the radius of gyration sqrt(I/A) (no section has all
+    its area closer to the axis than that).
     """
 
     youngs_modulus: float
     area: float
     second_moment: float
     density: float
+    fibre_distance: float | None = None
 
     def __post_init__(self) -> None:
         for name, rule in SECTION_RULES.items():
             object.__setattr__(self, name, rule.check(getattr(self, name), f"Section.{name}"))
+        if self.fibre_distance is not None:
+            c = rules.FIBRE_DISTANCE.check(self.fibre_distance, "Section.fibre_distance")
+            gyration = math.sqrt(self.second_moment / self.area)
+            if c < gyration * (1.0 - 1e-12):
+                raise ValueError(
+                    f"Section.fibre_distance: {c:g} m is less than the radius of gyration sqrt(I/A) = {gyration:g} m "
+                    "of this section (I <= A c^2 for any section); allowed: a distance in m from the neutral axis "
+                    "to the extreme fibre, at least sqrt(second_moment / area)")
+            object.__setattr__(self, "fibre_distance", c)
 
     def to_dict(self) -> dict[str, float]:
-        """Plain dict (TOML, JSON, HDF5 attributes); :meth:`from_dict` inverts it."""
-        return {name: getattr(self, name) for name in SECTION_RULES}
+        """Plain dict (TOML, JSON, HDF5 attributes); :meth:`from_dict` inverts it (``fibre_distance`` only
+        when given)."""
+        d = {name: getattr(self, name) for name in SECTION_RULES}
+        if self.fibre_distance is not None:
+            d["fibre_distance"] = self.fibre_distance
+        return d
 
     @staticmethod
     def from_dict(d: dict[str, Any]) -> Section:
-        return Section(**{name: d[name] for name in SECTION_RULES})
+        return Section(**{name: d[name] for name in SECTION_RULES}, fibre_distance=d.get("fibre_distance"))
+
+    @property
+    def extreme_fibre(self) -> float:
+        """c [m]: ``fibre_distance``, or the solid circle's radius r = 2 sqrt(I/A) (I = pi r^4/4, A = pi r^2)."""
+        if self.fibre_distance is not None:
+            return self.fibre_distance
+        return 2.0 * math.sqrt(self.second_moment / self.area)
+
+    @property
+    def section_modulus(self) -> float:
+        """I / c [m^3]."""
+        return self.second_moment / self.extreme_fibre
 
     @property
     def mass_per_length(self) -> float:

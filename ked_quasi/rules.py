@@ -163,6 +163,9 @@ AREA = Rule("area", "m^2", 0.0, 1.0, "a link's cross-section, at most a 1 m squa
 SECOND_MOMENT = Rule("second_moment", "m^4", 0.0, 1.0, "a link's cross-section (a 1 m square has 1/12 m^4; the "
                      "closed-form checks use stiff links up to 1 m^4)", lo_open=True,
                      mixup=("second moments are in m^4", "mm^4", 1e-12))
+FIBRE_DISTANCE = Rule("fibre_distance", "m", 0.0, 10.0, "the distance of a link's extreme fibre from its "
+                      "neutral axis (half the depth of the section)", lo_open=True,
+                      mixup=("distances are in metres", "mm", 1e-3))
 DENSITY = Rule("density", "kg/m^3", 0.0, 1e5, "up to 4x the densest metal", lo_open=True)
 MATERIAL_YOUNGS_MODULUS = Rule(
     "youngs_modulus", "Pa", 1e8, 2e12, "a link's material: from stiff polymers (PTFE 0.5 GPa) to diamond "
