@@ -11,7 +11,9 @@ Keys (all floats; NaN where a tier has no answer):
   links [1]; ``goodman_overstatement``: goodman_quasi_static / goodman_linear - 1 [1] (> 0: the quasi-static factor is
   the more optimistic).
 
-The linear tier covers four-bars; a slider-crank gets the quasi-static keys only.
+The linear tier covers four-bars; a slider-crank gets the quasi-static keys only, and so does a four-bar
+whose linear steady state of the masses is not resolved to :data:`ked_linear.motion.MAX_ERROR` (its
+accelerations would not be trusted).
 """
 
 from __future__ import annotations
@@ -34,7 +36,10 @@ def stress_keys(scene: Any, linear_settings: Any | None, linear_stable: bool,
     if linear_settings is not None and not isinstance(scene, SliderScene):
         from ked_linear.stress import linear_stress
 
-        lin = linear_stress(scene, linear_settings, stable=linear_stable)
+        try:
+            lin = linear_stress(scene, linear_settings, stable=linear_stable)
+        except ValueError:  # the masses' steady state not resolved well enough for its accelerations
+            lin = None
     out: dict[str, float] = {}
     for lk, peak in qs.peaks().items():
         out[f"quasi_static_peak_pa_{lk}"] = peak
