@@ -11,7 +11,8 @@ Keys (all floats; NaN where a tier has no answer):
   links [1]; ``goodman_overstatement``: goodman_quasi_static / goodman_linear - 1 [1] (> 0: the quasi-static factor is
   the more optimistic).
 
-The linear tier covers four-bars; a slider-crank gets the quasi-static keys only.
+A linkage whose linear steady state of the masses is not resolved to :data:`ked_linear.motion.MAX_ERROR` (its
+accelerations would not be trusted).
 """
 
 from __future__ import annotations
@@ -27,14 +28,15 @@ def stress_keys(scene: Any, linear_settings: Any | None, linear_stable: bool,
                 material: Material | None = None) -> dict[str, float]:
     """The stress keys of one speed's ``scene`` (see the module docstring); ``linear_settings``: the linear
     model's settings (None: no linear tier), ``linear_stable``: whether its steady state is stable."""
-    from ked_quasi.slidercrank import SliderScene
-
     qs = quasi_static_stress(scene)
     lin = None
-    if linear_settings is not None and not isinstance(scene, SliderScene):
+    if linear_settings is not None:
         from ked_linear.stress import linear_stress
 
-        lin = linear_stress(scene, linear_settings, stable=linear_stable)
+        try:
+            lin = linear_stress(scene, linear_settings, stable=linear_stable)
+        except ValueError:  # the masses' steady state not resolved well enough for its accelerations
+            lin = None
     out: dict[str, float] = {}
     for lk, peak in qs.peaks().items():
         out[f"quasi_static_peak_pa_{lk}"] = peak

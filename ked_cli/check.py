@@ -122,7 +122,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     quasi-static stress history's error against the linear one, peak-normalised; with
     --ultimate-strength and --endurance-limit: goodman_quasi_static, goodman_linear, the
     smallest Goodman safety factor over the links, and goodman_overstatement =
-    goodman_quasi_static / goodman_linear - 1; a slider-crank: the quasi-static keys).
+    goodman_quasi_static / goodman_linear - 1; a slider-crank: crank and coupler).
     """
     from compare.check import check as run_check
     from compare.check import progress, redraw

@@ -1,0 +1,54 @@
+"""``ked check`` stress and fatigue keys: present beside every existing key, consistent with the stress
+modules, and refusals that name the option."""
+
+import json
+
+import pytest
+from click.testing import CliRunner
+
+from ked_cli.main import cli
+
+OLD_KEYS = {"speed_ratio", "quasi_static_peak_m", "linear_peak_m", "linear_vs_quasi_static",
+            "quasi_static_error_estimate", "floquet_max_abs", "tier", "verdict", "rpm", "flags", "confirmed", "key"}
+LINKS = ("crank", "coupler", "extender", "follower")
+
+
+def _check(*args):
+    return CliRunner().invoke(cli, ["check", "--workers", "1", *args])
+
+
+def test_json_gains_stress_keys_and_keeps_the_old_ones():
+    res = _check("--rpm", "100", "--mass-model", "distributed", "--json",
+                 "--ultimate-strength", "310e6", "--endurance-limit", "96.5e6")
+    assert res.exit_code == 0, res.output
+    row = json.loads(res.output)[0]
+    assert OLD_KEYS <= set(row)
+    s = row["stress"]
+    for lk in LINKS:
+        assert s[f"quasi_static_peak_pa_{lk}"] > 0 and s[f"linear_peak_pa_{lk}"] > 0
+        assert 0 <= s[f"stress_error_{lk}"] < 0.2  # 100 rpm, r = 0.07: a few per cent, as the deflection's 5 %
+    # the definition of the overstatement key
+    assert s["goodman_overstatement"] == pytest.approx(s["goodman_quasi_static"] / s["goodman_linear"] - 1)
+    # Goodman: 1/n = sigma_a/S_e + sigma_m/S_u <= (sigma_a + |sigma_m|)/S_e = max|sigma| at the point / S_e,
+    # so each tier's factor is at least S_e / (its largest peak over the links)
+    for tier in ("quasi_static", "linear"):
+        top = max(s[f"{tier}_peak_pa_{lk}"] for lk in LINKS)
+        assert s[f"goodman_{tier}"] >= 96.5e6 / top * (1 - 1e-12)
+
+
+def test_text_prints_the_fatigue_line():
+    res = _check("--rpm", "100", "--mass-model", "distributed", "--ultimate-strength", "310e6",
+                 "--endurance-limit", "96.5e6")
+    assert res.exit_code == 0, res.output
+    assert "Fatigue (Goodman): safety factor" in res.output and "quasi-static factor" in res.output
+    assert "Traceback" not in res.output
+
+
+@pytest.mark.parametrize(("args", "name"), [
+    (("--ultimate-strength", "100e6", "--endurance-limit", "200e6"), "--endurance-limit"),
+    (("--ultimate-strength", "100e6"), "--endurance-limit"),
+    (("--ultimate-strength", "-5", "--endurance-limit", "1e6"), "--ultimate-strength"),
+])
+def test_material_refusals_name_the_option(args, name):
+    res = _check("--rpm", "100", *args)
+    assert res.exit_code != 0 and name in res.output and "Traceback" not in res.output
