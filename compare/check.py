@@ -424,7 +424,8 @@ def advance(bar: Any) -> None:
 def check_spec(spec: SceneSpec, rng: LinearRange, margins: VerdictMargins, confirm: bool = False,
                 bar: Any = None, material: Any = None) -> CheckRow:
     """The check of one speed's scene (:func:`spec_for`); ``bar``: a progress bar that says which stage runs;
-    ``material``: a :class:`ked_quasi.fatigue.Material` for the fatigue safety factors (None: none)."""
+    ``material``: a :class:`ked_quasi.fatigue.Material` for the link stresses and fatigue safety factors (None:
+    neither is computed, so a check without a material costs what it did)."""
     bar = _NoBar() if bar is None else bar
     rpm = spec.speed.value
     status(bar, f"{rpm_text(rpm)} rpm")
@@ -442,7 +443,7 @@ def check_spec(spec: SceneSpec, rng: LinearRange, margins: VerdictMargins, confi
                else "on the co-rotating reduced basis")
         row = replace(row, verdict=f"{row.verdict} [linear model solved {how}: the default at most 32 "
                                    "harmonics did not converge]")
-    return replace(row, stress=_stress(spec, r, material))
+    return replace(row, stress=_stress(spec, r, material)) if material is not None else row
 
 
 def _stress(spec: SceneSpec, r: SceneResult, material: Any) -> dict[str, float]:

@@ -176,13 +176,13 @@ def test_few_speeds_are_filled_to_the_least_number_of_intervals():
 @pytest.mark.slow
 def test_thesis_distributed_critical_speeds_as_the_fine_sweep(thesis):
     # the thesis distributed model, 30-600 rpm in 20 speeds: the critical speeds the fine sweep of every
-    # interval found (213.1, 343.4, 556.2 rpm: regression pin of that former sweep, 92 evaluations), to the
-    # refinement's accuracy, with at most half its evaluations
+    # interval found (213.1, 343.4, 556.2 rpm at 5 lumps per link: regression pin of that former sweep, 92
+    # evaluations), to the refinement's accuracy, with at most half its evaluations
     from compare.check import spec_for
     from compare.critical import floquet_max_abs
     from ked_quasi import MassModel
 
-    f = floquet_max_abs(spec_for(thesis, "source", MassModel("distributed"), 300.0))
+    f = floquet_max_abs(spec_for(thesis, "source", MassModel("distributed", lumps=5), 300.0))
     rpms = np.linspace(30.0, 600.0, 20)
     calls = []
 
