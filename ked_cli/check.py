@@ -117,10 +117,10 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     multiplier|, refined by the Floquet part alone, and of the amplification linear /
     quasi-static peak; else empty), floquet_steps (propagator steps per cycle behind
     floquet_max_abs), floquet_reduced (true when the reduced system's Floquet analysis
-    gave it), stress (per link: quasi_static_peak_pa_<link> and linear_peak_pa_<link>,
-    the peak |normal stress| [Pa] over the link and the cycle; stress_error_<link>, the
-    quasi-static stress history's error against the linear one, peak-normalised; with
-    --ultimate-strength and --endurance-limit: goodman_quasi_static, goodman_linear, the
+    gave it), stress (given --ultimate-strength and --endurance-limit; per link:
+    quasi_static_peak_pa_<link> and linear_peak_pa_<link>, the peak |normal stress| [Pa]
+    over the link and the cycle; stress_error_<link>, the quasi-static stress history's
+    error against the linear one, peak-normalised; goodman_quasi_static, goodman_linear, the
     smallest Goodman safety factor over the links, and goodman_overstatement =
     goodman_quasi_static / goodman_linear - 1; a slider-crank: crank and coupler).
     """
