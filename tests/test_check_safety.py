@@ -231,7 +231,10 @@ def test_check_never_calls_quasi_static_where_exudyn_measures_more_than_the_tole
     confirmed = [o for o in outcomes if math.isfinite(o.qs_vs_dynamic)]
     # the speeds bracket the threshold: Exudyn measures the quasi-static answer both within and beyond 10 %
     assert any(o.qs_vs_dynamic < TOLERANCE for o in confirmed) and any(o.qs_vs_dynamic > TOLERANCE for o in confirmed)
-    assert len(confirmed) >= 0.9 * len(outcomes)  # Exudyn ran on (nearly) every scene
+    # Exudyn answered validly on every scene the check could call quasi-static (only there can a call be unsafe);
+    # predicted nonlinear scenes (r = 0.14-0.2) may have no valid Exudyn answer (beyond the small-deflection range)
+    assert all(math.isfinite(o.qs_vs_dynamic) for o in outcomes if o.predicted != "nonlinear")
+    assert len(confirmed) >= 0.8 * len(outcomes)
     unsafe = [(o.case.name, o.case.mechanism, o.case.mass_model.name, round(o.ratio, 4), o.qs_vs_dynamic)
               for o in confirmed if o.predicted == "quasi-static" and o.qs_vs_dynamic > TOLERANCE]
     assert not unsafe, f"quasi-static predicted, Exudyn measures more than {TOLERANCE:.0%}: {unsafe}"
