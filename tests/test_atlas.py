@@ -282,6 +282,42 @@ def test_reconfirm_redoes_rows_of_an_older_lumping_and_resumes(atlas, tmp_path):
     assert reconfirm.reconfirm(path, seed=SEED, workers=1, echo=lambda s: None)[table] == 0
 
 
+def test_resweep_recomputes_families_of_an_older_lumping_and_resumes(atlas, tmp_path):
+    # a families table stored without a record of its lumping counts as made by the older code: `resweep`
+    # computes every family again and replaces its row (the same code made the rows here, so the recomputed
+    # rows equal the originals); a linkage listed as already redone by an interrupted run is skipped (its
+    # tampered row stays), the record is written, and a second call computes nothing
+    import shutil
+
+    from compare.atlas import lumps, resweep
+
+    path = tmp_path / "atlas.h5"
+    shutil.copy(atlas["path"], path)
+    made = atlas_store.read(path, "families")
+    meta = atlas_store.attrs(path)
+    assert meta[lumps.ATTR]["families"] == lumps.lumping() and not resweep.stale(path)
+    assert resweep.resweep(path, seed=SEED, workers=1, echo=lambda s: None) == 0
+    linkages = sorted(set(int(k) for k in made["linkage"]))
+    tampered = {c: list(v) if v.ndim == 1 else [tuple(x) for x in v] for c, v in made.items()}
+    rows = [[i for i, k in enumerate(made["linkage"]) if k == lk][0] for lk in linkages]
+    for i in rows:
+        tampered["history_error"][i] = (9.0,) * len(RATIOS)
+    older = {k: v for k, v in meta[lumps.ATTR].items() if k != "families"}
+    atlas_store.write(path, {lumps.ATTR: older, resweep.DONE_ATTR: linkages[:1]}, replaces={"families": tampered})
+    assert resweep.stale(path)
+    assert resweep.resweep(path, seed=SEED, workers=1, echo=lambda s: None) == len(linkages) - 1
+    after = atlas_store.read(path, "families")
+    assert np.all(after["history_error"][rows[0]] == 9.0)  # listed as done: not computed again
+    keep = np.asarray(made["linkage"]) != linkages[0]
+    for c in ("history_error", "peak_error", "floquet_max_abs", "one_mode_error", "r10", "r5"):
+        np.testing.assert_allclose(after[c][keep], made[c][keep], rtol=1e-9, equal_nan=True)
+    assert list(after["code"][keep].ravel()) == list(made["code"][keep].ravel())
+    meta = atlas_store.attrs(path)
+    assert meta[lumps.ATTR]["families"] == lumps.lumping() and not meta[resweep.DONE_ATTR]
+    assert resweep.resweep(path, seed=SEED, workers=1, echo=lambda s: None) == 0
+    assert atlas_store.verify(path) == []
+
+
 def test_an_exudyn_answer_beyond_the_small_deflection_range_is_no_reference(atlas, tmp_path):
     # the harness's own rule (ked_quasi.limits): a deflection above MAX_DEFLECTION_FRACTION of the shortest link
     # is outside the range of the small-deflection comparison, so the calibration leaves that scene out

@@ -17,6 +17,7 @@ from compare.atlas.confirm import run_confirm
 from compare.atlas.reconfirm import reconfirm
 from compare.atlas.report import write_report
 from compare.atlas.repredict import repredict
+from compare.atlas.resweep import resweep
 from compare.atlas.run import run_atlas
 from compare.atlas.threshold import DEFAULT_THRESHOLD, DEFAULT_TOP_UP, run_threshold
 from compare.paths import StudyPaths, remove_outputs
@@ -57,6 +58,7 @@ def run_slider(path: Path, *, linkages: int = SLIDER_LINKAGES, seed: int = 0, wo
                                     progress=progress, echo=echo, kind=SLIDER))
     if not path.exists():
         return out
+    out["reswept"] = resweep(path, seed=seed, workers=workers, scheduler=scheduler, progress=progress, echo=echo)
     if confirm > 0:
         out["confirm"] = run_confirm(path, n=confirm, seed=seed, workers=workers, scheduler=scheduler,
                                      progress=progress, echo=echo)
@@ -80,8 +82,11 @@ def run(paths: StudyPaths, *, workers: int = 2, fresh: bool = False, report_only
     if not report_only:
         summary["run"] = vars(run_atlas(path, linkages=linkages, seed=seed, workers=workers, scheduler=scheduler,
                                         progress=progress, echo=echo))
-        # confirmed rows whose quasi-static answer an older lumping made: confirmed again, then rows whose
-        # prediction columns an older linear model made: predicted again, before anything is added
+        # family sweeps an older code made: swept again; confirmed rows whose quasi-static answer an older
+        # lumping made: confirmed again, then rows whose prediction columns an older linear model made:
+        # predicted again, before anything is added
+        summary["reswept"] = resweep(path, seed=seed, workers=workers, scheduler=scheduler, progress=progress,
+                                     echo=echo)
         summary["reconfirmed"] = reconfirm(path, seed=seed, workers=workers, scheduler=scheduler,
                                            progress=progress, echo=echo)
         summary["repredicted"] = repredict(path, seed=seed, workers=workers, scheduler=scheduler, progress=progress,
