@@ -216,3 +216,4 @@ class RunRecord:
     message: str = ""
     steps_per_cycle: int = 0
     confirmation: str = ""
+    stress: object = None  # ked_quasi.stress.StressHistory of the steady cycle, when asked for

@@ -47,4 +47,22 @@ def section_forces(mbs: exu.MainSystem, element: str, objects: list[int], length
     return np.array(s), np.array(axial), np.array(moment)
 
 
-__all__ = ["ELEMENTS", "section_forces"]
+def element_forces(mbs: exu.MainSystem, element: str, objects: list[int], length: float) -> tuple[
+        np.ndarray, np.ndarray]:
+    """(N (E,), M (E, 2)) of one link's chain of beam ``objects`` (each of length ``length`` [m]): N [N] at each
+    element's midpoint (exact for the ANCF element's linear axial force: its mean), M [N m] at its inner and
+    outer end (ANCF; a geometrically exact element's constant moment at both)."""
+    if element not in ELEMENTS:
+        raise ValueError(f"element: must be one of {', '.join(ELEMENTS)}; got {element!r}")
+    force, torque = exu.OutputVariableType.ForceLocal, exu.OutputVariableType.TorqueLocal
+    ends = (0.0, length) if element == "ancf" else (0.5 * length, 0.5 * length)
+    axial = np.empty(len(objects))
+    moment = np.empty((len(objects), 2))
+    for i, obj in enumerate(objects):
+        axial[i] = _scalar(mbs.GetObjectOutputBody(obj, force, localPosition=[0.5 * length, 0.0, 0.0]), 0)
+        for k, x in enumerate(ends):
+            moment[i, k] = _scalar(mbs.GetObjectOutputBody(obj, torque, localPosition=[x, 0.0, 0.0]), 2)
+    return axial, moment
+
+
+__all__ = ["ELEMENTS", "element_forces", "section_forces"]

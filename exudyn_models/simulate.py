@@ -37,6 +37,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ked_quasi import limits
+from ked_quasi.stress import StressHistory
 
 from .builder import build_model
 from .cycles import (  # noqa: F401 - re-exported (the public home of these names)
@@ -60,6 +61,8 @@ from .settings import DynamicSettings
 from .slider_builder import check_slider_settings, is_slider_scene
 from .slider_simulate import run_slider, slider_reference_frequency
 from .start import linear_state, quasi_static_state, set_initial_state
+from .stress_cycle import steady_stress
+from .tolerance import newton_tolerances
 
 __all__ = ["Attempt", "DynamicResult", "SimulationError", "extrapolate_limit", "newton_abs_tolerance",
            "simulate_steady_state", "solver_settings"]
@@ -92,6 +95,8 @@ class DynamicResult:
     flags: validity flags of the history (ked_quasi.limits: large_deflection, large_rotation, non_finite),
         the same bounds as the quasi-static and linear answers: a deflection beyond the small-deflection
         range is not compared as a valid reference; validity: one line saying why (empty if no flag).
+    stress: link stress histories (ked_quasi.stress.StressHistory, tier "exudyn") of one more steady cycle,
+        from the beam elements' section forces (exudyn_models.stress_cycle); None unless asked for.
     """
 
     crank_angle: np.ndarray
@@ -116,21 +121,26 @@ class DynamicResult:
     midspan: np.ndarray | None = None
     flags: tuple[str, ...] = ()
     validity: str = ""
+    stress: StressHistory | None = None
 
 
-def _run(scene, settings: DynamicSettings, damping_beta: float) -> RunRecord:
+def _run(scene, settings: DynamicSettings, damping_beta: float, stress: bool = False) -> RunRecord:
     """One run at fixed settings: build, start, constant-speed phase (march or periodic solve). At low
     speed the steps per cycle are raised (exudyn_models.lowspeed; recorded in RunRecord.steps_per_cycle).
-    A slider-crank scene runs its own model (exudyn_models.slider_simulate), as given."""
+    A slider-crank scene runs its own model (exudyn_models.slider_simulate), as given.  With ``stress``,
+    one more cycle gives the link stresses (exudyn_models.stress_cycle)."""
     if is_slider_scene(scene):
-        return run_slider(scene, settings, damping_beta)
+        return run_slider(scene, settings, damping_beta, stress)
     settings = run_settings(scene, settings, damping_beta)
-    record = _run_as_given(scene, settings, damping_beta)
+    record, model = _run_as_given(scene, settings, damping_beta)
     record.steps_per_cycle = settings.steps_per_cycle
+    if stress:
+        record.stress = steady_stress(model, scene, scene.fourbar, settings.steps_per_cycle, settings,
+                                      newton_tolerances(settings, scene))
     return record
 
 
-def _run_as_given(scene, settings: DynamicSettings, damping_beta: float) -> RunRecord:
+def _run_as_given(scene, settings: DynamicSettings, damping_beta: float) -> tuple[RunRecord, object]:
     model = build_model(scene, settings, damping_beta=damping_beta)
     note = "ramp"
     if settings.start != "ramp":
@@ -138,8 +148,8 @@ def _run_as_given(scene, settings: DynamicSettings, damping_beta: float) -> RunR
         set_initial_state(model, st.q, st.v, st.a)
         note = st.note
     if settings.periodic == "anderson":
-        return solve_periodic(scene, settings, model, note)
-    return march(scene, settings, model, note)
+        return solve_periodic(scene, settings, model, note), model
+    return march(scene, settings, model, note), model
 
 
 def _message(record: RunRecord, settings: DynamicSettings) -> str:
@@ -184,11 +194,12 @@ def _result(scene, settings: DynamicSettings, solved: DynamicSettings, record: R
                          failure_class=failure_class, evidence=evidence, start=record.start_note,
                          periodic_residuals=record.residuals, cycle_peaks=tuple(tr.peaks),
                          midspan=d[:, 3].copy() if d.shape[1] > 3 else None, flags=flags,
-                         validity=limits.describe(flags, d[:, :3], linkage))
+                         validity=limits.describe(flags, d[:, :3], linkage), stress=record.stress)
 
 
 def _extend(scene, settings: DynamicSettings, solved: DynamicSettings, record: RunRecord, beta: float,
-            t_wall: float, attempts: list[Attempt]) -> tuple[DynamicSettings, RunRecord, Extension | None]:
+            t_wall: float, attempts: list[Attempt],
+            stress: bool = False) -> tuple[DynamicSettings, RunRecord, Extension | None]:
     """A run that did not settle but whose cycle changes decay: grant the cycles the measured contraction
     predicts (exudyn_models.failure.cycles_to_grant) by a rerun with max_cycles raised, if settings.refine
     and the wall-time budget allow. Returns the settings and record to report, and what was granted."""
@@ -208,7 +219,7 @@ def _extend(scene, settings: DynamicSettings, solved: DynamicSettings, record: R
         return solved, record, Extension(before, predicted, grant, False, skip)
     t0 = time.perf_counter()
     try:
-        longer = _run(scene, s, beta)
+        longer = _run(scene, s, beta, stress)
     except SimulationError as exc:
         attempts.append(_attempt(rung, s, t0, exc=exc))
         return solved, record, Extension(before, predicted, grant, False, f"Newton failed in the longer run: {exc}")
@@ -235,7 +246,7 @@ def _exhausted(first: SimulationError, settings: DynamicSettings, attempts: list
     return first.with_context(detail=detail, failure_class=failure_class, evidence=reason, attempts=tuple(attempts))
 
 
-def simulate_steady_state(scene, settings: DynamicSettings | None = None) -> DynamicResult:
+def simulate_steady_state(scene, settings: DynamicSettings | None = None, *, stress: bool = False) -> DynamicResult:
     """Drive the elastic four-bar of `scene` (ked_quasi Scene) or slider-crank (ked_quasi.slidercrank
     .SliderScene, exudyn_models.slider_builder) to periodic steady state.
 
@@ -257,9 +268,9 @@ def simulate_steady_state(scene, settings: DynamicSettings | None = None) -> Dyn
     attempts: list[Attempt] = []
     peaks: list[tuple[float, ...]] = []
     try:
-        record = _run(scene, settings, beta)
+        record = _run(scene, settings, beta, stress)
         attempts.append(_attempt("requested", settings, t_wall, record))
-        solved, record, ext = _extend(scene, settings, settings, record, beta, t_wall, attempts)
+        solved, record, ext = _extend(scene, settings, settings, record, beta, t_wall, attempts, stress)
         return _result(scene, settings, solved, record, f_ref, t_wall, tuple(attempts), ext)
     except SimulationError as exc:
         first = exc
@@ -278,12 +289,12 @@ def simulate_steady_state(scene, settings: DynamicSettings | None = None) -> Dyn
                 continue
             t0 = time.perf_counter()
             try:
-                record = _run(scene, s, beta)
+                record = _run(scene, s, beta, stress)
             except SimulationError as exc:
                 attempts.append(_attempt(rung.name, s, t0, exc=exc))
                 peaks.append(exc.peaks)
                 continue
             attempts.append(_attempt(rung.name, s, t0, record))
-            solved, record, ext = _extend(scene, settings, s, record, beta, t_wall, attempts)
+            solved, record, ext = _extend(scene, settings, s, record, beta, t_wall, attempts, stress)
             return _result(scene, settings, solved, record, f_ref, t_wall, tuple(attempts), ext)
     raise _exhausted(first, settings, attempts, peaks)

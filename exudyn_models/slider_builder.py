@@ -86,6 +86,7 @@ class SliderModel:
     coupler_nodes: list[int]
     element_length: float
     link_nodes: dict[str, list[int]] = field(default_factory=dict)
+    link_elements: dict[str, list[int]] = field(default_factory=dict)
 
     @property
     def ncoord(self) -> int:
@@ -174,7 +175,7 @@ def build_slider_model(scene: SliderScene, settings: DynamicSettings, damping_be
     model = SliderModel(system_container=SC, mbs=mbs, settings=settings, start_angle=start, drive=drive,
                         damping_beta=float(damping_beta), p_sensor=-1, sensor_nodes=[], node_reference=ref,
                         coupler_nodes=coupler, element_length=sc.coupler / settings.elements_per_link,
-                        link_nodes=link_nodes)
+                        link_nodes=link_nodes, link_elements=link_elements)
     _add_sensor(model, scene)
     mbs.Assemble()
     return model

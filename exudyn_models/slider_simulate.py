@@ -131,10 +131,16 @@ def slider_reference_frequency(scene: SliderScene, settings: DynamicSettings) ->
     return float(np.nanmean(slider_natural_frequencies(scene, n_modes=1)[:, 0]))
 
 
-def run_slider(scene: SliderScene, settings: DynamicSettings, damping_beta: float) -> RunRecord:
+def run_slider(scene: SliderScene, settings: DynamicSettings, damping_beta: float, stress: bool = False) -> RunRecord:
     """One run at fixed settings: build, ramp, march to steady state (RunRecord.deflection: (n, 4), the
-    columns of OUTPUT_COLUMNS)."""
+    columns of OUTPUT_COLUMNS); with ``stress``, the link stresses of one more cycle
+    (exudyn_models.stress_cycle)."""
+    from .stress_cycle import steady_stress
+
     model = build_slider_model(scene, settings, damping_beta)
-    return march(scene, settings, model, "ramp",
-                 sampler=SliderSampler(model, scene, settings.steps_per_cycle),
-                 tolerances=slider_tolerances(settings, scene))
+    tol = slider_tolerances(settings, scene)
+    record = march(scene, settings, model, "ramp", sampler=SliderSampler(model, scene, settings.steps_per_cycle),
+                   tolerances=tol)
+    if stress:
+        record.stress = steady_stress(model, scene, scene.linkage, settings.steps_per_cycle, settings, tol)
+    return record
