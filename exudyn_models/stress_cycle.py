@@ -5,7 +5,8 @@ step and splined onto the scene's crank-angle grid.
 The cycle starts from the model's current state (the end of the steady cycle the run returned: the last
 simulated cycle, or the cycle that confirmed an extrapolated one) at the model's current time, so it is the
 steady cycle once more; its first step's state is read before the step (Exudyn's pre-step function sees the
-state at the start of the coming step).  Per link (every link built of beam elements; a rigid slider crank
+state at the start of the coming step); the section forces are read at every step, or every k-th one for at
+least :data:`SAMPLES` per cycle.  Per link (every link built of beam elements; a rigid slider crank
 has none) the result is a :class:`ked_quasi.stress.LinkStress` on the link's elements: N at each element's
 midpoint, M at both its ends (ANCF: M = EI kappa is linear along the element; a geometrically exact element's
 moment is its mean, given to both ends).  The moment's sign is Exudyn's (counterclockwise curvature
@@ -27,19 +28,27 @@ from .sections import element_forces
 from .start import set_initial_state
 from .tolerance import NewtonTolerances
 
+SAMPLES = 360
+"""Section forces are read at least this many times per cycle (every step, or every k-th step of a run with
+more steps per cycle: reading them costs as much as a step), then splined onto the scene's grid."""
+
 
 class _Sampler:
     """Exudyn pre-step function: every link's section forces in the state at the start of each step (Exudyn
     passes the time at the step's end)."""
 
-    def __init__(self, element: str, chains: dict[str, tuple[list[int], float]], step: float):
-        self.element, self.chains, self.step = element, chains, step
+    def __init__(self, element: str, chains: dict[str, tuple[list[int], float]], step: float, stride: int):
+        self.element, self.chains, self.step, self.stride = element, chains, step, stride
+        self.calls = 0
         self.times: list[float] = []
         self.axial: dict[str, list[np.ndarray]] = {k: [] for k in chains}
         self.moment: dict[str, list[np.ndarray]] = {k: [] for k in chains}
         self.error: BaseException | None = None
 
     def __call__(self, mbs, t: float) -> bool:
+        self.calls += 1
+        if (self.calls - 1) % self.stride:
+            return True
         try:
             self.times.append(t - self.step)  # t: the end of the coming step
             for link, (objects, length) in self.chains.items():
@@ -75,7 +84,8 @@ def steady_stress(model, scene, linkage, steps_per_cycle: int, settings, tol: Ne
     n_el = settings.elements_per_link
     chains = {link: (objects, linkage.length(link) / n_el) for link, objects in model.link_elements.items()}
     h = drive.cycle_time / steps_per_cycle
-    sampler = _Sampler(settings.element, chains, h)
+    stride = max(1, steps_per_cycle // SAMPLES)
+    sampler = _Sampler(settings.element, chains, h, stride)
     sset = solver_settings(settings, h, t0 + steps_per_cycle * h, tol)
     sset.timeIntegration.startTime = t0
     sset.timeIntegration.numberOfSteps = steps_per_cycle
@@ -86,9 +96,9 @@ def steady_stress(model, scene, linkage, steps_per_cycle: int, settings, tol: Ne
         mbs.SetPreStepUserFunction(0)
     if sampler.error is not None:
         raise RuntimeError(f"section forces not read: {sampler.error}")
-    if not ok or len(sampler.times) < steps_per_cycle:
+    k = -(-steps_per_cycle // stride)  # the samples of one cycle
+    if not ok or len(sampler.times) < k:
         raise RuntimeError("the stress cycle from the steady state did not run through")
-    k = steps_per_cycle
     angles = np.array([drive.angle(t) for t in sampler.times[:k]])
     grid = np.asarray(scene.crank_angles, dtype=float)
     links = {}

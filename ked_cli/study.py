@@ -137,3 +137,14 @@ def atlas(linkages: int, seed: int, scheduler: str | None, confirm: int, thresho
              threshold_top_up=threshold_top_up, slider_linkages=slider_linkages, **common)
     except (AtlasFileError, SchedulerError) as exc:
         raise UserError(str(exc)) from None
+
+
+@study.command("stress")
+@common_options
+@click.option("--atlas-linkages", type=click.IntRange(min=0), default=2, show_default=True,
+              help="Generated four-bars of the atlas sample (the first N of the atlas's seeded sample), beside the "
+                   "thesis linkage and Simeon's slider-crank.")
+def stress(atlas_linkages: int, **common: Any) -> None:
+    """Link stresses: where the quasi-static stress holds against where the quasi-static deflection holds, and
+    the fatigue safety factor of each tier (quasi-static, linear, Exudyn)."""
+    _run("stress", atlas_linkages=atlas_linkages, **common)

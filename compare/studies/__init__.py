@@ -15,7 +15,7 @@ from typing import Any
 
 from compare.paths import COMMITTED, StudyPaths
 
-STUDIES = ("validity", "work-precision", "stability", "tiers", "atlas")
+STUDIES = ("validity", "work-precision", "stability", "tiers", "atlas", "stress")
 
 
 def run(name: str, paths: StudyPaths = COMMITTED, *, workers: int = 2, fresh: bool = False,
@@ -28,9 +28,9 @@ def run(name: str, paths: StudyPaths = COMMITTED, *, workers: int = 2, fresh: bo
     Returns a summary (JSON-able)."""
     if name not in STUDIES:
         raise ValueError(f"study must be one of {', '.join(STUDIES)}; got {name!r}")
-    from compare.studies import atlas, stability, tiers, validity, work_precision
+    from compare.studies import atlas, stability, stress, tiers, validity, work_precision
 
     module = {"validity": validity, "work-precision": work_precision, "stability": stability, "tiers": tiers,
-              "atlas": atlas}[name]
+              "atlas": atlas, "stress": stress}[name]
     return module.run(paths, workers=workers, fresh=fresh, report_only=report_only, progress=progress, echo=echo,
                       **options)
