@@ -176,6 +176,9 @@ class CheckRow:
     (``ked_linear.LinearResult.floquet_reduced``); else the full model's propagator did."""
     stress: dict[str, float] = field(default_factory=dict)
     """Link stresses and fatigue factors (:func:`compare.stresscheck.stress_keys`); empty where not computed."""
+    stress_verdict: str = ""
+    """Whether the quasi-static stress holds against the linear model's, and that it grants no tier
+    (:func:`compare.stresscheck.stress_verdict`); empty where the stresses were not computed."""
 
 
 def spec_for(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, rpm: float, *,
@@ -443,7 +446,12 @@ def check_spec(spec: SceneSpec, rng: LinearRange, margins: VerdictMargins, confi
                else "on the co-rotating reduced basis")
         row = replace(row, verdict=f"{row.verdict} [linear model solved {how}: the default at most 32 "
                                    "harmonics did not converge]")
-    return replace(row, stress=_stress(spec, r, material)) if material is not None else row
+    if material is None:
+        return row
+    from compare.stresscheck import stress_verdict
+
+    keys = _stress(spec, r, material)
+    return replace(row, stress=keys, stress_verdict=stress_verdict(keys, spec.tolerance))
 
 
 def _stress(spec: SceneSpec, r: SceneResult, material: Any) -> dict[str, float]:

@@ -54,6 +54,23 @@ def stress_keys(scene: Any, linear_settings: Any | None, linear_stable: bool,
     return out
 
 
+def stress_verdict(keys: dict[str, float], tolerance: float) -> str:
+    """The stress verdict of one speed: whether the quasi-static stress of every link is within ``tolerance``
+    of the linear model's (``stress_error_<link>``).  It grants no tier: the stress prediction is not calibrated
+    against Exudyn per stratum (``ked study stress`` measures it on a sample: the linear model's stress misses
+    the axial force's bending (P-delta) that Exudyn's beams carry), so the verdict says so."""
+    errors = {k.removeprefix("stress_error_"): v for k, v in keys.items() if k.startswith("stress_error_")}
+    if not errors or not all(math.isfinite(v) for v in errors.values()):
+        return "Stress: no linear answer to compare the quasi-static stress with (not calibrated against Exudyn)"
+    worst = max(errors, key=errors.get)
+    e = errors[worst]
+    head = (f"Stress: the quasi-static stress is within {e:.1%} of the linear model's on every link (worst: "
+            f"{worst}), inside the tolerance {tolerance:.0%}" if e < tolerance else
+            f"Stress: the quasi-static stress is off by {e:.1%} on the {worst} (tolerance {tolerance:.0%}): use "
+            "the linear model's stresses")
+    return head + "; not calibrated against Exudyn, so no tier is granted from it"
+
+
 def _smallest(history: StressHistory, material: Material) -> float:
     factors = [f.safety_factor for f in history_fatigue(history, material).values() if math.isfinite(f.safety_factor)]
     return min(factors) if factors else math.nan
@@ -72,4 +89,4 @@ def fatigue_line(keys: dict[str, float]) -> str:
             f"(the quasi-static factor {how} it by {abs(over):.1%})")
 
 
-__all__ = ["fatigue_line", "stress_keys"]
+__all__ = ["fatigue_line", "stress_keys", "stress_verdict"]

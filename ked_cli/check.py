@@ -122,7 +122,9 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     over the link and the cycle; stress_error_<link>, the quasi-static stress history's
     error against the linear one, peak-normalised; goodman_quasi_static, goodman_linear, the
     smallest Goodman safety factor over the links, and goodman_overstatement =
-    goodman_quasi_static / goodman_linear - 1; a slider-crank: crank and coupler).
+    goodman_quasi_static / goodman_linear - 1; a slider-crank: crank and coupler), and
+    stress_verdict (text: whether the quasi-static stress of every link is within the tolerance of
+    the linear one; it grants no tier, the stress prediction being uncalibrated against Exudyn).
     """
     from compare.check import check as run_check
     from compare.check import progress, redraw
@@ -212,9 +214,9 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
         click.echo(line.rstrip())
         click.echo(textwrap.fill(r.verdict, width=WIDTH, initial_indent=" " * 9, subsequent_indent=" " * 11,
                                  break_on_hyphens=False))
-        if r.stress:
-            click.echo(textwrap.fill(fatigue_line(r.stress), width=WIDTH, initial_indent=" " * 9,
-                                     subsequent_indent=" " * 11, break_on_hyphens=False))
+        for text in ((r.stress_verdict, fatigue_line(r.stress)) if r.stress else ()):
+            click.echo(textwrap.fill(text, width=WIDTH, initial_indent=" " * 9, subsequent_indent=" " * 11,
+                                     break_on_hyphens=False))
     if len(rows) >= 3:
         for text in ("Critical speeds, i.e. of weakest damping (parametric resonance: local maxima of max |Floquet "
                      "multiplier|; transients die out slowest): "

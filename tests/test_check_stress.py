@@ -34,6 +34,15 @@ def test_json_gains_stress_keys_and_keeps_the_old_ones():
     for tier in ("quasi_static", "linear"):
         top = max(s[f"{tier}_peak_pa_{lk}"] for lk in LINKS)
         assert s[f"goodman_{tier}"] >= 96.5e6 / top * (1 - 1e-12)
+    # the stress verdict names the worst link's error and grants no tier
+    worst = max(LINKS, key=lambda lk: s[f"stress_error_{lk}"])
+    assert f"within {s[f'stress_error_{worst}']:.1%}" in row["stress_verdict"] and worst in row["stress_verdict"]
+    assert "not calibrated against Exudyn" in row["stress_verdict"]
+
+
+def test_no_stress_verdict_without_a_material():
+    row = json.loads(_check("--rpm", "100", "--json").output)[0]
+    assert row["stress"] == {} and row["stress_verdict"] == ""
 
 
 def test_text_prints_the_fatigue_line():
@@ -41,6 +50,7 @@ def test_text_prints_the_fatigue_line():
                  "--endurance-limit", "96.5e6")
     assert res.exit_code == 0, res.output
     assert "Fatigue (Goodman): safety factor" in res.output and "quasi-static factor" in res.output
+    assert "Stress: the quasi-static stress is within" in res.output
     assert "Traceback" not in res.output
 
 
