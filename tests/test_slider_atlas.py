@@ -96,6 +96,31 @@ def test_a_slider_stratum_with_few_scenes_grants_nothing_and_says_so(tmp_path):
     assert set(rec["limits"]) <= set(SLIDER.mass_models)
 
 
+def test_slider_rows_are_predicted_and_swept_again_with_the_slider_generator(tmp_path):
+    # Expected: a prediction row at a family's sweep ratio has the quasi-static-vs-linear error the family sweep
+    # stored there (two code paths: compare.atlas.repredict.predict and compare.atlas.compute.sweep), which needs
+    # the linkage drawn again by the slider generator, not the four-bar one; the families swept again equal the
+    # stored ones (the same code made them)
+    from compare.atlas import lumps, repredict, resweep
+    from compare.atlas.compute import RATIOS
+
+    path = tmp_path / "slider_atlas.h5"
+    run_atlas(path, linkages=1, workers=1, kind=SLIDER, **QUIET)
+    fams = atlas_store.read(path, "families")
+    n, j = len(fams["linkage"]), 2
+    rows = {"key": [f"k{i}" for i in range(n)], "linkage": list(fams["linkage"]),
+            "mechanism": list(fams["mechanism"]), "mass_model": list(fams["mass_model"]), "r": [RATIOS[j]] * n,
+            "qs_vs_linear": [9.0] * n, "linear_flags": [0] * n, "floquet_max_abs": [9.0] * n}
+    atlas_store.write(path, {}, replaces={"threshold": rows})
+    assert repredict.repredict(path, ("threshold",), workers=1, **QUIET) == {"threshold": n}
+    np.testing.assert_allclose(atlas_store.read(path, "threshold")["qs_vs_linear"], fams["history_error"][:, j],
+                               rtol=1e-9)
+    atlas_store.write(path, {lumps.ATTR: {}})  # families as if made by an older code
+    assert resweep.resweep(path, workers=1, **QUIET) == 1
+    np.testing.assert_allclose(atlas_store.read(path, "families")["history_error"], fams["history_error"],
+                               rtol=1e-9, equal_nan=True)
+
+
 def test_publishing_the_slider_atlas_keeps_the_four_bar_entries():
     # Expected: merging a slider record replaces only the slider-crank strata and limits; the four-bar ones,
     # and the file's top-level four-bar limits, stay as they were (and the reverse).

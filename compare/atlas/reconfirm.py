@@ -20,7 +20,7 @@ import numpy as np
 
 from compare.atlas import store as atlas_store
 from compare.atlas.confirm import ConfirmPoint, confirm_scene, failed_confirm
-from compare.atlas.generate import candidate
+from compare.atlas.kinds import kind_of
 from compare.atlas.lumps import ATTR, LEGACY, lumping
 from ked_linear.lumping import LUMPED
 
@@ -62,7 +62,7 @@ def reconfirm(path: Path, *, seed: int = 0, workers: int = 2, scheduler: str | N
         todo = stale_points(path, table)
         if todo:
             echo(f"atlas: {len(todo)} {table} scene(s) to confirm again with today's lumping {lumping()}")
-            links = {p.linkage: candidate(seed, p.linkage) for p in todo}
+            links = {p.linkage: kind_of(path).candidate(seed, p.linkage) for p in todo}
             with store.writer_lock(path):
                 run_records(todo, confirm_scene, lambda recs, t=table: _commit(path, t, recs),
                             lambda p, reason: [failed_confirm(p, reason)], args=lambda p, lk=links: (lk[p.linkage], p),

@@ -23,7 +23,8 @@ from compare import metrics
 from compare import solvers as registry
 from compare.atlas import store as atlas_store
 from compare.atlas.compute import flag_bits, spec_of, xy
-from compare.atlas.generate import Linkage, candidate
+from compare.atlas.generate import Linkage
+from compare.atlas.kinds import kind_of
 from compare.execute import frame, solve_one
 
 ATTR = "predicted_by"
@@ -73,15 +74,18 @@ def repredict(path: Path, tables: tuple[str, ...] | None = None, *, seed: int = 
         cols = atlas_store.read(path, table)
         if len(cols.get("key", [])):
             echo(f"atlas: {len(cols['key'])} {table} scene(s) to predict again with today's linear model")
-            new = _predictions(cols, seed, workers=workers, scheduler=scheduler, progress=progress,
+            new = _predictions(cols, kind_of(path).candidate, seed, workers=workers, scheduler=scheduler,
+                               progress=progress,
                                label=f"{table} prediction")
             _commit(path, table, cols, new)
             out[table] = len(cols["key"])
     return out
 
 
-def _predictions(cols: dict[str, np.ndarray], seed: int, **run: Any) -> dict[str, list[Any]]:
-    """The prediction columns of a table's rows, in row order."""
+def _predictions(cols: dict[str, np.ndarray], candidate: Callable[[int, int], Any], seed: int,
+                 **run: Any) -> dict[str, list[Any]]:
+    """The prediction columns of a table's rows, in row order (``candidate(seed, index)``: the atlas kind's
+    linkage drawn at an index)."""
     from compare.atlas.run import run_records
 
     keys = [str(k) for k in cols["key"]]

@@ -58,7 +58,12 @@ def run_slider(path: Path, *, linkages: int = SLIDER_LINKAGES, seed: int = 0, wo
                                     progress=progress, echo=echo, kind=SLIDER))
     if not path.exists():
         return out
+    # as the four-bar atlas: what an older code made is computed again before anything is added
     out["reswept"] = resweep(path, seed=seed, workers=workers, scheduler=scheduler, progress=progress, echo=echo)
+    out["reconfirmed"] = reconfirm(path, seed=seed, workers=workers, scheduler=scheduler, progress=progress,
+                                   echo=echo)
+    out["repredicted"] = repredict(path, seed=seed, workers=workers, scheduler=scheduler, progress=progress,
+                                   echo=echo)
     if confirm > 0:
         out["confirm"] = run_confirm(path, n=confirm, seed=seed, workers=workers, scheduler=scheduler,
                                      progress=progress, echo=echo)
