@@ -57,7 +57,7 @@ def _lim(lim: Limit) -> str:
     if lim.status == "above_grid":
         return f">= {lim.r_pass:g}"
     if lim.status == "failure":
-        return f">= {lim.r_pass:g} (Exudyn failed at {lim.r_fail:g})" if math.isfinite(lim.r_pass) else "no data"
+        return f">= {lim.r_pass:g} (no valid answer at {lim.r_fail:g})" if math.isfinite(lim.r_pass) else "no data"
     return "no data" if lim.status == "no_data" else f"{lim.r_limit:g}"
 
 
@@ -124,8 +124,9 @@ def figure(fams: Sequence[Family]) -> Any:
             ok = np.array([x.ok and not x.flags for x in f.rows])
             c = colors.get(f.mass_model, "k")
             ls = "-" if f.mechanism == "source" else ":"
-            ax.plot(r, [x.stress_qs * 100 for x in f.rows], ls, color=c, marker="o", ms=3)
-            ax.plot(r, [x.deflection_qs * 100 for x in f.rows], ls, color=c, alpha=0.45)
+            valid = np.where(ok, 1.0, np.nan)  # an answer without a valid reference is not drawn as a value
+            ax.plot(r, valid * [x.stress_qs * 100 for x in f.rows], ls, color=c, marker="o", ms=3)
+            ax.plot(r, valid * [x.deflection_qs * 100 for x in f.rows], ls, color=c, alpha=0.45)
             bad = ~ok
             if bad.any():
                 ax.plot(r[bad], np.zeros(bad.sum()), "x", color="k")
@@ -137,6 +138,7 @@ def figure(fams: Sequence[Family]) -> Any:
     handles = [plt.Line2D([], [], color=c, label=m) for m, c in colors.items()]
     handles += [plt.Line2D([], [], color="k", marker="o", ms=3, label="stress (worst link)"),
                 plt.Line2D([], [], color="k", alpha=0.45, label="coupler-point deflection"),
+                plt.Line2D([], [], color="k", ls=":", label="cognate (solid: source)"),
                 plt.Line2D([], [], color="k", marker="x", ls="", label="no valid Exudyn answer")]
     axes[0][0].legend(handles=handles, fontsize=7)
     fig.tight_layout()
@@ -156,8 +158,9 @@ def section(rows: Sequence[Row], fams: Sequence[Family]) -> str:
         "stresses from the beam elements' own section forces over one more steady cycle). Errors against Exudyn: the "
         "coupler point's vector history error, and per link max |sigma - sigma_Exudyn| of the largest and smallest "
         "fibre stress over the Exudyn peak of that link (a scene's stress error: its worst link's). Limits: first "
-        f"crossings of {TOLERANCE:.0%} on r = {', '.join(f'{r:g}' for r in RATIOS)} (a scene without a valid Exudyn "
-        "answer, or beyond the small-deflection range, ends the walk).",
+        f"crossings of {TOLERANCE:.0%} on r = {', '.join(f'{r:g}' for r in RATIOS)} (a scene without a valid answer "
+        "ends the walk: Exudyn's beyond the small-deflection range, or no linear stress where the linear steady state "
+        "of the masses is not resolved). Per-family rows: the tiers' measured errors; no margin, no calibration.",
         "",
         "**Per mass model** (every family of the thesis linkage, Simeon's slider-crank and the atlas sample):",
         "",
