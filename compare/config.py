@@ -28,6 +28,7 @@ from compare.scenes import FOUR_BAR, MECHANISMS, SLIDER_KIND, Grid, Items, Scene
 from compare.solvers import COMPONENTS
 from compare.tolerances import Tolerances, parse_tolerances
 from ked_quasi import rules
+from ked_quasi.fatigue import STRENGTH_RULES, Material
 from ked_quasi.linkage import BRANCHES, DIRECTIONS, LINKS, SECTION_RULES, THESIS_RPM, FourBar, thesis_fourbar
 from ked_quasi.massmodel import MASS_MODELS, PLACEMENTS, MassModel, default_payload
 from ked_quasi.scene import Scene, variant
@@ -60,6 +61,9 @@ class CampaignConfig:
     """The ``[tolerances]`` table (None: absent; :mod:`compare.tolerances`); not part of any scene key."""
     expect: Expectations | None = None
     """The ``[expect]`` table (None: absent; :mod:`compare.expect`); not part of any scene key."""
+    fatigue: Material | None = None
+    """The ``[fatigue]`` table: the links' material strengths for the fatigue safety factors (None: absent);
+    not part of any scene key (no deflection depends on it)."""
 
     def scenes(self) -> tuple[SceneSpec, ...]:
         """All scenes of the campaign grid (see :meth:`compare.scenes.Grid.expand`)."""
@@ -133,7 +137,7 @@ def parse_config(text: str, source: str = "campaign config") -> CampaignConfig:
     return validate(doc, text=text, source=source)
 
 
-TOP_TABLES = ("campaign", "linkage", "grid", "dynamic", "tolerances", "expect")
+TOP_TABLES = ("campaign", "linkage", "grid", "dynamic", "tolerances", "expect", "fatigue")
 
 
 def _extra_tables() -> tuple[str, ...]:
@@ -194,10 +198,33 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
     tolerances, expect = _regression_tables(c, doc)
     if expect and grid_obj is not None and not c.problems:
         _check_expect_scenes(c, expect, grid_obj)
+    fatigue = _fatigue(c, doc)
     if c.problems:
         raise ConfigError(c.problems, source=source)
     assert grid_obj is not None
-    return CampaignConfig(name=name, grid=grid_obj, text=text, tolerances=tolerances, expect=expect)
+    return CampaignConfig(name=name, grid=grid_obj, text=text, tolerances=tolerances, expect=expect, fatigue=fatigue)
+
+
+FATIGUE_KEYS = ("ultimate_strength", "endurance_limit", "yield_strength")
+
+
+def _fatigue(c: _Checker, doc: dict[str, Any]) -> Material | None:
+    """The ``[fatigue]`` table [Pa] (:class:`ked_quasi.fatigue.Material`: ultimate_strength and endurance_limit
+    required, yield_strength optional) or None when absent; every problem named by its key."""
+    if "fatigue" not in doc:
+        return None
+    tab = c.table(doc, "fatigue")
+    c.keys(tab, "fatigue", FATIGUE_KEYS)
+    values = {k: c.check(tab, f"fatigue.{k}", STRENGTH_RULES[k].check, required=k != "yield_strength")
+              for k in FATIGUE_KEYS}
+    if any(f"fatigue.{k}" in c.bad for k in FATIGUE_KEYS) or set(tab) - set(FATIGUE_KEYS):
+        return None
+    try:
+        return Material(**values)
+    except ValueError as exc:  # the strengths' order (S_e <= S_u, S_y <= S_u), its message naming the key
+        c.problems.append(str(exc).replace("Material.", "fatigue."))
+        c.bad.add("fatigue")
+        return None
 
 
 def _check_expect_scenes(c: _Checker, expect: Expectations, grid: Grid) -> None:

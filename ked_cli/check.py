@@ -74,7 +74,8 @@ def _rpm_range(text: str | None) -> list[float]:
               help="Relative history error accepted.")
 @click.option("--confirm", is_flag=True, help="Also run the Exudyn model and report the three errors it measures.")
 @click.option("--ultimate-strength", type=float, default=None, metavar="PA",
-              help="Ultimate tensile strength S_u of the links' material [Pa], for the fatigue safety factor.")
+              help="Ultimate tensile strength S_u of the links' material [Pa], for the fatigue safety factor (with "
+                   "--endurance-limit; both override a linkage file's [fatigue] table).")
 @click.option("--endurance-limit", type=float, default=None, metavar="PA",
               help="Corrected endurance limit S_e of the links' material [Pa] (at most S_u), for the fatigue "
                    "safety factor (Goodman: 1/n = sigma_a/S_e + sigma_m/S_u at the link's worst fibre).")
@@ -117,7 +118,8 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     multiplier|, refined by the Floquet part alone, and of the amplification linear /
     quasi-static peak; else empty), floquet_steps (propagator steps per cycle behind
     floquet_max_abs), floquet_reduced (true when the reduced system's Floquet analysis
-    gave it), stress (given --ultimate-strength and --endurance-limit; per link:
+    gave it), stress (given --ultimate-strength and --endurance-limit, or a linkage file's [fatigue]
+    table with ultimate_strength, endurance_limit and optionally yield_strength [Pa]; per link:
     quasi_static_peak_pa_<link> and linear_peak_pa_<link>, the peak |normal stress| [Pa]
     over the link and the cycle; stress_error_<link>, the quasi-static stress history's
     error against the linear one, peak-normalised; goodman_quasi_static, goodman_linear, the
@@ -153,6 +155,10 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
         mass_model = _slider_mass_model(mechanism, mass_model)
     try:
         material = _material(ultimate_strength, endurance_limit)
+        if material is None and is_file(linkage):  # the file's [fatigue] table, unless the options give one
+            from ked_cli.options import scene_file
+
+            material = scene_file(linkage).fatigue
         mm = MassModel(mass_model, lumps=lumps, payload=default_payload(mass_model) if payload_kg is None
                        else payload_kg) if specs is None else specs[0].mass_model
         from compare.check import spec_for

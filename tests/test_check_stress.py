@@ -62,3 +62,37 @@ def test_text_prints_the_fatigue_line():
 def test_material_refusals_name_the_option(args, name):
     res = _check("--rpm", "100", *args)
     assert res.exit_code != 0 and name in res.output and "Traceback" not in res.output
+
+
+def _file(tmp_path, fatigue: str):
+    path = tmp_path / "linkage.toml"
+    path.write_text(f'[linkage]\npreset = "thesis"\n\n[grid]\nmass_models = ["distributed"]\n\n{fatigue}\n')
+    return str(path)
+
+
+def test_a_linkage_file_carries_its_fatigue_material(tmp_path):
+    # Expected: the file's [fatigue] table gives the same stress keys as the options with the same strengths;
+    # the options override it
+    table = "[fatigue]\nultimate_strength = 310e6\nendurance_limit = 96.5e6"
+    from_file = json.loads(_check("--linkage", _file(tmp_path, table), "--rpm", "100", "--json").output)[0]
+    from_options = json.loads(_check("--rpm", "100", "--mass-model", "distributed", "--json", "--ultimate-strength",
+                                     "310e6", "--endurance-limit", "96.5e6").output)[0]
+    assert from_file["stress"] == pytest.approx(from_options["stress"], rel=1e-12)
+    stronger = json.loads(_check("--linkage", _file(tmp_path, table), "--rpm", "100", "--json",
+                                 "--ultimate-strength", "620e6", "--endurance-limit", "193e6").output)[0]
+    assert stronger["stress"]["goodman_linear"] > from_file["stress"]["goodman_linear"]
+
+
+@pytest.mark.parametrize(("table", "named"), [
+    ("[fatigue]\nultimate_strength = 310\nendurance_limit = 96.5", "fatigue.ultimate_strength"),  # MPa
+    ("[fatigue]\nultimate_strength = 310e6", "fatigue.endurance_limit"),  # required
+    ("[fatigue]\nultimate_strength = 310e6\nendurance_limt = 96.5e6", "fatigue.endurance_limt"),  # misspelt
+    ("[fatigue]\nultimate_strength = 100e6\nendurance_limit = 200e6", "fatigue.endurance_limit"),  # S_e > S_u
+])
+def test_a_bad_fatigue_table_is_refused_by_every_command(tmp_path, table, named):
+    from compare.config import ConfigError, load_config
+
+    res = _check("--linkage", _file(tmp_path, table), "--rpm", "100")
+    assert res.exit_code != 0 and named in res.output and "Traceback" not in res.output
+    with pytest.raises(ConfigError, match=named.replace(".", r"\.")):  # ked run reads the file alike
+        load_config(tmp_path / "linkage.toml")
