@@ -13,7 +13,7 @@ from compare.limits import Limit, validity_limit
 from compare.markdown import num, table
 from compare.paths import StudyPaths
 from compare.sections import write_section
-from compare.studies.stress import ELEMENTS, MATERIALS, RATIOS, SECTION, TOLERANCE, Row
+from compare.studies.stress_data import ELEMENTS, MATERIALS, RATIOS, SECTION, TOLERANCE, Row
 
 FIGURE = "stress_limits.png"
 
