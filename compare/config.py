@@ -25,7 +25,7 @@ except ModuleNotFoundError:  # pragma: no cover - Python 3.10
 from compare import solvers as solver_registry
 from compare.expect import Expectations, parse_expect
 from compare.scenes import FOUR_BAR, MECHANISMS, SLIDER_KIND, Grid, Items, SceneSpec, SpeedSpec
-from compare.solvers import COMPONENTS
+from compare.solvers import COMPONENTS, OUTPUTS
 from compare.tolerances import Tolerances, parse_tolerances
 from ked_quasi import rules
 from ked_quasi.fatigue import STRENGTH_RULES, Material
@@ -158,8 +158,11 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
     if name is not None and (not name.strip() or any(ord(ch) < 32 or ord(ch) == 127 for ch in name)):
         c.err("campaign.name", f"must be non-blank text without control characters (NUL, tab, newline); got {name!r}")
     tolerance = c.rule(camp, "campaign.tolerance", rules.TOLERANCE, default=DEFAULT_TOLERANCE)
-    outputs = c.choices(camp, "campaign.outputs", COMPONENTS, default=COMPONENTS)
-    outputs = tuple(x for x in COMPONENTS if x in outputs)  # canonical order: same scenes, same keys
+    outputs = c.choices(camp, "campaign.outputs", OUTPUTS, default=COMPONENTS)
+    outputs = tuple(x for x in OUTPUTS if x in outputs)  # canonical order: same scenes, same keys
+    if outputs and not any(x in COMPONENTS for x in outputs):
+        c.err("campaign.outputs", f"must include a deflection component ({', '.join(COMPONENTS)}): every verdict "
+                                  "measures the deflection; 'stress' adds the link stresses to it")
     step_deg = c.check(camp, "campaign.step_deg", rules.check_step_deg, default=10.0)
     n_modes = c.rule(camp, "campaign.n_modes", rules.N_MODES, default=3)
     solvers = c.choices(camp, "campaign.solvers", solver_registry.names(), default=CONFIG_SOLVERS)

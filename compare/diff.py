@@ -8,8 +8,10 @@ settings and versions are unchanged, ``physics`` otherwise):
 - ``status``: ok in BASELINE and failed in NEW (the scene, or one solver) fails; failed -> ok is reported, passes;
 - ``finite``: a NaN or inf in a stored history of NEW always fails;
 - ``history``: each stored history's drift, max |new - base| / max |base|, within the tier's ``history`` (or
-  under the absolute floor ``history_abs``);
-- ``verdict``: a verdict flip (``holds`` of any pair of solvers) always fails;
+  under the absolute floor ``history_abs``); a link's stresses (quantity ``stress_<link>``, both fibres) too,
+  their floor ``history_abs`` taken relative to the peak;
+- ``verdict``: a verdict flip (``holds`` of any pair of solvers, and the stress verdict of a pair with link
+  stresses, quantity ``<pair>/stress``) always fails;
 - ``verdict_error``: |new - base| of each pair's verdict error within the tier's ``verdict_error`` (the larger of
   the solver's and its reference's: the error moves with either);
 - ``missing`` / ``added``: a scene of BASELINE without a match in NEW, a scene of NEW without one in BASELINE.
@@ -32,7 +34,9 @@ from typing import Any
 import numpy as np
 
 from compare.expect import Expectations, Violation, check_expectations
+from compare.metrics import is_stress
 from compare.results import SceneResult
+from compare.solvers import STRESS, STRESS_PREFIX
 from compare.tolerances import Tolerances
 
 PHYSICAL = ("linkage", "mechanism", "mass_model", "speed", "stiffness_scale", "damping_ratio", "direction")
@@ -247,7 +251,7 @@ def scene_checks(base: SceneResult, new: SceneResult, tiers: dict[str, str], tol
             add("status", name, "solver", f"ok -> {'absent' if sn is None else sn.status}", "ok", False,
                 message="" if sn is None else sn.message[:200])
     for name, sn in new.solutions.items():
-        for comp, h in sn.deflection.items():
+        for comp, h in (sn.histories if sn.ok else sn.deflection).items():
             bad = int(np.size(h) - np.count_nonzero(np.isfinite(h)))
             if bad:
                 add("finite", name, comp, f"{bad} non-finite value(s)", "all finite", False)
@@ -261,8 +265,8 @@ def scene_checks(base: SceneResult, new: SceneResult, tiers: dict[str, str], tol
                 "the crank-angle grids differ (another step_deg): only the verdict errors are compared")
             continue
         b = tol.bounds(tiers.get(name, "physics"), name)
-        for comp, hb in sb.deflection.items():
-            hn = sn.deflection.get(comp)
+        for comp, hb in sb.histories.items():
+            hn = sn.histories.get(comp)
             if hn is None:
                 add("history", name, comp, "absent", "stored", False, tiers.get(name, ""))
                 continue
@@ -271,7 +275,8 @@ def scene_checks(base: SceneResult, new: SceneResult, tiers: dict[str, str], tol
             diff = float(np.max(np.abs(hn - hb))) if hb.size else 0.0
             pk = float(np.max(np.abs(hb))) if hb.size else 0.0
             rel = diff / pk if pk > 0 else (0.0 if diff == 0 else math.inf)
-            ok = diff <= max(b.history * pk, b.history_abs)
+            floor = b.history_abs * pk if is_stress(comp) else b.history_abs  # stresses [Pa]: no metre floor
+            ok = diff <= max(b.history * pk, floor)
             add("history", name, comp, rel, b.history, ok, tiers.get(name, ""),
                 f"max |new - base| = {diff:.3g} (peak {pk:.3g}; floor {b.history_abs:g})")
     for pname, mb in base.metrics.items():
@@ -282,6 +287,10 @@ def scene_checks(base: SceneResult, new: SceneResult, tiers: dict[str, str], tol
         add("verdict", mb.solver, pname, f"{_holds(mb.holds)} -> {_holds(mn.holds)}", _holds(mb.holds),
             mb.holds == mn.holds, tier,
             f"verdict_error {mb.verdict_error:.4g} -> {mn.verdict_error:.4g} (tolerance {mn.tolerance:g})")
+        if mb.stress_holds is not None and mn.stress_holds is not None:
+            add("verdict", mb.solver, f"{pname}/stress", f"{_holds(mb.stress_holds)} -> {_holds(mn.stress_holds)}",
+                _holds(mb.stress_holds), mb.stress_holds == mn.stress_holds, tier,
+                f"stress error {mb.stress_error:.4g} -> {mn.stress_error:.4g} (tolerance {mn.tolerance:g})")
         bound = max(tol.bounds(tier, mb.solver).verdict_error, tol.bounds(tier, mb.reference).verdict_error)
         d = abs(mn.verdict_error - mb.verdict_error)
         add("verdict_error", mb.solver, pname, d if math.isfinite(d) else math.inf, bound, d <= bound, tier,
@@ -369,7 +378,7 @@ def _light(f: Any) -> dict[str, dict[str, Any]]:
     for i, k in enumerate(sc["key"]):
         if int(sc["complete"][i]) == 1:
             out[k.decode()] = {"label": sc["label"][i].decode(), "status": sc["status"][i], "json": sc["json"][i],
-                               "outputs": sc["outputs"][i].decode(), "solutions": [], "pairs": {}}
+                               "outputs": sc["outputs"][i].decode(), "solutions": [], "pairs": {}, "stress": {}}
     so = raw[h5layout.SOLUTION_TABLE]
     for i, k in enumerate(so.get("key", ())):
         d = out.get(k.decode())
@@ -381,6 +390,10 @@ def _light(f: Any) -> dict[str, dict[str, Any]]:
         if d is not None:
             pair = (mt["solver"][i].decode(), mt["reference"][i].decode())
             d["pairs"][pair] = (bool(mt["pair_holds"][i]), float(mt["verdict_error"][i]))
+            comp = mt["component"][i].decode()
+            if is_stress(comp):  # the stress verdict: every link within the tolerance
+                links = d["stress"].setdefault(pair, {})
+                links[comp.removeprefix(STRESS_PREFIX)] = bool(mt["holds"][i])
     return out
 
 
@@ -400,7 +413,7 @@ def _dataset(fid: Any, path: str) -> np.ndarray | None:
 
 def _arrays(f: Any, key: str, solvers: list[str]) -> dict[str, Any]:
     return {name: _dataset(f.id, f"scenes/{key}/{name}") for name in
-            ("crank_angle", *(f"solutions/{s}" for s in solvers))}
+            ("crank_angle", *(f"solutions/{s}" for s in solvers), *(f"stress/{s}" for s in solvers))}
 
 
 def _equal(a: dict[str, Any], b: dict[str, Any]) -> bool:
@@ -446,13 +459,19 @@ def _identical_diff(key: str, row: dict[str, Any], arrays: dict[str, Any], solve
     for s in solvers:
         if arrays.get(f"solutions/{s}") is None or row["status"] != b"ok":
             continue
-        for comp in (c for c in row["outputs"].split(",") if c):
+        stressed = arrays.get(f"stress/{s}") is not None
+        links = sorted({lk for stress in row["stress"].values() for lk in stress}) if stressed else []
+        for comp in [c for c in row["outputs"].split(",") if c and c != STRESS] + [STRESS_PREFIX + lk for lk in links]:
             checks.append(Check(label, key, "history", s, comp, 0.0, tol.bounds(tiers[s], s).history, True,
                                 tiers[s], "identical"))
     for (s, ref), (holds, err) in sorted(row["pairs"].items()):
         tier = "physics" if "physics" in (tiers.get(s), tiers.get(ref)) else "same"
         checks.append(Check(label, key, "verdict", s, f"{s}_vs_{ref}", f"{_holds(holds)} -> {_holds(holds)}",
                             _holds(holds), True, tier, "identical"))
+        if (s, ref) in row["stress"]:
+            sh = all(row["stress"][(s, ref)].values())
+            checks.append(Check(label, key, "verdict", s, f"{s}_vs_{ref}/stress", f"{_holds(sh)} -> {_holds(sh)}",
+                                _holds(sh), True, tier, "identical"))
         bound = max(tol.bounds(tier, s).verdict_error, tol.bounds(tier, ref).verdict_error)
         checks.append(Check(label, key, "verdict_error", s, f"{s}_vs_{ref}", 0.0, bound, True, tier,
                             f"{err:.6g} -> {err:.6g}"))

@@ -138,7 +138,7 @@ def run_scene(spec: SceneSpec, solvers: Sequence[Solver] | None = None,
     failed = [s for s in solutions.values() if not s.ok]
     try:
         ok = {n: s for n, s in solutions.items() if s.ok}
-        metrics = all_pairs(theta, {n: s.deflection for n, s in ok.items()}, {n: s.fidelity for n, s in ok.items()},
+        metrics = all_pairs(theta, {n: s.histories for n, s in ok.items()}, {n: s.fidelity for n, s in ok.items()},
                             omega=fr.scene.omega,
                             omega1_min=fr.omega1_min, tolerance=spec.tolerance, direction_sign=linkage.sign)
     except Exception as exc:

@@ -21,11 +21,13 @@ from compare.metrics import PairMetrics, all_pairs
 from compare.results import STATUS_OK, RunStats, SceneResult
 from compare.scenes import SceneSpec, canonical_json
 from compare.solvers import COMPONENT_UNITS, COMPONENTS, STATUS_FAILED, Solution
+from compare.solvers import STRESS as STRESS_OUTPUT
 from ked_quasi.linkage import LINKS, direction_sign
 from ked_quasi.rules import steps_per_turn
 from ked_quasi.units import rad_s_to_rpm, rpm_to_rad_s
 
 SOLUTIONS = "solutions"
+STRESS = "stress"
 METRICS = "metrics"
 _RUN_STAT_FIELDS = ("frequencies_wall_s", "total_wall_s", "worker", "finished_utc")
 SCENE_ATTRS = ("key", "label", "status", "stage", "error_type", "message", "rpm", "omega1_min_rad_s", "run")
@@ -47,7 +49,8 @@ def complete(g: h5py.Group) -> bool:
 METRIC_FIELDS: tuple[tuple[str, str, str, str], ...] = (
     ("solver", "S32", "", "solver measured"),
     ("reference", "S32", "", "reference solver (the higher fidelity)"),
-    ("component", "S16", "", "dx, dy, rotation, or vector (the deflection vector (dx, dy))"),
+    ("component", "S16", "", "dx, dy, rotation, vector (the deflection vector (dx, dy)), or stress_<link> (the "
+                             "link's extreme-fibre normal stresses, both fibres; holds = the link's stress verdict)"),
     ("units", "S8", "", "units of the component"),
     ("history_error", "f8", "1", "max|a - b| / max|b| over the cycle"),
     ("peak_error", "f8", "1", "|max|a| - max|b|| / max|b|"),
@@ -206,7 +209,8 @@ def _damage(spec: SceneSpec, solutions: dict[str, Solution], theta: np.ndarray |
     for name, s in solutions.items():
         if not s.ok:
             continue
-        for c in spec.outputs:
+        out += _verify_stress(name, s, spec, theta.size)
+        for c in (c for c in spec.outputs if c in COMPONENTS):
             h = s.deflection.get(c)
             if h is None:
                 out.append(f"history {name}/{c} missing")
@@ -243,7 +247,7 @@ def assemble(spec: SceneSpec, a: Any, solutions: dict[str, Solution], theta: np.
     ok = {n: s for n, s in solutions.items() if s.ok and s.deflection and not damage}
     if theta is not None and ok:
         try:
-            metrics = all_pairs(theta, {n: s.deflection for n, s in ok.items()}, {n: s.fidelity for n, s in ok.items()},
+            metrics = all_pairs(theta, {n: s.histories for n, s in ok.items()}, {n: s.fidelity for n, s in ok.items()},
                                 omega=rpm_to_rad_s(rpm), omega1_min=omega1_min, tolerance=spec.tolerance,
                                 direction_sign=direction_sign(spec.direction))
         except ValueError:
@@ -309,7 +313,8 @@ def _verify_ok_scene(arrays: Any, r: SceneResult, stored_rows: Any, version: int
         if s is None:
             p.append(f"missing solution of solver {solver!r}")
             continue
-        for c in spec.outputs:
+        p += _verify_stress(solver, s, spec, n)
+        for c in (c for c in spec.outputs if c in COMPONENTS):
             h = s.deflection.get(c)
             if h is None:
                 p.append(f"missing history {solver}/{c}")
@@ -320,6 +325,20 @@ def _verify_ok_scene(arrays: Any, r: SceneResult, stored_rows: Any, version: int
     if len(spec.solvers) > 1 and r.verdict is None:
         p.append("no verdict: the quasi-static solution or a reference is missing")
     return p + _verify_stored_metrics(r, stored_rows, version)
+
+
+def _verify_stress(solver: str, s: Solution, spec: SceneSpec, n: int) -> list[str]:
+    """A solution's stored link stresses: (n, 2) and finite each; the quasi-static ones present wherever the
+    scene asks for stresses (the other tiers may have none, saying why in their warnings)."""
+    if STRESS_OUTPUT not in spec.outputs:
+        return [f"{solver} has stresses the scene did not ask for"] if s.stress else []
+    p = [] if s.stress or solver != "quasi_static" else [f"missing stresses of {solver}"]
+    for lk, v in s.stress.items():
+        if v.shape != (n, 2):
+            p.append(f"stress {solver}/{lk} shape {v.shape} != ({n}, 2)")
+        elif s.ok and not np.all(np.isfinite(v)):
+            p.append(f"stress {solver}/{lk} has non-finite values")
+    return p
 
 
 def _verify_frame(r: SceneResult, n: int) -> list[str]:
@@ -597,7 +616,8 @@ def write_arrays(scenes: h5py.Group, r: SceneResult) -> None:
                                                         ("natural_frequencies", "natural_frequencies"))}
     arrays = {k: v for k, v in arrays.items() if v is not None}
     sols = {n: s for n, s in r.solutions.items() if any(c in s.deflection for c in COMPONENTS)}
-    if not arrays and not sols:
+    stressed = {n: s.stress for n, s in r.solutions.items() if s.stress}
+    if not arrays and not sols and not stressed:
         return
     g = scenes.create_group(r.key)
     for name, data in arrays.items():
@@ -612,6 +632,35 @@ def write_arrays(scenes: h5py.Group, r: SceneResult) -> None:
             ds.attrs["components"], ds.attrs["units"] = ",".join(comps), ",".join(COMPONENT_UNITS[c] for c in comps)
             ds.attrs["description"] = (f"{name}'s deflection histories of the coupler point P over the crank angle, "
                                        "one column per component (attribute components; units: attribute units)")
+    if stressed:
+        tg = g.create_group(STRESS)
+        for name, stress in stressed.items():
+            write_stress(tg, name, stress)
+
+
+def write_stress(group: h5py.Group, solver: str, stress: dict[str, np.ndarray]) -> None:
+    """``stress/<solver>``: (n, 2 L) [Pa], per link (attribute ``links``) its largest and smallest extreme-fibre
+    normal stress over the link at each crank angle (columns ``<link>.max``, ``<link>.min``)."""
+    links = list(stress)
+    ds = group.create_dataset(solver, data=np.concatenate([np.asarray(stress[lk], dtype=np.float64)
+                                                           for lk in links], axis=1))
+    ds.attrs["links"] = ",".join(links)
+    ds.attrs["columns"] = ",".join(f"{lk}.{f}" for lk in links for f in ("max", "min"))
+    ds.attrs["units"] = "Pa"
+    ds.attrs["description"] = (f"{solver}'s link stresses over the crank angle: per link (attribute links) the "
+                               "largest and the smallest extreme-fibre normal stress N/A +- M c/I over its length "
+                               "[Pa] (tension > 0)")
+
+
+def read_stress(ds: h5py.Dataset | None) -> dict[str, np.ndarray]:
+    """Link -> (n, 2) [Pa] of a ``stress/<solver>`` dataset ({} for None)."""
+    if ds is None:
+        return {}
+    data = np.asarray(ds[()], dtype=np.float64)
+    links = [x for x in text(ds.attrs["links"]).split(",") if x]
+    if data.ndim != 2 or data.shape[1] != 2 * len(links):
+        raise ValueError(f"{ds.name}: shape {data.shape} does not hold two columns for each of {len(links)} links")
+    return {lk: data[:, 2 * i:2 * i + 2].copy() for i, lk in enumerate(links)}
 
 
 def metric_table_rows(key: str, rows: MetricRows) -> list[dict[str, Any]]:
@@ -773,6 +822,7 @@ class TableFile:
         spec = SceneSpec.from_dict(json.loads(text(row["json"])))
         g = self.arrays(key)
         sg = g.get(SOLUTIONS) if g else None
+        tg = g.get(STRESS) if g else None
         solutions = {}
         for srow in self.solution_rows(key):
             name = text(srow["solver"])
@@ -780,6 +830,7 @@ class TableFile:
             flags = text(srow.get("flags", ""))
             solutions[name] = Solution(
                 solver=name, status=text(srow["status"]), deflection=_histories(ds) if ds is not None else {},
+                stress=read_stress(tg.get(name) if tg is not None else None),
                 settings=json.loads(text(srow["settings_json"])), stats=json.loads(text(srow["stats_json"])),
                 message=text(srow.get("message", "")), error_type=text(srow.get("error_type", "")),
                 failure_class=text(srow.get("failure_class", "")), flags=tuple(flags.split(",")) if flags else (),
@@ -970,18 +1021,25 @@ def _scene_dimensions(g: h5py.Group) -> None:
             labels = np.arange(1, ds.shape[1] + 1, dtype=np.int64) if labels is None else labels
             if len(labels) == ds.shape[1]:
                 ds.dims[1].attach_scale(_label_scale(g, dim, labels))
-    sg = g.get(SOLUTIONS)
+    for sub, attr, dim in ((SOLUTIONS, "components", "component"), (STRESS, "columns", "stress_column")):
+        _columns_dimension(g, g.get(sub), theta, attr, dim)
+
+
+def _columns_dimension(g: h5py.Group, sg: Any, theta: h5py.Dataset, attr: str, dim: str) -> None:
+    """The datasets of ``sg`` (the solvers' histories or stresses): the crank angle as their first dimension and
+    the column names of attribute ``attr`` as a label scale ``dim`` in the scene group, where all agree."""
     if not isinstance(sg, h5py.Group):
         return
+    n = theta.shape[0]
     sols = [ds for ds in sg.values() if isinstance(ds, h5py.Dataset) and ds.ndim == 2 and ds.shape[0] == n]
     if not sols:
         return
-    comps = {text(ds.attrs.get("components", "")) for ds in sols}
+    comps = {text(ds.attrs.get(attr, "")) for ds in sols}
     scale = None
     if len(comps) == 1:
         labels = [c for c in comps.pop().split(",") if c]
         if labels and all(ds.shape[1] == len(labels) for ds in sols):
-            scale = _label_scale(g, "component", np.array(labels))
+            scale = _label_scale(g, dim, np.array(labels))
     for ds in sols:
         _detach(ds).dims[0].attach_scale(theta)
         if scale is not None:
@@ -996,8 +1054,8 @@ def _dimensioned(f: h5py.File) -> list[h5py.Dataset]:
     for g in (scenes.values() if isinstance(scenes, h5py.Group) else ()):
         if isinstance(g, h5py.Group):
             out += [ds for ds in g.values() if isinstance(ds, h5py.Dataset)]
-            sg = g.get(SOLUTIONS)
-            out += [ds for ds in sg.values() if isinstance(ds, h5py.Dataset)] if isinstance(sg, h5py.Group) else []
+            for sg in (g.get(SOLUTIONS), g.get(STRESS)):
+                out += [ds for ds in sg.values() if isinstance(ds, h5py.Dataset)] if isinstance(sg, h5py.Group) else []
     return [ds for ds in out if isinstance(ds, h5py.Dataset)]
 
 

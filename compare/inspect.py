@@ -19,6 +19,7 @@ from typing import Any
 from compare import solvers as registry
 from compare.metrics import VERDICT_METRIC, pair_name
 from compare.results import SceneResult
+from compare.solvers import STRESS_PREFIX
 from ked_quasi import units
 from ked_quasi.units import rpm_to_rad_s
 
@@ -61,7 +62,10 @@ def summary_row(r: SceneResult) -> dict[str, Any]:
     ``relative_error_<component>`` and ``amplification_<component>`` are per component (dx, dy,
     rotation, vector).  Kept with their old meaning, not verdicts: ``max_relative_error`` and
     ``error_<solver>``, the worst history error of dx, dy and rotation (the campaign verdict's measure
-    before the vector one), and ``max_amplification``, the worst component's amplification."""
+    before the vector one), and ``max_amplification``, the worst component's amplification.  A scene with link
+    stresses adds the stress verdict: ``stress_error`` (the quasi-static stress's history error against the
+    reference's, worst link), ``stress_worst_link`` and ``stress_holds`` (``stress_error`` < tolerance);
+    ``relative_error_stress_<link>`` per link."""
     v = r.verdict
     ref = r.reference
     row: dict[str, Any] = {
@@ -78,6 +82,10 @@ def summary_row(r: SceneResult) -> dict[str, Any]:
         for c in v.components:
             row[f"relative_error_{c.component}"] = _num(c.history_error)
             row[f"amplification_{c.component}"] = _num(c.amplification)
+        if v.stress_components:
+            worst = max(v.stress_components, key=lambda c: c.history_error)
+            row.update(stress_error=_num(v.stress_error), stress_holds=v.stress_holds,
+                       stress_worst_link=worst.component.removeprefix(STRESS_PREFIX))
     for name in r.solutions:
         m = r.metrics.get(pair_name(name, ref)) if ref else None
         if name not in ("quasi_static", ref) and m is not None:
@@ -111,8 +119,8 @@ def _columns(rows: Sequence[dict[str, Any]], wide: bool = True) -> list[tuple[st
                 ("speed_ratio", "Omega/w1", "{:.3f}"), ("status", "status", "{}"),
                 ("verdict_error", "quasi-static err %", "%"), ("relative_error_rotation", "qs rot err %", "%")]
         cols += [(_OTHER + k, f"{registry.label(k)} err %", "%") for k in extra]
-        cols += [("max_amplification", "amplif.", "{:.3f}"), ("holds", "verdict", ""),
-                 ("wall_s", "wall s", "{:.1f}")]
+        cols += [("max_amplification", "amplif.", "{:.3f}"), ("holds", "verdict", "")]
+        cols += _stress_columns(rows, wide) + [("wall_s", "wall s", "{:.1f}")]
         if any(row.get("reason") for row in rows):
             cols.append(("reason", "reason (failed scenes)", "{}"))
         return cols
@@ -121,12 +129,21 @@ def _columns(rows: Sequence[dict[str, Any]], wide: bool = True) -> list[tuple[st
             ("relative_error_rotation", "qs rot\nerr %", "%")]
     cols += [(_OTHER + k, "\n".join(k.split("_")) + "\nerr %", "%") for k in extra]
     cols += [("max_amplification", "amplif.", "{:.3f}"), ("holds", "verdict", "")]
-    return cols
+    return cols + _stress_columns(rows, wide)
+
+
+def _stress_columns(rows: Sequence[dict[str, Any]], wide: bool) -> list[tuple[str, str, str]]:
+    """The stress verdict's columns, where a scene has link stresses."""
+    if not any("stress_error" in row for row in rows):
+        return []
+    if wide:
+        return [("stress_error", "qs stress err %", "%"), ("stress_holds", "stress verdict", "")]
+    return [("stress_error", "qs stress\nerr %", "%"), ("stress_holds", "stress\nverdict", "")]
 
 
 _OTHER = "verdict_error_"
 """Key prefix of the verdict error of a solver other than the quasi-static one."""
-_QUASI_STATIC_KEYS = ("verdict_error", "relative_error_rotation", "max_relative_error")
+_QUASI_STATIC_KEYS = ("verdict_error", "relative_error_rotation", "max_relative_error", "stress_error")
 
 FLAG_MARK = "*"
 FLAG_NOTE = (f"{FLAG_MARK} that solver's answer is outside the range where its model holds (validity flags, "
@@ -194,6 +211,8 @@ def _render(rows: Sequence[dict[str, Any]], cols: list[tuple[str, str, str]], ma
         if key in own:
             return own[key]
         v = row.get(key)
+        if key == "stress_holds":
+            return "-" if v is None else verdict_text(v)
         if key == "holds":
             return "failed" if row.get("status") not in (None, "ok") and text is not None else verdict_text(v)
         if v is None or v == "":
@@ -209,7 +228,7 @@ def _render(rows: Sequence[dict[str, Any]], cols: list[tuple[str, str, str]], ma
     head = [[""] * (depth - len(t)) + t for t in titles]
     body = [[cell(row, key, fmt) for key, _, fmt in cols] for row in rows]
     widths = [max([len(x) for x in head[i]] + [len(r[i]) for r in body]) for i in range(len(cols))]
-    left = {"key", "label", "status", "holds", "reason"}
+    left = {"key", "label", "status", "holds", "stress_holds", "reason"}
 
     # two spaces around a text column, one between two numbers (right-aligned, so they stay apart)
     seps = ["" if i == 0 else " " if text is not None and cols[i][0] not in left and cols[i - 1][0] not in left
@@ -291,15 +310,30 @@ def format_counts(results: Sequence[SceneResult]) -> str:
     text = (f"{len(results)} scenes: {len(ok)} ok, {len(failed)} failed{f' ({by_class})' if failed else ''}; "
             f"quasi-static holds in {holds} of {len(ok)} ok scenes (verdict: {VERDICT_METRIC} "
             "against the highest-fidelity solver of the scene, below the campaign tolerance)")
-    text = _wrap(text)
+    text = _wrap(text) + _stress_count(ok)
     if failed:
         text += "\nfailed scenes: `ked inspect FILE KEY` shows the whole message"
     return text
 
 
+def _stress_count(ok: Sequence[SceneResult]) -> str:
+    """The stress verdict's count line ("" without link stresses): against which reference it was measured."""
+    with_stress = [r for r in ok if r.verdict is not None and r.verdict.stress_holds is not None]
+    if not with_stress:
+        return ""
+    holds = sum(1 for r in with_stress if r.verdict.stress_holds)
+    refs = sorted({registry.label(r.reference or "") for r in with_stress})
+    caveat = ("" if refs == [registry.label("dynamic")] else
+              "; measured against a reference that is not Exudyn, so it is not calibrated against Exudyn")
+    return "\n" + _wrap(f"link stresses: the quasi-static stress holds in {holds} of {len(with_stress)} scenes "
+                        f"(stress verdict: history error of each link's extreme-fibre stress against "
+                        f"{' / '.join(refs)}, worst link, below the campaign tolerance{caveat})")
+
+
 def _pair_record(m: Any) -> dict[str, Any]:
     return {"solver": m.solver, "reference": m.reference, "speed_ratio": _num(m.speed_ratio),
             "tolerance": m.tolerance, "holds": m.holds, "verdict_error": _num(m.verdict_error),
+            "stress_error": _num(m.stress_error), "stress_holds": m.stress_holds,
             "verdict_metric": VERDICT_METRIC, "worst_component_error": _num(m.worst_component_error),
             "components": {c.component: {k: (_num(v) if isinstance(v, float) else v) for k, v in asdict(c).items()}
                            for c in m.components}}
@@ -322,7 +356,8 @@ def scene_detail(r: SceneResult) -> dict[str, Any]:
                                            "worst_component_error": _num(v.worst_component_error)},
         "solutions": {n: {"status": s.status, "message": s.message, "error_type": s.error_type,
                           "failure_class": s.failure_class, "flags": list(s.flags), "settings": s.settings,
-                          "stats": s.stats, "deflection": {c: arr(h) for c, h in s.deflection.items()}}
+                          "stats": s.stats, "deflection": {c: arr(h) for c, h in s.deflection.items()},
+                          "stress_pa": {lk: arr(h) for lk, h in s.stress.items()}}
                       for n, s in r.solutions.items()},
         "metrics": {name: _pair_record(m) for name, m in r.metrics.items()},
         "run_stats": asdict(r.stats),
@@ -371,10 +406,13 @@ def format_detail(r: SceneResult) -> str:
         lines.append(f"  warnings    : {r.warnings}")
     for m in r.metrics.values():
         lines.append(f"  {registry.label(m.solver)} vs {registry.label(m.reference)}: {verdict_text(m.holds)} "
-                     f"(vector (dx, dy) history error {m.verdict_error:.1%}, tolerance {m.tolerance:.1%})")
-        lines.append("    component  units  max|err|     rms err      history  peak err  phase[deg]  amplif.")
+                     f"(vector (dx, dy) history error {m.verdict_error:.1%}, tolerance {m.tolerance:.1%})"
+                     + ("" if m.stress_holds is None else f"; stress {verdict_text(m.stress_holds)} (worst link's "
+                        f"stress history error {m.stress_error:.1%})"))
+        w = max(9, *(len(c.component) for c in m.components))
+        lines.append(f"    {'component':<{w}}  units  max|err|     rms err      history  peak err  phase[deg]  amplif.")
         for c in m.components:
-            lines.append(f"    {c.component:<9}  {c.units:<5}  {c.max_abs_error:<11.4g}  {c.rms_error:<11.4g}  "
+            lines.append(f"    {c.component:<{w}}  {c.units:<5}  {c.max_abs_error:<11.4g}  {c.rms_error:<11.4g}  "
                          f"{c.history_error:>7.1%}  {c.peak_error:>8.1%}  {math.degrees(c.phase_shift):>10.2f}  "
                          f"{c.amplification:>7.3f}")
     return "\n".join(_wrap(ln, indent=" " * 16) if len(ln) > WIDTH else ln for ln in lines)

@@ -160,18 +160,18 @@ def _histories(xr: Any, f: h5py.File, scene_cols: dict[str, np.ndarray], scene_a
 
 
 def open_results(path: str | Path) -> Results:
-    """The results file ``path`` (schema version 4) as labelled data (:class:`Results`); needs the extra
-    ``ked-harness[xarray]``.  Raises ``compare.store.StoreError`` for a file that is not a version-4
-    results file."""
+    """The results file ``path`` (schema version 4 or 5) as labelled data (:class:`Results`); needs the extra
+    ``ked-harness[xarray]``.  Raises ``compare.store.StoreError`` for a file of an older layout."""
     from compare import store
 
     pd, xr = _require("pandas"), _require("xarray")
     path = Path(path)
     with store._open(path) as f:
         _, version = store._scenes(f, path)
-        if version != store.SCHEMA_VERSION:
-            raise store.StoreError(f"{path}: schema version {version}; open_results reads version "
-                                   f"{store.SCHEMA_VERSION} (a version-4 copy: `ked merge {path} NEW.h5`)")
+        if version < store.TABLE_LAYOUT:
+            raise store.StoreError(f"{path}: schema version {version}; open_results reads versions "
+                                   f"{store.TABLE_LAYOUT}-{store.SCHEMA_VERSION} (a copy in today's layout: "
+                                   f"`ked merge {path} NEW.h5`)")
         frames = {n: _frame(pd, f.get(n)) for n in h5layout.TABLES}
         st = f.get(h5layout.SCENE_TABLE)
         cols = tables.read_table(st) if st is not None else {}

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from compare.solvers import COMPONENT_UNITS, COMPONENTS
+from compare.solvers import COMPONENT_UNITS, COMPONENTS, STRESS_PREFIX
 
 VECTOR = "vector"
 VERDICT_METRIC = "history error of the deflection vector (dx, dy)"
@@ -54,9 +54,15 @@ def safe_ratio(num: float, den: float) -> float:
 
 
 def size(y: np.ndarray) -> np.ndarray:
-    """|y_k| (n,): absolute value of a (n,) history, vector norm of a (n, 2) one."""
+    """|y_k| (n,): absolute value of a (n,) history, vector norm of a (n, 2) one (for stress see
+    :func:`stress_metrics`)."""
     y = np.asarray(y, dtype=float)
     return np.abs(y) if y.ndim == 1 else np.hypot(y[:, 0], y[:, 1])
+
+
+def is_stress(component: str) -> bool:
+    """Whether a component is a link's stress (``stress_<link>``)."""
+    return component.startswith(STRESS_PREFIX)
 
 
 def peak(y: np.ndarray) -> float:
@@ -157,13 +163,32 @@ def component_metrics(component: str, crank_angle: np.ndarray, a: np.ndarray, b:
     )
 
 
+def stress_metrics(component: str, crank_angle: np.ndarray, a: np.ndarray, b: np.ndarray, tolerance: float,
+                   direction_sign: int = 1) -> ComponentMetrics:
+    """All metrics of a link's stress ``stress_<link>``: ``a``, ``b`` (n, 2) fibre stresses [Pa] (largest,
+    smallest) of the solver and the reference; |.| the larger fibre magnitude (see the module docstring)."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if a.shape != b.shape or a.ndim != 2 or a.shape[0] != np.shape(crank_angle)[0]:
+        raise ValueError(f"shape mismatch in {component!r}: crank_angle {np.shape(crank_angle)}, {a.shape}, {b.shape}")
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        raise ValueError(f"non-finite stress values in component {component!r}")
+    ea, eb, ediff = (np.max(np.abs(x), axis=1) for x in (a, b, a - b))  # envelopes over the two fibres (n,)
+    h = safe_ratio(float(ediff.max()), float(eb.max()))
+    return ComponentMetrics(
+        component=component, units="Pa", history_error=h, peak_error=peak_error(ea, eb),
+        max_abs_error=float(ediff.max()), rms_error=float(np.sqrt(np.mean((a - b) ** 2))),
+        phase_shift=phase_shift(crank_angle, ea, eb, direction_sign), amplification=amplification(ea, eb),
+        solver_peak=peak(ea), reference_peak=peak(eb), holds=bool(h < tolerance))
+
+
 @dataclass(frozen=True)
 class PairMetrics:
     """One solver measured against a reference solver on one scene.
 
     ``omega`` [rad/s] crank speed, ``omega1_min`` [rad/s] lowest first natural circular frequency
     over the cycle, ``speed_ratio`` = omega / omega1_min [1], ``tolerance`` [1];
-    ``components``: dx, dy, rotation (those both solvers have), then ``vector`` if dx and dy exist.
+    ``components``: dx, dy, rotation (those both solvers have), then ``vector`` if dx and dy exist, then
+    ``stress_<link>`` of the links both have stresses for.
     """
 
     solver: str
@@ -186,7 +211,23 @@ class PairMetrics:
 
     @property
     def scalar_components(self) -> tuple[ComponentMetrics, ...]:
-        return tuple(c for c in self.components if c.component != VECTOR)
+        """dx, dy and rotation (those present)."""
+        return tuple(c for c in self.components if c.component in COMPONENTS)
+
+    @property
+    def stress_components(self) -> tuple[ComponentMetrics, ...]:
+        """``stress_<link>`` of every link both solvers gave stresses for."""
+        return tuple(c for c in self.components if is_stress(c.component))
+
+    @property
+    def stress_error(self) -> float:
+        """The stress verdict's measure: the worst link's stress history error [1] (NaN without stresses)."""
+        return max((c.history_error for c in self.stress_components), default=math.nan)
+
+    @property
+    def stress_holds(self) -> bool | None:
+        """Every link's stress within the tolerance (None without stresses)."""
+        return None if not self.stress_components else bool(self.stress_error < self.tolerance)
 
     @property
     def verdict_error(self) -> float:
@@ -232,6 +273,8 @@ def pair_metrics(solver: str, reference: str, crank_angle: np.ndarray, a: Mappin
     if all(c in a and c in b for c in ("dx", "dy")):
         vec = [np.column_stack([h["dx"], h["dy"]]) for h in (a, b)]
         comps.append(component_metrics(VECTOR, crank_angle, vec[0], vec[1], tolerance, direction_sign))
+    comps += [stress_metrics(c, crank_angle, a[c], b[c], tolerance, direction_sign)
+              for c in a if is_stress(c) and c in b]
     return PairMetrics(solver=solver, reference=reference, omega=float(abs(omega)), omega1_min=float(omega1_min),
                        speed_ratio=safe_ratio(abs(omega), omega1_min), tolerance=float(tolerance),
                        components=tuple(comps))

@@ -39,6 +39,7 @@ from matplotlib.figure import Figure
 from compare import solvers as registry
 from compare.inspect import rpm_text, speed_ratio
 from compare.results import SceneResult
+from compare.solvers import STRESS_PREFIX
 
 _LABELS = {"dx": "dx [mm]", "dy": "dy [mm]", "rotation": "rotation [mrad]"}
 _SCALE = {"dx": 1e3, "dy": 1e3, "rotation": 1e3}
@@ -146,8 +147,9 @@ def scene_figure(r: SceneResult) -> Figure:
     is greyed and hollow with its flags in the legend, and does not set the axis limits while a valid
     answer is drawn on the same axes (it may run off the scale: the legend says it is not valid)."""
     comps = [c for c in r.spec.outputs if any(c in s.deflection for s in r.solutions.values())]
+    links = list(dict.fromkeys(lk for s in r.solutions.values() for lk in s.stress))
     styles = _styles(r)
-    nrows = max(1, len(comps))
+    nrows = max(1, len(comps) + len(links))
     height = 2.6 * nrows + 1.2
     fig = Figure(figsize=(11, height))  # fixed margins: a layout engine would double the drawing time
     gs = fig.add_gridspec(nrows, 2, width_ratios=(1.4, 1.0), left=0.075, right=0.985, bottom=0.55 / height,
@@ -190,7 +192,11 @@ def scene_figure(r: SceneResult) -> Figure:
                 ax.legend(fontsize=6.5, loc="best", framealpha=0.7)
             if i == nrows - 1:
                 ax.set_xlabel(_grid_text(r), fontsize=8)
-    ax = fig.add_subplot(gs[:, 1])
+        for i, lk in enumerate(links, start=len(comps)):
+            _stress_axes(fig.add_subplot(gs[i, 0]), r, lk, styles, deg)
+            if i == nrows - 1:
+                fig.axes[-1].set_xlabel(_grid_text(r), fontsize=8)
+    ax = fig.add_subplot(gs[:max(1, len(comps)), 1])
     if r.coupler_point is not None:
         P = r.coupler_point * 1e3
         k = magnification(r)
@@ -215,6 +221,34 @@ def scene_figure(r: SceneResult) -> Figure:
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc="best", framealpha=0.6)
     return fig
+
+
+def _stress_axes(ax: Any, r: SceneResult, link: str, styles: dict[str, str], deg: np.ndarray) -> None:
+    """One link's largest and smallest extreme-fibre stress [MPa] of every solver (an answer outside its model's
+    range greyed, as the deflections), titled with the quasi-static stress's error against the reference."""
+    x = np.append(deg, 360.0)
+    valid_any = any(link in s.stress and valid(s) for s in r.solutions.values())
+    shown = []
+    for name, sol in r.solutions.items():
+        if link not in sol.stress:
+            continue
+        sig = np.vstack([sol.stress[link], sol.stress[link][:1]]) * 1e-6
+        if valid(sol) or not valid_any:
+            shown += [np.column_stack([x, sig[:, 0]]), np.column_stack([x, sig[:, 1]])]
+        style = _line_style(name, sol, styles, 3)
+        ax.plot(x, sig[:, 0], **style)
+        ax.plot(x, sig[:, 1], **(style | {"alpha": 0.5}))
+    _scale_to(ax, shown)
+    ax.set_ylabel(f"{link} sigma\n[MPa]")
+    ax.set_xlim(0, 360)
+    ax.set_xticks(range(0, 361, 60))
+    ax.grid(alpha=0.3)
+    v = r.verdict
+    name = STRESS_PREFIX + link
+    if v is not None and name in [m.component for m in v.components]:
+        cm = v.component(name)
+        ax.set_title(f"{link} stress (largest and smallest fibre): quasi-static history error {cm.history_error:.1%}"
+                     f" -> {'holds' if cm.holds else 'FAILS'}", fontsize=9)
 
 
 _STYLES = ("o-", "s--", "^:", "D-.", "v-", "x--")

@@ -38,11 +38,15 @@ from ked_quasi.linkage import direction_sign
 from ked_quasi.units import rpm_to_rad_s
 
 SCHEMA = "ked-harness/campaign"
-SCHEMA_VERSION = 4
-READABLE_VERSIONS = (1, 2, 3, 4)
+SCHEMA_VERSION = 5
+READABLE_VERSIONS = (1, 2, 3, 4, 5)
 """Schema versions this harness reads; it writes :data:`SCHEMA_VERSION` and upgrades an older file it
 writes into (:func:`upgrade`: same scenes, same numbers, new layout, verified before it replaces the
-old file)."""
+old file).  Version 5 is version 4 plus the optional link stresses (``/scenes/<key>/stress/<solver>`` and
+``stress_<link>`` metric rows): a version-4 file is a version-5 file without stresses, upgraded by its label
+alone (a harness that reads only version 4 would take the stress rows for damage, hence the new number)."""
+TABLE_LAYOUT = 4
+"""The first schema version with the per-file tables (versions 1-3: one group per scene)."""
 LIBVER = ("v110", "latest")
 """HDF5 format bounds of the files the harness creates (compact groups; readable by HDF5 >= 1.10)."""
 SCENES = h5layout.SCENES
@@ -574,7 +578,7 @@ def with_kept_solutions(new: SceneResult, old: SceneResult) -> SceneResult:
     theta = new.crank_angle if new.crank_angle is not None else old.crank_angle
     if theta is not None and ok:
         try:
-            metrics = all_pairs(theta, {n: s.deflection for n, s in ok.items()},
+            metrics = all_pairs(theta, {n: s.histories for n, s in ok.items()},
                                 {n: s.fidelity for n, s in ok.items()}, omega=rpm_to_rad_s(new.rpm),
                                 omega1_min=new.omega1_min, tolerance=new.spec.tolerance,
                                 direction_sign=direction_sign(new.spec.direction))
@@ -621,6 +625,9 @@ def layout_contradiction(f: h5py.File, version: int) -> str:
             if version >= 4 and ("parameters" in g or "complete" in g.attrs):
                 return (f"schema version label {version} contradicts the layout (/{SCENES}/{key} is a scene group "
                         "of an older version, with its parameters inside)")
+            if version == TABLE_LAYOUT and h5layout.STRESS in g:
+                return (f"schema version label {version} contradicts the layout (/{SCENES}/{key} holds link "
+                        f"stresses, which only version {SCHEMA_VERSION} has)")
             foreign = _foreign_members(g, version) if version < 4 else []
             if foreign:
                 return (f"schema version label {version} contradicts the layout (/{SCENES}/{key} holds "
@@ -939,7 +946,12 @@ def upgrade(path: str | Path) -> bool:
         if version not in READABLE_VERSIONS:
             raise StoreError(f"{path}: schema version {version} is not supported by this harness "
                              f"(it reads {READABLE_VERSIONS}); use the harness that wrote it or another file")
-        scenes = _read_for_upgrade(old, version, path)
+        if version >= TABLE_LAYOUT:
+            contradiction = layout_contradiction(old, version)
+        else:
+            scenes = _read_for_upgrade(old, version, path)
+    if version >= TABLE_LAYOUT:
+        return _relabel(path, version, contradiction)
     tmp = _tmp_beside(path)
     try:
         try:
@@ -964,6 +976,17 @@ def upgrade(path: str | Path) -> bool:
         _install(tmp, path)
     finally:
         _discard(tmp)
+    return True
+
+
+def _relabel(path: Path, version: int, contradiction: str) -> bool:
+    """Upgrade a file of the table layout whose layout is today's (nothing to rewrite): its label only, in one
+    atomic commit; refused, unchanged, where its layout contradicts its label."""
+    if contradiction:
+        raise StoreError(f"{path}: refusing to upgrade schema version {version} to {SCHEMA_VERSION}: "
+                         f"{contradiction}; the file is unchanged (check it with `ked inspect FILE --verify`)")
+    with transaction(path) as f, _hdf5_errors(path):
+        f.attrs["schema_version"] = SCHEMA_VERSION
     return True
 
 

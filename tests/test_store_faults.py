@@ -230,7 +230,7 @@ def test_upgrade_of_an_older_layout_keeps_every_number(tmp_path, version):
         if v.size:
             np.testing.assert_array_equal(after[k], v)
     with h5py.File(f, "r") as h:
-        assert h.attrs["schema_version"] == store.SCHEMA_VERSION == 4
+        assert h.attrs["schema_version"] == store.SCHEMA_VERSION == 5
         view = h5layout.TableFile(h)
         for key, rows in rows_before.items():  # every stored metric number kept (v1 stored fewer fields)
             new = view.metric_rows(key)

@@ -25,6 +25,13 @@ if TYPE_CHECKING:
 COMPONENTS = ("dx", "dy", "rotation")
 """Deflection components of the coupler point P: dx, dy [m] (global frame), rotation [rad, CCW]."""
 COMPONENT_UNITS = {"dx": "m", "dy": "m", "rotation": "rad"}
+STRESS = "stress"
+"""The opt-in output of link stresses: per link the largest and smallest extreme-fibre normal stress over its
+length at every crank angle (:class:`ked_quasi.stress.StressHistory`, sigma = N/A +- M c/I) [Pa]."""
+OUTPUTS = (*COMPONENTS, STRESS)
+"""What a campaign can ask its solvers for (``[campaign] outputs``)."""
+STRESS_PREFIX = "stress_"
+"""History name of a link's stress in :attr:`Solution.histories` and the metric rows: ``stress_<link>``."""
 
 STATUS_OK = "ok"
 STATUS_FAILED = "failed"
@@ -57,14 +64,32 @@ class Solution:
     flags: tuple[str, ...] = ()
     warnings: str = ""
     fidelity: int = 0
+    stress: dict[str, np.ndarray] = field(default_factory=dict)
+    """Link -> (n, 2) [Pa]: the largest and the smallest extreme-fibre normal stress over the link at each crank
+    angle (only with the output ``stress``; empty where the solver gave none)."""
 
     @property
     def ok(self) -> bool:
         return self.status == STATUS_OK
 
+    @property
+    def histories(self) -> dict[str, np.ndarray]:
+        """Everything the metrics compare: the deflection components, then ``stress_<link>`` (n, 2) per link."""
+        return {**self.deflection, **{STRESS_PREFIX + lk: v for lk, v in self.stress.items()}}
+
     def array(self, components: tuple[str, ...] = COMPONENTS) -> np.ndarray:
         """(n, len(components)) history; raises KeyError if a component is missing."""
         return np.column_stack([self.deflection[c] for c in components])
+
+
+def deflection_of(d: np.ndarray, outputs: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """The requested deflection components of an (n, 3) history (dx, dy, rotation)."""
+    return {c: np.asarray(d[:, COMPONENTS.index(c)], dtype=float).copy() for c in outputs if c in COMPONENTS}
+
+
+def stress_of(history: Any) -> dict[str, np.ndarray]:
+    """:attr:`Solution.stress` of a :class:`ked_quasi.stress.StressHistory`: link -> (n, 2) [Pa]."""
+    return {lk: np.column_stack([ls.sigma_max, ls.sigma_min]) for lk, ls in history.links.items()}
 
 
 @dataclass(frozen=True)

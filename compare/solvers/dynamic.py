@@ -6,7 +6,17 @@ from typing import Any
 
 import numpy as np
 
-from compare.solvers import COMPONENTS, STATUS_FAILED, STATUS_OK, Solution, Solver, register
+from compare.solvers import (
+    COMPONENTS,
+    STATUS_FAILED,
+    STATUS_OK,
+    STRESS,
+    Solution,
+    Solver,
+    deflection_of,
+    register,
+    stress_of,
+)
 
 
 def settings_class() -> type:
@@ -60,18 +70,20 @@ def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Sol
     """Exudyn steady state of the scene (with the validity flags of ``ked_quasi.limits`` where its
     history leaves the small-deflection range); a run without a periodic steady state is a failed solution
     that keeps its last cycle, classified (numerical / physical / undecided) with its evidence.  The stats say
-    which settings produced the history (``solved_*``) and every attempt of the refinement ladder."""
+    which settings produced the history (``solved_*``) and every attempt of the refinement ladder.  With the
+    output ``stress``, the beam elements' section forces over one more steady cycle (exudyn_models.stress_cycle)."""
     from exudyn_models.simulate import simulate_steady_state
 
-    res = simulate_steady_state(scene, settings)
+    res = simulate_steady_state(scene, settings, stress=STRESS in outputs)
     if not np.allclose(np.asarray(res.crank_angle, dtype=float), scene.crank_angles, rtol=0.0, atol=1e-9):
         raise ValueError("dynamic result is not on the scene's crank-angle grid")
     stats = _stats(res)
     d = np.asarray(res.deflection, dtype=float)
-    deflection = {c: d[:, COMPONENTS.index(c)].copy() for c in outputs}
+    deflection = deflection_of(d, outputs)
+    stress = stress_of(res.stress) if res.stress is not None else {}
     if res.converged:  # an answer beyond the small-deflection range carries its flags (not a valid reference)
         return Solution(SOLVER.name, STATUS_OK, deflection, stats=stats, flags=tuple(res.flags),
-                        warnings=res.validity)
+                        warnings=res.validity, stress=stress)
     evidence = f" ({res.evidence})" if res.evidence else ""
     return Solution(SOLVER.name, STATUS_FAILED, deflection, stats=stats, error_type="NoSteadyState",
                     failure_class=res.failure_class or "numerical",

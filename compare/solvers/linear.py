@@ -7,7 +7,17 @@ from typing import Any
 
 import numpy as np
 
-from compare.solvers import COMPONENTS, STATUS_FAILED, STATUS_OK, Solution, Solver, register
+from compare.solvers import (
+    COMPONENTS,
+    STATUS_FAILED,
+    STATUS_OK,
+    STRESS,
+    Solution,
+    Solver,
+    deflection_of,
+    register,
+    stress_of,
+)
 
 
 def settings_class() -> type:
@@ -47,7 +57,9 @@ def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Sol
     collocation answered, whose ``harmonics`` and ``collocation_points`` are then the statistics).
     ``floquet_steps`` is ``LinearResult.floquet_steps``: Radau IIA steps of the reduced system where the
     reduced Floquet analysis answered (damped extender and distributed models; ``floquet_reduced`` then
-    true), else the full model's propagator steps (docs/linear_model.md)."""
+    true), else the full model's propagator steps (docs/linear_model.md).  With the output ``stress``, the link
+    stresses of the steady state (ked_linear.stress); where the masses' steady state is not resolved well enough
+    for its accelerations, none, with a warning."""
     from ked_linear import describe_flags, result_flags, solve_linear
 
     try:
@@ -68,8 +80,19 @@ def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Sol
     linkage = getattr(scene, "fourbar", None) or scene.linkage  # a four-bar, or a slider-crank
     flags = result_flags(res, linkage)
     note = describe_flags(flags, res, linkage)
-    return Solution(SOLVER.name, STATUS_OK, {c: d[:, COMPONENTS.index(c)].copy() for c in outputs}, stats=stats,
-                    flags=flags, warnings=note)
+    stress, stress_note = _stress(scene, settings) if STRESS in outputs else ({}, "")
+    return Solution(SOLVER.name, STATUS_OK, deflection_of(d, outputs), stats=stats, flags=flags,
+                    warnings="; ".join(x for x in (note, stress_note) if x), stress=stress)
+
+
+def _stress(scene: Any, settings: Any) -> tuple[dict[str, np.ndarray], str]:
+    """The steady state's link stresses, or none and why."""
+    from ked_linear.stress import linear_stress
+
+    try:
+        return stress_of(linear_stress(scene, settings)), ""
+    except ValueError as exc:
+        return {}, f"no link stresses: {exc}"
 
 
 SOLVER = register(Solver(

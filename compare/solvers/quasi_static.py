@@ -7,7 +7,7 @@ import warnings
 from dataclasses import dataclass
 from typing import Any
 
-from compare.solvers import COMPONENTS, STATUS_OK, Solution, Solver, register
+from compare.solvers import COMPONENTS, STATUS_OK, STRESS, Solution, Solver, deflection_of, register, stress_of
 
 
 @dataclass(frozen=True)
@@ -25,10 +25,12 @@ def make_settings(overrides: dict[str, Any], damping_ratio: float) -> QuasiStati
 
 def run(scene: Any, settings: QuasiStaticSettings, outputs: tuple[str, ...] = COMPONENTS) -> Solution:
     """Quasi-static deflection of P on the scene grid (near-toggle warnings kept); a slider-crank scene is
-    solved by its own frozen structure (ked_quasi.slider_static)."""
+    solved by its own frozen structure (ked_quasi.slider_static).  With the output ``stress``, the frozen
+    structure's link stresses (ked_quasi.stress)."""
     from ked_quasi import limits
     from ked_quasi.slider_static import solve_slider_quasi_static
     from ked_quasi.solver import solve_quasi_static
+    from ked_quasi.stress import quasi_static_stress
 
     slider = not hasattr(scene, "fourbar")
     linkage = scene.linkage if slider else scene.fourbar
@@ -36,13 +38,14 @@ def run(scene: Any, settings: QuasiStaticSettings, outputs: tuple[str, ...] = CO
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         res = (solve_slider_quasi_static if slider else solve_quasi_static)(scene)
+    stress = stress_of(quasi_static_stress(scene)) if STRESS in outputs else {}
     wall = time.perf_counter() - t0
     d = res.deflection
     flags = limits.flags(d, linkage)
     notes = sorted({str(w.message) for w in caught}) + ([limits.describe(flags, d, linkage)] if flags else [])
     return Solution(
         solver=SOLVER.name, status=STATUS_OK,
-        deflection={c: d[:, COMPONENTS.index(c)].copy() for c in outputs},
+        deflection=deflection_of(d, outputs), stress=stress,
         stats={"wall_s": wall}, flags=flags, warnings="; ".join(notes),
     )
 
