@@ -179,6 +179,9 @@ class CheckRow:
     stress_verdict: str = ""
     """Whether the quasi-static stress holds against the linear model's, and that it grants no tier
     (:func:`compare.stresscheck.stress_verdict`); empty where the stresses were not computed."""
+    fatigue_criterion: str = ""
+    """The criterion of the ``safety_factor_*`` stress keys (goodman, gerber, asme-elliptic); empty without a
+    material."""
 
 
 def spec_for(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, rpm: float, *,
@@ -451,7 +454,8 @@ def check_spec(spec: SceneSpec, rng: LinearRange, margins: VerdictMargins, confi
     from compare.stresscheck import stress_verdict
 
     keys = _stress(spec, r, material)
-    return replace(row, stress=keys, stress_verdict=stress_verdict(keys, spec.tolerance))
+    return replace(row, stress=keys, stress_verdict=stress_verdict(keys, spec.tolerance),
+                   fatigue_criterion=material.criterion)
 
 
 def _stress(spec: SceneSpec, r: SceneResult, material: Any) -> dict[str, float]:

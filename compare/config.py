@@ -28,7 +28,7 @@ from compare.scenes import FOUR_BAR, MECHANISMS, SLIDER_KIND, Grid, Items, Scene
 from compare.solvers import COMPONENTS, OUTPUTS
 from compare.tolerances import Tolerances, parse_tolerances
 from ked_quasi import rules
-from ked_quasi.fatigue import STRENGTH_RULES, Material
+from ked_quasi.fatigue import CRITERIA, CYCLES, STRENGTH_RULES, Material, SNCurve
 from ked_quasi.linkage import BRANCHES, DIRECTIONS, LINKS, SECTION_RULES, THESIS_RPM, FourBar, thesis_fourbar
 from ked_quasi.massmodel import MASS_MODELS, PLACEMENTS, MassModel, default_payload
 from ked_quasi.scene import Scene, variant
@@ -208,26 +208,43 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
     return CampaignConfig(name=name, grid=grid_obj, text=text, tolerances=tolerances, expect=expect, fatigue=fatigue)
 
 
-FATIGUE_KEYS = ("ultimate_strength", "endurance_limit", "yield_strength")
+FATIGUE_KEYS = ("ultimate_strength", "endurance_limit", "yield_strength", "criterion", "sn_curve", "design_cycles")
+_STRENGTHS = ("ultimate_strength", "endurance_limit", "yield_strength")
 
 
 def _fatigue(c: _Checker, doc: dict[str, Any]) -> Material | None:
-    """The ``[fatigue]`` table [Pa] (:class:`ked_quasi.fatigue.Material`: ultimate_strength and endurance_limit
-    required, yield_strength optional) or None when absent; every problem named by its key."""
+    """The ``[fatigue]`` table (:class:`ked_quasi.fatigue.Material`): ultimate_strength [Pa] required;
+    endurance_limit [Pa], or sn_curve ([[cycles, amplitude Pa], ...]) with design_cycles; optional
+    yield_strength [Pa], criterion (goodman, gerber, asme-elliptic) and sn_curve (the life estimate); None when
+    absent; every problem named by its key."""
     if "fatigue" not in doc:
         return None
     tab = c.table(doc, "fatigue")
     c.keys(tab, "fatigue", FATIGUE_KEYS)
-    values = {k: c.check(tab, f"fatigue.{k}", STRENGTH_RULES[k].check, required=k != "yield_strength")
-              for k in FATIGUE_KEYS}
+    values = {k: c.check(tab, f"fatigue.{k}", STRENGTH_RULES[k].check, required=k == "ultimate_strength")
+              for k in _STRENGTHS}
+    values["criterion"] = c.string(tab, "fatigue.criterion", default="goodman", choices=CRITERIA)
+    values["design_cycles"] = c.rule(tab, "fatigue.design_cycles", CYCLES)
+    values["sn_curve"] = c.check(tab, "fatigue.sn_curve", _sn_curve)
     if any(f"fatigue.{k}" in c.bad for k in FATIGUE_KEYS) or set(tab) - set(FATIGUE_KEYS):
         return None
     try:
         return Material(**values)
-    except ValueError as exc:  # the strengths' order (S_e <= S_u, S_y <= S_u), its message naming the key
+    except ValueError as exc:  # the strengths' order, a missing S_e: the message names the key
         c.problems.append(str(exc).replace("Material.", "fatigue."))
         c.bad.add("fatigue")
         return None
+
+
+def _sn_curve(v: Any, path: str) -> SNCurve:
+    """An S-N curve from an array of [cycles, amplitude Pa] pairs."""
+    if not isinstance(v, list) or not all(isinstance(p, list) and len(p) == 2 for p in v):
+        raise ValueError(f"{path}: must be an array of [cycles, stress amplitude in Pa] pairs, e.g. "
+                         f"[[1e3, 4.0e8], [5e8, 1.3e8]]; got {v!r}")
+    try:
+        return SNCurve(tuple((p[0], p[1]) for p in v))
+    except ValueError as exc:
+        raise ValueError(str(exc).replace("sn_curve", path, 1)) from None
 
 
 def _check_expect_scenes(c: _Checker, expect: Expectations, grid: Grid) -> None:

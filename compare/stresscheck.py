@@ -9,7 +9,13 @@ Keys (all floats; NaN where a tier has no answer):
   divided by the linear peak [1] (the deflection verdict's peak-normalised history error);
 * with a material: ``goodman_quasi_static``, ``goodman_linear``: the smallest Goodman safety factor over the
   links [1]; ``goodman_overstatement``: goodman_quasi_static / goodman_linear - 1 [1] (> 0: the quasi-static factor is
-  the more optimistic).
+  the more optimistic); ``safety_factor_quasi_static``, ``safety_factor_linear``, ``safety_factor_overstatement``:
+  the same by the material's criterion (goodman, gerber or asme-elliptic; equal to the Goodman keys for goodman);
+* with an S-N curve: ``life_cycles_quasi_static``, ``life_cycles_linear``: the shortest life over the links
+  [cycles] (inf, null in JSON, where it lies beyond the curve's last point: then ``life_unbounded_<tier>`` is 1.0),
+  ``life_overstatement``: life_cycles_quasi_static / life_cycles_linear [1] (> 1: the quasi-static life is the
+  longer), ``life_above_curve``: 1.0 where a tier's most damaged point lies above the curve's first amplitude
+  (its life is then at most that point's cycles).
 
 A linkage whose linear steady state of the masses is not resolved to :data:`ked_linear.motion.MAX_ERROR` (its
 accelerations would not be trusted).
@@ -46,11 +52,33 @@ def stress_keys(scene: Any, linear_settings: Any | None, linear_stable: bool,
         for lk, err in history_error(qs, lin).items():
             out[f"stress_error_{lk}"] = err
     if material is not None:
-        out["goodman_quasi_static"] = _smallest(qs, material)
+        out.update(_fatigue_keys(qs, lin, material))
+    return out
+
+
+def _fatigue_keys(qs: StressHistory, lin: StressHistory | None, material: Material) -> dict[str, float]:
+    """The fatigue keys (see the module docstring) of the quasi-static and the linear stresses."""
+    out: dict[str, float] = {}
+    tiers = {"quasi_static": qs, **({"linear": lin} if lin is not None else {})}
+    for prefix, criterion in (("goodman", "goodman"), ("safety_factor", material.criterion)):
+        for tier, history in tiers.items():
+            out[f"{prefix}_{tier}"] = _smallest(history_fatigue(history, material, criterion))
         if lin is not None:
-            out["goodman_linear"] = _smallest(lin, material)
-            n_qs, n_lin = out["goodman_quasi_static"], out["goodman_linear"]
-            out["goodman_overstatement"] = n_qs / n_lin - 1.0 if math.isfinite(n_lin) and n_lin > 0 else math.nan
+            n_qs, n_lin = out[f"{prefix}_quasi_static"], out[f"{prefix}_linear"]
+            out[f"{prefix}_overstatement"] = n_qs / n_lin - 1.0 if math.isfinite(n_lin) and n_lin > 0 else math.nan
+    if material.sn_curve is None:
+        return out
+    beyond = False
+    for tier, history in tiers.items():
+        links = history_fatigue(history, material, material.criterion).values()
+        lives = [f.life_cycles for f in links if not math.isnan(f.life_cycles)]
+        out[f"life_cycles_{tier}"] = min(lives) if lives else math.nan
+        out[f"life_unbounded_{tier}"] = float(math.isinf(out[f"life_cycles_{tier}"]))
+        beyond |= any(f.life_beyond for f in links)
+    if lin is not None:
+        a, b = out["life_cycles_quasi_static"], out["life_cycles_linear"]
+        out["life_overstatement"] = a / b if math.isfinite(b) and b > 0 else math.nan
+    out["life_above_curve"] = float(beyond)
     return out
 
 
@@ -71,22 +99,42 @@ def stress_verdict(keys: dict[str, float], tolerance: float) -> str:
     return head + "; not calibrated against Exudyn, so no tier is granted from it"
 
 
-def _smallest(history: StressHistory, material: Material) -> float:
-    factors = [f.safety_factor for f in history_fatigue(history, material).values() if math.isfinite(f.safety_factor)]
+def _smallest(links: dict[str, Any]) -> float:
+    factors = [f.safety_factor for f in links.values() if math.isfinite(f.safety_factor)]
     return min(factors) if factors else math.nan
 
 
-def fatigue_line(keys: dict[str, float]) -> str:
-    """One line: the Goodman safety factor of each tier and how much the quasi-static one overstates it."""
-    if "goodman_quasi_static" not in keys:
+def fatigue_line(keys: dict[str, float], criterion: str = "goodman") -> str:
+    """One line: the safety factor of each tier by ``criterion`` and how much the quasi-static one overstates it;
+    with an S-N curve, the life of each tier too."""
+    if "safety_factor_quasi_static" not in keys:
         return "Fatigue: give --ultimate-strength and --endurance-limit (Pa) for the Goodman safety factor"
-    qs = keys["goodman_quasi_static"]
-    if "goodman_linear" not in keys or not math.isfinite(keys["goodman_linear"]):
-        return f"Fatigue (Goodman): safety factor {qs:.3g} quasi-static (no linear answer to compare)"
-    over = keys["goodman_overstatement"]
+    name = {"goodman": "Goodman", "gerber": "Gerber", "asme-elliptic": "ASME-elliptic"}.get(criterion, criterion)
+    qs = keys["safety_factor_quasi_static"]
+    if not math.isfinite(keys.get("safety_factor_linear", math.nan)):
+        return f"Fatigue ({name}): safety factor {qs:.3g} quasi-static (no linear answer to compare)" + _life(keys)
+    over = keys["safety_factor_overstatement"]
     how = "overstates" if over >= 0 else "understates"
-    return (f"Fatigue (Goodman): safety factor {keys['goodman_linear']:.3g} linear, {qs:.3g} quasi-static "
-            f"(the quasi-static factor {how} it by {abs(over):.1%})")
+    return (f"Fatigue ({name}): safety factor {keys['safety_factor_linear']:.3g} linear, {qs:.3g} quasi-static "
+            f"(the quasi-static factor {how} it by {abs(over):.1%})" + _life(keys))
+
+
+def _life(keys: dict[str, float]) -> str:
+    """The life part of the fatigue line ("" without an S-N curve)."""
+    if "life_cycles_quasi_static" not in keys:
+        return ""
+    text = {t: _cycles(keys[f"life_cycles_{t}"]) for t in ("linear", "quasi_static") if f"life_cycles_{t}" in keys}
+    out = "; life " + ", ".join(f"{t.replace('_', '-')} {v}" for t, v in text.items())
+    ratio = keys.get("life_overstatement", math.nan)
+    if math.isfinite(ratio):
+        out += f" (the quasi-static life is {ratio:.3g} x the linear one)"
+    if keys.get("life_above_curve"):
+        out += "; a stress above the S-N curve's first point: that life is at most its first point's cycles"
+    return out
+
+
+def _cycles(n: float) -> str:
+    return "beyond the S-N curve" if math.isinf(n) else "-" if math.isnan(n) else f"{n:.3g} cycles"
 
 
 __all__ = ["fatigue_line", "stress_keys", "stress_verdict"]

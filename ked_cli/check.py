@@ -22,6 +22,7 @@ from ked_cli.options import (
     refuse_oversized,
 )
 from ked_quasi import rules
+from ked_quasi.fatigue import CRITERIA
 from ked_quasi.linkage import DIRECTIONS
 from ked_quasi.massmodel import MASS_MODELS
 
@@ -79,6 +80,9 @@ def _rpm_range(text: str | None) -> list[float]:
 @click.option("--endurance-limit", type=float, default=None, metavar="PA",
               help="Corrected endurance limit S_e of the links' material [Pa] (at most S_u), for the fatigue "
                    "safety factor (Goodman: 1/n = sigma_a/S_e + sigma_m/S_u at the link's worst fibre).")
+@click.option("--fatigue-criterion", type=click.Choice(CRITERIA), default=None,
+              help="Mean-stress criterion of the fatigue safety factor [default: the linkage file's [fatigue] "
+                   "criterion, else goodman]; asme-elliptic needs the yield strength (the file's yield_strength).")
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON list, one object per speed.")
 @click.option("--workers", type=click.IntRange(min=1), callback=cap_workers, default=None,
               help="Local worker processes for the speeds and the critical-speed sweep, used where the time "
@@ -87,7 +91,7 @@ def _rpm_range(text: str | None) -> list[float]:
 def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...], rpm_range: str | None,
           lumps: int, payload_kg: float | None, stiffness_scale: float, direction: str, damping_ratio: float,
           tolerance: float, confirm: bool, ultimate_strength: float | None, endurance_limit: float | None,
-          as_json: bool, workers: int | None) -> None:
+          fatigue_criterion: str | None, as_json: bool, workers: int | None) -> None:
     """Design check: per speed, r = Omega/omega1_min, the quasi-static and linear peaks, how far the
     quasi-static answer is from the linear model, Floquet max |mu|, the one-mode estimate of the
     quasi-static error, the tier needed (quasi-static / borderline / linear / nonlinear) and a verdict.
@@ -124,7 +128,13 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     over the link and the cycle; stress_error_<link>, the quasi-static stress history's
     error against the linear one, peak-normalised; goodman_quasi_static, goodman_linear, the
     smallest Goodman safety factor over the links, and goodman_overstatement =
-    goodman_quasi_static / goodman_linear - 1; a slider-crank: crank and coupler), and
+    goodman_quasi_static / goodman_linear - 1; safety_factor_quasi_static,
+    safety_factor_linear, safety_factor_overstatement: the same by the criterion named in
+    fatigue_criterion (--fatigue-criterion or the file's criterion); with the file's sn_curve:
+    life_cycles_quasi_static, life_cycles_linear (shortest life over the links; null beyond the
+    curve, where life_unbounded_<tier> is 1), life_overstatement (their ratio) and
+    life_above_curve (1: a stress above the curve's first point); a slider-crank: crank and
+    coupler), and
     stress_verdict (text: whether the quasi-static stress of every link is within the tolerance of
     the linear one; it grants no tier, the stress prediction being uncalibrated against Exudyn).
     """
@@ -159,6 +169,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
             from ked_cli.options import scene_file
 
             material = scene_file(linkage).fatigue
+        material = _with_criterion(material, fatigue_criterion)
         mm = MassModel(mass_model, lumps=lumps, payload=default_payload(mass_model) if payload_kg is None
                        else payload_kg) if specs is None else specs[0].mass_model
         from compare.check import spec_for
@@ -220,7 +231,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
         click.echo(line.rstrip())
         click.echo(textwrap.fill(r.verdict, width=WIDTH, initial_indent=" " * 9, subsequent_indent=" " * 11,
                                  break_on_hyphens=False))
-        for text in ((r.stress_verdict, fatigue_line(r.stress)) if r.stress else ()):
+        for text in ((r.stress_verdict, fatigue_line(r.stress, r.fatigue_criterion)) if r.stress else ()):
             click.echo(textwrap.fill(text, width=WIDTH, initial_indent=" " * 9, subsequent_indent=" " * 11,
                                      break_on_hyphens=False))
     if len(rows) >= 3:
@@ -254,6 +265,22 @@ def _material(ultimate_strength: float | None, endurance_limit: float | None) ->
     except ValueError as exc:
         text = str(exc).replace("Material.ultimate_strength", "--ultimate-strength")
         raise ValueError(text.replace("Material.endurance_limit", "--endurance-limit")) from None
+
+
+def _with_criterion(material: object, criterion: str | None) -> object:
+    """``material`` judged by ``criterion`` (None: its own); refused without a material to judge."""
+    if criterion is None:
+        return material
+    if material is None:
+        raise ValueError("--fatigue-criterion: needs a material (--ultimate-strength and --endurance-limit, or a "
+                         "linkage file's [fatigue] table)")
+    from dataclasses import replace
+
+    try:
+        return replace(material, criterion=criterion, endurance_limit=None if material.design_cycles else
+                       material.endurance_limit)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace("Material.yield_strength", "--fatigue-criterion")) from None
 
 
 def _slider_mass_model(mechanism: str, mass_model: str) -> str:

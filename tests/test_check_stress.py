@@ -88,6 +88,12 @@ def test_a_linkage_file_carries_its_fatigue_material(tmp_path):
     ("[fatigue]\nultimate_strength = 310e6", "fatigue.endurance_limit"),  # required
     ("[fatigue]\nultimate_strength = 310e6\nendurance_limt = 96.5e6", "fatigue.endurance_limt"),  # misspelt
     ("[fatigue]\nultimate_strength = 100e6\nendurance_limit = 200e6", "fatigue.endurance_limit"),  # S_e > S_u
+    ("[fatigue]\nultimate_strength = 310e6\nendurance_limit = 96.5e6\ncriterion = \"soderberg\"", "fatigue.criterion"),
+    ("[fatigue]\nultimate_strength = 310e6\nsn_curve = [[1e6, 1.4e8], [1e3, 2.4e8]]\ndesign_cycles = 1e5",
+     "fatigue.sn_curve"),  # cycles decreasing
+    ("[fatigue]\nultimate_strength = 310e6\nsn_curve = [1e6, 1.4e8]\ndesign_cycles = 1e5", "fatigue.sn_curve"),
+    ("[fatigue]\nultimate_strength = 310e6\nsn_curve = [[1e3, 2.4e8], [1e6, 1.4e8]]\ndesign_cycles = 1e8",
+     "fatigue.design_cycles"),  # beyond the curve
 ])
 def test_a_bad_fatigue_table_is_refused_by_every_command(tmp_path, table, named):
     from compare.config import ConfigError, load_config
@@ -96,3 +102,38 @@ def test_a_bad_fatigue_table_is_refused_by_every_command(tmp_path, table, named)
     assert res.exit_code != 0 and named in res.output and "Traceback" not in res.output
     with pytest.raises(ConfigError, match=named.replace(".", r"\.")):  # ked run reads the file alike
         load_config(tmp_path / "linkage.toml")
+
+
+ALUMINIUM = """[fatigue]
+ultimate_strength = 310e6
+yield_strength = 276e6
+criterion = "gerber"
+sn_curve = [[1e3, 6.0e7], [1e6, 2.0e7], [1e9, 8.0e6]]
+design_cycles = 1e8
+"""
+"""A metal without an endurance limit: its S-N curve scaled to the thesis linkage's stresses at 150 rpm (a few
+tens of MPa), so that the lives fall on the curve."""
+
+
+def test_a_fatigue_curve_gives_each_tiers_life_and_the_criterion_its_factor(tmp_path):
+    # Expected: the safety_factor keys follow the criterion (Gerber's parabola lies outside Goodman's line, so
+    # n_gerber >= n_goodman: Shigley fig. 6-27); the life keys' ratio is their definition; a shorter life goes
+    # with a larger stress, so the tier whose factor is the smaller has the shorter life
+    row = json.loads(_check("--linkage", _file(tmp_path, ALUMINIUM), "--rpm", "150", "--json").output)[0]
+    s = row["stress"]
+    assert row["fatigue_criterion"] == "gerber"
+    for tier in ("quasi_static", "linear"):
+        assert s[f"safety_factor_{tier}"] >= s[f"goodman_{tier}"]
+        assert 1e3 < s[f"life_cycles_{tier}"] < 1e9 and s[f"life_unbounded_{tier}"] == 0.0
+    assert s["life_overstatement"] == pytest.approx(s["life_cycles_quasi_static"] / s["life_cycles_linear"])
+    assert (s["life_overstatement"] > 1) == (s["safety_factor_overstatement"] > 0)
+    goodman = json.loads(_check("--linkage", _file(tmp_path, ALUMINIUM), "--rpm", "150", "--json",
+                                "--fatigue-criterion", "goodman").output)[0]["stress"]
+    assert goodman["safety_factor_quasi_static"] == pytest.approx(goodman["goodman_quasi_static"], rel=1e-12)
+    text = _check("--linkage", _file(tmp_path, ALUMINIUM), "--rpm", "150").output
+    assert "Fatigue (Gerber)" in text and "cycles" in text and "quasi-static life is" in text
+
+
+def test_the_criterion_option_needs_a_material():
+    res = _check("--rpm", "100", "--fatigue-criterion", "gerber")
+    assert res.exit_code != 0 and "--fatigue-criterion" in res.output and "Traceback" not in res.output

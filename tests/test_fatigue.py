@@ -118,3 +118,75 @@ def test_a_moment_that_changes_sign_is_fully_reversed():
 def test_strength_in_mpa_is_refused_with_the_mix_up_named():
     with pytest.raises(ValueError, match="Material.ultimate_strength.*MPa"):
         Material(ultimate_strength=551.0, endurance_limit=276e6)
+
+
+# -- finite life: an S-N curve (Basquin's law between its points) ---------------------------------------------
+# Expected values: Basquin's law S = S_1 (N / N_1)^b between two points, b = log(S_2/S_1) / log(N_2/N_1), solved
+# for N in closed form; the equivalent fully reversed amplitude of Shigley section 6-14 written out here.
+
+CURVE = ((1e3, 240 * MPA), (1e6, 140 * MPA), (5e8, 96 * MPA))
+
+
+def _basquin_life(s: float, p1: tuple[float, float], p2: tuple[float, float]) -> float:
+    b = math.log(p2[1] / p1[1]) / math.log(p2[0] / p1[0])
+    return p1[0] * (s / p1[1]) ** (1.0 / b)
+
+
+def test_sn_curve_strength_and_life_are_basquins_law():
+    from ked_quasi.fatigue import SNCurve
+
+    c = SNCurve(CURVE)
+    assert c.life_at(200 * MPA) == pytest.approx(_basquin_life(200 * MPA, CURVE[0], CURVE[1]), rel=1e-12)
+    assert c.life_at(100 * MPA) == pytest.approx(_basquin_life(100 * MPA, CURVE[1], CURVE[2]), rel=1e-12)
+    assert c.strength_at(_basquin_life(120 * MPA, CURVE[1], CURVE[2])) == pytest.approx(120 * MPA, rel=1e-12)
+    assert c.life_at(90 * MPA) == math.inf  # below the last point: the curve says nothing past it
+
+
+def test_design_cycles_read_the_endurance_limit_off_the_curve():
+    from ked_quasi.fatigue import SNCurve
+
+    m = Material(ultimate_strength=310 * MPA, sn_curve=SNCurve(CURVE), design_cycles=1e6)
+    assert m.endurance_limit == pytest.approx(140 * MPA, rel=1e-12)
+
+
+@pytest.mark.parametrize(("kwargs", "named"), [
+    ({"sn_curve": ((1e6, 140e6), (1e3, 240e6))}, "sn_curve"),  # cycles not increasing
+    ({"sn_curve": ((1e3, 240.0), (1e6, 140.0))}, "MPa"),  # amplitudes in MPa
+    ({"sn_curve": (("1e3", 240e6),)}, "sn_curve"),
+    ({"sn_curve": CURVE, "design_cycles": 1e10}, "design_cycles"),  # outside the curve
+    ({"design_cycles": 1e6}, "design_cycles"),  # no curve to read
+    ({}, "endurance_limit"),  # neither S_e nor a curve
+    ({"endurance_limit": 1e8, "criterion": "soderberg"}, "criterion"),
+])
+def test_a_fatigue_curve_that_makes_no_sense_is_refused(kwargs, named):
+    from ked_quasi.fatigue import SNCurve
+
+    if "sn_curve" in kwargs:
+        kwargs = {**kwargs}
+        try:
+            kwargs["sn_curve"] = SNCurve(kwargs["sn_curve"])
+        except (ValueError, TypeError) as exc:
+            assert named in str(exc) or isinstance(exc, TypeError)
+            return
+    with pytest.raises(ValueError, match=named):
+        Material(ultimate_strength=310 * MPA, **kwargs)
+
+
+@pytest.mark.parametrize("criterion", ["goodman", "gerber", "asme-elliptic"])
+def test_link_life_is_the_curve_read_at_the_equivalent_amplitude(criterion):
+    from ked_quasi.fatigue import SNCurve
+    from ked_quasi.stress import LinkStress
+
+    # one element, N/A = 60 MPa constant and M c/I swinging +-150 MPa: sigma_m = 60, sigma_a = 150 MPa at both
+    # fibres
+    area, inertia, fibre = 1e-4, 1e-9, 0.005
+    M = 150 * MPA * inertia / fibre * np.array([1.0, -1.0, 0.0])
+    link = LinkStress("crank", np.array([0.0]), np.array([1.0]), np.full((3, 1), 60 * MPA * area),
+                      np.stack([M, M], -1)[:, None, :], area, inertia, fibre)
+    mat = Material(ultimate_strength=310 * MPA, yield_strength=276 * MPA, sn_curve=SNCurve(CURVE),
+                   design_cycles=1e6, criterion=criterion)
+    keep = {"goodman": 1 - 60 / 310, "gerber": 1 - (60 / 310) ** 2, "asme-elliptic": math.sqrt(1 - (60 / 276) ** 2)}
+    s_ar = 150 * MPA / keep[criterion]
+    lf = link_fatigue(link, mat, criterion)
+    assert lf.life_cycles == pytest.approx(_basquin_life(s_ar, CURVE[0], CURVE[1]), rel=1e-9)
+    assert not lf.life_beyond
