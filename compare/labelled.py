@@ -5,7 +5,7 @@ pandas DataFrames (the optional extra ``ked-harness[xarray]``: xarray, pandas, h
     res = open_results("ked_results/thesis-default.h5")
     res.histories["dy"].sel(solver="dynamic").plot.line(x="crank_angle")
 
-Read with plain h5py from the stored file (schema version 4); nothing is recomputed.
+Read with plain h5py from the stored file (schema version 4 or 5); nothing is recomputed.
 """
 
 from __future__ import annotations
@@ -43,7 +43,9 @@ class Results:
     (scene, solver, crank_angle), ``coupler_point`` [m] (scene, crank_angle, xy), ``natural_frequencies``
     [Hz] (scene, crank_angle, mode); every column of ``/scene_table`` is a coordinate along ``scene``
     (per-link columns along (scene, link), pivots along (scene, xy)), plus ``speed_ratio`` [1] =
-    Omega / omega1_min.  NaN where a scene has no such sample (a failed solver, another crank grid: the
+    Omega / omega1_min; with link stresses (schema version 5, the output ``stress``) ``stress`` [Pa] (scene, solver,
+    crank_angle, link, fibre): the largest (fibre ``max``) and the smallest (``min``) extreme-fibre normal stress
+    over each link.  NaN where a scene has no such sample (a failed solver, another crank grid: the
     coordinate is the union of the scenes' grids).
     ``scenes``, ``solutions``, ``metrics``, ``runs``: DataFrames of ``/scene_table``, ``/solution_table``,
     ``/metric_table``, ``/runs``, one column per stored column (a (rows, k) column as one array per
@@ -71,7 +73,8 @@ def _frame(pd: Any, g: h5py.Group | None) -> Any:
 
 
 def _scene_arrays(f: h5py.File, keys: list[str]) -> dict[str, Any]:
-    """key -> (crank_angle, {solver: {component: history}}, coupler_point, natural_frequencies)."""
+    """key -> (crank_angle, {solver: {component: history}}, coupler_point, natural_frequencies,
+    {solver: {link: (n, 2) stress}})."""
     out: dict[str, Any] = {}
     scenes = f.get(h5layout.SCENES)
     for k in keys:
@@ -83,8 +86,27 @@ def _scene_arrays(f: h5py.File, keys: list[str]) -> dict[str, Any]:
             comps = [c for c in tables.text(ds.attrs.get("components", "")).split(",") if c]
             data = ds[()]
             sols[solver] = {c: data[:, i] for i, c in enumerate(comps)}
+        stress = {solver: h5layout.read_stress(ds) for solver, ds in
+                  (g[h5layout.STRESS].items() if h5layout.STRESS in g else ())}
         out[k] = (g["crank_angle"][()], sols, g["coupler_point"][()] if "coupler_point" in g else None,
-                  g["natural_frequencies"][()] if "natural_frequencies" in g else None)
+                  g["natural_frequencies"][()] if "natural_frequencies" in g else None, stress)
+    return out
+
+
+def _stress(keys: list[str], arrays: dict[str, Any], solvers: list[str], grid: np.ndarray) -> np.ndarray | None:
+    """(scene, solver, crank_angle, link, fibre) [Pa] of the stored link stresses (None: no scene has any)."""
+    if not any(a[4] for a in arrays.values()):
+        return None
+    out = np.full((len(keys), len(solvers), len(grid), len(h5layout.LINKS), 2), np.nan)
+    for i, k in enumerate(keys):
+        if k not in arrays:
+            continue
+        theta, stress = arrays[k][0], arrays[k][4]
+        at = np.searchsorted(grid, theta + ANGLE_TOL, side="right") - 1
+        for j, s in enumerate(solvers):
+            for lk, v in stress.get(s, {}).items():
+                if lk in h5layout.LINKS and v.shape == (len(theta), 2):
+                    out[i, j, at, h5layout.LINKS.index(lk)] = v
     return out
 
 
@@ -117,7 +139,7 @@ def _histories(xr: Any, f: h5py.File, scene_cols: dict[str, np.ndarray], scene_a
     for i, k in enumerate(keys):
         if k not in arrays:
             continue
-        theta, sols, coupler, freqs = arrays[k]
+        theta, sols, coupler, freqs, _ = arrays[k]
         at = np.searchsorted(grid, theta + ANGLE_TOL, side="right") - 1
         for j, s in enumerate(solvers):
             for c, h in sols.get(s, {}).items():
@@ -134,6 +156,11 @@ def _histories(xr: Any, f: h5py.File, scene_cols: dict[str, np.ndarray], scene_a
                              ("natural_frequencies", ("scene", "crank_angle", "mode"), nf)):
         units, description = h5layout.ARRAYS[name]
         variables[name] = (dims, data, {"units": units, "description": description})
+    stress = _stress(keys, arrays, solvers, grid)
+    if stress is not None:
+        variables["stress"] = (("scene", "solver", "crank_angle", "link", "fibre"), stress,
+                               {"units": "Pa", "description": "largest (max) and smallest (min) extreme-fibre normal "
+                                                              "stress N/A +- M c/I over the link"})
     coords: dict[str, Any] = {
         "scene": ("scene", np.array(keys, dtype=object), {"description": "content key of the scene"}),
         "solver": ("solver", np.array(solvers, dtype=object)),
@@ -141,6 +168,9 @@ def _histories(xr: Any, f: h5py.File, scene_cols: dict[str, np.ndarray], scene_a
         "xy": ("xy", np.array(["x", "y"], dtype=object)),
         "mode": ("mode", np.arange(1, n_modes + 1)),
     }
+    if stress is not None:
+        coords["link"] = ("link", np.array(h5layout.LINKS, dtype=object))
+        coords["fibre"] = ("fibre", np.array(["max", "min"], dtype=object))
     for name, data in scene_cols.items():
         if name == "key":
             continue

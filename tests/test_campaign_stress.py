@@ -175,3 +175,14 @@ def test_scene_figure_draws_a_row_per_link(stressed):
     fig = scene_figure(stressed[2][120.0])
     titles = [ax.get_title() for ax in fig.axes]
     assert sum("stress (largest and smallest fibre)" in t for t in titles) == len(LINKS)
+
+
+def test_labelled_results_carry_the_stresses(stressed):
+    pytest.importorskip("xarray")
+    from compare import open_results
+
+    _, out, by_rpm = stressed
+    res = open_results(out)
+    r = by_rpm[120.0]
+    got = res.histories["stress"].sel(scene=r.key, solver="linear", link="follower").values
+    np.testing.assert_array_equal(got, r.solutions["linear"].stress["follower"])
