@@ -26,6 +26,8 @@ from ked_quasi.linkage import LINKS, direction_sign
 from ked_quasi.rules import steps_per_turn
 from ked_quasi.units import rad_s_to_rpm, rpm_to_rad_s
 
+CAMPAIGN_SCHEMA = "ked-harness/campaign"
+"""The ``schema`` attribute of a campaign results file (and of a study file)."""
 SOLUTIONS = "solutions"
 STRESS = "stress"
 METRICS = "metrics"
@@ -37,6 +39,11 @@ _METRIC_ATTRS = ("history_error", "peak_error", "max_abs_error", "rms_error", "a
 
 def text(v: Any) -> str:
     return v.decode("utf-8") if isinstance(v, bytes) else str(v)
+
+
+def is_campaign(f: h5py.File) -> bool:
+    """Whether ``f`` is a campaign results file (its tables and scene arrays carry dimension scales)."""
+    return text(f.attrs.get("schema", "")) == CAMPAIGN_SCHEMA
 
 
 def complete(g: h5py.Group) -> bool:

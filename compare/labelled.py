@@ -192,12 +192,12 @@ def _histories(xr: Any, f: h5py.File, scene_cols: dict[str, np.ndarray], scene_a
 def open_results(path: str | Path) -> Results:
     """The results file ``path`` (schema version 4 or 5) as labelled data (:class:`Results`); needs the extra
     ``ked-harness[xarray]``.  Raises ``compare.store.StoreError`` for a file of an older layout."""
-    from compare import store
+    from compare import reader, store
 
     pd, xr = _require("pandas"), _require("xarray")
     path = Path(path)
-    with store._open(path) as f:
-        _, version = store._scenes(f, path)
+    with reader._open(path) as f:
+        _, version = reader._scenes(f, path)
         if version < store.TABLE_LAYOUT:
             raise store.StoreError(f"{path}: schema version {version}; open_results reads versions "
                                    f"{store.TABLE_LAYOUT}-{store.SCHEMA_VERSION} (a copy in today's layout: "

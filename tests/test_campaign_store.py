@@ -8,7 +8,7 @@ import h5py
 import numpy as np
 import pytest
 
-from compare import store, tables
+from compare import h5file, store, tables
 from compare.metrics import all_pairs
 from compare.results import RunStats, SceneResult
 from compare.scenes import SceneSpec, SpeedSpec
@@ -215,5 +215,5 @@ def test_many_small_commits_keep_the_file_compact(tmp_path):
         store.commit(f, [ok_result(100.0 + i)])
     assert len(store.stored_status(f)) == 60 and store.verify(f) == []
     fresh = tmp_path / "fresh.h5"
-    store._repack(shutil.copyfile(f, fresh))  # the same objects copied into a new file
+    h5file._repack(shutil.copyfile(f, fresh))  # the same objects copied into a new file
     assert f.stat().st_size <= 1.4 * fresh.stat().st_size, (f.stat().st_size, fresh.stat().st_size)

@@ -427,7 +427,9 @@ def test_a_failed_commit_adds_no_run_record(tmp_path, monkeypatch):
     run_campaign(parse_config(QS), out, workers=1, progress=False)
     runs_before, before = store.file_info(out)["n_runs"], out.read_bytes()
 
-    real, calls = store._commit, []
+    from compare import writer
+
+    real, calls = writer._commit, []
 
     def disk_fails_once(*args, **kwargs):  # the run's first commit fails; the rescue file's is written
         calls.append(1)
@@ -435,7 +437,7 @@ def test_a_failed_commit_adds_no_run_record(tmp_path, monkeypatch):
             raise OSError(errno.ENOSPC, "No space left on device")
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(store, "_commit", disk_fails_once)
+    monkeypatch.setattr(writer, "_commit", disk_fails_once)
     more = QS.replace("rpm = [", "rpm = [135.0, ")
     with pytest.raises(store.CommitError, match="rescue"):
         run_campaign(parse_config(more), out, workers=1, progress=False)
