@@ -18,7 +18,7 @@ from pathlib import Path
 
 import h5py
 
-from compare import h5layout
+from compare import h5dims, h5layout
 
 LIBVER = ("v110", "latest")
 """HDF5 format bounds of the files the harness creates (compact groups; readable by HDF5 >= 1.10)."""
@@ -146,13 +146,13 @@ def _repacked(image: bytes) -> bytes:
     with h5py.File(io.BytesIO(image), "r+") as old, _open_memory(out, new=True) as new:
         ours = h5layout.is_campaign(old)
         if ours:  # a campaign file: a copy would leave its scales' references dangling; attached anew below
-            h5layout.detach_dimensions(old)
+            h5dims.detach_dimensions(old)
         for k, v in old.attrs.items():
             new.attrs[k] = v
         for name in old:
             old.copy(old[name], new, name)
         if ours:
-            h5layout.attach_dimensions(new)
+            h5dims.attach_dimensions(new)
     return out.getvalue()
 
 

@@ -19,7 +19,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from compare import h5layout, tables
+from compare import h5dims, h5layout, tables
 from compare.solvers import COMPONENT_UNITS, COMPONENTS
 
 EXTRA = "xarray"
@@ -174,7 +174,7 @@ def _histories(xr: Any, f: h5py.File, scene_cols: dict[str, np.ndarray], scene_a
     for name, data in scene_cols.items():
         if name == "key":
             continue
-        inner = h5layout.INNER_COLUMNS.get(name)
+        inner = h5dims.INNER_COLUMNS.get(name)
         if data.ndim == 2 and inner == "link" and data.shape[1] == len(h5layout.LINKS):
             coords.setdefault("link", ("link", np.array(h5layout.LINKS, dtype=object)))
             coords[name] = (("scene", "link"), data, scene_attrs[name])

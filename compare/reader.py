@@ -1,6 +1,6 @@
 """The reader of campaign results files (layout: ``docs/hdf5_schema.md``): whose file it is, its schema version,
 and its scenes as :class:`~compare.results.SceneResult` (version 4-5 tables through
-:class:`compare.h5layout.TableFile`, the group-per-scene versions 1-3 through :func:`compare.h5layout.read_scene`).
+:class:`compare.h5layout.TableFile`, the group-per-scene versions 1-3 through :func:`compare.h5legacy.read_scene`).
 Readers ignore scenes without their ``complete`` mark; nothing here writes.
 """
 
@@ -14,7 +14,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from compare import h5layout
+from compare import h5layout, h5legacy
 from compare.h5file import _short, target
 from compare.results import SceneResult
 from compare.solvers import Solution
@@ -152,10 +152,10 @@ class _GroupFile:
         return h5layout.text(self.scenes[key].attrs["status"])
 
     def read_scene(self, key: str) -> SceneResult:
-        return h5layout.read_scene(self.scenes[key], self.version)
+        return h5legacy.read_scene(self.scenes[key], self.version)
 
     def metric_rows(self, key: str) -> h5layout.MetricRows:
-        return h5layout.stored_metric_rows(self.scenes[key], self.version)
+        return h5legacy.stored_metric_rows(self.scenes[key], self.version)
 
 
 def _view(f: h5py.File, scenes: h5py.Group | None, version: int) -> Any:

@@ -11,7 +11,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from compare import h5layout
+from compare import h5dims, h5layout, h5legacy
 from compare.h5file import (
     CommitError,
     _discard,
@@ -117,7 +117,7 @@ def _read_for_upgrade(old: h5py.File, version: int, path: Path) -> dict[str, tup
                             "cannot have")
             continue
         try:
-            out[key] = (h5layout.read_scene(g, version), int(g.attrs["run"]), h5layout.stored_metric_rows(g, version))
+            out[key] = (h5legacy.read_scene(g, version), int(g.attrs["run"]), h5legacy.stored_metric_rows(g, version))
         except (KeyError, ValueError, TypeError, OSError) as exc:
             problems.append(f"/{SCENES}/{key} is unreadable ({_short(exc)})")
     if problems:
@@ -176,7 +176,7 @@ def _write_upgraded(old: h5py.File, new: h5py.File, scenes: dict[str, tuple[Scen
     if not len(new.get(SCENES, ())) and SCENES in new:
         del new[SCENES]
     h5layout.write_tables(new, rows["scene"], rows["solution"], rows["metric"])
-    h5layout.attach_dimensions(new)
+    h5dims.attach_dimensions(new)
 
 
 def _same(a: Any, b: Any) -> bool:
@@ -248,7 +248,7 @@ def _compare_scene(g: h5py.Group, view: Any, key: str, version: int) -> list[str
         p += _compare_v1(g, sols, row)
     else:
         p += _compare_attrs(_attrs(g["run_stats"]), row, "run_stats attribute")
-    old_rows, new_rows = h5layout.stored_metric_rows(g, version), view.metric_rows(key)
+    old_rows, new_rows = h5legacy.stored_metric_rows(g, version), view.metric_rows(key)
     for k, r in old_rows.items():
         new = new_rows.get(k, {})
         p += [f"metrics {'/'.join(k)} {n}" for n, v in r.items() if not _same(v, new.get(n))]

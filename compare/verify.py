@@ -1,5 +1,5 @@
 """``ked inspect --verify`` of a campaign file: the file's attributes and tables, every scene as a reader sees it
-(:func:`compare.h5layout.verify_scene`), and a trial write into an in-memory copy (damage only a writer meets).
+(:func:`compare.h5checks.verify_scene`), and a trial write into an in-memory copy (damage only a writer meets).
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from compare import h5layout
+from compare import h5checks, h5layout
 from compare.h5file import _open_memory, _short
 from compare.reader import READABLE_VERSIONS, RUNS, SCENES, SCHEMA, file_kind, layout_contradiction, schema_version
 from compare.results import SceneResult
@@ -74,7 +74,7 @@ def verify_scenes(path: str | Path, trial_write: bool = False) -> tuple[list[str
         for name in names:
             try:
                 g = f[SCENES][name]
-                scenes[name] = h5layout.verify_scene(name, g, version)
+                scenes[name] = h5checks.verify_scene(name, g, version)
                 run = g.attrs.get("run") if isinstance(g, h5py.Group) and h5layout.complete(g) else None
                 if run is not None and (runs is None or int(run) not in runs):
                     scenes[name].append(f"run {run} is not in /{RUNS}")
@@ -85,7 +85,7 @@ def verify_scenes(path: str | Path, trial_write: bool = False) -> tuple[list[str
 
 def _verify_v4(f: h5py.File, path: Path, trial_write: bool = False) -> tuple[list[str], dict[str, list[str]]]:
     try:
-        problems = h5layout.verify_tables(f)
+        problems = h5checks.verify_tables(f)
         view = h5layout.TableFile(f)
         names = list(view.index)
         problems += [f"/{SCENES}/{g}: no row in /{h5layout.SCENE_TABLE}" for g in view.orphans()]
@@ -97,7 +97,7 @@ def _verify_v4(f: h5py.File, path: Path, trial_write: bool = False) -> tuple[lis
     scenes: dict[str, list[str]] = {}
     for name in names:
         try:
-            scenes[name] = view.verify_scene(name) + _verify_run_of(view, name, runs)
+            scenes[name] = h5checks.verify_table_scene(view, name) + _verify_run_of(view, name, runs)
         except Exception as exc:
             scenes[name] = [f"unreadable ({type(exc).__name__}: {_short(exc)}) in {path}"]
     if trial_write and names and not problems and not any(scenes.values()):

@@ -17,7 +17,7 @@ import h5py
 import numpy as np
 import pytest
 
-from compare import h5layout, store, tables
+from compare import h5dims, h5layout, store, tables
 from compare.config import parse_config
 from compare.runner import run_campaign
 
@@ -243,7 +243,7 @@ def _strip_dimensions(path: Path) -> None:
             for d in tables.dimension_names(f[name]):
                 del f[name][d]
             del f[name].attrs[tables.DIMENSIONS]
-        for d in h5layout.INNER_DIMENSIONS:
+        for d in h5dims.INNER_DIMENSIONS:
             del f[d]
         for g in f["scenes"].values():
             for d in ("component", "xy", "mode"):

@@ -17,7 +17,7 @@ import h5py
 import numpy as np
 import pytest
 
-from compare import h5layout, store
+from compare import h5layout, h5legacy, store
 from tests.test_campaign_store import edit_rows
 
 BASE = """
@@ -220,7 +220,7 @@ def test_upgrade_of_an_older_layout_keeps_every_number(tmp_path, version):
     f.write_bytes((DATA / f"schema_v{version}.h5").read_bytes())
     before, numbers = content(f), raw_numbers(f)
     with h5py.File(f, "r") as h:
-        rows_before = {k: h5layout.stored_metric_rows(g, version) for k, g in h["scenes"].items()}
+        rows_before = {k: h5legacy.stored_metric_rows(g, version) for k, g in h["scenes"].items()}
         has_study = "study" in h
     assert store.upgrade(f) and store.verify(f) == []
     assert content(f) == before and len(before[0]) == len(rows_before)
