@@ -25,7 +25,7 @@ _API = {
     "CampaignSummary": "compare.runner",
     "read_scenes": "compare.store", "verify": "compare.store", "StoreError": "compare.store",
     "SceneResult": "compare.results", "SceneSpec": "compare.scenes",
-    "write_figures": "compare.plots", "summary_row": "compare.inspect", "format_table": "compare.inspect",
+    "write_figures": "compare.figure_dir", "summary_row": "compare.inspect", "format_table": "compare.inspect",
     "open_results": "compare.labelled", "Results": "compare.labelled",
     "register": "compare.solvers", "Solver": "compare.solvers", "Solution": "compare.solvers",
 }

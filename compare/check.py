@@ -359,7 +359,7 @@ def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, 
     of its own.
     ``workers``: where the speeds after the first two go when their estimated work is worth worker processes
     (:class:`compare.checkwork.CheckWorkers`; the rows are the same).  ``specs``: the campaign scenes to check
-    in place of :func:`spec_for`'s (a user file's scenes, :func:`compare.config.file_scenes`: the key and the
+    in place of :func:`spec_for`'s (a user file's scenes, :func:`compare.scenefile.file_scenes`: the key and the
     answer ``ked run`` gives the file).  ``material``: a :class:`ked_quasi.fatigue.Material` for the fatigue
     safety factors of the rows' stress keys (:mod:`compare.stresscheck`)."""
     if specs is None:

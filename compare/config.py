@@ -11,7 +11,6 @@ from __future__ import annotations
 import functools
 import itertools
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from importlib import resources
 from pathlib import Path
@@ -24,31 +23,22 @@ except ModuleNotFoundError:  # pragma: no cover - Python 3.10
 
 from compare import solvers as solver_registry
 from compare.expect import Expectations, parse_expect
-from compare.scenes import FOUR_BAR, MECHANISMS, SLIDER_KIND, Grid, Items, SceneSpec, SpeedSpec
+from compare.linkagefile import linkage_from_table, linkage_path, single_linkage, source_linkages
+from compare.scenes import MECHANISMS, Grid, Items, SceneSpec, SpeedSpec
 from compare.solvers import COMPONENTS, OUTPUTS
 from compare.tolerances import Tolerances, parse_tolerances
+from compare.tomlcheck import Checker, ConfigError, read_text, read_toml, type_name
 from ked_quasi import rules
 from ked_quasi.fatigue import CRITERIA, CYCLES, STRENGTH_RULES, Material, SNCurve
-from ked_quasi.linkage import BRANCHES, DIRECTIONS, LINKS, SECTION_RULES, THESIS_RPM, FourBar, thesis_fourbar
+from ked_quasi.linkage import DIRECTIONS, THESIS_RPM, FourBar
 from ked_quasi.massmodel import MASS_MODELS, PLACEMENTS, MassModel, default_payload
 from ked_quasi.scene import Scene, variant
-from ked_quasi.slidercrank import SliderCrank, kind_conflict, simeon_slider_crank, slider_from_table
+from ked_quasi.slidercrank import SliderCrank
 
 DEFAULT_TOLERANCE = 0.10
 CONFIG_SOLVERS = ("quasi_static", "linear", "dynamic")
 """The solvers of a config without ``[campaign] solvers``: the three tiers (quasi-static, linear KED,
 Exudyn), as the default campaign runs them."""
-SECTION_KEYS = tuple(SECTION_RULES)
-
-class ConfigError(ValueError):
-    """Invalid campaign configuration; ``problems`` lists ``"toml.path: message"`` strings."""
-
-    def __init__(self, problems: list[str], source: str = "campaign config"):
-        self.problems = list(dict.fromkeys(problems))  # each problem once (a shared table is read per link)
-        self.source = source
-        lines = [f"{source}: {len(self.problems)} problem(s):"] + [f"  - {p}" for p in self.problems]
-        super().__init__("\n".join(lines))
-
 
 @dataclass(frozen=True)
 class CampaignConfig:
@@ -104,28 +94,7 @@ def load_config(path: str | Path | None = None) -> CampaignConfig:
     if path is None:
         return parse_config(default_config_text(), source="<default campaign>")
     p = Path(path)
-    return parse_config(_read_text(p), source=str(p))
-
-
-def _read_text(p: Path) -> str:
-    """The file's text; ConfigError naming the file if it cannot be read or is not UTF-8 text."""
-    if p.exists() and not p.is_file() and not p.is_dir():  # a FIFO would block forever, a device never end
-        raise ConfigError(["not a regular file (a FIFO, socket or device); give a TOML file"], source=str(p))
-    try:
-        return p.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise ConfigError(["not a text file (a TOML campaign config is UTF-8 text)"], source=str(p)) from None
-    except IsADirectoryError:
-        raise ConfigError(["is a directory, not a TOML file"], source=str(p)) from None
-    except OSError as exc:
-        raise ConfigError([f"cannot read file: {exc.strerror or exc}"], source=str(p)) from None
-
-
-def _read_toml(p: Path) -> dict[str, Any]:
-    try:
-        return tomllib.loads(_read_text(p))
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError([f"TOML syntax error: {exc}"], source=str(p)) from None
+    return parse_config(read_text(p), source=str(p))
 
 
 def parse_config(text: str, source: str = "campaign config") -> CampaignConfig:
@@ -149,7 +118,7 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
              check_speeds: bool = True) -> CampaignConfig:
     """Validate a parsed TOML document; raise :class:`ConfigError` listing every problem.  ``check_speeds``
     False skips the speed-ratio bound of the grid's speeds (a single-scene command checks its own speed)."""
-    c = _Checker()
+    c = Checker()
     extra_tables = _extra_tables()
     c.keys(doc, "", (*TOP_TABLES, *extra_tables))
     camp = c.table(doc, "campaign")
@@ -168,7 +137,7 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
     solvers = c.choices(camp, "campaign.solvers", solver_registry.names(), default=CONFIG_SOLVERS)
     if solvers and "quasi_static" not in solvers:
         c.err("campaign.solvers", "must include 'quasi_static' (every verdict measures it)")
-    linkages = _linkages(c, doc.get("linkage", {}))
+    linkages = source_linkages(c, doc.get("linkage", {}))
     grid = c.table(doc, "grid")
     c.keys(grid, "grid", ("mechanisms", "mass_models", "rpm", "speed_ratios", "stiffness_scales", "damping_ratios",
                           "directions", "dynamic_variants"))
@@ -187,7 +156,7 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
     _distinct_labels(c, "grid.damping_ratios", fields["damping_ratios"])
     if not c.problems:
         for i, lk in enumerate(linkages):
-            _check_kind_axes(c, lk, _linkage_path(i, len(linkages)), fields["mechanisms"], fields["mass_models"])
+            _check_kind_axes(c, lk, linkage_path(i, len(linkages)), fields["mechanisms"], fields["mass_models"])
     grid_obj = None if c.problems else Grid(**fields)
     if grid_obj is not None and grid_obj.size() > rules.MAX_SCENES:
         axes = " x ".join(f"{len(fields[k])} {k.replace('_', ' ')}" for k in (
@@ -212,7 +181,7 @@ FATIGUE_KEYS = ("ultimate_strength", "endurance_limit", "yield_strength", "crite
 _STRENGTHS = ("ultimate_strength", "endurance_limit", "yield_strength")
 
 
-def _fatigue(c: _Checker, doc: dict[str, Any]) -> Material | None:
+def _fatigue(c: Checker, doc: dict[str, Any]) -> Material | None:
     """The ``[fatigue]`` table (:class:`ked_quasi.fatigue.Material`): ultimate_strength [Pa] required;
     endurance_limit [Pa], or sn_curve ([[cycles, amplitude Pa], ...]) with design_cycles; optional
     yield_strength [Pa], criterion (goodman, gerber, asme-elliptic) and sn_curve (the life estimate); None when
@@ -247,7 +216,7 @@ def _sn_curve(v: Any, path: str) -> SNCurve:
         raise ValueError(str(exc).replace("sn_curve", path, 1)) from None
 
 
-def _check_expect_scenes(c: _Checker, expect: Expectations, grid: Grid) -> None:
+def _check_expect_scenes(c: Checker, expect: Expectations, grid: Grid) -> None:
     """Every scene an ``[expect]`` table names must be a scene of the grid (label or key prefix)."""
     scenes = grid.expand()
     labels = {s.label for s in scenes}
@@ -259,7 +228,7 @@ def _check_expect_scenes(c: _Checker, expect: Expectations, grid: Grid) -> None:
                                              f"{sorted(labels)[0]!r}, or a key prefix)")
 
 
-def _regression_tables(c: _Checker, doc: dict[str, Any]) -> tuple[Tolerances | None, Expectations | None]:
+def _regression_tables(c: Checker, doc: dict[str, Any]) -> tuple[Tolerances | None, Expectations | None]:
     """The ``[tolerances]`` and ``[expect]`` tables (None where absent), their problems added to ``c``."""
     tolerances = expect = None
     if "tolerances" in doc:
@@ -275,7 +244,7 @@ def _regression_tables(c: _Checker, doc: dict[str, Any]) -> tuple[Tolerances | N
 # sections of the document
 
 
-def _distinct_labels(c: _Checker, path: str, values: tuple[float, ...]) -> None:
+def _distinct_labels(c: Checker, path: str, values: tuple[float, ...]) -> None:
     """Values that print alike (scene labels use %g) would give two scenes one label: refused."""
     seen: dict[str, float] = {}
     for v in values:
@@ -286,7 +255,7 @@ def _distinct_labels(c: _Checker, path: str, values: tuple[float, ...]) -> None:
         seen[text] = v
 
 
-def _speeds(c: _Checker, grid: dict[str, Any]) -> tuple[SpeedSpec, ...]:
+def _speeds(c: Checker, grid: dict[str, Any]) -> tuple[SpeedSpec, ...]:
     rpms = c.rules(grid, "grid.rpm", rules.RPM, default=())
     ratios = c.rules(grid, "grid.speed_ratios", rules.SPEED_RATIO, default=())
     _distinct_labels(c, "grid.rpm", rpms)
@@ -298,45 +267,7 @@ def _speeds(c: _Checker, grid: dict[str, Any]) -> tuple[SpeedSpec, ...]:
     return tuple(SpeedSpec("rpm", v) for v in rpms) + tuple(SpeedSpec("ratio", v) for v in ratios)
 
 
-def _linkage_path(i: int, n: int) -> str:
-    """How messages name a campaign's i-th linkage: ``linkage`` (a single table) or ``linkage[i]``."""
-    return "linkage" if n == 1 else f"linkage[{i}]"
-
-
-def _linkages(c: _Checker, raw: Any) -> tuple[FourBar | SliderCrank, ...]:
-    """The campaign's source linkages: one ``[linkage]`` table, or an array of them (``[[linkage]]`` tables,
-    or ``linkage = ["thesis", "simeon", {...}]`` where a string is a preset name), each read by
-    :func:`linkage_from_table`; problems are named ``linkage[i].<key>``.  Two equal linkages are refused."""
-    if isinstance(raw, dict):
-        lk = linkage_from_table(c, raw)
-        return () if lk is None else (lk,)
-    if not isinstance(raw, list) or not raw:
-        c.err("linkage", f"must be a table ([linkage]) or a non-empty array of tables ([[linkage]]) or preset "
-                         f"names, got {_tname(raw)}")
-        return ()
-    out: list[FourBar | SliderCrank] = []
-    for i, item in enumerate(raw):
-        path = _linkage_path(i, len(raw))
-        if isinstance(item, str):
-            item = {"preset": item}
-        if not isinstance(item, dict):
-            c.err(path, f"must be a linkage table or a preset name ('thesis', 'simeon'), got {_tname(item)}")
-            continue
-        sub = _Checker()
-        lk = linkage_from_table(sub, item)
-        if sub.problems or lk is None:  # the same messages, named by the array element
-            c.problems += [path + p[len("linkage"):] if p.startswith("linkage") else f"{path}: {p}"
-                           for p in sub.problems or ["cannot be read"]]
-            c.bad.add(path)
-            continue
-        if lk in out:
-            c.err(path, f"the same linkage as {_linkage_path(out.index(lk), len(raw))} (each linkage once)")
-            continue
-        out.append(lk)
-    return tuple(out)
-
-
-def _check_kind_axes(c: _Checker, source: FourBar | SliderCrank, path: str, mechanisms: tuple[str, ...],
+def _check_kind_axes(c: Checker, source: FourBar | SliderCrank, path: str, mechanisms: tuple[str, ...],
                      mass_models: tuple[MassModel, ...]) -> None:
     """Every grid point must apply to every linkage of the grid: refused at load (one line naming the grid
     parameter and the linkage), never skipped nor stored as failed.  A four-bar's mechanisms must be
@@ -366,7 +297,7 @@ LINEAR_SOLVERS = ("linear", "linear_classic")
 """The solvers that run the linear KED model (its coordinate cap applies to their scenes)."""
 
 
-def _check_linear_size(c: _Checker, grid: Grid) -> None:
+def _check_linear_size(c: Checker, grid: Grid) -> None:
     """A grid that runs the linear model is refused at load when a mass model's lumps exceed the model's
     coordinate cap for one of its linkages (:func:`ked_linear.size.check_size`, naming the allowed lumps)."""
     if not any(name in LINEAR_SOLVERS for name in grid.solvers):
@@ -375,7 +306,7 @@ def _check_linear_size(c: _Checker, grid: Grid) -> None:
     from ked_quasi.slidercrank import SliderScene
 
     for i, linkage in enumerate(grid.linkages):
-        where = "" if len(grid.linkages) == 1 else f" ({_linkage_path(i, len(grid.linkages))})"
+        where = "" if len(grid.linkages) == 1 else f" ({linkage_path(i, len(grid.linkages))})"
         for j, mm in enumerate(grid.mass_models):
             scene = (SliderScene(linkage, mm, 1.0, grid.step_deg) if isinstance(linkage, SliderCrank)
                      else Scene(linkage, mm, 1.0, grid.step_deg))
@@ -387,7 +318,7 @@ def _check_linear_size(c: _Checker, grid: Grid) -> None:
                 return
 
 
-def _check_speed_ratios(c: _Checker, grid: Grid) -> None:
+def _check_speed_ratios(c: Checker, grid: Grid) -> None:
     """r = Omega/omega1_min above the bound (or below its floor) at a requested rpm is refused: checked once
     per distinct mechanism and mass model, at the fastest rpm and the smallest stiffness scale (every Young's
     modulus times k scales the frozen structure's stiffness by k, so omega1_min grows as sqrt(k): that pair has
@@ -398,7 +329,7 @@ def _check_speed_ratios(c: _Checker, grid: Grid) -> None:
     # the fastest rpm at the softest scale has the largest r, the slowest at the stiffest the smallest
     for rpm, k in ((max(rpms), min(grid.stiffness_scales)), (min(rpms), max(grid.stiffness_scales))):
         for i, linkage in enumerate(grid.linkages):
-            where = "" if len(grid.linkages) == 1 else f"{_linkage_path(i, len(grid.linkages))}, "
+            where = "" if len(grid.linkages) == 1 else f"{linkage_path(i, len(grid.linkages))}, "
             if isinstance(linkage, SliderCrank):
                 _check_slider_grid(c, grid, linkage, rpm, k, where)
             for mech, mm in itertools.product(() if isinstance(linkage, SliderCrank) else grid.mechanisms,
@@ -414,7 +345,7 @@ def _check_speed_ratios(c: _Checker, grid: Grid) -> None:
                 return
 
 
-def _check_slider_grid(c: _Checker, grid: Grid, linkage: SliderCrank, rpm: float, k: float, where: str = "") -> None:
+def _check_slider_grid(c: Checker, grid: Grid, linkage: SliderCrank, rpm: float, k: float, where: str = "") -> None:
     """A slider-crank of the grid (its mass models checked by :func:`_check_kind_axes`): r = Omega/omega1_min
     within the bound at the fastest rpm and the smallest stiffness scale (as for a four-bar)."""
     import numpy as np
@@ -471,16 +402,13 @@ def _omega1_min(fourbar: FourBar, mass_model: MassModel, step_deg: float) -> flo
         return 2.0 * math.pi * float(np.nanmin(f1)) if np.isfinite(f1).any() else math.nan
 
 
-_LINKAGE_NUMBERS = ("crank", "coupler", "follower", "extender")
-
-
 def load_linkage(path: str | Path) -> FourBar:
     """The ``[linkage]`` table of a TOML file (campaign schema; every table name and key checked) as the source
     four-bar; :class:`ConfigError` naming the file and every problem otherwise."""
     p = Path(path)
-    doc = _read_toml(p)
-    _single_linkage(doc, p)
-    c = _Checker()
+    doc = read_toml(p)
+    single_linkage(doc, p)
+    c = Checker()
     c.keys(doc, "", (*TOP_TABLES, *_extra_tables()))  # a misspelt table is refused, never ignored
     fb = linkage_from_table(c, c.table(doc, "linkage"))
     if c.problems or fb is None:
@@ -488,165 +416,18 @@ def load_linkage(path: str | Path) -> FourBar:
     return fb
 
 
-def load_scene_file(path: str | Path) -> CampaignConfig:
-    """A user's linkage file read for a single-scene command (``ked quasi``, ``linear``, ``simulate``, ``check``
-    with ``--linkage FILE``): the whole file by the campaign's rules, as ``ked run`` reads it (every table and
-    key checked, its ``[grid]``, ``[campaign]``, ``[dynamic]`` and solver tables kept), except that the grid's
-    crank speeds are not checked against the speed-ratio bound (the command checks the speed it runs).  A
-    slider-crank file without ``grid.mass_models`` gets ``distributed``, the commands' default for it.
-    :class:`ConfigError` naming the file and every problem otherwise."""
-    p = Path(path)
-    text = _read_text(p)
-    try:
-        doc = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError([f"TOML syntax error: {exc}"], source=str(p)) from None
-    _single_linkage(doc, p)
-    tab, grid = doc.get("linkage"), doc.get("grid", {})
-    if (isinstance(tab, dict) and (tab.get("kind") == SLIDER_KIND or tab.get("preset") == "simeon")
-            and isinstance(grid, dict) and "mass_models" not in grid):
-        doc = {**doc, "grid": {**grid, "mass_models": ["distributed"]}}
-    return validate(doc, text=text, source=str(p), check_speeds=False)
-
-
-def _single_linkage(doc: dict[str, Any], p: Path) -> None:
-    """ConfigError unless ``doc`` holds exactly one ``[linkage]`` table (naming the tables found)."""
-    if isinstance(doc.get("linkage"), list):
-        raise ConfigError(["holds several linkages ([[linkage]] or an array); a linkage file holds one [linkage] "
-                           "table (several linkages belong in a campaign config)"], source=str(p))
-    if not isinstance(doc.get("linkage"), dict):
-        tables = [f"[{k}]" for k, v in doc.items() if isinstance(v, dict)]
-        loose = [k for k, v in doc.items() if not isinstance(v, dict)]
-        found = (f"tables found: {', '.join(tables)}" if tables else "no tables found") + (
-            f"; keys outside any table: {', '.join(loose)}" if loose else "")
-        raise ConfigError([f"no [linkage] table ({found}); a linkage file needs a [linkage] table (lower case) with "
-                           "crank, coupler, follower, extender, ground [m], coupler_angle_deg and [linkage.section], "
-                           "or preset = \"thesis\""], source=str(p))
-
-
-SCENE_AXES = {"mechanisms": "--mechanism", "mass_models": "--mass-model", "stiffness_scales": "--stiffness-scale",
-              "damping_ratios": "--damping-ratio", "directions": "--direction", "dynamic_variants": ""}
-"""The grid axes that describe one scene of a file, and the option choosing each on the command line."""
-
-
-def file_scenes(config: CampaignConfig, given: dict[str, Any], rpms: Sequence[float] | None = None,
-                **settings: Any) -> tuple[SceneSpec, ...]:
-    """The scenes a single-scene command runs on a user's file: the file's grid, as ``ked run`` expands it,
-    with each axis of :data:`SCENE_AXES` the command line gives (``given``: axis -> the one value) in place of
-    the file's, at the crank speeds ``rpms`` [rev/min] (None: the file's ``grid.rpm``).  ``settings``: fields
-    of the grid the command line gives explicitly (e.g. ``tolerance``, ``step_deg``).  An axis of several
-    values that the command line does not choose: ValueError naming the axis, its values and the option."""
-    g = config.grid
-    fields: dict[str, Any] = {}
-    for axis, option in SCENE_AXES.items():
-        values = (given[axis],) if axis in given else getattr(g, axis)
-        if len(values) > 1:
-            shown = ", ".join(_axis_text(v) for v in values)
-            how = f"choose one with {option}" if option else "a single-scene command runs one: keep one"
-            raise ValueError(f"grid.{axis}: the file holds {len(values)} values ({shown}); {how}")
-        fields[axis] = tuple(values)
-    if rpms is None:
-        if any(s.kind != "rpm" for s in g.speeds):
-            raise ValueError("grid.speed_ratios: a single-scene command runs at a crank speed in rpm; give --rpm")
-        speeds = g.speeds
-    else:
-        speeds = tuple(SpeedSpec("rpm", float(r)) for r in rpms)
-    return replace(g, speeds=speeds, **fields, **settings).expand()
-
-
-def _axis_text(v: Any) -> str:
-    if isinstance(v, MassModel):
-        return v.name
-    if isinstance(v, tuple):
-        return "{" + ", ".join(f"{k} = {x!r}" for k, x in v) + "}"
-    return f"{v:g}" if isinstance(v, float) else str(v)
-
-
-def linkage_from_table(c: _Checker, tab: dict[str, Any]) -> FourBar | SliderCrank | None:
-    """A ``[linkage]`` table (campaign schema) -> the source :class:`FourBar` (None after a problem); with
-    ``kind = "slider-crank"`` (or ``preset = "simeon"``) the :class:`~ked_quasi.slidercrank.SliderCrank`
-    (keys: :func:`ked_quasi.slidercrank.slider_from_table`)."""
-    kind = c.string(tab, "linkage.kind", default=FOUR_BAR, choices=(FOUR_BAR, SLIDER_KIND))
-    if kind is None:
-        return None
-    if kind_conflict(tab):
-        c.err("linkage", kind_conflict(tab).removeprefix("linkage."))
-        return None
-    if kind == SLIDER_KIND or tab.get("preset") == "simeon":
-        if tab.get("preset") == "simeon":
-            c.keys(tab, "linkage", ("preset", "kind"))
-            return None if c.problems else simeon_slider_crank()
-        try:
-            return slider_from_table(tab)
-        except ValueError as exc:
-            msg = str(exc)
-            c.problems.append(msg if msg.startswith("linkage") else f"linkage: {msg}")
-            c.bad.add("linkage")
-            return None
-    tab = {k: v for k, v in tab.items() if k != "kind"}
-    c.keys(tab, "linkage", ("preset", *_LINKAGE_NUMBERS, "coupler_angle_deg", "ground", "branch", "section",
-                            "sections", "kind"))
-    explicit = "preset" not in tab and any(k in tab for k in (*_LINKAGE_NUMBERS, "coupler_angle_deg", "ground"))
-    if "preset" in tab and c.string(tab, "linkage.preset", choices=("thesis", "simeon")) is None:
-        return None
-    base = None if explicit else thesis_fourbar().to_dict()
-    vals: dict[str, Any] = {}
-    for k in _LINKAGE_NUMBERS:
-        vals[k] = c.rule(tab, f"linkage.{k}", rules.LENGTH, default=base and base[k], required=explicit)
-    ang = c.rule(tab, "linkage.coupler_angle_deg", rules.COUPLER_ANGLE_DEG, required=explicit)
-    vals["coupler_angle"] = math.radians(ang) if ang is not None else base and base["coupler_angle"]
-    ground = c.rule(tab, "linkage.ground", rules.LENGTH, required=explicit)
-    vals["crank_pivot"] = [0.0, 0.0] if ground is not None else base and base["crank_pivot"]
-    vals["follower_pivot"] = [ground, 0.0] if ground is not None else base and base["follower_pivot"]
-    vals["branch"] = c.string(tab, "linkage.branch", default=base["branch"] if base else "open", choices=BRANCHES)
-    vals["sections"] = _sections(c, tab, base["sections"] if base else None)
-    if c.problems or any(v is None for v in vals.values()):
-        return None
-    try:
-        return FourBar.from_dict(vals)
-    except ValueError as exc:
-        c.err("linkage", str(exc))
-        return None
-
-
-def _sections(c: _Checker, tab: dict[str, Any], base: list[dict[str, float]] | None) -> list[dict[str, float]] | None:
-    """``[linkage.section]`` applies to all links, ``[linkage.sections.<link>]`` overrides."""
-    common = c.table(tab, "section", path="linkage.section")
-    c.keys(common, "linkage.section", SECTION_KEYS)
-    per = c.table(tab, "sections", path="linkage.sections")
-    c.keys(per, "linkage.sections", LINKS)
-    out = []
-    for i, link in enumerate(LINKS):
-        own = c.table(per, link, path=f"linkage.sections.{link}")
-        c.keys(own, f"linkage.sections.{link}", SECTION_KEYS)
-        props = {}
-        for key, rule in rules.USER_SECTION_RULES.items():  # the plausibility bounds of a user's material
-            if key in own:
-                props[key] = c.rule(own, f"linkage.sections.{link}.{key}", rule)
-            elif key in common:
-                props[key] = c.rule(common, f"linkage.section.{key}", rule)
-            elif base is not None:
-                props[key] = base[i][key]
-            else:
-                c.err(f"linkage.sections.{link}.{key}",
-                      "missing (give it in [linkage.section] or [linkage.sections." + link + "])")
-                props[key] = None
-        out.append(props)
-    return None if any(v is None for p in out for v in p.values()) else out
-
-
-def _mass_models(c: _Checker, grid: dict[str, Any]) -> tuple[MassModel, ...]:
+def _mass_models(c: Checker, grid: dict[str, Any]) -> tuple[MassModel, ...]:
     path = "grid.mass_models"
     raw = grid.get("mass_models", ["tip"])
     if not isinstance(raw, list) or not raw:
-        c.err(path, f"must be a non-empty array of names or tables, got {_tname(raw)}")
+        c.err(path, f"must be a non-empty array of names or tables, got {type_name(raw)}")
         return ()
     out: list[MassModel] = []
     for i, item in enumerate(raw):
         p = f"{path}[{i}]"
         item = {"name": item} if isinstance(item, str) else item
         if not isinstance(item, dict):
-            c.err(p, f"must be a mass-model name or a table, got {_tname(item)}")
+            c.err(p, f"must be a mass-model name or a table, got {type_name(item)}")
             continue
         c.keys(item, p, ("name", "lumps", "payload_kg", "joint_split", "placement"))
         name = c.string(item, f"{p}.name", required=True, choices=MASS_MODELS)
@@ -665,17 +446,17 @@ def _mass_models(c: _Checker, grid: dict[str, Any]) -> tuple[MassModel, ...]:
     return tuple(out)
 
 
-def _extra_settings(c: _Checker, doc: dict[str, Any], tables: tuple[str, ...]) -> tuple[tuple[str, Items], ...]:
+def _extra_settings(c: Checker, doc: dict[str, Any], tables: tuple[str, ...]) -> tuple[tuple[str, Items], ...]:
     """Settings tables of solvers other than Exudyn (e.g. ``[linear]``), each checked like ``[dynamic]``."""
     return tuple((name, _settings_table(c, name, c.table(doc, name))) for name in tables if name in doc)
 
 
-def _dynamic(c: _Checker, tab: dict[str, Any], prefix: str = "dynamic",
+def _dynamic(c: Checker, tab: dict[str, Any], prefix: str = "dynamic",
              check_settings: bool = True) -> tuple[tuple[str, Any], ...]:
     return _settings_table(c, "dynamic", tab, prefix, check_settings)
 
 
-def _settings_table(c: _Checker, name: str, tab: dict[str, Any], prefix: str | None = None,
+def _settings_table(c: Checker, name: str, tab: dict[str, Any], prefix: str | None = None,
                     check_settings: bool = True) -> Items:
     """One solver's settings table (``[dynamic]``, ``[linear]``, ...), the same for every solver: each key a
     field of the solver's settings (the damping ratio is a grid axis), each value checked by the rule the
@@ -704,7 +485,7 @@ def _settings_table(c: _Checker, name: str, tab: dict[str, Any], prefix: str | N
     return tuple(sorted(out.items()))
 
 
-def _dynamic_variants(c: _Checker, grid: dict[str, Any],
+def _dynamic_variants(c: Checker, grid: dict[str, Any],
                       base: dict[str, Any]) -> tuple[tuple[tuple[str, Any], ...], ...]:
     """``grid.dynamic_variants``: an array of tables of ``[dynamic]`` overrides (a grid axis).
 
@@ -717,13 +498,13 @@ def _dynamic_variants(c: _Checker, grid: dict[str, Any],
         return ((),)
     raw = grid["dynamic_variants"]
     if not isinstance(raw, list) or not raw:
-        c.err(path, f"must be a non-empty array of tables, got {_tname(raw)}")
+        c.err(path, f"must be a non-empty array of tables, got {type_name(raw)}")
         return ((),)
     out: list[tuple[tuple[str, Any], ...]] = []
     for i, item in enumerate(raw):
         p = f"{path}[{i}]"
         if not isinstance(item, dict) or not item:
-            c.err(p, f"must be a non-empty table of [dynamic] settings, got {_tname(item)}")
+            c.err(p, f"must be a non-empty table of [dynamic] settings, got {type_name(item)}")
             continue
         axes = []
         for key, v in item.items():
@@ -746,176 +527,3 @@ def _dynamic_variants(c: _Checker, grid: dict[str, Any],
     if len(set(out)) != len(out):
         c.err(path, "duplicate variants")
     return tuple(out) or ((),)
-
-
-# --------------------------------------------------------------------------------------------------
-# checker
-
-
-def _tname(v: Any) -> str:
-    return {bool: "boolean", int: "integer", float: "float", str: "string", list: "array",
-            dict: "table"}.get(type(v), type(v).__name__)
-
-
-class _Checker:
-    """Collects problems; every accessor returns ``None`` (or a default) on error."""
-
-    def __init__(self) -> None:
-        self.problems: list[str] = []
-        self.bad: set[str] = set()
-
-    def err(self, path: str, msg: str) -> None:
-        self.problems.append(f"{path}: {msg}")
-        self.bad.add(path)
-
-    def keys(self, tab: dict[str, Any], path: str, allowed: tuple[str, ...]) -> None:
-        for k in tab:
-            if k not in allowed:
-                p = f"{path}.{k}" if path else k
-                self.err(p, f"unknown key (allowed: {', '.join(allowed)})")
-
-    def table(self, tab: dict[str, Any], key: str, path: str | None = None) -> dict[str, Any]:
-        v = tab.get(key, {})
-        if not isinstance(v, dict):
-            self.err(path or key, f"must be a table, got {_tname(v)}")
-            return {}
-        return v
-
-    def _get(self, tab: dict[str, Any], path: str, required: bool) -> tuple[bool, Any]:
-        key = path.rsplit(".", 1)[-1]
-        if key not in tab:
-            if required:
-                self.err(path, "required")
-            return False, None
-        return True, tab[key]
-
-    def check(self, tab, path, fn, *, default=None, required=False):
-        """A value checked by ``fn(value, path)`` (which raises ValueError with the message)."""
-        present, v = self._get(tab, path, required)
-        if not present:
-            return default
-        try:
-            return fn(v, path)
-        except ValueError as exc:
-            self.problems.append(str(exc))
-            self.bad.add(path)
-            return None
-
-    def rule(self, tab, path, rule, *, default=None, required=False):
-        """A value checked by a :class:`ked_quasi.rules.Rule`."""
-        return self.check(tab, path, rule.check, default=default, required=required)
-
-    def rules(self, tab, path, rule, *, default=()):
-        """An array of values, each checked by a :class:`ked_quasi.rules.Rule`; duplicates refused."""
-        v, dflt = self._array(tab, path, default)
-        if v is None:
-            return tuple(dflt)
-        out = []
-        for i, x in enumerate(v):
-            try:
-                y = rule.check(x, f"{path}[{i}]")
-            except ValueError as exc:
-                self.problems.append(str(exc))
-                self.bad.add(f"{path}[{i}]")
-                continue
-            out.append(y)
-        if len(set(out)) != len(out):
-            self.err(path, f"duplicate values in {v!r}")
-        return tuple(out)
-
-    def number(self, tab, path, *, default=None, lo=None, hi=None, lo_open=False, required=False):
-        present, v = self._get(tab, path, required)
-        if not present:
-            return default
-        return self._check_number(v, path, lo, hi, lo_open)
-
-    def _check_number(self, v, path, lo, hi, lo_open):
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            self.err(path, f"must be a number, got {_tname(v)} {v!r}")
-            return None
-        v = float(v)
-        if not math.isfinite(v):
-            self.err(path, f"must be finite, got {v!r}")
-            return None
-        if lo is not None and (v < lo or (lo_open and v == lo)):
-            self.err(path, f"must be {'>' if lo_open else '>='} {lo:g}, got {v:g}")
-            return None
-        if hi is not None and v > hi:
-            self.err(path, f"must be <= {hi:g}, got {v:g}")
-            return None
-        return v
-
-    def integer(self, tab, path, *, default=None, lo=None, hi=None, required=False):
-        present, v = self._get(tab, path, required)
-        if not present:
-            return default
-        if isinstance(v, bool) or not isinstance(v, int):
-            self.err(path, f"must be an integer, got {_tname(v)} {v!r}")
-            return None
-        if (lo is not None and v < lo) or (hi is not None and v > hi):
-            self.err(path, f"must be in [{lo}, {hi}], got {v}")
-            return None
-        return v
-
-    def boolean(self, tab, path, *, default=None):
-        present, v = self._get(tab, path, False)
-        if not present:
-            return default
-        if not isinstance(v, bool):
-            self.err(path, f"must be a boolean, got {_tname(v)} {v!r}")
-            return None
-        return v
-
-    def string(self, tab, path, *, default=None, choices=None, required=False):
-        present, v = self._get(tab, path, required)
-        if not present:
-            return default
-        if not isinstance(v, str):
-            self.err(path, f"must be a string, got {_tname(v)} {v!r}")
-            return None
-        if choices is not None and v not in choices:
-            self.err(path, f"must be one of {', '.join(repr(x) for x in choices)}, got {v!r}")
-            return None
-        return v
-
-    def like(self, tab, path, default):
-        """Type-check against the type of a default value (unknown-range settings)."""
-        if isinstance(default, bool):
-            return self.boolean(tab, path)
-        if isinstance(default, int):
-            return self.integer(tab, path)
-        if isinstance(default, float):
-            return self.number(tab, path)
-        if isinstance(default, str):
-            return self.string(tab, path)
-        present, v = self._get(tab, path, False)
-        if isinstance(v, (dict, list)):
-            self.err(path, f"must be a scalar, got {_tname(v)}")
-            return None
-        return v
-
-    def _array(self, tab, path, default):
-        present, v = self._get(tab, path, False)
-        if not present:
-            return None, default
-        if not isinstance(v, list):
-            self.err(path, f"must be an array, got {_tname(v)} {v!r}")
-            return None, ()
-        if not v:
-            self.err(path, "must not be empty")
-            return None, ()
-        return v, None
-
-    def choices(self, tab, path, allowed, *, default=()):
-        v, dflt = self._array(tab, path, default)
-        if v is None:
-            return tuple(dflt)
-        out = []
-        for i, x in enumerate(v):
-            if not isinstance(x, str) or x not in allowed:
-                self.err(f"{path}[{i}]", f"must be one of {', '.join(repr(a) for a in allowed)}, got {x!r}")
-            else:
-                out.append(x)
-        if len(set(out)) != len(out):
-            self.err(path, f"duplicate values in {v!r}")
-        return tuple(out)

@@ -15,7 +15,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from compare.diff import DiffReport, SceneDiff
-from compare.plots import FigureDirError
+from compare.figure_dir import FigureDirError
 from compare.results import SceneResult
 from compare.solvers import COMPONENT_UNITS
 

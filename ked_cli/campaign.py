@@ -15,7 +15,7 @@ DEFAULT_DIR = Path("ked_results")
 LARGE_GRID = 1000
 """A grid this large gets a warning with its estimated run time before anything runs."""
 FIGURE_FORMATS = ("png", "svg", "pdf")
-"""The figure formats offered (compare.plots.FORMATS; not imported here: matplotlib costs start-up time)."""
+"""The figure formats offered (compare.figure_dir.FORMATS; not imported here: matplotlib costs start-up time)."""
 SECONDS_PER_SCENE = 2.5
 """Rough cost of one scene with the Exudyn model on one core (the default campaign's median)."""
 
@@ -392,7 +392,7 @@ def plot_cmd(file: Path, out_dir: Path | None, workers: int | None, fmt: str, dp
 
 
 def _check_figure_dir(fig_dir: Path, fmt: str = "png", source: Path | None = None) -> None:
-    from compare.plots import FigureDirError, check_figure_dir
+    from compare.figure_dir import FigureDirError, check_figure_dir
 
     try:
         check_figure_dir(fig_dir, fmt=fmt, source=source)
@@ -404,7 +404,7 @@ def _write_figures(results: list, fig_dir: Path, workers: int, fmt: str = "png",
                    source: Path | None = None, progress: bool = True) -> list[Path]:
     """The figures of ``results`` in ``fig_dir`` under a progress bar; a file there the harness did not
     write, or the figures of another results file, is refused; an OS failure names the file."""
-    from compare.plots import FigureDirError, figure_count, write_figures
+    from compare.figure_dir import FigureDirError, figure_count, write_figures
     from compare.progress import progress_bar
 
     try:

@@ -16,10 +16,10 @@ from ked_cli.campaign import _regular
 def load_tables(path: Path) -> tuple[Any, Any]:
     """(Tolerances or None, Expectations or None) of a TOML file's ``[tolerances]`` and ``[expect]`` tables
     (a campaign config, or a file of only those tables); a bad file is a usage error naming it."""
-    from compare.config import ConfigError, _read_toml
+    from compare.tomlcheck import ConfigError, read_toml
 
     try:
-        doc = _read_toml(path)
+        doc = read_toml(path)
     except ConfigError as exc:
         raise click.UsageError(f"--tolerances {path}: {'; '.join(exc.problems)}") from None
     if "tolerances" not in doc and "expect" not in doc:

@@ -133,11 +133,11 @@ _FILES: dict[str, Any] = {}
 
 
 def scene_file(linkage: str) -> Any:
-    """The user's file ``--linkage`` names, read once by the campaign's rules (``compare.config.load_scene_file``:
+    """The user's file ``--linkage`` names, read once by the campaign's rules (``compare.scenefile.load_scene_file``:
     every table and key checked, as ``ked run`` reads it); every problem on its own line otherwise."""
     import os
 
-    from compare.config import ConfigError, load_scene_file
+    from compare.scenefile import ConfigError, load_scene_file
     from ked_cli.errors import ProblemsError
 
     try:
@@ -168,14 +168,14 @@ def file_scene_specs(linkage: str, *, mechanism: str, mass_model: str, lumps: in
                      damping_ratio: float | None = None, single: bool = True, forced: tuple[str, ...] = (),
                      **settings: Any) -> tuple[Any, ...]:
     """The campaign scenes of a single-scene command on the user's file ``linkage``
-    (:func:`compare.config.file_scenes`): the file's ``[grid]``, ``[campaign]``, ``[dynamic]`` and solver tables
+    (:func:`compare.scenefile.file_scenes`): the file's ``[grid]``, ``[campaign]``, ``[dynamic]`` and solver tables
     describe the scene, the options given on the command line override them (explicitly; an option left at
     its default does not).  ``rpms``: the speeds given (empty: the file's).  ``single``: one scene only.
     ``settings``: grid fields to set when their option was given (``tolerance``, ``step_deg``); ``forced``: options
     to take as given (a command looping over mechanisms or mass models)."""
     from dataclasses import replace
 
-    from compare.config import file_scenes
+    from compare.scenefile import file_scenes
     from ked_quasi.massmodel import MassModel, default_payload
 
     cfg = scene_file(linkage)

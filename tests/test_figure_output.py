@@ -15,7 +15,7 @@ import matplotlib.colors as mcolors
 import pytest
 from matplotlib.figure import Figure
 
-from compare import plots, store
+from compare import figure_dir, plots, store
 from compare import solvers as registry
 from compare.config import parse_config
 from compare.runner import run_campaign
@@ -106,12 +106,13 @@ def _png_size(path):
 def test_ked_plot_format_and_dpi(campaign, tmp_path):
     from ked_cli.campaign import FIGURE_FORMATS, plot_cmd
 
-    assert FIGURE_FORMATS == plots.FORMATS
+    assert FIGURE_FORMATS == figure_dir.FORMATS
     svg, png = tmp_path / "svg", tmp_path / "png"
     plot_cmd.main([str(campaign), "--out", str(svg), "--format", "svg", "--workers", "1"], standalone_mode=False)
     text = (svg / "amplification.svg").read_text()
     assert text.lstrip().startswith("<?xml") and "<svg" in text
-    assert all(name.endswith(".svg") for name in json.loads((svg / "index.json").read_text()) if name != plots.MANIFEST)
+    index = json.loads((svg / "index.json").read_text())
+    assert all(name.endswith(".svg") for name in index if name != figure_dir.MANIFEST)
     plot_cmd.main([str(campaign), "--out", str(png), "--dpi", "50", "--workers", "1"], standalone_mode=False)
     # the figure's size in inches times the resolution (the amplification figure is 12 x 5.5 in)
     assert _png_size(png / "amplification.png") == (600, 275)
@@ -132,7 +133,7 @@ def test_a_second_results_file_does_not_overwrite_the_first_ones_figures(campaig
     assert str(campaign.resolve()) in exc.value.message and "another results file" in exc.value.message
     assert {p.name: p.read_bytes() for p in figs.iterdir()} == before  # nothing touched
     index = json.loads((figs / "index.json").read_text())
-    assert index[plots.MANIFEST]["results_file"] == str(campaign.resolve())
+    assert index[figure_dir.MANIFEST]["results_file"] == str(campaign.resolve())
     plot_cmd.main([str(campaign), "--out", str(figs), "--workers", "1"], standalone_mode=False)  # its own: fine
 
 
@@ -150,22 +151,22 @@ def test_a_full_disk_names_the_file_and_the_index_lists_only_figures_written(res
     monkeypatch.setattr(Figure, "savefig", savefig)
     out = tmp_path / "figs"
     with pytest.raises(OSError) as exc:
-        plots.write_figures(results, out, workers=1, source="campaign.h5")
-    names = plots.figure_names(results)
+        figure_dir.write_figures(results, out, workers=1, source="campaign.h5")
+    names = figure_dir.figure_names(results)
     third = out / names[results[2].key]
     assert exc.value.errno == errno.ENOSPC and exc.value.filename == str(third)
     from ked_cli.errors import os_message
 
     assert os_message(exc.value).startswith(f"{third}: No space left on device (the disk is full")
     index = json.loads((out / "index.json").read_text())
-    listed = {k for k in index if k != plots.MANIFEST}
+    listed = {k for k in index if k != figure_dir.MANIFEST}
     assert listed == {names[r.key] for r in results[:2]}  # the two written, not the one that failed
-    assert all((out / f).is_file() for f in listed | set(index[plots.MANIFEST]["files"]))
+    assert all((out / f).is_file() for f in listed | set(index[figure_dir.MANIFEST]["files"]))
     assert not third.exists() and not list(out.glob("*.tmp"))  # no partial figure, no temporary file left
     monkeypatch.setattr(Figure, "savefig", real)  # space again: the next run completes the directory
-    plots.write_figures(results, out, workers=1, source="campaign.h5")
+    figure_dir.write_figures(results, out, workers=1, source="campaign.h5")
     index = json.loads((out / "index.json").read_text())
-    assert {k for k in index if k != plots.MANIFEST} == set(names.values())
+    assert {k for k in index if k != figure_dir.MANIFEST} == set(names.values())
 
 
 def test_ked_plot_into_an_impossible_directory_says_which_file_in_one_line(campaign, tmp_path):
@@ -219,7 +220,7 @@ def test_ked_run_writes_figures_in_the_format_asked(tmp_path):
     figs = tmp_path / "tiny_figures"
     assert (figs / "amplification.pdf").read_bytes().startswith(b"%PDF")
     assert [p.suffix for p in figs.glob("scene_*")] == [".pdf"]
-    assert json.loads((figs / "index.json").read_text())[plots.MANIFEST]["results_file"] == str(out.resolve())
+    assert json.loads((figs / "index.json").read_text())[figure_dir.MANIFEST]["results_file"] == str(out.resolve())
 
 
 def test_a_shown_bar_appears_and_ticks_while_one_long_step_runs(monkeypatch):
@@ -250,4 +251,4 @@ def test_a_results_file_moved_with_its_figures_still_owns_them(campaign, tmp_pat
     shutil.move(home, moved)  # the user moves the project directory
     plot_cmd.main([str(moved / "campaign.h5"), "--workers", "1"], standalone_mode=False)  # not refused
     index = json.loads((moved / "campaign_figures" / "index.json").read_text())
-    assert index[plots.MANIFEST]["results_file"] == str((moved / "campaign.h5").resolve())
+    assert index[figure_dir.MANIFEST]["results_file"] == str((moved / "campaign.h5").resolve())

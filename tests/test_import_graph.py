@@ -193,3 +193,15 @@ def test_packages_import_only_downwards():
                     and rank[e.split(".")[0]] <= rank[m.split(".")[0]]
                     and (m.split(".")[0], e.split(".")[0]) not in ALLOWED_SIDEWAYS})
     assert not wrong, f"imports against the layers {LAYERS}: {wrong}"
+
+
+MAX_MODULE_LINES = 600
+"""A module longer than this holds more than one job (split it); the thesis emulation, one listing mirrored line by
+line, is the one exception."""
+LONG_BY_DESIGN = {"ked_quasi.thesis"}
+
+
+def test_no_module_is_over_the_size_limit():
+    long = {name: n for name, path in _modules().items()
+            if (n := len(path.read_text().splitlines())) > MAX_MODULE_LINES and name not in LONG_BY_DESIGN}
+    assert not long, long
