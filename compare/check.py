@@ -49,6 +49,7 @@ from compare.results import SceneResult
 from compare.scenes import SceneSpec, SpeedSpec
 from compare.solvers import Solution
 from compare.solvers import get as get_solver
+from compare.verdict_rule import UNCALIBRATED, VerdictMargins, from_record
 from ked_linear.settings import HARMONICS
 from ked_quasi.harmonics import one_mode_dynamic_estimate
 from ked_quasi.linkage import FourBar
@@ -93,34 +94,6 @@ class LinearRange:
                 f"{damping_ratio:g}: a guide only, confirm with --confirm")
 
 
-@dataclass(frozen=True)
-class VerdictMargins:
-    """Where a predicted quasi-static error decides, in one stratum (mass model x mechanism x linkage kind,
-    :func:`compare.verdict_rule.stratum`): below ``holds_below`` x tolerance it holds, above ``fails_above``
-    x tolerance it fails, in between it is borderline (multipliers [1] of the tolerance).  ``n_scenes``
-    Exudyn-confirmed scenes of the stratum near the threshold behind them, ``unsafe_rate`` [1] the share of
-    those called adequate that Exudyn measured above the tolerance, ``unsafe_upper95`` [1] its upper 95 %
-    bound, ``source`` where the numbers come from.  The default is a stratum without calibration:
-    ``holds_below`` 0 (the prediction never grants the quasi-static tier), ``fails_above`` 1.4."""
-
-    holds_below: float = 0.0
-    fails_above: float = 1.4
-    n_scenes: int = 0
-    unsafe_rate: float = math.nan
-    unsafe_upper95: float = math.nan
-    source: str = "not calibrated against Exudyn for this stratum"
-
-    def __post_init__(self) -> None:
-        if not (0.0 <= self.holds_below <= 1.0 <= self.fails_above and math.isfinite(self.fails_above)):
-            raise ValueError(f"verdict margins: need 0 <= holds_below <= 1 <= fails_above, got "
-                             f"{self.holds_below!r}, {self.fails_above!r}")
-
-    @property
-    def calibrated(self) -> bool:
-        """Whether the prediction may grant the quasi-static tier in this stratum."""
-        return self.holds_below > 0.0
-
-
 def verdict_margins(tolerance: float = 0.10, stratum: str = "") -> VerdictMargins:
     """The margins the atlas calibrated at ``tolerance`` [1] for ``stratum`` (published with the package:
     :mod:`compare.atlas.published`), or :class:`VerdictMargins` () (no quasi-static tier from a prediction)
@@ -133,9 +106,7 @@ def verdict_margins(tolerance: float = 0.10, stratum: str = "") -> VerdictMargin
         return VerdictMargins(source=f"{stratum or 'this stratum'}: not calibrated against Exudyn at "
                                      f"{tolerance:.0%}")
     try:
-        return VerdictMargins(holds_below=float(m["holds_below"]), fails_above=float(m["fails_above"]),
-                              n_scenes=int(m["n_scenes"]), unsafe_rate=float(m["unsafe_rate"]),
-                              unsafe_upper95=float(m["unsafe_upper95"]), source=str(m["source"]))
+        return from_record(m)
     except (KeyError, TypeError, ValueError):
         return VerdictMargins(source=f"{stratum}: calibration record unreadable")
 
@@ -197,7 +168,7 @@ def spec_for(source: FourBar | SliderCrank, mechanism: str, mass_model: MassMode
 
 
 def tier(r: SceneResult, linear_range: LinearRange, tolerance: float,
-         margins: VerdictMargins = VerdictMargins()) -> tuple[str, str]:
+         margins: VerdictMargins = UNCALIBRATED) -> tuple[str, str]:
     """(tier, one-line verdict) of a checked scene from the prediction (see the module docstring)."""
     qs, lin = r.solutions.get("quasi_static"), r.solutions.get("linear")
     ratio = speed_ratio(r)
@@ -270,7 +241,7 @@ def measured_tier(confirmed: dict[str, float], tolerance: float) -> tuple[str, s
 
 
 def check_row(r: SceneResult, linear_range: LinearRange, tolerance: float,
-              margins: VerdictMargins = VerdictMargins()) -> CheckRow:
+              margins: VerdictMargins = UNCALIBRATED) -> CheckRow:
     """The check's numbers of one computed scene; with an Exudyn solution its measured errors (the
     campaign's own pair metrics) decide the tier."""
     nan = math.nan

@@ -220,8 +220,9 @@ def test_threshold_scene_and_stored_margins(atlas):
     assert set(strata) <= {f"four-bar/{mm}/{mech}" for mm in ("tip", "joints", "extender", "distributed")
                            for mech in ("source", "cognate")}
     assert all(verdict_margins(0.10, atlas["path"], k).holds_below == 0.0 for k in strata)
-    assert math.isnan(verdict_margins(0.10, atlas["path"], "slider-crank/distributed/source").holds_below)
-    assert math.isnan(verdict_margins(0.05, atlas["path"]).holds_below)  # calibrated at 10 % only
+    for m in (verdict_margins(0.10, atlas["path"], "slider-crank/distributed/source"),
+              verdict_margins(0.05, atlas["path"])):  # calibrated at 10 % only
+        assert not m.calibrated and m.n_scenes == 0 and "calibrated" in m.source
 
 
 def test_repredict_reproduces_the_predictions_stored_by_the_same_code(atlas, tmp_path):
@@ -481,7 +482,7 @@ def test_the_check_rule_withholds_quasi_static_outside_the_linear_range():
 
 def test_verdict_margins_without_an_atlas_file_does_not_raise(tmp_path):
     m = verdict_margins(0.10, tmp_path / "missing.h5")
-    assert math.isnan(m.holds_below) and math.isnan(m.fails_above) and m.n_scenes == 0
+    assert not m.calibrated and m.holds_below == 0.0 and m.n_scenes == 0
     assert "missing.h5" in m.source
     junk = tmp_path / "junk.h5"
     junk.write_text("not hdf5")

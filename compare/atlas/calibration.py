@@ -48,7 +48,16 @@ from compare.atlas.analysis import default_path, limits, lower_band
 from compare.atlas.threshold import BAND, TABLE
 
 # re-exported: the calibration's vocabulary
-from compare.verdict_rule import BORDERLINE, CALL_NAMES, NOT_QUASI_STATIC, QUASI_STATIC, calls, stratum  # noqa: F401
+from compare.verdict_rule import (  # noqa: F401
+    BORDERLINE,
+    CALL_NAMES,
+    NOT_QUASI_STATIC,
+    QUASI_STATIC,
+    VerdictMargins,
+    calls,
+    from_record,
+    stratum,
+)
 from ked_quasi.limits import MAX_DEFLECTION_FRACTION
 
 FOUR_BAR = "four-bar"
@@ -318,38 +327,16 @@ def store_margins(path: object, tolerance: float = 0.10) -> dict[str, object] | 
     return rec
 
 
-@dataclass(frozen=True)
-class VerdictMargins:
-    """The check's calibrated margins: the quasi-static tier where the predicted error is below
-    ``holds_below`` x tolerance, borderline up to ``fails_above`` x tolerance (multipliers [1]); the
-    statistics of that rule at the threshold (``n_scenes`` Exudyn-confirmed scenes; rates and 95 %
-    Clopper-Pearson bounds as fractions); ``source`` says where they come from.  Multipliers nan and
-    ``n_scenes`` 0: no calibration (no atlas file, no threshold sample, or another tolerance): the
-    check uses its own fallback."""
-
-    holds_below: float
-    fails_above: float
-    n_scenes: int
-    unsafe_rate: float
-    unsafe_upper95: float
-    overcautious_rate: float
-    overcautious_upper95: float
-    agreement: float
-    agreement_low95: float
-    agreement_high95: float
-    source: str
-
-
 def _uncalibrated(source: str) -> VerdictMargins:
-    nan = math.nan
-    return VerdictMargins(nan, nan, 0, nan, nan, nan, nan, nan, nan, nan, source)
+    return VerdictMargins(source=source)
 
 
 def verdict_margins(tolerance: float = 0.10, path: object = None, stratum: str | None = None) -> VerdictMargins:
     """The margins stored in the atlas file (default: the committed ``results/atlas/atlas.h5``, read like
     :func:`compare.atlas.analysis.limits`) for ``stratum`` (None: every stratum pooled, context only: the
     check uses a stratum's).  Never raises for a missing or unreadable file, a file without calibration, an
-    uncalibrated tolerance or stratum: it returns multipliers nan with ``source`` saying why."""
+    uncalibrated tolerance or stratum: it returns the uncalibrated margins (holds_below 0: no quasi-static tier
+    from a prediction; n_scenes 0) with ``source`` saying why."""
     p = Path(path) if path is not None else default_path()  # type: ignore[arg-type]
     if not p.exists():
         return _uncalibrated(f"no atlas file {p}: margins not calibrated")
@@ -368,11 +355,7 @@ def verdict_margins(tolerance: float = 0.10, path: object = None, stratum: str |
         if not isinstance(rec, dict):
             return _uncalibrated(f"atlas file {p}: stratum {stratum} not calibrated at {100 * tolerance:g} %")
 
-    def num(k: str) -> float:
-        v = rec.get(k)
-        return float(v) if isinstance(v, (int, float)) else math.nan
-
-    return VerdictMargins(num("holds_below"), num("fails_above"), int(rec.get("n_scenes") or 0), num("unsafe_rate"),
-                          num("unsafe_upper95"), num("overcautious_rate"), num("overcautious_upper95"),
-                          num("agreement"), num("agreement_low95"), num("agreement_high95"),
-                          str(rec.get("source", "")))
+    try:
+        return from_record(rec)
+    except (KeyError, TypeError, ValueError):  # no valid multipliers stored: as uncalibrated
+        return _uncalibrated(f"atlas file {p}: the margins stored for {stratum or 'the pool'} are not valid")

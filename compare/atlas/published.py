@@ -42,7 +42,7 @@ def build(atlas: str | Path) -> dict[str, Any]:
         except ValueError:
             continue
     rec["margins"]["10"] = {k: _finite(asdict(m)) for k in strata(atlas)
-                            if math.isfinite((m := verdict_margins(0.10, atlas, k)).holds_below) and m.holds_below > 0}
+                            if (m := verdict_margins(0.10, atlas, k)).calibrated}
     return rec
 
 
