@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING, Any
 from compare import metrics, verdict_rule
 from compare.config import default_dynamic
 from compare.execute import run_scene
-from compare.inspect import rpm_text, speed_ratio
+from compare.inspect import rpm_text
 from compare.progress import DELAY_S, NoBar, due, progress_bar
 from compare.results import SceneResult
 from compare.scenes import SceneSpec, SpeedSpec
@@ -171,7 +171,7 @@ def tier(r: SceneResult, linear_range: LinearRange, tolerance: float,
          margins: VerdictMargins = UNCALIBRATED) -> tuple[str, str]:
     """(tier, one-line verdict) of a checked scene from the prediction (see the module docstring)."""
     qs, lin = r.solutions.get("quasi_static"), r.solutions.get("linear")
-    ratio = speed_ratio(r)
+    ratio = r.speed_ratio
     if qs is None or not qs.ok:
         return "nonlinear", f"no quasi-static answer ({qs.message if qs else 'not run'}): use the nonlinear model"
     if lin is not None and not lin.ok and lin.failure_class != "physical":  # not a verdict on the physics
@@ -246,7 +246,7 @@ def check_row(r: SceneResult, linear_range: LinearRange, tolerance: float,
     campaign's own pair metrics) decide the tier."""
     nan = math.nan
     qs, lin = r.solutions.get("quasi_static"), r.solutions.get("linear")
-    ratio = speed_ratio(r)
+    ratio = r.speed_ratio
     qs_xy = metrics.vector(qs.deflection) if qs is not None and qs.ok else None
     lin_xy = metrics.vector(lin.deflection) if lin is not None and lin.ok else None
     est = nan

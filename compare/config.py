@@ -28,7 +28,7 @@ from compare.scenes import MECHANISMS, Grid, Items, SceneSpec, SpeedSpec
 from compare.solvers import COMPONENTS, OUTPUTS
 from compare.tolerances import Tolerances, parse_tolerances
 from compare.tomlcheck import Checker, ConfigError, read_text, read_toml, type_name
-from ked_quasi import rules
+from ked_quasi import rules, units
 from ked_quasi.fatigue import CRITERIA, CYCLES, STRENGTH_RULES, Material, SNCurve
 from ked_quasi.linkage import DIRECTIONS, THESIS_RPM, FourBar
 from ked_quasi.massmodel import MASS_MODELS, PLACEMENTS, MassModel, default_payload
@@ -359,7 +359,7 @@ def _check_slider_grid(c: Checker, grid: Grid, linkage: SliderCrank, rpm: float,
         scene = SliderScene(sc, mm, rpm, grid.step_deg)
         f1 = float(np.nanmin(slider_natural_frequencies(scene, n_modes=1)[:, 0]))
         try:
-            rules.check_speed_ratio(rpm_to_rad_s(rpm) / (2.0 * math.pi * f1), rpm, f1,
+            rules.check_speed_ratio(units.speed_ratio(rpm_to_rad_s(rpm), 2.0 * math.pi * f1), rpm, f1,
                                     f"grid.rpm ({where}{mm.name}, stiffness x{k:g})")
         except ValueError as exc:
             c.problems.append(str(exc))
@@ -378,11 +378,11 @@ def check_speed(fourbar: FourBar, mass_model: MassModel, rpm: float, step_deg: f
     bound = float(rules.SPEED_RATIO.hi)  # type: ignore[arg-type]
     quick = _omega1_min(fourbar, replace(mass_model, lumps=min(mass_model.lumps, rules.SPEED_RATIO_LOAD_LUMPS)),
                         rules.SPEED_RATIO_LOAD_STEP_DEG)
-    r = rpm_to_rad_s(rpm) / quick
+    r = units.speed_ratio(rpm_to_rad_s(rpm), quick)
     if not (r > rules.SPEED_RATIO_SCREEN * bound or r < rules.MIN_SPEED_RATIO / rules.SPEED_RATIO_SCREEN):
         return
     exact = _omega1_min(fourbar, mass_model, step_deg)
-    rules.check_speed_ratio(rpm_to_rad_s(rpm) / exact, rpm, exact / (2.0 * math.pi), label)
+    rules.check_speed_ratio(units.speed_ratio(rpm_to_rad_s(rpm), exact), rpm, exact / (2.0 * math.pi), label)
 
 
 @functools.lru_cache(maxsize=512)

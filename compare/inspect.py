@@ -20,8 +20,6 @@ from compare import solvers as registry
 from compare.metrics import VERDICT_METRIC, pair_name
 from compare.results import SceneResult
 from compare.solvers import STRESS_PREFIX
-from ked_quasi import units
-from ked_quasi.units import rpm_to_rad_s
 
 
 def _num(x: float | None) -> float | None:
@@ -36,11 +34,6 @@ def rpm_text(rpm: float) -> str:
     if not math.isfinite(rpm):
         return str(rpm)
     return np.format_float_positional(rpm, precision=4, unique=False, fractional=False, trim="-")
-
-
-def speed_ratio(r: SceneResult) -> float:
-    """Omega / omega1_min [1] (nan if unknown)."""
-    return units.speed_ratio(rpm_to_rad_s(r.rpm), r.omega1_min)
 
 
 def short_reason(r: SceneResult, n: int = 60) -> str:
@@ -70,7 +63,7 @@ def summary_row(r: SceneResult) -> dict[str, Any]:
     ref = r.reference
     row: dict[str, Any] = {
         "key": r.key, "label": r.spec.label, "mechanism": r.spec.mechanism, "mass_model": r.spec.mass_model.name,
-        "rpm": _num(r.rpm), "speed_ratio": _num(speed_ratio(r)), "status": r.status, "stage": r.stage,
+        "rpm": _num(r.rpm), "speed_ratio": _num(r.speed_ratio), "status": r.status, "stage": r.stage,
         "message": r.message, "failure_class": r.failure_class, "reason": short_reason(r),
         "solvers": list(r.solutions), "reference": ref,
         "verdict_error": _num(v.verdict_error) if v else None,
@@ -350,7 +343,7 @@ def scene_detail(r: SceneResult) -> dict[str, Any]:
     return {
         "key": r.key, "label": r.spec.label, "status": r.status, "stage": r.stage, "error_type": r.error_type,
         "message": r.message, "failure_class": r.failure_class, "warnings": r.warnings, "rpm": _num(r.rpm),
-        "omega1_min_rad_s": _num(r.omega1_min), "speed_ratio": _num(speed_ratio(r)), "parameters": r.spec.to_dict(),
+        "omega1_min_rad_s": _num(r.omega1_min), "speed_ratio": _num(r.speed_ratio), "parameters": r.spec.to_dict(),
         "reference": r.reference,
         "verdict": None if v is None else {"holds": v.holds, "metric": VERDICT_METRIC, "error": _num(v.verdict_error),
                                            "worst_component_error": _num(v.worst_component_error)},
@@ -390,7 +383,7 @@ def format_detail(r: SceneResult) -> str:
         *_linkage_lines(s),
         f"  mass model  : {s.mass_model.name} (lumps {s.mass_model.lumps}, payload {s.mass_model.payload:.4g} kg)",
         f"  speed       : {s.speed.label()} -> {rpm_text(r.rpm)} rpm; omega1_min {r.omega1_min:.4g} rad/s; "
-        f"Omega/omega1_min = {speed_ratio(r):.4g}",
+        f"Omega/omega1_min = {r.speed_ratio:.4g}",
         f"  stiffness x : {s.stiffness_scale:g}; damping ratio {s.damping_ratio:g}; grid step {s.step_deg:g} deg",
         f"  run stats   : total {r.stats.total_wall_s:.2f} s (frequencies {r.stats.frequencies_wall_s:.2f}); "
         f"worker {r.stats.worker}",

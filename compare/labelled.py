@@ -11,7 +11,6 @@ Read with plain h5py from the stored file (schema version 4 or 5); nothing is re
 from __future__ import annotations
 
 import importlib
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -21,6 +20,7 @@ import numpy as np
 
 from compare import h5dims, h5layout, tables
 from compare.solvers import COMPONENT_UNITS, COMPONENTS
+from ked_quasi.units import rpm_to_rad_s, speed_ratio
 
 EXTRA = "xarray"
 """The optional extra that installs what :func:`open_results` needs."""
@@ -183,8 +183,8 @@ def _histories(xr: Any, f: h5py.File, scene_cols: dict[str, np.ndarray], scene_a
         elif data.ndim == 1:
             coords[name] = ("scene", data, scene_attrs[name])
     if "rpm" in scene_cols and "omega1_min_rad_s" in scene_cols:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.asarray(scene_cols["rpm"], dtype=float) * (math.pi / 30) / scene_cols["omega1_min_rad_s"]
+        ratio = np.array([speed_ratio(rpm_to_rad_s(float(n)), float(w))
+                          for n, w in zip(scene_cols["rpm"], scene_cols["omega1_min_rad_s"])])
         coords["speed_ratio"] = ("scene", ratio, {"units": "1", "description": "Omega / omega1_min"})
     return xr.Dataset(variables, coords=coords)
 

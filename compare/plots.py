@@ -29,7 +29,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from compare import solvers as registry
-from compare.inspect import rpm_text, speed_ratio
+from compare.inspect import rpm_text
 from compare.results import SceneResult
 from compare.solvers import STRESS_PREFIX
 
@@ -154,7 +154,7 @@ def scene_figure(r: SceneResult) -> Figure:
                    f"{'holds' if v.holds else 'FAILS'} (tol {v.tolerance:.0%})")
     fig.suptitle(
         f"{r.spec.label}  [{r.key}]\n{rpm_text(r.rpm)} rpm, Omega/w1min = "
-        f"{speed_ratio(r):.3g}, {status}{verdict}",
+        f"{r.speed_ratio:.3g}, {status}{verdict}",
         fontsize=10,
     )
     valid_any = {c: any(c in s.deflection and valid(s) for s in r.solutions.values()) for c in comps}
@@ -337,10 +337,10 @@ def amplification_figure(results: Sequence[SceneResult], tolerance: float | None
         ring = dict(marker="o", ms=11, mfc="none", mec=INVALID_COLOR, mew=1.5, ls="none")
         ax_a.plot(invalid_x, invalid_a, **ring)
         ax_e.plot(invalid_x, invalid_e, label=_wrap_label(label, 90), **ring)
-    failed = [r for r in results if not r.ok and math.isfinite(speed_ratio(r))]
+    failed = [r for r in results if not r.ok and math.isfinite(r.speed_ratio)]
     for i, r in enumerate(failed):
         for ax in (ax_a, ax_e):
-            ax.axvline(speed_ratio(r), color="r", lw=0.8, ls=":", label="failed scene (no error)" if i == 0 and
+            ax.axvline(r.speed_ratio, color="r", lw=0.8, ls=":", label="failed scene (no error)" if i == 0 and
                        ax is ax_e else None)
     ax_a.axhline(1.0, color="k", lw=0.8)
     xlabel = "speed ratio r = Omega / omega1_min [1]"

@@ -16,6 +16,7 @@ import numpy as np
 from compare.metrics import PairMetrics, pair_name, reference_of
 from compare.scenes import SceneSpec
 from compare.solvers import STATUS_FAILED, STATUS_OK, Solution
+from ked_quasi import units
 
 STATUSES = (STATUS_OK, STATUS_FAILED)
 __all__ = ["STATUSES", "STATUS_FAILED", "STATUS_OK", "RunStats", "SceneResult"]
@@ -71,6 +72,11 @@ class SceneResult:
     @property
     def ok(self) -> bool:
         return self.status == STATUS_OK
+
+    @property
+    def speed_ratio(self) -> float:
+        """r = Omega / omega1_min [1] of the resolved crank speed (NaN if either is unknown)."""
+        return units.speed_ratio(units.rpm_to_rad_s(self.rpm), self.omega1_min)
 
     # -- views -------------------------------------------------------------------------------
     def history(self, solver: str) -> dict[str, np.ndarray]:

@@ -305,6 +305,7 @@ def build_slider(o: SceneOptions, sc: Any, refuse_fast: bool = True) -> Any:
 def refuse_fast_slider(scene: Any, rpms: list[float], hint: str, frequencies: Any = None) -> None:
     """BadParameter for ``hint`` when a crank speed's r = Omega/omega1_min of a slider-crank scene is above the
     rules' bound."""
+    from ked_quasi import units
     from ked_quasi.slider_static import slider_natural_frequencies
     from ked_quasi.units import rpm_to_rad_s
 
@@ -312,7 +313,7 @@ def refuse_fast_slider(scene: Any, rpms: list[float], hint: str, frequencies: An
     f1_min = float(min((f for f in f1 if f == f), default=math.nan))
     for rpm in rpms:
         try:
-            rules.check_speed_ratio(rpm_to_rad_s(rpm) / (2.0 * math.pi * f1_min), rpm, f1_min, "value")
+            rules.check_speed_ratio(units.speed_ratio(rpm_to_rad_s(rpm), 2.0 * math.pi * f1_min), rpm, f1_min, "value")
         except ValueError as exc:
             raise click.BadParameter(str(exc).removeprefix("value = "), param_hint=hint) from None
 

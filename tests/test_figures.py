@@ -17,7 +17,7 @@ import pytest
 
 from compare import store
 from compare.config import parse_config
-from compare.inspect import rpm_text, speed_ratio
+from compare.inspect import rpm_text
 from compare.plots import INVALID_COLOR, amplification_figure, scene_figure
 from compare.runner import run_campaign
 
@@ -98,7 +98,7 @@ def test_amplification_figure_legend_rpm_and_invalid_points(scenes):
     assert invalid and "large_deflection" in invalid[0].replace("\n", " ")
     # two families of different omega1_min: the rpm of r = 0.1 in each entry, from the stored rpm and r
     tip = scenes[("tip", 300.0)]
-    expected = 0.1 * tip.rpm / speed_ratio(tip)
+    expected = 0.1 * tip.rpm / tip.speed_ratio
     assert any(t.startswith("source, tip") and f"r = 0.1 at {rpm_text(expected)} rpm" in t for t in texts)
     for ax in fig.axes[:2]:
         assert ax.get_xlabel().startswith("speed ratio r")
@@ -111,4 +111,4 @@ def test_amplification_figure_has_an_rpm_axis_for_one_family(scenes):
     assert len(tops) == 2 and all(t.get_xlabel() == "crank speed [rpm]" for t in tops)
     r = tip[0]
     to_rpm = tops[0]._functions[0]  # r -> rpm of the secondary axis
-    assert to_rpm(speed_ratio(r)) == pytest.approx(r.rpm, rel=1e-6)  # rpm = r omega1_min 60 / (2 pi)
+    assert to_rpm(r.speed_ratio) == pytest.approx(r.rpm, rel=1e-6)  # rpm = r omega1_min 60 / (2 pi)

@@ -25,7 +25,6 @@ import numpy as np
 
 from compare import store
 from compare.config import load_config
-from compare.inspect import speed_ratio
 from compare.paths import RESULTS, StudyPaths, remove_outputs
 from compare.results import SceneResult
 from compare.sections import write_section
@@ -160,7 +159,7 @@ def case_rows(results: Sequence[SceneResult], cases: dict[str, tuple[str, str]],
         amp = dyn_peak / qs.peak_unflagged_m if (qs is not None and qs.peak_unflagged_m > 0) else math.nan
         base = defaults.get(family_key(r.spec))
         dev = deviation(d, _dyn(base)) if (d is not None and base is not None and base.key != r.key) else None
-        ratio = speed_ratio(r)
+        ratio = r.speed_ratio
         finite = d is not None and bool(np.all(np.isfinite(d)))
         verdict = check(r.ok, finite, bool(r.stat("dynamic", "converged", False)), ratio, amp, dev,
                         near_toggle=bool(qs is not None and qs.flagged_deg))

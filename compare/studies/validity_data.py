@@ -15,7 +15,6 @@ from pathlib import Path
 import numpy as np
 
 from compare import metrics, store
-from compare.inspect import speed_ratio
 from compare.results import SceneResult
 from compare.scenes import SceneSpec, canonical_json
 from ked_quasi.solver import solve_quasi_static
@@ -89,7 +88,7 @@ def linkage_label(campaign_name: str) -> str:
 
 def _speed_ratio(r: SceneResult) -> float:
     if r.verdict is not None or r.spec.speed.kind != "ratio":
-        return float(speed_ratio(r))
+        return float(r.speed_ratio)
     return float(r.spec.speed.value)
 
 
