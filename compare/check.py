@@ -350,7 +350,10 @@ def check(source: FourBar | SliderCrank, mechanism: str, mass_model: MassModel, 
 
         for i, spec in enumerate(specs):
             if workers is not None and workers.worth(workers.speeds, len(specs) - i):
-                rows += workers.rows(specs[i:], rng, margins, confirm, on_each=done_on_a_worker, material=material)
+                rest = specs[i:]
+                rows += workers.map(row_task, [(s, rng, margins, confirm, None, material) for s in rest],
+                                    [f"the check at {rpm_text(s.speed.value)} rpm" for s in rest], done_on_a_worker,
+                                    cost=[s.speed.value for s in rest])  # faster: more harmonics, richer bases
                 break
 
             def one(spec: SceneSpec = spec) -> CheckRow:
@@ -427,6 +430,13 @@ def check_spec(spec: SceneSpec, rng: LinearRange, margins: VerdictMargins, confi
     keys = _stress(spec, r, material)
     return replace(row, stress=keys, stress_verdict=stress_verdict(keys, spec.tolerance),
                    fatigue_criterion=material.criterion)
+
+
+def row_task(*args: Any) -> Any:
+    """One speed of a check on a worker (:func:`check_spec`), a refusal kept as data."""
+    from compare.checkwork import kept
+
+    return kept(lambda: check_spec(*args))
 
 
 def _stress(spec: SceneSpec, r: SceneResult, material: Any) -> dict[str, float]:

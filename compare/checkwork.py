@@ -23,8 +23,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from compare.inspect import rpm_text
-
 if TYPE_CHECKING:
     from compare.executor import LocalPool
 
@@ -163,27 +161,7 @@ class CheckWorkers:
         return out
 
 
-    def rows(self, specs: Sequence[Any], rng: Any, margins: Any, confirm: bool,
-             on_each: Callable[[int, Any], None] | None = None, material: Any = None) -> list[Any]:
-        """The check rows of the scenes ``specs`` (:func:`compare.check.check_spec`) on the workers."""
-        return self.map(row_task, [(s, rng, margins, confirm, None, material) for s in specs],
-                        [f"the check at {rpm_text(s.speed.value)} rpm" for s in specs], on_each,
-                        cost=[s.speed.value for s in specs])  # faster: more harmonics, richer bases
-
-    def floquet(self, spec: Any, speeds: Sequence[float], on_each: Callable[[int, Any], None] | None = None,
-                ) -> list[float]:
-        """The sweep's max |Floquet multiplier| of the scene ``spec`` at each of ``speeds`` on the workers."""
-        return self.map(floquet_task, [(spec, r) for r in speeds],
-                        [f"the critical-speed sweep at {rpm_text(r)} rpm" for r in speeds], on_each, cost=speeds)
-
-    def refine(self, spec: Any, brackets: Sequence[tuple[float, ...]], rtol: float,
-               on_each: Callable[[int, Any], None] | None = None) -> list[tuple[float, float, int]]:
-        """Each bracketed maximum of the sweep refined on the workers: (rpm, max |mu|, evaluations made)."""
-        return self.map(refine_task, [(spec, b, rtol) for b in brackets],
-                        [f"the critical speed near {rpm_text(b[1])} rpm" for b in brackets], on_each)
-
-
-def _kept(compute: Callable[[], Any]) -> Any:
+def kept(compute: Callable[[], Any]) -> Any:
     """compute() on a worker as in the sequential check (one BLAS thread), its ``ValueError`` or
     ``MemoryError`` kept as data (:class:`_Failed`) for :meth:`CheckWorkers.map` to raise."""
     from ked_linear.solver import single_threaded_blas
@@ -193,25 +171,3 @@ def _kept(compute: Callable[[], Any]) -> Any:
             return compute()
     except (ValueError, MemoryError) as exc:
         return _Failed(str(exc), type(exc).__name__)
-
-
-def row_task(*args: Any) -> Any:
-    """One speed of a check on a worker (:func:`compare.check.check_spec`)."""
-    from compare.check import check_spec
-
-    return _kept(lambda: check_spec(*args))
-
-
-def floquet_task(spec: object, rpm: float) -> Any:
-    """The critical-speed sweep's max |Floquet multiplier| at ``rpm`` (:func:`compare.critical.floquet_max_abs`)."""
-    from compare.critical import floquet_max_abs
-
-    return _kept(lambda: floquet_max_abs(spec)(rpm))
-
-
-def refine_task(spec: object, bracket: tuple[float, ...], rtol: float) -> Any:
-    """One local maximum of the sweep refined on a worker (:func:`compare.critical.refine_maximum`):
-    (rpm, max |mu|, evaluations made)."""
-    from compare.critical import floquet_max_abs, refine_maximum
-
-    return _kept(lambda: refine_maximum(floquet_max_abs(spec), bracket, rtol))

@@ -474,15 +474,16 @@ def check_critical(rows: Sequence[object], source: object, mechanism: str, mass_
         rest = speeds[len(done):]
         if not workers.worth(workers.evaluations, len(rest)):
             return done + [f(r) for r in rest]
-        return done + workers.floquet(spec, rest,
-                                      on_each=lambda i, v: tick(f"critical speeds, {rpm_text(rest[i])} rpm"))
+        return done + workers.map(floquet_task, [(spec, r) for r in rest],
+                                  [f"the critical-speed sweep at {rpm_text(r)} rpm" for r in rest],
+                                  lambda i, v: tick(f"critical speeds, {rpm_text(rest[i])} rpm"), cost=rest)
 
     def refine(brackets: list[Bracket], rtol: float) -> list[tuple[float, float]] | None:
         if workers is None or not workers.worth(workers.evaluations, len(brackets), REFINE_EVALUATIONS):
             return None
-        done = workers.refine(spec, brackets, rtol,
-                              on_each=lambda i, res: tick(f"critical speed near {rpm_text(brackets[i][1])} rpm",
-                                                          res[2]))
+        done = workers.map(refine_task, [(spec, b, rtol) for b in brackets],
+                           [f"the critical speed near {rpm_text(b[1])} rpm" for b in brackets],
+                           lambda i, res: tick(f"critical speed near {rpm_text(brackets[i][1])} rpm", res[2]))
         return [(r, m) for r, m, _ in done]
 
     # one BLAS thread, as in solve_linear: the evaluations are small batched calls where threads only cost
@@ -526,3 +527,19 @@ def sweep_evaluations(rows: Sequence[object], fine: int = 4) -> int:
 
 REFINE_EVALUATIONS = 6
 """Typical Floquet evaluations of the refinement of one maximum (:func:`_refine`: 4 to 8 measured)."""
+
+
+def floquet_task(spec: object, rpm: float) -> Any:
+    """The sweep's max |Floquet multiplier| at ``rpm`` on a worker (:func:`floquet_max_abs`), a refusal kept as
+    data."""
+    from compare.checkwork import kept
+
+    return kept(lambda: floquet_max_abs(spec)(rpm))
+
+
+def refine_task(spec: object, bracket: tuple[float, ...], rtol: float) -> Any:
+    """One local maximum of the sweep refined on a worker (:func:`refine_maximum`): (rpm, max |mu|, evaluations
+    made)."""
+    from compare.checkwork import kept
+
+    return kept(lambda: refine_maximum(floquet_max_abs(spec), bracket, rtol))

@@ -12,7 +12,7 @@ from dataclasses import asdict
 import pytest
 
 from compare.check import check
-from compare.checkwork import CheckWorkerError, CheckWorkers, Work, _kept
+from compare.checkwork import CheckWorkerError, CheckWorkers, Work, kept
 from compare.critical import check_critical
 from ked_quasi.massmodel import MassModel, default_payload
 
@@ -60,7 +60,7 @@ def _refuse(x: int) -> float:
 
 def _half_or_fail(x: int):
     if x == 3:
-        return _kept(lambda: _refuse(x))  # as a task function keeps a solver's refusal
+        return kept(lambda: _refuse(x))  # as a task function keeps a solver's refusal
     if x == 4:
         os._exit(1)  # as a segfault inside a solver
     return x / 2
