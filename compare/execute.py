@@ -62,11 +62,6 @@ def frame(spec: SceneSpec) -> Frame:
     return Frame(spec.scene(rpm), rpm, omega1_min, freqs, time.perf_counter() - t0)
 
 
-def linkage_of(scene: object) -> object:
-    """The analysed linkage of a scene: a four-bar scene's ``fourbar``, a slider-crank scene's ``linkage``."""
-    return getattr(scene, "fourbar", None) or scene.linkage  # type: ignore[attr-defined]
-
-
 def coupler_path(scene: object) -> np.ndarray:
     """(n, 2) rigid-kinematics position [m] of the coupler point P over the scene's crank-angle grid."""
     theta = scene.crank_angles  # type: ignore[attr-defined]
@@ -128,7 +123,7 @@ def run_scene(spec: SceneSpec, solvers: Sequence[Solver] | None = None,
         return SceneResult(spec=spec, status=STATUS_FAILED, stage="setup", error_type=type(exc).__name__,
                            message=message_of(exc), failure_class="input", stats=stats())
     theta = fr.scene.crank_angles
-    linkage = linkage_of(fr.scene)
+    linkage = fr.scene.linkage
 
     solutions = {s.name: reuse[s.name] if s.name in reuse else solve_one(s, spec, fr.scene) for s in solvers}
     base = dict(spec=spec, rpm=fr.rpm, omega1_min=fr.omega1_min, crank_angle=theta,

@@ -25,12 +25,11 @@ from typing import Any
 from ked_quasi.cognates import MECHANISMS  # noqa: F401  (re-exported where it was defined)
 from ked_quasi.linkage import FourBar
 from ked_quasi.massmodel import MassModel
+from ked_quasi.scene import KIND as FOUR_BAR
 from ked_quasi.scene import Scene, variant
 from ked_quasi.slidercrank import KIND as SLIDER_KIND
 from ked_quasi.slidercrank import SliderCrank, SliderScene
 
-FOUR_BAR = "four-bar"
-"""The kind of a four-bar scene (the slider-crank's is ked_quasi.slidercrank.KIND)."""
 DEFAULT_SOLVERS = ("quasi_static", "dynamic")
 """The solvers of a campaign that does not name its own."""
 

@@ -120,7 +120,7 @@ def march(scene, settings: DynamicSettings, model: BuiltModel, start_note: str, 
     tol = newton_tolerances(settings, scene) if tolerances is None else tolerances
     tracker = SteadyTracker(settings)
     check = _CycleCheck(model, CycleSampler(model, scene, n) if sampler is None else sampler, tracker, h)
-    check.linkage = getattr(scene, "fourbar", None) or scene.linkage
+    check.linkage = scene.linkage
     steps = newton = 0
     t_start, confirmation = 0.0, ""
     while True:

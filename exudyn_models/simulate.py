@@ -184,7 +184,7 @@ def _result(scene, settings: DynamicSettings, solved: DynamicSettings, record: R
     if record.start_note not in ("ramp", "quasi-static"):
         message += f" (start: {record.start_note})"
     d = np.asarray(record.deflection)
-    linkage = getattr(scene, "fourbar", None) or scene.linkage  # a four-bar, or a slider-crank
+    linkage = scene.linkage
     flags = limits.flags(d[:, :3], linkage)
     return DynamicResult(crank_angle=np.asarray(scene.crank_angles, dtype=float), deflection=d[:, :3],
                          wall_s=time.perf_counter() - t_wall, steps=record.steps,

@@ -66,7 +66,7 @@ def linear(damping_ratio: float, damping_reference_hz: float | None, prestress: 
 
         opts = replace(opts, mass_model=scene.mass_model.name)  # the mass model solved (distributed by default)
     refuse_oversized(scene)
-    linkage = getattr(scene, "fourbar", None) or scene.linkage
+    linkage = scene.linkage
     if is_file(opts.linkage):  # the file's damping and [linear] settings, where the options do not set them
         damping_ratio, damping_reference_hz, max_harmonics = _file_settings(
             opts, damping_ratio, damping_reference_hz, max_harmonics)

@@ -42,6 +42,10 @@ class CrankGrid:
         return units.rpm_to_rad_s(self.rpm)
 
 
+KIND = "four-bar"
+"""The linkage kind of a :class:`Scene` (the slider-crank's: :data:`ked_quasi.slidercrank.KIND`)."""
+
+
 @dataclass(frozen=True)
 class Scene(CrankGrid):
     """What every solver is asked to analyse.
@@ -67,6 +71,16 @@ class Scene(CrankGrid):
         object.__setattr__(self, "step_deg", rules.check_step_deg(self.step_deg, "Scene.step_deg"))
         n_nodes = len(lumps(self.fourbar, self.mass_model).link) + 5  # lumps + joints M, A, B, Q, P
         rules.check_work(self.n_angles, 2 * n_nodes, "Scene.step_deg and MassModel.lumps")
+
+    @property
+    def kind(self) -> str:
+        """The linkage kind, :data:`KIND` (every scene type has one)."""
+        return KIND
+
+    @property
+    def linkage(self) -> FourBar:
+        """The scene's linkage (every scene type has one): its four-bar."""
+        return self.fourbar
 
     def to_dict(self) -> dict[str, Any]:
         """Plain dict (JSON, HDF5 attributes); :meth:`from_dict` inverts it."""

@@ -299,6 +299,11 @@ class SliderScene(CrankGrid):
         n_nodes = len(slider_lumps(self.linkage, self.mass_model).link) + 4  # lumps + A, B, P, midspan
         rules.check_work(self.n_angles, 2 * n_nodes + 1, "SliderScene.step_deg and MassModel.lumps")
 
+    @property
+    def kind(self) -> str:
+        """The linkage kind, :data:`KIND` (every scene type has one)."""
+        return KIND
+
     def to_dict(self) -> dict[str, Any]:
         """Plain dict (JSON); :meth:`from_dict` inverts it."""
         return {"slider_crank": self.linkage.to_dict(), "mass_model": self.mass_model.to_dict(), "rpm": self.rpm,

@@ -27,7 +27,7 @@ from compare.atlas import store as atlas_store
 from compare.atlas.compute import RATIOS, flag_bits, spec_of, xy
 from compare.atlas.generate import Linkage
 from compare.atlas.lumps import ATTR, lumping
-from compare.execute import frame, linkage_of, solve_one
+from compare.execute import frame, solve_one
 from compare.tables import columns
 from ked_quasi.massmodel import MASS_MODELS
 
@@ -116,7 +116,7 @@ def confirm_scene(linkage: Linkage, point: ConfirmPoint) -> ConfirmRecord:
     except Exception as exc:  # cannot be set up
         return failed_confirm(point, f"setup: {exc}")
     sol = {name: solve_one(registry.get(name), spec, fr.scene) for name in ("quasi_static", "linear", "dynamic")}
-    return _record(base, sol, linkage_of(fr.scene))
+    return _record(base, sol, fr.scene.linkage)
 
 
 def _record(base: dict[str, Any], sol: dict[str, registry.Solution], fb: Any) -> ConfirmRecord:

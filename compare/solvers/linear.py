@@ -77,7 +77,7 @@ def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Sol
         return Solution(SOLVER.name, STATUS_FAILED, stats=stats, message=res.message,
                         error_type="Marginal" if res.status == "marginal" else "Unstable", failure_class="physical")
     d = np.asarray(res.deflection, dtype=float)
-    linkage = getattr(scene, "fourbar", None) or scene.linkage  # a four-bar, or a slider-crank
+    linkage = scene.linkage
     flags = result_flags(res, linkage)
     note = describe_flags(flags, res, linkage)
     stress, stress_note = _stress(scene, settings) if STRESS in outputs else ({}, "")

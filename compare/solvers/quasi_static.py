@@ -29,11 +29,12 @@ def run(scene: Any, settings: QuasiStaticSettings, outputs: tuple[str, ...] = CO
     structure's link stresses (ked_quasi.stress)."""
     from ked_quasi import limits
     from ked_quasi.slider_static import solve_slider_quasi_static
+    from ked_quasi.slidercrank import KIND as SLIDER_KIND
     from ked_quasi.solver import solve_quasi_static
     from ked_quasi.stress import quasi_static_stress
 
-    slider = not hasattr(scene, "fourbar")
-    linkage = scene.linkage if slider else scene.fourbar
+    slider = scene.kind == SLIDER_KIND
+    linkage = scene.linkage
     t0 = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

@@ -163,7 +163,7 @@ def compute(case: Case) -> Row:
 def _solve(case: Case, spec: Any, material: str, t0: float) -> Row:
     from compare import metrics
     from compare import solvers as registry
-    from compare.execute import frame, linkage_of, solve_one
+    from compare.execute import frame, solve_one
     from exudyn_models.settings import DynamicSettings
     from exudyn_models.simulate import simulate_steady_state
     from ked_linear.settings import LinearSettings
@@ -189,7 +189,7 @@ def _solve(case: Case, spec: Any, material: str, t0: float) -> Row:
     worst = max(e_qs, key=e_qs.get) if e_qs else ""
     fat = MATERIALS[material]
     mat = Material(fat.ultimate, fat.endurance)
-    shortest = min(linkage_of(scene).length(k) for k in dyn.stress.links) if ok else nan
+    shortest = min(scene.linkage.length(k) for k in dyn.stress.links) if ok else nan
     ratio = metrics.peak(d_dyn) / shortest if ok else nan
     return Row(
         key=case.key, group=case.group, linkage=case.linkage, mechanism=case.mechanism, mass_model=case.mass_model,
