@@ -18,9 +18,9 @@ import numpy as np
 
 from compare.metrics import all_pairs
 from compare.results import STATUS_FAILED, STATUS_OK, RunStats, SceneResult, utc_now
-from compare.scenes import FOUR_BAR, SceneSpec
+from compare.scenes import SceneSpec
 from compare.solvers import Solution, Solver
-from ked_quasi import units
+from ked_quasi import kinds, units
 
 _MAX_MESSAGE = 2000
 
@@ -50,13 +50,9 @@ class Frame:
 
 def frame(spec: SceneSpec) -> Frame:
     """Resolve the scene: frozen natural frequencies (at a probe speed), omega1_min, rpm."""
-    from ked_quasi.slider_static import slider_natural_frequencies
-    from ked_quasi.solver import natural_frequencies
-
     t0 = time.perf_counter()
     probe = spec.scene(spec.speed.value if spec.speed.kind == "rpm" else 1.0)
-    of = natural_frequencies if spec.kind == FOUR_BAR else slider_natural_frequencies  # its frozen structure
-    freqs = np.asarray(of(probe, n_modes=spec.n_modes), dtype=float)
+    freqs = np.asarray(kinds.model(probe).natural_frequencies(probe, n_modes=spec.n_modes), dtype=float)
     omega1_min = units.omega1_min(freqs[:, 0])
     rpm = resolve_rpm(spec, omega1_min)
     return Frame(spec.scene(rpm), rpm, omega1_min, freqs, time.perf_counter() - t0)
@@ -64,14 +60,7 @@ def frame(spec: SceneSpec) -> Frame:
 
 def coupler_path(scene: object) -> np.ndarray:
     """(n, 2) rigid-kinematics position [m] of the coupler point P over the scene's crank-angle grid."""
-    theta = scene.crank_angles  # type: ignore[attr-defined]
-    if hasattr(scene, "fourbar"):
-        from ked_quasi.kinematics import coupler_point
-
-        return np.asarray(coupler_point(scene.fourbar, theta), dtype=float)
-    from ked_quasi.slidercrank import slider_kinematics
-
-    return np.asarray(slider_kinematics(scene.linkage, theta, scene.rpm).P, dtype=float)  # type: ignore[attr-defined]
+    return kinds.model(scene).coupler_path(scene)
 
 
 def settings_of(solver: Solver, spec: SceneSpec) -> object:

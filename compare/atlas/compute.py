@@ -31,10 +31,9 @@ from compare.atlas.generate import Linkage
 from compare.execute import frame, resolve_rpm, solve_one
 from compare.limits import TOLERANCES, Limit, one_mode_curves, one_mode_limit, validity_limit
 from compare.scenes import SceneSpec, SpeedSpec
-from ked_quasi import rules
+from ked_quasi import kinds, rules
 from ked_quasi.harmonics import significant_harmonic
 from ked_quasi.massmodel import MassModel
-from ked_quasi.solver import solve_quasi_static
 
 RATIOS = (0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.09, 0.10, 0.115, 0.13, 0.15, 0.175, 0.2, 0.25, 0.3, 0.4, 0.5)
 """The speed-ratio sweep r = Omega / omega1_min (dense where the limits are)."""
@@ -101,12 +100,9 @@ def flag_bits(flags: tuple[str, ...]) -> int:
 
 
 def _loads_and_shape(scene: object) -> tuple[np.ndarray, np.ndarray, float]:
-    from ked_quasi.slider_static import solve_slider_quasi_static
-    from ked_quasi.slidercrank import SliderScene
-
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = (solve_slider_quasi_static if isinstance(scene, SliderScene) else solve_quasi_static)(scene)
+        res = kinds.model(scene).quasi_static(scene)
     mu = np.asarray(res.transmission_angle)
     return res.loads, res.deflection[:, :2], float(np.degrees(np.min(np.minimum(mu, np.pi - mu))))
 

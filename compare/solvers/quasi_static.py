@@ -28,17 +28,14 @@ def run(scene: Any, settings: QuasiStaticSettings, outputs: tuple[str, ...] = CO
     solved by its own frozen structure (ked_quasi.slider_static).  With the output ``stress``, the frozen
     structure's link stresses (ked_quasi.stress)."""
     from ked_quasi import limits
-    from ked_quasi.slider_static import solve_slider_quasi_static
-    from ked_quasi.slidercrank import KIND as SLIDER_KIND
-    from ked_quasi.solver import solve_quasi_static
+    from ked_quasi.kinds import model
     from ked_quasi.stress import quasi_static_stress
 
-    slider = scene.kind == SLIDER_KIND
     linkage = scene.linkage
     t0 = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        res = (solve_slider_quasi_static if slider else solve_quasi_static)(scene)
+        res = model(scene).quasi_static(scene)
     stress = stress_of(quasi_static_stress(scene)) if STRESS in outputs else {}
     wall = time.perf_counter() - t0
     d = res.deflection

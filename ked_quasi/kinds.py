@@ -1,0 +1,64 @@
+"""The linkage kinds of the scene model, one seam: each kind (four-bar, slider-crank) is one :class:`KindModel`, the
+functions of its frozen structure, and a caller asks the scene's kind (``scene.kind``) for them instead of branching
+on the scene's type.  A new kind is one more entry here and its own modules.
+
+Each function takes the scene first: ``quasi_static(scene, crank_angle=None)`` (a result with ``deflection`` (n, 3)
+[m, m, rad], ``loads`` and ``transmission_angle`` [rad]), ``natural_frequencies(scene, n_modes=3, crank_angle=None)``
+((n, n_modes) [Hz] of the frozen structure), ``coupler_path(scene)`` ((n, 2) [m]: the rigid coupler point P over the
+scene's grid).
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class KindModel:
+    """The frozen-structure functions of one linkage kind (see the module docstring)."""
+
+    name: str
+    quasi_static: Callable[..., Any]
+    natural_frequencies: Callable[..., np.ndarray]
+    coupler_path: Callable[[Any], np.ndarray]
+
+
+def _four_bar_path(scene: Any) -> np.ndarray:
+    from .kinematics import coupler_point
+
+    return np.asarray(coupler_point(scene.linkage, scene.crank_angles), dtype=float)
+
+
+def _slider_path(scene: Any) -> np.ndarray:
+    from .slidercrank import slider_kinematics
+
+    return np.asarray(slider_kinematics(scene.linkage, scene.crank_angles, scene.rpm).P, dtype=float)
+
+
+@functools.cache
+def models() -> dict[str, KindModel]:
+    """Kind name -> its :class:`KindModel` (built on first use: the solvers load only then)."""
+    from . import scene as four_bar
+    from . import slidercrank
+    from .slider_static import slider_natural_frequencies, solve_slider_quasi_static
+    from .solver import natural_frequencies, solve_quasi_static
+
+    return {four_bar.KIND: KindModel(four_bar.KIND, solve_quasi_static, natural_frequencies, _four_bar_path),
+            slidercrank.KIND: KindModel(slidercrank.KIND, solve_slider_quasi_static, slider_natural_frequencies,
+                                        _slider_path)}
+
+
+def model(scene: Any) -> KindModel:
+    """The :class:`KindModel` of a scene's linkage kind; ValueError naming the kinds for an unknown one."""
+    kinds = models()
+    if scene.kind not in kinds:
+        raise ValueError(f"linkage kind {scene.kind!r} has no model; known: {', '.join(kinds)}")
+    return kinds[scene.kind]
+
+
+__all__ = ["KindModel", "model", "models"]
