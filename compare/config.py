@@ -35,7 +35,7 @@ from ked_quasi.massmodel import MASS_MODELS, PLACEMENTS, MassModel, default_payl
 from ked_quasi.scene import Scene, variant
 from ked_quasi.slidercrank import SliderCrank
 
-DEFAULT_TOLERANCE = 0.10
+DEFAULT_TOLERANCE = rules.DEFAULT_TOLERANCE
 CONFIG_SOLVERS = ("quasi_static", "linear", "dynamic")
 """The solvers of a config without ``[campaign] solvers``: the three tiers (quasi-static, linear KED,
 Exudyn), as the default campaign runs them."""

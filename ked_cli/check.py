@@ -68,10 +68,11 @@ def _rpm_range(text: str | None) -> list[float]:
               help=f"Multiply every Young's modulus: {rules.STIFFNESS_SCALE.allowed()}.")
 @click.option("--direction", type=click.Choice(DIRECTIONS), default="ccw", show_default=True,
               help="Crank direction (the linear and Exudyn answers depend on it).")
-@click.option("--damping-ratio", type=RuleType(rules.DAMPING_RATIO), default=0.02, show_default=True,
+@click.option("--damping-ratio", type=RuleType(rules.DAMPING_RATIO), default=rules.DEFAULT_DAMPING_RATIO,
+              show_default=True,
               help=f"Modal damping ratio of the linear and Exudyn models: {rules.DAMPING_RATIO.allowed()} "
                    "(the atlas limits were measured at 0.02).")
-@click.option("--tolerance", type=RuleType(rules.TOLERANCE), default=0.10, show_default=True,
+@click.option("--tolerance", type=RuleType(rules.TOLERANCE), default=rules.DEFAULT_TOLERANCE, show_default=True,
               help="Relative history error accepted.")
 @click.option("--confirm", is_flag=True, help="Also run the Exudyn model and report the three errors it measures.")
 @click.option("--ultimate-strength", type=float, default=None, metavar="PA",

@@ -7,6 +7,7 @@ from typing import Any
 import click
 
 from ked_cli.options import (
+    RuleType,
     SceneOptions,
     build_scene,
     build_slider,
@@ -24,7 +25,8 @@ from ked_quasi import rules
 
 @click.command("linear")
 @scene_options
-@click.option("--damping-ratio", type=click.FloatRange(0.0, 0.99), default=0.02, show_default=True,
+@click.option("--damping-ratio", type=RuleType(rules.DAMPING_RATIO), default=rules.DEFAULT_DAMPING_RATIO,
+              show_default=True,
               help="Modal damping ratio at the reference frequency (stiffness-proportional, as ked simulate).")
 @click.option("--damping-reference-hz", type=click.FloatRange(0.0, 1e9, min_open=True), default=None,
               help="Reference frequency [Hz] of the damping ratio [default: mean f1 of the frozen linkage].")

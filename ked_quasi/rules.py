@@ -214,6 +214,8 @@ DAMPING_RATIO = Rule("damping_ratio", "", 0.0, 0.99, "a modal damping ratio belo
 DAMPING_REFERENCE_HZ = Rule("damping_reference_hz", "Hz", 0.0, 1e6, "the frequency at which the damping ratio "
                             "holds: a natural frequency of the linkage", lo_open=True)
 N_MODES = Rule("n_modes", "", 1, 20, "natural frequencies stored per crank angle", integer=True)
+DEFAULT_TOLERANCE = 0.10
+"""The verdict tolerance of every campaign and check when none is given (10 % of the reference's peak)."""
 TOLERANCE = Rule("tolerance", "", 0.0, 10.0, "the relative error of a verdict", lo_open=True)
 
 MAX_SCENES = 100_000

@@ -30,15 +30,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ked_quasi import rules
+
 SECTION = "stress"
 FILE = "stress.h5"
 RATIOS = (0.04, 0.06, 0.08, 0.10, 0.13, 0.16, 0.20, 0.25)
 """Speed ratios of every family."""
-TOLERANCE = 0.10
+TOLERANCE = rules.DEFAULT_TOLERANCE
 ELEMENTS = 8
 """Beam elements per link of the Exudyn reference (the default campaign's 4 leave the section moment of a
 link with its own mass 2-3 % of the peak from the converged one; 8: 0.3-1 %, docs/stress.md)."""
-DAMPING = 0.02
+DAMPING = rules.DEFAULT_DAMPING_RATIO
 ATLAS_LINKAGES = 2
 MASS_MODELS_FOUR_BAR = ("tip", "joints", "extender", "distributed")
 
