@@ -47,7 +47,7 @@ from compare.inspect import rpm_text
 from compare.progress import DELAY_S, NoBar, due, progress_bar
 from compare.results import SceneResult
 from compare.scenes import SceneSpec, SpeedSpec
-from compare.solvers import Solution
+from compare.solvers import STRESS, Solution
 from compare.solvers import get as get_solver
 from compare.verdict_rule import UNCALIBRATED, VerdictMargins, from_record
 from ked_linear.settings import HARMONICS
@@ -414,9 +414,10 @@ def check_spec(spec: SceneSpec, rng: LinearRange, margins: VerdictMargins, confi
         status(bar, f"{rpm_text(rpm)} rpm, {MAX_HARMONICS} harmonics")
         spec = with_more_harmonics(spec)
         r = _run(spec)
-    if confirm:
+    if confirm:  # with a material, Exudyn's link stresses too (the scene with the output stress)
         status(bar, f"{rpm_text(rpm)} rpm, Exudyn")
-        r = _run(replace(spec, solvers=(*spec.solvers, "dynamic")))
+        outputs = (*spec.outputs, STRESS) if material is not None else spec.outputs
+        r = _run(replace(spec, solvers=(*spec.solvers, "dynamic"), outputs=outputs))
     row = check_row(r, rng, spec.tolerance, margins)
     if spec.extra_settings:
         how = (f"with {row.linear_harmonics} crank harmonics" if row.linear_harmonics > 0
@@ -425,9 +426,9 @@ def check_spec(spec: SceneSpec, rng: LinearRange, margins: VerdictMargins, confi
                                    "harmonics did not converge]")
     if material is None:
         return row
-    from compare.stresscheck import stress_verdict
+    from compare.stresscheck import measured_stress_keys, stress_verdict
 
-    keys = _stress(spec, r, material)
+    keys = {**_stress(spec, r, material), **measured_stress_keys(r)}
     return replace(row, stress=keys, stress_verdict=stress_verdict(keys, spec.tolerance),
                    fatigue_criterion=material.criterion)
 

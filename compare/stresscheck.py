@@ -17,6 +17,11 @@ Keys (all floats; NaN where a tier has no answer):
   longer), ``life_above_curve``: 1.0 where a tier's most damaged point lies above the curve's first amplitude
   (its life is then at most that point's cycles).
 
+With ``ked check --confirm`` (Exudyn's link stresses measured on the same scene, an answer inside the
+small-deflection range): ``exudyn_peak_pa_<link>`` [Pa], ``stress_error_exudyn_<link>`` and
+``linear_stress_error_exudyn_<link>`` [1]: the quasi-static and the linear stress history's error against
+Exudyn's (the campaign's ``stress_<link>`` metric); the stress verdict is then the measurement's.
+
 A linkage whose linear steady state of the masses is not resolved to :data:`ked_linear.motion.MAX_ERROR` (its
 accelerations would not be trusted).
 """
@@ -25,6 +30,8 @@ from __future__ import annotations
 
 import math
 from typing import Any
+
+import numpy as np
 
 from ked_quasi.fatigue import Material, history_fatigue
 from ked_quasi.stress import StressHistory, history_error, quasi_static_stress
@@ -82,12 +89,37 @@ def _fatigue_keys(qs: StressHistory, lin: StressHistory | None, material: Materi
     return out
 
 
+def measured_stress_keys(r: Any) -> dict[str, float]:
+    """The keys measured against Exudyn (see the module docstring) of a computed scene ``r`` (a
+    :class:`compare.results.SceneResult`); empty without Exudyn's stresses or with its answer flagged."""
+    dyn = r.solutions.get("dynamic")
+    if dyn is None or not dyn.ok or dyn.flags or not dyn.stress:
+        return {}
+    out = {f"exudyn_peak_pa_{lk}": float(np.nanmax(np.abs(v))) for lk, v in dyn.stress.items()}
+    for solver, prefix in (("quasi_static", "stress_error_exudyn_"), ("linear", "linear_stress_error_exudyn_")):
+        m = r.metrics.get(f"{solver}_vs_dynamic")
+        for c in (m.stress_components if m is not None else ()):
+            out[prefix + c.component.removeprefix("stress_")] = float(c.history_error)
+    return out
+
+
 def stress_verdict(keys: dict[str, float], tolerance: float) -> str:
     """The stress verdict of one speed: whether the quasi-static stress of every link is within ``tolerance``
-    of the linear model's (``stress_error_<link>``).  It grants no tier: the stress prediction is not calibrated
+    of Exudyn's where it was measured (``stress_error_exudyn_<link>``, ``ked check --confirm``), else of the
+    linear model's (``stress_error_<link>``).  The latter grants no tier: the stress prediction is not calibrated
     against Exudyn per stratum (``ked study stress`` measures it on a sample: the linear model's stress misses
     the axial force's bending (P-delta) that Exudyn's beams carry), so the verdict says so."""
-    errors = {k.removeprefix("stress_error_"): v for k, v in keys.items() if k.startswith("stress_error_")}
+    measured = {k.removeprefix("stress_error_exudyn_"): v for k, v in keys.items()
+                if k.startswith("stress_error_exudyn_")}
+    if measured and all(math.isfinite(v) for v in measured.values()):
+        worst = max(measured, key=measured.get)
+        e = measured[worst]
+        return (f"Stress (measured against Exudyn): the quasi-static stress is within {e:.1%} of Exudyn's on every "
+                f"link (worst: {worst}), inside the tolerance {tolerance:.0%}" if e < tolerance else
+                f"Stress (measured against Exudyn): the quasi-static stress is off by {e:.1%} on the {worst} "
+                f"(tolerance {tolerance:.0%}): use a dynamic model's stresses")
+    errors = {k.removeprefix("stress_error_"): v for k, v in keys.items()
+              if k.startswith("stress_error_") and not k.startswith("stress_error_exudyn_")}
     if not errors or not all(math.isfinite(v) for v in errors.values()):
         return "Stress: no linear answer to compare the quasi-static stress with (not calibrated against Exudyn)"
     worst = max(errors, key=errors.get)

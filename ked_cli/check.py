@@ -137,7 +137,9 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     life_above_curve (1: a stress above the curve's first point); a slider-crank: crank and
     coupler), and
     stress_verdict (text: whether the quasi-static stress of every link is within the tolerance of
-    the linear one; it grants no tier, the stress prediction being uncalibrated against Exudyn).
+    the linear one; it grants no tier, the stress prediction being uncalibrated against Exudyn; with
+    --confirm, measured against Exudyn's stresses: keys exudyn_peak_pa_<link>,
+    stress_error_exudyn_<link>, linear_stress_error_exudyn_<link>).
     """
     from compare.check import check as run_check
     from compare.check import progress, redraw
