@@ -54,15 +54,9 @@ def static_correction(scene: Any, coarse: Any) -> np.ndarray:
 
 def first_frequencies(scene: Any) -> np.ndarray:
     """First unstressed frozen natural frequency [Hz] on the scene's grid (n,), on the scene's own lumps."""
-    from ked_quasi.slidercrank import SliderScene
+    from ked_quasi.kinds import model
 
-    if isinstance(scene, SliderScene):
-        from ked_quasi.slider_static import slider_natural_frequencies
-
-        return np.asarray(slider_natural_frequencies(scene, n_modes=1))[:, 0]
-    from ked_quasi.solver import natural_frequencies
-
-    return np.asarray(natural_frequencies(scene, n_modes=1))[:, 0]
+    return np.asarray(model(scene).natural_frequencies(scene, n_modes=1))[:, 0]
 
 
 def dynamic_scene(scene: Any, settings: Any) -> tuple[Any, Any]:
