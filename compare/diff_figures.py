@@ -16,6 +16,7 @@ from matplotlib.figure import Figure
 
 from compare.diff import DiffReport, SceneDiff
 from compare.figure_dir import FigureDirError
+from compare.metrics import is_stress
 from compare.results import SceneResult
 from compare.solvers import COMPONENT_UNITS
 
@@ -24,18 +25,21 @@ __all__ = ["INDEX", "FigureDirError", "diff_figure", "write_diff_figures"]
 
 
 def diff_figure(s: SceneDiff, base: SceneResult, new: SceneResult) -> Figure:
-    """One row of axes per drifted (solver, component): baseline solid, new dashed, in mm (or mrad)."""
+    """One row of axes per drifted (solver, component): baseline solid, new dashed, in mm (or mrad; a link's
+    stress ``stress_<link>`` in MPa, its largest and smallest fibre)."""
     drifted = [(c.solver, c.quantity, c) for c in s.drifted]
     fig = Figure(figsize=(8, 2.4 * len(drifted) + 0.6))
     FigureCanvasAgg(fig)
     axes = fig.subplots(len(drifted), 1, squeeze=False)[:, 0]
     for ax, (solver, comp, c) in zip(axes, drifted):
-        unit = COMPONENT_UNITS.get(comp, "m")
-        scale, shown = (1e3, "mm") if unit == "m" else (1e3, "mrad")
+        scale, shown = (1e-6, "MPa") if is_stress(comp) else (1e3, "mm" if COMPONENT_UNITS.get(comp) == "m" else
+                                                                    "mrad")
         for r, name, style in ((base, "baseline", "-"), (new, "new", "--")):
-            h = r.history(solver).get(comp)
+            s_ = r.solutions.get(solver)
+            h = s_.histories.get(comp) if s_ is not None else None
             if h is not None and r.crank_angle is not None:
-                ax.plot(np.degrees(r.crank_angle), scale * np.asarray(h), style, label=name)
+                lines = ax.plot(np.degrees(r.crank_angle), scale * np.asarray(h), style)
+                lines[0].set_label(name)
         ax.set_ylabel(f"{solver} {comp} [{shown}]")
         ax.set_title(f"drift {100 * c.value:.3g} % of the peak (bound {100 * c.bound:.3g} %)", fontsize=9)
         ax.legend(fontsize=8)

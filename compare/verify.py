@@ -14,7 +14,17 @@ import numpy as np
 
 from compare import h5checks, h5layout
 from compare.h5file import _open_memory, _short
-from compare.reader import READABLE_VERSIONS, RUNS, SCENES, SCHEMA, file_kind, layout_contradiction, schema_version
+from compare.reader import (
+    READABLE_VERSIONS,
+    RUNS,
+    SCENES,
+    SCHEMA,
+    SCHEMA_VERSION,
+    TABLE_LAYOUT,
+    file_kind,
+    layout_contradiction,
+    schema_version,
+)
 from compare.results import SceneResult
 from compare.writer import _commit, _record_run
 
@@ -131,6 +141,8 @@ def _verify_writable(f: h5py.File, path: Path, probe: SceneResult) -> list[str]:
     try:
         buf = io.BytesIO(path.read_bytes())
         with _open_memory(buf, new=False) as copy:
+            if schema_version(copy) == TABLE_LAYOUT:  # the writer upgrades it first: by its label alone
+                copy.attrs["schema_version"] = SCHEMA_VERSION
             _commit(copy, [fresh], _record_run(copy, "", "verify", 1))
     except Exception as exc:  # whatever a writer would meet
         return [f"{path}: a write into this file fails ({type(exc).__name__}: {_short(exc)}): `ked run` and "

@@ -217,3 +217,4 @@ class RunRecord:
     steps_per_cycle: int = 0
     confirmation: str = ""
     stress: object = None  # ked_quasi.stress.StressHistory of the steady cycle, when asked for
+    stress_wall_s: float = 0.0  # wall time of that stress cycle [s]

@@ -97,6 +97,7 @@ class DynamicResult:
         range is not compared as a valid reference; validity: one line saying why (empty if no flag).
     stress: link stress histories (ked_quasi.stress.StressHistory, tier "exudyn") of one more steady cycle,
         from the beam elements' section forces (exudyn_models.stress_cycle); None unless asked for.
+    stress_wall_s: wall time of that stress cycle [s] (0 without it; part of wall_s).
     """
 
     crank_angle: np.ndarray
@@ -122,6 +123,7 @@ class DynamicResult:
     flags: tuple[str, ...] = ()
     validity: str = ""
     stress: StressHistory | None = None
+    stress_wall_s: float = 0.0
 
 
 def _run(scene, settings: DynamicSettings, damping_beta: float, stress: bool = False) -> RunRecord:
@@ -135,8 +137,10 @@ def _run(scene, settings: DynamicSettings, damping_beta: float, stress: bool = F
     record, model = _run_as_given(scene, settings, damping_beta)
     record.steps_per_cycle = settings.steps_per_cycle
     if stress:
+        t0 = time.perf_counter()
         record.stress = steady_stress(model, scene, scene.fourbar, settings.steps_per_cycle, settings,
                                       newton_tolerances(settings, scene))
+        record.stress_wall_s = time.perf_counter() - t0
     return record
 
 
@@ -194,7 +198,8 @@ def _result(scene, settings: DynamicSettings, solved: DynamicSettings, record: R
                          failure_class=failure_class, evidence=evidence, start=record.start_note,
                          periodic_residuals=record.residuals, cycle_peaks=tuple(tr.peaks),
                          midspan=d[:, 3].copy() if d.shape[1] > 3 else None, flags=flags,
-                         validity=limits.describe(flags, d[:, :3], linkage), stress=record.stress)
+                         validity=limits.describe(flags, d[:, :3], linkage), stress=record.stress,
+                         stress_wall_s=record.stress_wall_s)
 
 
 def _extend(scene, settings: DynamicSettings, solved: DynamicSettings, record: RunRecord, beta: float,

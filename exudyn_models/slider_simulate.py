@@ -16,6 +16,7 @@ deflection).
 from __future__ import annotations
 
 import math
+import time
 import warnings
 
 import numpy as np
@@ -142,5 +143,7 @@ def run_slider(scene: SliderScene, settings: DynamicSettings, damping_beta: floa
     record = march(scene, settings, model, "ramp", sampler=SliderSampler(model, scene, settings.steps_per_cycle),
                    tolerances=tol)
     if stress:
+        t0 = time.perf_counter()
         record.stress = steady_stress(model, scene, scene.linkage, settings.steps_per_cycle, settings, tol)
+        record.stress_wall_s = time.perf_counter() - t0
     return record

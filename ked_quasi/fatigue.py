@@ -64,6 +64,8 @@ class SNCurve:
     points: tuple[tuple[float, float], ...]
 
     def __post_init__(self) -> None:
+        if not all(isinstance(p, (tuple, list)) and len(p) == 2 for p in self.points):
+            raise ValueError(f"sn_curve: each point must be a pair [cycles, amplitude in Pa], got {self.points!r}")
         pts = tuple((float(CYCLES.check(n, "sn_curve cycles")), float(AMPLITUDE.check(a, "sn_curve amplitude")))
                     for n, a in self.points)
         if len(pts) < 2:
@@ -122,13 +124,17 @@ class Material:
                              f"{', '.join(CRITERIA)}")
         if self.criterion == "asme-elliptic" and self.yield_strength is None:
             raise ValueError("Material.yield_strength: the ASME-elliptic criterion needs the yield strength S_y "
-                             "[Pa]; give it, or use the goodman or gerber criterion")
+                             "[Pa] (a linkage file's [fatigue] yield_strength); give it, or use the goodman or "
+                             "gerber criterion")
         self._endurance_from_curve()
         for name, rule in STRENGTH_RULES.items():
             value = getattr(self, name)
             if value is None and name == "yield_strength":
                 continue
             object.__setattr__(self, name, float(rule.check(value, f"Material.{name}")))
+        if self.sn_curve is not None and self.sn_curve.points[0][1] > self.ultimate_strength:
+            raise ValueError(f"Material.sn_curve: its first amplitude {self.sn_curve.points[0][1]:g} Pa exceeds the "
+                             f"ultimate strength {self.ultimate_strength:g} Pa; allowed: amplitudes at most S_u")
         if self.endurance_limit > self.ultimate_strength:
             raise ValueError(f"Material.endurance_limit: {self.endurance_limit:g} Pa exceeds the ultimate strength "
                              f"{self.ultimate_strength:g} Pa; allowed: an endurance limit at most the ultimate "
@@ -229,9 +235,10 @@ class LinkFatigue:
     life_beyond: bool = False
 
 
-def link_fatigue(link: object, material: Material, criterion: str = "goodman") -> LinkFatigue:
+def link_fatigue(link: object, material: Material, criterion: str | None = None) -> LinkFatigue:
     """The smallest safety factor over the extreme-fibre points of a :class:`ked_quasi.stress.LinkStress`
-    over its (one steady) cycle."""
+    over its (one steady) cycle, by ``criterion`` (None: the material's)."""
+    criterion = material.criterion if criterion is None else criterion
     sm, sa = mean_alternating(fibre_histories(link))
     n = safety_factor(sm, sa, material, criterion)
     if not np.isfinite(sm).any():
@@ -245,9 +252,10 @@ def link_fatigue(link: object, material: Material, criterion: str = "goodman") -
     return LinkFatigue(float(n[i]), float(sm[i]), float(sa[i]), criterion, life, beyond)
 
 
-def history_fatigue(history: object, material: Material | dict, criterion: str = "goodman") -> dict[str, LinkFatigue]:
+def history_fatigue(history: object, material: Material | dict, criterion: str | None = None
+                    ) -> dict[str, LinkFatigue]:
     """Link -> :class:`LinkFatigue` of a :class:`ked_quasi.stress.StressHistory` (``material``: one for every
-    link, or a dict link -> Material)."""
+    link, or a dict link -> Material; ``criterion`` None: each material's)."""
     out = {}
     for lk, ls in history.links.items():
         mat = material[lk] if isinstance(material, dict) else material

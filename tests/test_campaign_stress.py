@@ -58,6 +58,7 @@ def test_every_tier_stores_the_stress_of_every_link_and_the_file_verifies(stress
     for r in by_rpm.values():
         for s in r.solutions.values():
             assert set(s.stress) == set(LINKS), s.solver
+            assert s.stats["stress_wall_s"] > 0, s.solver  # each solver's stress time apart from its wall_s
 
 
 def test_stored_quasi_static_stress_is_the_frozen_structures(stressed):
@@ -94,6 +95,9 @@ def test_stress_metric_is_the_stress_modules_history_error(stressed):
     for lk in LINKS:
         assert m.component("stress_" + lk).history_error == pytest.approx(want[lk], rel=1e-12)
     assert m.stress_error == pytest.approx(max(want.values()), rel=1e-12)
+    # the rms of the envelope over the two fibres, as every other field of the row
+    env = np.max(np.abs(qs["crank"] - dyn["crank"]), axis=1)
+    assert m.component("stress_crank").rms_error == pytest.approx(np.sqrt(np.mean(env ** 2)), rel=1e-12)
     assert m.stress_error > 1e-3  # 120 rpm: the dynamic part shows (r = 0.16)
     # the deflection verdict is untouched by the stress rows
     assert m.worst_component_error == max(c.history_error for c in m.components if c.component in
@@ -138,6 +142,13 @@ def test_a_tampered_stress_fails_verify_and_diff(stressed, tmp_path):
     rep = diff_files(out, bad)
     failed = [c for sd in rep.scenes for c in sd.failures]
     assert any(c.check == "history" and c.quantity == "stress_crank" and c.solver == "dynamic" for c in failed)
+    # ked diff --figures draws the drifted stress: both fibres of both files, in MPa
+    from compare.diff_figures import diff_figure
+
+    (sd,) = [s for s in rep.scenes if s.drifted]
+    (new,) = store.read_scenes(bad, [key])
+    ax = diff_figure(sd, by_rpm[120.0], new).axes[0]
+    assert "MPa" in ax.get_ylabel() and len(ax.lines) == 4
 
 
 def test_a_version_4_file_is_upgraded_by_its_label_and_one_with_stresses_is_refused(stressed, tmp_path):
@@ -155,6 +166,7 @@ def test_a_version_4_file_is_upgraded_by_its_label_and_one_with_stresses_is_refu
                  workers=1, progress=False)
     with h5py.File(plain, "r+") as f:
         f.attrs["schema_version"] = 4
+    assert store.verify(plain) == []  # read and verified as it is, the trial write upgrading as a writer would
     before = [r.solutions["quasi_static"].deflection["dx"] for r in store.read_scenes(plain)]
     assert store.upgrade(plain) and store.verify(plain) == []
     after = [r.solutions["quasi_static"].deflection["dx"] for r in store.read_scenes(plain)]

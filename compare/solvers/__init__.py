@@ -102,7 +102,9 @@ class Solver:
     against; ``settings_class()``: the frozen dataclass of its settings (a function, so that heavy
     packages load only when used), built from the scene's explicit overrides by
     ``make_settings(overrides, damping_ratio)``; ``run(scene, settings, outputs)``
-    returns the :class:`Solution` (it may raise: the campaign stores the exception as a failure);
+    returns the :class:`Solution` (it may raise: the campaign stores the exception as a failure); ``outputs``
+    holds deflection components and may hold :data:`STRESS` (:func:`deflection_of` picks the components; a
+    solver without stresses leaves :attr:`Solution.stress` empty and the metrics compare what both have);
     ``legacy_defaults()``: for settings fields added after results were stored, the value that
     reproduces the older behaviour (stored settings without the field count as that value);
     ``setting_rules()``: field name -> the :class:`ked_quasi.rules.Rule` (or ``Choice``, ``Flag``) its

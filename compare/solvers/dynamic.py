@@ -56,14 +56,16 @@ def attempts_text(attempts: tuple[Any, ...]) -> str:
 
 def _stats(res: Any) -> dict[str, Any]:
     solved = res.solved_settings or res.settings
-    return {"wall_s": float(res.wall_s), "steps": int(res.steps), "newton_iterations": int(res.newton_iterations),
+    return {"wall_s": float(res.wall_s - res.stress_wall_s), "steps": int(res.steps),
+            "newton_iterations": int(res.newton_iterations),
             "cycles": int(res.cycles), "converged": bool(res.converged), "dynamic_message": str(res.message)[:2000],
             "damping_reference_hz": float(res.damping_reference_hz), "start": str(res.start),
             "attempts": attempts_text(res.attempts), "n_attempts": len(res.attempts),
             "solved_elements_per_link": int(solved.elements_per_link),
             "solved_steps_per_cycle": int(solved.steps_per_cycle),
             "solved_newton_max_iterations": int(solved.newton_max_iterations),
-            "evidence": str(res.evidence)[:2000]}
+            "evidence": str(res.evidence)[:2000],
+            **({"stress_wall_s": float(res.stress_wall_s)} if res.stress is not None else {})}
 
 
 def run(scene: Any, settings: Any, outputs: tuple[str, ...] = COMPONENTS) -> Solution:
