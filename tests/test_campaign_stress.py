@@ -198,3 +198,15 @@ def test_labelled_results_carry_the_stresses(stressed):
     r = by_rpm[120.0]
     got = res.histories["stress"].sel(scene=r.key, solver="linear", link="follower").values
     np.testing.assert_array_equal(got, r.solutions["linear"].stress["follower"])
+
+
+def test_the_stress_example_is_a_valid_campaign_and_linkage_file():
+    from pathlib import Path
+
+    from compare.config import load_config
+    from compare.scenefile import load_scene_file
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "stress" / "campaign.toml"
+    cfg = load_config(path)
+    assert all("stress" in s.outputs for s in cfg.scenes()) and cfg.fatigue is not None
+    assert load_scene_file(path).fatigue == cfg.fatigue
