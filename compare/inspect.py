@@ -75,10 +75,9 @@ def summary_row(r: SceneResult) -> dict[str, Any]:
         for c in v.components:
             row[f"relative_error_{c.component}"] = _num(c.history_error)
             row[f"amplification_{c.component}"] = _num(c.amplification)
-        if v.stress_components:
-            worst = max(v.stress_components, key=lambda c: c.history_error)
+        if v.stress_worst is not None:
             row.update(stress_error=_num(v.stress_error), stress_holds=v.stress_holds,
-                       stress_worst_link=worst.component.removeprefix(STRESS_PREFIX))
+                       stress_worst_link=v.stress_worst.component.removeprefix(STRESS_PREFIX))
     for name in r.solutions:
         m = r.metrics.get(pair_name(name, ref)) if ref else None
         if name not in ("quasi_static", ref) and m is not None:

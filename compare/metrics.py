@@ -220,9 +220,15 @@ class PairMetrics:
         return tuple(c for c in self.components if is_stress(c.component))
 
     @property
+    def stress_worst(self) -> ComponentMetrics | None:
+        """The link stress with the largest history error (None without stresses)."""
+        return max(self.stress_components, key=lambda c: c.history_error, default=None)
+
+    @property
     def stress_error(self) -> float:
         """The stress verdict's measure: the worst link's stress history error [1] (NaN without stresses)."""
-        return max((c.history_error for c in self.stress_components), default=math.nan)
+        worst = self.stress_worst
+        return math.nan if worst is None else worst.history_error
 
     @property
     def stress_holds(self) -> bool | None:
