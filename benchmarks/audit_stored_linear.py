@@ -96,7 +96,7 @@ class Outcome:
 
 def feeds_of(file: str, spec: SceneSpec) -> str:
     """Which published numbers a stored linear solution of ``file`` enters (results/README.md, docs/)."""
-    from compare.studies import validity
+    from ked_research.validity import study as validity
 
     name = Path(file).name
     if name == "linear_acceptance.h5":
@@ -201,11 +201,12 @@ def tiers_change(files: list[Path], new: Solutions) -> dict[str, Any]:
     """The tiers study's README section (``ked study tiers``: limits of the linear models against Exudyn,
     error parts, linear max |mu| where Exudyn failed) from the stored files as they are and with the stored
     linear solutions replaced by ``new``; the lines that differ.  Only the validity campaigns' files
-    (:data:`compare.studies.validity.CONFIGS`) among ``files`` enter, as in the study."""
+    (:data:`ked_research.validity.study.CONFIGS`) among ``files`` enter, as in the study."""
     from dataclasses import replace
 
-    from compare.studies import tiers, validity
-    from compare.studies.validity_data import linkage_json, read_points
+    from ked_research.tiers import study as tiers
+    from ked_research.validity import study as validity
+    from ked_research.validity.data import linkage_json, read_points
 
     names = {Path(c).stem + ".h5" for c in validity.CONFIGS}
     order = [Path(c).stem + ".h5" for c in validity.CONFIGS]
@@ -262,12 +263,14 @@ WP_COLUMNS = ("error", "floquet_max_abs", "harmonics", "error_estimate", "stable
 
 def audit_work_precision(path: str | Path) -> dict[str, Any]:
     """The work-precision study stores no linear solution per scene but a derived table, ``/study/linear``
-    (:func:`compare.studies.work_precision.linear_points`: per reference scene the linear model's error
+    (:func:`ked_research.work_precision.study.linear_points`: per reference scene the linear model's error
     against the dynamic reference, its peak, max |mu|, harmonics, estimate).  Recompute that table with
     today's code (one solve per scene, in this process), compare it row by row (rows match by mass model and
-    speed ratio, rpm checked) and render the README section (:func:`compare.studies.wp_report.markdown`) from
+    speed ratio, rpm checked) and render the README section (:func:`ked_research.work_precision.report.markdown`) from
     the stored tables and from the stored tables with those columns replaced: the lines that differ."""
-    from compare.studies import study_io, work_precision, wp_report
+    from ked_research import study_io
+    from ked_research.work_precision import report as wp_report
+    from ked_research.work_precision import study as work_precision
 
     t0 = time.perf_counter()
     path = Path(path)
@@ -322,8 +325,8 @@ class AtlasTask:
 def atlas_tasks(path: str | Path, sample: int) -> tuple[list[AtlasTask], int]:
     """``sample`` evenly spaced (family, ratio) scenes among the atlas's computed ones (status code ok or
     unstable), and how many there are."""
-    from compare.atlas import store as atlas_store
-    from compare.atlas.compute import OK, UNSTABLE
+    from ked_research.atlas import store as atlas_store
+    from ked_research.atlas.compute import OK, UNSTABLE
 
     fam = atlas_store.read(Path(path), "families")
     code = np.asarray(fam["code"])
@@ -336,8 +339,8 @@ def atlas_tasks(path: str | Path, sample: int) -> tuple[list[AtlasTask], int]:
 
 def recompute_atlas(task: AtlasTask, seed: int = 0) -> dict[str, Any]:
     """One atlas scene again with today's code: |history error change| and |max|mu| change|."""
-    from compare.atlas.compute import RATIOS, spec_of, sweep
-    from compare.atlas.generate import candidate
+    from ked_research.atlas.compute import RATIOS, spec_of, sweep
+    from ked_research.atlas.generate import candidate
 
     t0 = time.perf_counter()
     link = candidate(seed, task.linkage)

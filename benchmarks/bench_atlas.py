@@ -1,6 +1,6 @@
 """Atlas throughput: scenes per second of the quasi-static + linear tier on 1 and 2 local Dask workers.
 
-Runs the atlas's own tasks (``compare.atlas.run.family_tasks``, ``compare.atlas.compute.compute_family``:
+Runs the atlas's own tasks (``ked_research.atlas.run.family_tasks``, ``ked_research.atlas.compute.compute_family``:
 one family of a linkage over the ratio sweep per task, as ``ked study atlas`` submits them) for the first
 ``--linkages`` linkages of the sample on a fresh ``distributed.LocalCluster`` of 1, then 2 worker
 processes (one thread each; the nanny's environment as Dask sets it, as on ``ked study atlas --scheduler``;
@@ -37,34 +37,34 @@ def _warm(tree: str, n: int, seed: int) -> tuple[str, list[tuple[int, int | None
     import sys
 
     sys.path.insert(0, tree)
-    import compare.atlas.compute
-    import compare.atlas.run as run
     import compare.solvers.linear
     import compare.solvers.quasi_static  # noqa: F401
-    from compare.atlas.generate import generate
+    import ked_research.atlas.compute
+    import ked_research.atlas.run as run
+    from ked_research.atlas.generate import generate
 
     linkages = generate(n, seed).linkages
     if not hasattr(run, "family_tasks"):  # a checkout whose atlas task is a linkage
-        return compare.atlas.compute.__file__, [(i, None) for i in range(n)]
-    return compare.atlas.compute.__file__, [(i, j) for i, lk in enumerate(linkages)
+        return ked_research.atlas.compute.__file__, [(i, None) for i in range(n)]
+    return ked_research.atlas.compute.__file__, [(i, j) for i, lk in enumerate(linkages)
                                             for j in range(len(run.family_tasks([lk])))]
 
 
 def _task(n: int, seed: int, i: int, j: int | None) -> tuple[int, float]:
     """(scenes, CPU s) of task (i, j) of :func:`_warm`, on a worker: only plain numbers travel back, so two
     checkouts' workers can be compared by one client."""
-    from compare.atlas.compute import NOT_COMPUTED
-    from compare.atlas.generate import generate
+    from ked_research.atlas.compute import NOT_COMPUTED
+    from ked_research.atlas.generate import generate
 
     linkage = generate(n, seed).linkages[i]
     c0 = time.process_time()
     if j is None:
-        from compare.atlas.compute import compute_linkage
+        from ked_research.atlas.compute import compute_linkage
 
         records = compute_linkage(linkage)
     else:
-        from compare.atlas.compute import compute_family
-        from compare.atlas.run import family_tasks
+        from ked_research.atlas.compute import compute_family
+        from ked_research.atlas.run import family_tasks
 
         records = (compute_family(*family_tasks([linkage])[j]),)
     return sum(sum(c != NOT_COMPUTED for c in rec.code) for rec in records), time.process_time() - c0

@@ -19,9 +19,9 @@ from dataclasses import replace
 
 from compare import metrics
 from compare import solvers as registry
-from compare.atlas.compute import spec_of, xy
-from compare.atlas.generate import candidate
 from compare.execute import frame, solve_one
+from ked_research.atlas.compute import spec_of, xy
+from ked_research.atlas.generate import candidate
 
 KEYS = ("590/source/0.076193", "1690/source/0.134258", "420/cognate/0.067676", "1494/source/0.097951",
         "1205/cognate/0.130044", "488/cognate/0.156507", "364/cognate/0.096993", "1054/source/0.05909",

@@ -249,7 +249,7 @@ def read_scenes(path: str | Path, keys: Iterable[str] | None = None) -> list[Sce
 
 def file_kind(path: str | Path) -> str:
     """"campaign" (results and study files), "atlas", or "" (not HDF5, or not a harness file)."""
-    from compare.atlas import layout as atlas_layout
+    from compare import h5atlas as atlas_layout
 
     try:
         with h5py.File(Path(path), "r") as f:

@@ -35,10 +35,10 @@ _FILE_ATTRS = ("schema", "schema_version", "created_utc", "modified_utc", "harne
 def verify(path: str | Path) -> list[str]:
     """Integrity and schema check; returns a list of problems (empty = valid).  A campaign file's
     scenes are checked one by one (:func:`verify_scenes`); an atlas file by its own checks
-    (:func:`compare.atlas.layout.verify`)."""
+    (:func:`compare.h5atlas.verify`)."""
     kind = file_kind(path)
     if kind == "atlas":
-        from compare.atlas import layout as atlas_layout
+        from compare import h5atlas as atlas_layout
 
         return atlas_layout.verify(Path(path))
     problems, scenes = verify_scenes(path, trial_write=True)

@@ -281,8 +281,8 @@ def _inspect_expect(file: Path, as_json: bool) -> None:
 
 def _inspect_atlas(file: Path, scene: str | None, as_json: bool) -> None:
     """An atlas file: its summary (it has no scenes to show one by one)."""
-    from compare.atlas import store as atlas_store
     from ked_cli.options import json_text
+    from ked_research.atlas import store as atlas_store
 
     if scene:
         raise click.ClickException(f"{file}: an atlas file has tables, not scenes; SCENE {scene!r} cannot be shown "

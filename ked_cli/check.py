@@ -1,5 +1,5 @@
 """``ked check``: for any four-bar, how fast is too fast for the quasi-static analysis, how wrong it is
-at a given speed, and which model is needed (:mod:`compare.check`)."""
+at a given speed, and which model is needed (:mod:`ked_check.check`)."""
 
 from __future__ import annotations
 
@@ -141,11 +141,11 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     --confirm, measured against Exudyn's stresses: keys exudyn_peak_pa_<link>,
     stress_error_exudyn_<link>, linear_stress_error_exudyn_<link>).
     """
-    from compare.check import check as run_check
-    from compare.check import progress, redraw
-    from compare.checkwork import CheckWorkerError, CheckWorkers
     from compare.inspect import rpm_text
-    from compare.stresscheck import fatigue_line
+    from ked_check.check import check as run_check
+    from ked_check.check import progress, redraw
+    from ked_check.checkwork import CheckWorkerError, CheckWorkers
+    from ked_check.stresscheck import fatigue_line
     from ked_cli.quasi import slider_source
     from ked_quasi.massmodel import MassModel, default_payload
     from ked_quasi.scene import variant
@@ -175,7 +175,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
         material = _with_criterion(material, fatigue_criterion)
         mm = MassModel(mass_model, lumps=lumps, payload=default_payload(mass_model) if payload_kg is None
                        else payload_kg) if specs is None else specs[0].mass_model
-        from compare.check import spec_for
+        from ked_check.check import spec_for
 
         if slider is None:
             source = load_source(linkage)
@@ -189,7 +189,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
         first = specs[0] if specs else spec_for(source, mechanism, mm, speeds[0], stiffness_scale=stiffness_scale,
                                                 direction=direction)
         refuse_oversized(first.scene(speeds[0]))
-        sweep = len(speeds) >= 3  # critical speeds: local maxima over the range (compare.critical)
+        sweep = len(speeds) >= 3  # critical speeds: local maxima over the range (ked_check.critical)
         # one bar over the speeds and then the critical-speed sweep; worker processes once the work is worth them
         with progress(len(speeds)) as bar, CheckWorkers(workers) as pool:
             rows = run_check(source, mechanism, mm, speeds, stiffness_scale=stiffness_scale,
@@ -197,7 +197,7 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
                              bar=bar, workers=pool, specs=specs, material=material)
             crit, amp = (), ()
             if sweep:
-                from compare.critical import check_critical, sweep_evaluations
+                from ked_check.critical import check_critical, sweep_evaluations
 
                 bar.total = bar.n + sweep_evaluations(rows)
                 redraw(bar)

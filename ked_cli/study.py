@@ -39,7 +39,7 @@ def common_options(f: Any) -> Any:
 def _run(name: str, results_dir: Path | None, workers: int, fresh: bool, report_only: bool, progress: bool,
          **options: Any) -> None:
     from compare.sections import SectionError, check_markers
-    from compare.studies import StudyPaths, run
+    from ked_research import StudyPaths, run
 
     paths = StudyPaths(results_dir) if results_dir is not None else StudyPaths()
     if fresh and report_only:
@@ -128,9 +128,9 @@ def atlas(linkages: int, seed: int, scheduler: str | None, confirm: int, thresho
           slider_linkages: int, **common: Any) -> None:
     """Validity atlas: the quasi-static and linear models' limits over a sample of four-bars and of
     slider-cranks."""
-    from compare.atlas.store import AtlasFileError
     from compare.executor import SchedulerError
     from ked_cli.errors import UserError
+    from ked_research.atlas.store import AtlasFileError
 
     try:
         _run("atlas", linkages=linkages, seed=seed, scheduler=scheduler, confirm=confirm, threshold=threshold,

@@ -14,21 +14,21 @@ import numpy as np
 import pytest
 
 from compare import metrics
-from compare.atlas import analysis, calibration, findings, verdict_margins
-from compare.atlas import store as atlas_store
-from compare.atlas.compute import OK, failed_record
-from compare.atlas.confirm import run_confirm
-from compare.atlas.generate import RANGES, candidate, generate
-from compare.atlas.report import FIGURES, write_report
-from compare.atlas.report import load as report_load
-from compare.atlas.run import LinkageBuffer, family_tasks, run_atlas
-from compare.atlas.threshold import run_threshold, select_threshold
 from compare.limits import validity_limit
 from compare.sections import section_of
 from ked_linear import LinearSettings, solve_linear
 from ked_quasi import Scene, natural_frequencies, solve_quasi_static
 from ked_quasi.cognates import mechanism as cognate_of
 from ked_quasi.rules import RPM
+from ked_research.atlas import analysis, calibration, findings, verdict_margins
+from ked_research.atlas import store as atlas_store
+from ked_research.atlas.compute import OK, failed_record
+from ked_research.atlas.confirm import run_confirm
+from ked_research.atlas.generate import RANGES, candidate, generate
+from ked_research.atlas.report import FIGURES, write_report
+from ked_research.atlas.report import load as report_load
+from ked_research.atlas.run import LinkageBuffer, family_tasks, run_atlas
+from ked_research.atlas.threshold import run_threshold, select_threshold
 
 SEED = 11
 RATIOS = (0.05, 0.1, 0.2)
@@ -227,11 +227,11 @@ def test_threshold_scene_and_stored_margins(atlas):
 
 def test_repredict_reproduces_the_predictions_stored_by_the_same_code(atlas, tmp_path):
     # regression pin of the re-prediction path: on rows that today's code computed, predicting them again
-    # (quasi-static and linear alone, compare.atlas.repredict) must give the stored prediction columns, and
+    # (quasi-static and linear alone, ked_research.atlas.repredict) must give the stored prediction columns, and
     # the file then records which code made them
     import shutil
 
-    from compare.atlas import repredict
+    from ked_research.atlas import repredict
 
     path = tmp_path / "atlas.h5"
     shutil.copy(atlas["path"], path)
@@ -251,11 +251,11 @@ def test_reconfirm_redoes_rows_of_an_older_lumping_and_resumes(atlas, tmp_path):
     # a threshold row of the distributed model stored without a record of its lumping counts as made with the
     # former 5 lumps: `reconfirm` runs it again (all three solvers) and replaces it in place with what today's
     # code computes (the same code made the row here, so the recomputed columns equal the originals: a second
-    # implementation path, compare.atlas.confirm.confirm_scene, run once more); rows of other mass models and
+    # implementation path, ked_research.atlas.confirm.confirm_scene, run once more); rows of other mass models and
     # of tables with today's record stay; the record is written, and a second call computes nothing
     import shutil
 
-    from compare.atlas import confirm, lumps, reconfirm
+    from ked_research.atlas import confirm, lumps, reconfirm
 
     path = tmp_path / "atlas.h5"
     shutil.copy(atlas["path"], path)
@@ -290,7 +290,7 @@ def test_resweep_recomputes_families_of_an_older_lumping_and_resumes(atlas, tmp_
     # tampered row stays), the record is written, and a second call computes nothing
     import shutil
 
-    from compare.atlas import lumps, resweep
+    from ked_research.atlas import lumps, resweep
 
     path = tmp_path / "atlas.h5"
     shutil.copy(atlas["path"], path)

@@ -1,4 +1,4 @@
-"""The atlas report's findings (compare.atlas.findings) on hand-built tables: every expected number is
+"""The atlas report's findings (ked_research.atlas.findings) on hand-built tables: every expected number is
 worked out by hand in the comments (numpy's linear percentile where a percentile is stated)."""
 
 from __future__ import annotations
@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from compare.atlas import calibration as cal
-from compare.atlas import findings as fd
+from ked_research.atlas import calibration as cal
+from ked_research.atlas import findings as fd
 
 
 def test_confirm_findings_hand_computed():
@@ -89,9 +89,9 @@ def test_threshold_findings_by_construction():
 def test_the_committed_atlas_section_is_the_markdown_of_its_findings():
     # regression pin: results/README.md's atlas section, regenerated from the committed atlas file's findings
     # (figures not redrawn: only their paths enter the text)
-    from compare.atlas import report
     from compare.paths import ATLAS_FILE, RESULTS
     from compare.sections import markers
+    from ked_research.atlas import report
 
     info, fam, links, conf = report.load(ATLAS_FILE)
     thr, margins = report.threshold_of(ATLAS_FILE)
@@ -113,7 +113,7 @@ def test_spearman_ranks_ties_at_their_average():
     = 0.9487. A constant variable has no rank correlation (nan), not an arbitrary one."""
     import math
 
-    from compare.atlas.analysis import spearman
+    from ked_research.atlas.analysis import spearman
 
     assert spearman([1, 2, 2, 3], [10, 20, 30, 40]) == pytest.approx(4.5 / math.sqrt(4.5 * 5.0), rel=1e-12)
     assert math.isnan(spearman([5, 5, 5, 5], [1, 2, 3, 4]))
@@ -125,7 +125,7 @@ def test_report_says_when_the_exudyn_samples_come_from_a_prefix_of_the_atlas(tmp
     nothing."""
     import h5py
 
-    from compare.atlas.report import drawn_from
+    from ked_research.atlas.report import drawn_from
 
     path = tmp_path / "atlas.h5"
     with h5py.File(path, "w") as f:

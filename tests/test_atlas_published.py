@@ -1,4 +1,4 @@
-"""The atlas limits ``ked check`` reads are package data (compare/atlas_limits.json): the same numbers as the
+"""The atlas limits ``ked check`` reads are package data (ked_check/atlas_limits.json): the same numbers as the
 committed atlas file, and the same in an installed wheel as in the checkout."""
 
 from __future__ import annotations
@@ -12,9 +12,10 @@ from pathlib import Path
 
 import pytest
 
-from compare.atlas import published
-from compare.atlas.analysis import default_path
+from ked_check import published
 from ked_quasi.massmodel import MASS_MODELS
+from ked_research.atlas import publish
+from ked_research.atlas.analysis import default_path
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -32,7 +33,7 @@ def test_published_limits_are_those_of_the_committed_atlas():
     # (a stale package file would give ked check other limits than the atlas the README reports).
     if not default_path().exists():
         pytest.skip("no committed atlas in this checkout")
-    built = published.build(default_path())
+    built = publish.build(default_path())
     # the file holds the slider atlas's entries too: the four-bar record merged into it changes nothing
     assert _same(published.read(), json.loads(json.dumps(published.merge(published.read(), built), allow_nan=False)))
     assert set(built["limits"]) == set(MASS_MODELS) and "10" in built["margins"]
@@ -43,13 +44,13 @@ def test_published_slider_limits_are_those_of_the_committed_slider_atlas():
     slider = default_path().with_name("slider_atlas.h5")
     if not slider.exists():
         pytest.skip("no committed slider atlas in this checkout")
-    built = published.build(slider)
+    built = publish.build(slider)
     assert built["kind"] == "slider-crank"
     assert _same(published.read(), json.loads(json.dumps(published.merge(published.read(), built), allow_nan=False)))
 
 
 def test_check_reads_the_published_limits():
-    from compare.check import linear_range, verdict_margins
+    from ked_check.check import linear_range, verdict_margins
 
     rec = published.read()
     rng = linear_range("tip")

@@ -13,7 +13,9 @@ import pytest
 from click.testing import CliRunner
 
 from compare import metrics, store
-from compare.check import (
+from compare.config import load_config
+from compare.runner import run_scenes
+from ked_check.check import (
     LinearRange,
     VerdictMargins,
     check,
@@ -23,8 +25,6 @@ from compare.check import (
     tier,
     verdict_margins,
 )
-from compare.config import load_config
-from compare.runner import run_scenes
 from ked_cli.main import cli
 from ked_quasi import MassModel, thesis_fourbar
 from ked_quasi.massmodel import default_payload
@@ -80,7 +80,7 @@ def _extender_300():
 
 
 def test_tier_bands_follow_the_rule():
-    """Expected tiers from the rule itself (module docstring of compare.check) applied to the predicted
+    """Expected tiers from the rule itself (module docstring of ked_check.check) applied to the predicted
     error e and speed ratio r of one scene, with tolerances and limits placed around them."""
     r, e, ratio = _extender_300()
     assert 0.07 < e < 0.12 and 0.10 < ratio < 0.12
@@ -171,7 +171,7 @@ def test_unconverged_linear_solve_is_retried_with_more_harmonics():
 
 
 def test_atlas_limit_at_another_damping_is_called_a_guide():
-    """The atlas measured the linear model's limits at 2 % damping (compare.atlas.compute.DAMPING); a
+    """The atlas measured the linear model's limits at 2 % damping (ked_research.atlas.compute.DAMPING); a
     check at 5 % that leans on them says so, one at 2 % does not."""
     other, same = (check(thesis_fourbar(), "source", MassModel("joints"), [225.0], damping_ratio=z)[0]
                    for z in (0.05, 0.02))

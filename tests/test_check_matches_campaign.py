@@ -21,10 +21,10 @@ from typing import Any
 import pytest
 
 from compare import store
-from compare.check import check
 from compare.config import default_config_text, load_config, parse_config
 from compare.inspect import summary_row
 from compare.runner import run_campaign
+from ked_check.check import check
 from ked_quasi import thesis_fourbar
 from ked_quasi.massmodel import MassModel, default_payload
 

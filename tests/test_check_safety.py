@@ -24,16 +24,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from compare.atlas import store as atlas_store
-from compare.atlas.analysis import default_path
-from compare.atlas.generate import Linkage, candidate
-from compare.check import check, spec_for
 from compare.config import load_linkage
 from compare.execute import frame
+from ked_check.check import check, spec_for
 from ked_quasi import units
 from ked_quasi.linkage import FourBar
 from ked_quasi.massmodel import MassModel
 from ked_quasi.scene import variant
+from ked_research.atlas import store as atlas_store
+from ked_research.atlas.analysis import default_path
+from ked_research.atlas.generate import Linkage, candidate
 
 from .test_cli_linkage import LINKAGE as STEEL_CAMPAIGN
 
@@ -52,7 +52,7 @@ MASS_MODELS = (MassModel("tip", payload=0.5), MassModel("distributed", payload=0
 0.1 kg at P."""
 ATLAS_SEED = 0
 GENERATED_SEED = 20261124
-"""Seed of the non-atlas generated linkages: the atlas's own documented draw (compare.atlas.generate:
+"""Seed of the non-atlas generated linkages: the atlas's own documented draw (ked_research.atlas.generate:
 Grashof crank-rocker with margin, toggle bound, its ranges) with another seed, steel designs only."""
 
 NORTON_P4_1A = """

@@ -25,7 +25,7 @@ class Terminal:
 def test_the_progress_bar_covers_the_critical_speed_sweep(monkeypatch):
     # `ked check --rpm-range` on a terminal: one bar over the speeds and then the sweep's Floquet
     # evaluations (here shown at once: delay 0), which it names; it ends complete (n = total)
-    from compare import check as chk
+    from ked_check import check as chk
     from ked_cli.check import check as command
 
     bars = []
@@ -50,7 +50,7 @@ def test_the_progress_bar_covers_the_critical_speed_sweep(monkeypatch):
 def test_a_check_shorter_than_the_delay_draws_no_bar(monkeypatch):
     # the bar is for checks that run long: before its delay nothing is drawn, not even the stage names
     # (tqdm draws a bar at once on a refresh, which a stage name asks for)
-    from compare import check as chk
+    from ked_check import check as chk
     from ked_cli.check import check as command
 
     err = Terminal()

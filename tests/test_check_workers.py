@@ -1,4 +1,4 @@
-"""ked check on worker processes (compare.checkwork): the same rows and critical speeds as in one process,
+"""ked check on worker processes (ked_check.checkwork): the same rows and critical speeds as in one process,
 which is the reference (the sequential check, itself tested against the campaign and the fine sweep); a
 light check never starts them; a task's failure surfaces as in one process, a dead worker as one error
 naming what it computed."""
@@ -11,9 +11,9 @@ from dataclasses import asdict
 
 import pytest
 
-from compare.check import check
-from compare.checkwork import CheckWorkerError, CheckWorkers, Work, kept
-from compare.critical import check_critical
+from ked_check.check import check
+from ked_check.checkwork import CheckWorkerError, CheckWorkers, Work, kept
+from ked_check.critical import check_critical
 from ked_quasi.massmodel import MassModel, default_payload
 
 

@@ -152,9 +152,9 @@ def test_estimate_covers_the_error_on_a_generated_linkage(mechanism):
     # distributed, r = 0.2, where the small basis misses ~1e-3 of the peak (measured: 9.4e-4 source, 6.1e-4
     # cognate): against the ladder's second rung its estimate (1.85e-3 / 1.16e-3) declines, and the next pair
     # of rungs answers (measured: 2.5e-5 / 1.5e-4, estimate 1.8e-4 / 3.5e-4): the estimate must cover the error
-    from compare.atlas.compute import spec_of
-    from compare.atlas.generate import candidate
     from compare.execute import frame
+    from ked_research.atlas.compute import spec_of
+    from ked_research.atlas.generate import candidate
 
     lk = candidate(0, 1)
     mm = next(m for m in lk.mass_models if m.name == "distributed")

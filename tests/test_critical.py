@@ -1,4 +1,4 @@
-"""Critical speeds (compare.critical): local maxima of max |Floquet multiplier| over a speed range."""
+"""Critical speeds (ked_check.critical): local maxima of max |Floquet multiplier| over a speed range."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from compare.critical import amplification_peaks, critical_speeds, local_maxima, near
+from ked_check.critical import amplification_peaks, critical_speeds, local_maxima, near
 
 
 def test_local_maxima_of_a_known_curve():
@@ -29,8 +29,8 @@ def test_only_an_amplification_peak_is_a_speed_to_avoid():
     # a Floquet maximum is where free vibrations die out slowest (parametric resonance), not where the
     # steady response is largest: a verdict near one alone must not tell the user to keep away from it;
     # a verdict near an amplification peak (forced resonance) must
-    from compare.check import CheckRow
-    from compare.critical import CriticalSpeed, mark_near
+    from ked_check.check import CheckRow
+    from ked_check.critical import CriticalSpeed, mark_near
 
     def row(rpm: float) -> CheckRow:
         return CheckRow(rpm, 0.1, 1e-3, 1e-3, 0.0, 0.0, 0.2, "linear", "use the linear model")
@@ -60,8 +60,8 @@ def test_ked_check_rpm_range_lists_the_maxima_of_a_fine_sweep(thesis):
     # (every 2.5 rpm, 4096 propagator steps: a different step count than the check's): every local
     # maximum of the fine sweep (prominence 0.01, as the check) is listed within one sweep spacing, and
     # nothing else
-    from compare.check import spec_for
-    from compare.critical import PROMINENCE, floquet_max_abs
+    from ked_check.check import spec_for
+    from ked_check.critical import PROMINENCE, floquet_max_abs
     from ked_quasi import MassModel
 
     out = subprocess.run([sys.executable, "-m", "ked_cli", "check", "--mass-model", "joints", "--rpm-range",
@@ -82,7 +82,7 @@ def test_ked_check_rpm_range_lists_the_maxima_of_a_fine_sweep(thesis):
 def test_check_names_a_weakly_damped_speed(thesis):
     # the thesis joints model at r = 1 with 2 % damping: max |mu| ~ 0.96 (tests/test_linear.py); the
     # design check must flag it, send it to the nonlinear tier and say why
-    from compare.check import check
+    from ked_check.check import check
     from ked_quasi import MassModel, Scene, natural_frequencies
 
     mm = MassModel("joints")
@@ -107,7 +107,7 @@ def _curve(r):
 def _fine_sweep_maxima(f, rpms, fine=4):
     # the independent reference: f on the fine grid of every interval (the samples and fine - 1 speeds
     # between each pair), its local maxima of at least PROMINENCE, each located to 1e-3 rpm on a dense grid
-    from compare.critical import PROMINENCE, fine_speeds
+    from ked_check.critical import PROMINENCE, fine_speeds
 
     grid = np.sort(np.concatenate([rpms, fine_speeds(rpms, fine)]))
     values = [f(r) for r in grid]
@@ -122,7 +122,7 @@ def test_the_bracketed_sweep_finds_the_maxima_of_the_fine_sweep_with_fewer_evalu
     # against the fine sweep of every interval and a dense location of each peak (independent of the
     # refinement): the same critical speeds within the refinement's 2e-3 of the speed, every evaluation
     # once, fewer than the fine sweep's
-    from compare.critical import fine_speeds
+    from ked_check.critical import fine_speeds
 
     rpms = np.linspace(30.0, 600.0, 20)
     expected = _fine_sweep_maxima(_curve, rpms)
@@ -164,7 +164,7 @@ def test_approximate_samples_find_the_maxima_and_are_never_used_to_decide():
 def test_few_speeds_are_filled_to_the_least_number_of_intervals():
     # 5 speeds 50 rpm apart hide the peaks at 150 and 330 (no sample maximum); the sweep divides each
     # interval into 4 (16 intervals: the former fine sweep's grid) and finds them as that fine sweep does
-    from compare.critical import MIN_INTERVALS, fill_speeds
+    from ked_check.critical import MIN_INTERVALS, fill_speeds
 
     rpms = np.linspace(100.0, 500.0, 5)
     assert fill_speeds(rpms).size == 3 * 4 and fill_speeds(np.linspace(0, 1, MIN_INTERVALS + 1)).size == 0
@@ -178,8 +178,8 @@ def test_thesis_distributed_critical_speeds_as_the_fine_sweep(thesis):
     # the thesis distributed model, 30-600 rpm in 20 speeds: the critical speeds the fine sweep of every
     # interval found (213.1, 343.4, 556.2 rpm at 5 lumps per link: regression pin of that former sweep, 92
     # evaluations), to the refinement's accuracy, with at most half its evaluations
-    from compare.check import spec_for
-    from compare.critical import floquet_max_abs
+    from ked_check.check import spec_for
+    from ked_check.critical import floquet_max_abs
     from ked_quasi import MassModel
 
     f = floquet_max_abs(spec_for(thesis, "source", MassModel("distributed", lumps=5), 300.0))
@@ -200,7 +200,7 @@ def test_peaks_and_prominences_as_scipy_signal():
     # find_peaks and peak_prominences on random curves with plateaus and ties (rounded values)
     from scipy.signal import find_peaks, peak_prominences
 
-    from compare.critical import peaks, prominences
+    from ked_check.critical import peaks, prominences
 
     rng = np.random.default_rng(7)
     for n in (3, 5, 40, 200):
@@ -221,8 +221,8 @@ def test_a_row_at_the_sweep_steps_is_the_sweeps_own_value(thesis):
     # ran the full model at the sweep's 2048 steps (thesis joints at 120 and 240 rpm: the automatic
     # doubling stopped there): the independent Floquet-only evaluation of the sweep gives the same
     # number to the last bit there, and the rows at other counts are flagged approximate
-    from compare.check import check, spec_for
-    from compare.critical import SWEEP_STEPS, floquet_max_abs, sweep_exact
+    from ked_check.check import check, spec_for
+    from ked_check.critical import SWEEP_STEPS, floquet_max_abs, sweep_exact
     from ked_quasi import MassModel
 
     mm = MassModel("joints")
@@ -238,8 +238,8 @@ def test_a_row_of_the_reduced_floquet_analysis_is_the_sweeps_own_value(thesis):
     # at 100 rpm beside the collocation's steady state, at 300 rpm beside the co-rotating one), the row
     # says so and is an exact sample: the sweep's independent Floquet-only evaluation (a fresh system, no
     # recalled parts) gives the same number to the last bit; the joints model's full propagator is not it
-    from compare.check import check, spec_for
-    from compare.critical import floquet_max_abs, sweep_exact
+    from ked_check.check import check, spec_for
+    from ked_check.critical import floquet_max_abs, sweep_exact
     from ked_linear.solver import forget_recalled
     from ked_quasi import MassModel
 
@@ -270,7 +270,7 @@ def test_critical_speeds_and_amplification_peaks_against_an_exudyn_sweep(thesis,
     # (measured: 1.57 at 200 rpm between 1.85 at 192 and 2.04 at 212), so the verdict there must not
     # tell the user to keep away from it; near an amplification peak it must
     from compare import read_scenes, run_scenes
-    from compare.check import spec_for
+    from ked_check.check import spec_for
     from ked_quasi import MassModel
 
     rpms = np.arange(180.0, 236.0 + 1e-9, 4.0)

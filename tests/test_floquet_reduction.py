@@ -265,7 +265,7 @@ def test_greedy_basis_gives_up_when_a_spanned_angle_stays_off():
 # ---- one reduced system per basis: the modal-acceleration (Petrov-Galerkin) projection of the steady state ----
 
 # max |mu| of the full SDIRK2 model (as FULL_SDIRK2) at 4096 and 8192 steps on generated atlas linkages
-# (compare.atlas.generate.generate, seed 0; linkage index, source mechanism, distributed mass model, 2 %
+# (ked_research.atlas.generate.generate, seed 0; linkage index, source mechanism, distributed mass model, 2 %
 # damping, speed ratio r = Omega / omega1_min).  Linkage 1 at r = 0.2 is where the plain Galerkin projection
 # of the first rung was 2.6e-3 off the full model (the modal-acceleration one 4.3e-4, its change to the second
 # rung 4.2e-4; measured at 1024 Radau steps).
@@ -277,8 +277,8 @@ FULL_SDIRK2_ATLAS = {
 
 
 def _atlas_system(index: int, ratio: float, mechanism: str = "source", mass_model: str = "distributed"):
-    from compare.atlas.compute import spec_of
-    from compare.atlas.generate import generate
+    from ked_research.atlas.compute import spec_of
+    from ked_research.atlas.generate import generate
 
     linkage = next(lk for lk in generate(index + 1).linkages if lk.index == index)
     mm = replace(next(m for m in linkage.mass_models if m.name == mass_model), lumps=5)  # the references' lumps

@@ -15,7 +15,8 @@ import ast
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("ked_quasi", "ked_linear", "exudyn_models", "compare", "ked_cli", "ked_bench")
+PACKAGES = ("ked_quasi", "ked_linear", "exudyn_models", "compare", "ked_check", "ked_research", "ked_cli", "ked_bench",
+            "ked_pytest")
 
 
 def _modules() -> dict[str, Path]:
@@ -167,22 +168,25 @@ def test_the_executor_imports_nothing_of_the_campaign():
     graph = import_graph()
     assert graph["compare.executor"] <= {"compare.stopping"}, graph["compare.executor"]
     assert graph["compare.stopping"] == set()
-    assert not any("compare.runner" in graph[m] for m in ("compare.atlas.run", "compare.checkwork", "compare.plots"))
+    assert not any("compare.runner" in graph[m]
+                   for m in ("ked_research.atlas.run", "ked_check.checkwork", "compare.plots"))
 
 
 def test_the_check_pool_knows_no_check():
     # the design check's pool runs whatever task it is given; each task lives with its computation
     graph = import_graph()
-    assert not graph["compare.checkwork"] & {"compare.check", "compare.critical"}, graph["compare.checkwork"]
-    assert "compare.critical" not in graph["compare.check"]
+    assert not graph["ked_check.checkwork"] & {"ked_check.check", "ked_check.critical"}, graph["ked_check.checkwork"]
+    assert "ked_check.critical" not in graph["ked_check.check"]
 
 
-LAYERS = ("ked_cli", ("ked_bench", "compare"), "exudyn_models", "ked_linear", "ked_quasi")
-"""The packages from the top: commands, products (the benchmark, the campaign engine and its design check),
-the Exudyn reference (which may start on the linear model's orbit, exudyn_models.start), the linear model, the
-scene model and quasi-static solver.  A package imports only packages below its own layer, and ked_bench may
-use the engine's metrics (products -> engine)."""
-ALLOWED_SIDEWAYS = {("ked_bench", "compare")}
+LAYERS = ("ked_cli", ("ked_check", "ked_research", "ked_bench", "ked_pytest"), "compare", "exudyn_models",
+          "ked_linear", "ked_quasi")
+"""The packages from the top: commands; products (the design check, the research studies and atlas, the
+benchmarks, the pytest plugin of regression checks); the campaign engine; the Exudyn reference (which may start
+on the linear model's orbit, exudyn_models.start); the linear model; the scene model and quasi-static solver.
+A package imports only packages below its own layer, and the one sideways edge: the research atlas calibrates the
+check's verdict rule and writes the check's published limits (research -> check)."""
+ALLOWED_SIDEWAYS = {("ked_research", "ked_check")}
 
 
 def test_packages_import_only_downwards():
@@ -205,3 +209,15 @@ def test_no_module_is_over_the_size_limit():
     long = {name: n for name, path in _modules().items()
             if (n := len(path.read_text().splitlines())) > MAX_MODULE_LINES and name not in LONG_BY_DESIGN}
     assert not long, long
+
+
+MAX_PACKAGE_SHARE = 0.30
+"""No package holds more than this share of the product lines: one that does has grown into several tenants
+(the campaign engine, the design check and the research wing were once one package of half the house)."""
+
+
+def test_no_package_holds_most_of_the_house():
+    lines = {p: sum(len(path.read_text().splitlines()) for path in (ROOT / p).rglob("*.py")) for p in PACKAGES}
+    total = sum(lines.values())
+    big = {p: f"{n / total:.0%}" for p, n in lines.items() if n > MAX_PACKAGE_SHARE * total}
+    assert not big, f"packages over {MAX_PACKAGE_SHARE:.0%} of {total} product lines: {big}"

@@ -504,7 +504,7 @@ def test_check_progress_bar_only_on_a_terminal(tty, monkeypatch):
     # at once) when stderr is a terminal, and writes nothing to a file or pipe
     import sys
 
-    from compare import check as chk
+    from ked_check import check as chk
     from ked_quasi.linkage import thesis_fourbar
     from ked_quasi.massmodel import MassModel, default_payload
 

@@ -316,7 +316,7 @@ def test_committed_configs_still_load(path):
 def test_atlas_linkages_are_above_the_bound():
     """The atlas keeps linkages (and cognates) at least its own sampling bound from a toggle, which is at
     least the loader's: every committed atlas linkage is accepted."""
-    from compare.atlas.generate import RANGES
+    from ked_research.atlas.generate import RANGES
 
     assert RANGES.min_transmission_deg >= rules.MIN_TRANSMISSION_DEG
     with h5py.File(ROOT / "results" / "atlas" / "atlas.h5", "r") as f:

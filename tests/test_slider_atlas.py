@@ -1,5 +1,5 @@
 """The slider atlas: generated slider-cranks, their families, threshold scenes and per-stratum margins, through
-the four-bar atlas's own machinery (one seam: :mod:`compare.atlas.kinds`).  Real solvers, tiny sizes."""
+the four-bar atlas's own machinery (one seam: :mod:`ked_research.atlas.kinds`).  Real solvers, tiny sizes."""
 
 from __future__ import annotations
 
@@ -9,14 +9,15 @@ import math
 import numpy as np
 import pytest
 
-from compare.atlas import calibration as cal
-from compare.atlas import published
-from compare.atlas import store as atlas_store
-from compare.atlas.kinds import FOUR_BAR, SLIDER, kind_of
-from compare.atlas.run import run_atlas
-from compare.atlas.slider_generate import RANGES, Ranges, generate, slider_crank
-from compare.atlas.store import AtlasFileError
-from compare.atlas.threshold import run_threshold
+from ked_check import published
+from ked_research.atlas import calibration as cal
+from ked_research.atlas import publish
+from ked_research.atlas import store as atlas_store
+from ked_research.atlas.kinds import FOUR_BAR, SLIDER, kind_of
+from ked_research.atlas.run import run_atlas
+from ked_research.atlas.slider_generate import RANGES, Ranges, generate, slider_crank
+from ked_research.atlas.store import AtlasFileError
+from ked_research.atlas.threshold import run_threshold
 
 QUIET = dict(echo=lambda _: None)
 
@@ -47,7 +48,7 @@ def test_generator_refuses_a_slider_crank_near_toggle_with_its_reason():
     with pytest.raises(ValueError, match="only 0 of 1 linkages accepted"):
         generate(1, seed=0, ranges=near, max_candidates=10)
     assert sample.linkages == ()
-    from compare.atlas.slider_generate import candidate
+    from ked_research.atlas.slider_generate import candidate
 
     reasons = [candidate(0, i, near).reason for i in range(10)]
     assert all("transmission" in r or "turn" in r for r in reasons), reasons
@@ -91,18 +92,18 @@ def test_a_slider_stratum_with_few_scenes_grants_nothing_and_says_so(tmp_path):
         assert m.stats.n < cal.MIN_STRATUM and m.holds_below == 0.0 and not m.bound_met
     assert cal.clopper_pearson(0, 121).high95 > cal.MAX_UNSAFE_UPPER95 >= cal.clopper_pearson(0, 122).high95
     cal.store_margins(path)
-    rec = published.build(path)
+    rec = publish.build(path)
     assert rec["kind"] == "slider-crank" and rec["margins"]["10"] == {}
     assert set(rec["limits"]) <= set(SLIDER.mass_models)
 
 
 def test_slider_rows_are_predicted_and_swept_again_with_the_slider_generator(tmp_path):
     # Expected: a prediction row at a family's sweep ratio has the quasi-static-vs-linear error the family sweep
-    # stored there (two code paths: compare.atlas.repredict.predict and compare.atlas.compute.sweep), which needs
-    # the linkage drawn again by the slider generator, not the four-bar one; the families swept again equal the
+    # stored there (two code paths: ked_research.atlas.repredict.predict and ked_research.atlas.compute.sweep), which
+    # needs the linkage drawn again by the slider generator, not the four-bar one; the families swept again equal the
     # stored ones (the same code made them)
-    from compare.atlas import lumps, repredict, resweep
-    from compare.atlas.compute import RATIOS
+    from ked_research.atlas import lumps, repredict, resweep
+    from ked_research.atlas.compute import RATIOS
 
     path = tmp_path / "slider_atlas.h5"
     run_atlas(path, linkages=1, workers=1, kind=SLIDER, **QUIET)
@@ -188,8 +189,8 @@ def test_check_simeon_reads_the_published_slider_margins():
 def test_speed_at_error_inverts_a_power_law_sweep():
     # Expected: on a sweep e = c r^2 (the inertia loads' scaling near rest) the power-law interpolation between
     # grid ratios is exact, r = sqrt(target / c); a sweep that starts above the target or never reaches it: nan.
-    from compare.atlas.compute import RATIOS
-    from compare.atlas.threshold import speed_at_error
+    from ked_research.atlas.compute import RATIOS
+    from ked_research.atlas.threshold import speed_at_error
 
     r = np.asarray(RATIOS)
     e = 4.0 * r**2

@@ -24,8 +24,8 @@ def test_slider_crank_check_reports_critical_speeds_and_amplification_peaks():
 def test_the_sweep_of_a_slider_crank_is_its_linear_models_floquet_analysis():
     # the sweep's max |mu| at a checked speed agrees with the one of the linear solve of that speed (an
     # independent computation: the periodic solve's own Floquet analysis) within the Floquet error
-    from compare.check import check, spec_for
-    from compare.critical import floquet_max_abs
+    from ked_check.check import check, spec_for
+    from ked_check.critical import floquet_max_abs
     from ked_cli.quasi import slider_source
     from ked_quasi.massmodel import MassModel
 

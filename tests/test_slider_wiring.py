@@ -17,13 +17,13 @@ import pytest
 from click.testing import CliRunner
 
 from compare import h5layout
-from compare.check import spec_for
 from compare.config import ConfigError, load_config, load_linkage, parse_config
 from compare.execute import run_scene
 from compare.scenes import SceneSpec
 from compare.solvers import get
 from exudyn_models import DynamicSettings
 from exudyn_models.simulate import simulate_steady_state
+from ked_check.check import spec_for
 from ked_cli.main import cli
 from ked_quasi.massmodel import MassModel
 from ked_quasi.slider_static import solve_slider_quasi_static

@@ -236,7 +236,7 @@ def test_upgrade_of_an_older_layout_keeps_every_number(tmp_path, version):
             new = view.metric_rows(key)
             assert {k: {n: new[k][n] for n in row} for k, row in rows.items()} == rows
     if has_study:  # the study tables, copied as they are
-        from compare.studies import study_io
+        from ked_research import study_io
 
         old_tables, new_tables = study_io.read_tables(DATA / f"schema_v{version}.h5"), study_io.read_tables(f)
         assert old_tables[1] == new_tables[1] and old_tables[0].keys() == new_tables[0].keys()

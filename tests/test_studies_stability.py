@@ -12,9 +12,9 @@ import pytest
 
 from compare.config import ConfigError, load_config, parse_config
 from compare.execute import run_scene
-from compare.studies.stability import CONFIG_DIR, case_of_keys
-from compare.studies.stability_analysis import check, quasi_report
-from compare.studies.study_io import refused_configs
+from ked_research.stability.analysis import check, quasi_report
+from ked_research.stability.study import CONFIG_DIR, case_of_keys
+from ked_research.study_io import refused_configs
 
 STIFF = """
 [campaign]
@@ -53,8 +53,8 @@ def test_newton_failure_raises_simulation_error_and_is_recorded() -> None:
     """Massless links (tip model) at 90 steps per cycle: Newton fails; simulate_steady_state raises
     SimulationError with time and crank angle, and a campaign records it (stage dynamic)."""
     from compare.solvers.dynamic import settings_for as build_settings
-    from compare.studies.work_precision import ked_scene
     from exudyn_models import SimulationError, simulate_steady_state
+    from ked_research.work_precision.study import ked_scene
 
     spec = _scene("[campaign]\nstep_deg = 30.0\nn_modes = 1\n[grid]\nmass_models = ['tip']\n"
                   "speed_ratios = [0.3]\n[dynamic]\nelements_per_link = 1\nsteps_per_cycle = 90\nrefine = false\n")
@@ -166,7 +166,7 @@ def _row(case: str, status: str, verdict: str) -> dict:
 
 def test_findings_count_the_rows() -> None:
     """Counts by construction: 4 scenes in 2 cases, 3 converged (2 pass), 1 failed."""
-    from compare.studies.stability_analysis import analyse
+    from ked_research.stability.analysis import analyse
 
     cases = [_row("a", "ok", "pass"), _row("a", "ok", "fail: not steady"), _row("b", "ok", "pass"),
              _row("b", "failed", "-")]
@@ -181,8 +181,9 @@ def test_findings_of_the_committed_study() -> None:
     """Regression pin on the committed results/studies/stability.h5 (the numbers its README section states):
     29 scenes in 14 cases, 23 converged, 21 of them pass the check, 6 failed, none lost; every converged
     scene has a verdict, every failed one none (an independent count over the stored status column)."""
-    from compare.studies import stability, study_io
-    from compare.studies.stability_analysis import analyse
+    from ked_research import study_io
+    from ked_research.stability import study as stability
+    from ked_research.stability.analysis import analyse
 
     if not stability.OUT.exists():
         pytest.skip("study results not generated")
@@ -201,7 +202,7 @@ def test_step_search_of_a_newton_failure_is_the_refinement_ladder() -> None:
     per cycle found and the rungs tried (with their outcomes) must be those it stores."""
     import re
 
-    from compare.studies.stability import ladder_search
+    from ked_research.stability.study import ladder_search
 
     text = ("[campaign]\nstep_deg = 30.0\nn_modes = 1\n[grid]\nmass_models = ['tip']\n"
             "speed_ratios = [0.3]\n[dynamic]\nelements_per_link = 1\nsteps_per_cycle = 90\n")

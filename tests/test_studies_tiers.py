@@ -1,5 +1,5 @@
 """Tiers study: the findings (limits, their ranges, where the error comes from) on scenes whose errors are
-set by construction, so every expected number follows from the definitions in compare.studies.tiers."""
+set by construction, so every expected number follows from the definitions in ked_research.tiers.study."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from compare.studies.tiers import COARSE_STEP, TierPoint, analyse
+from ked_research.tiers.study import COARSE_STEP, TierPoint, analyse
 
 R = (0.02, 0.04, 0.06, 0.08, 0.12)
 

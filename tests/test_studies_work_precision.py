@@ -12,8 +12,7 @@ import pytest
 from compare.config import load_config
 from compare.metrics import cycle_error
 from compare.sections import markers, replace_section
-from compare.studies.work_precision import CONFIGS, STUDIES, family_key, lump_convergence
-from compare.studies.wp_analysis import (
+from ked_research.work_precision.analysis import (
     Choice,
     Discretization,
     WPPoint,
@@ -23,6 +22,7 @@ from compare.studies.wp_analysis import (
     observed_order,
     pareto_mask,
 )
+from ked_research.work_precision.study import CONFIGS, STUDIES, family_key, lump_convergence
 
 
 def test_replace_section_appends_replaces_and_leaves_others_alone() -> None:
@@ -88,8 +88,8 @@ def test_configs_share_the_reference_scenes() -> None:
 
 @pytest.mark.slow
 def test_work_precision_study_regenerates(tmp_path: Path) -> None:
-    from compare.studies import study_io
-    from compare.studies.work_precision import run_study
+    from ked_research import study_io
+    from ked_research.work_precision.study import run_study
 
     out, readme = tmp_path / "wp.h5", tmp_path / "README.md"
     run_study(out, figures=tmp_path, readme=readme, progress=False)
@@ -103,8 +103,8 @@ def test_work_precision_study_regenerates(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_stability_study_regenerates(tmp_path: Path) -> None:
-    from compare.studies import study_io
-    from compare.studies.stability import run_study
+    from ked_research import study_io
+    from ked_research.stability.study import run_study
 
     out, readme = tmp_path / "stab.h5", tmp_path / "README.md"
     run_study(out, readme=readme, progress=False)
@@ -131,7 +131,11 @@ def _section(name: str) -> str:
 
 def test_committed_readme_sections_are_generated_from_the_committed_results() -> None:
     """Every number in the two README sections comes from the stored /study tables."""
-    from compare.studies import stability, stability_report, study_io, work_precision, wp_report
+    from ked_research import study_io
+    from ked_research.stability import report as stability_report
+    from ked_research.stability import study as stability
+    from ked_research.work_precision import report as wp_report
+    from ked_research.work_precision import study as work_precision
 
     if not (work_precision.OUT.exists() and stability.OUT.exists()):
         pytest.skip("study results not generated")
@@ -145,7 +149,7 @@ def test_committed_readme_sections_are_generated_from_the_committed_results() ->
 
 def _stored_references():
     from compare import store
-    from compare.studies.work_precision import OUT, reference_scenes
+    from ked_research.work_precision.study import OUT, reference_scenes
 
     if not OUT.exists():
         pytest.skip("study results not generated")
@@ -155,8 +159,8 @@ def _stored_references():
 def test_linear_points_use_the_quasi_static_error_against_the_same_reference() -> None:
     import warnings
 
-    from compare.studies.work_precision import deflection, ked_scene, linear_points
     from ked_linear import LinearSettings, solve_linear
+    from ked_research.work_precision.study import deflection, ked_scene, linear_points
 
     r = next(r for r in _stored_references() if r.spec.mass_model.name == "tip" and r.verdict.speed_ratio < 0.1)
     (row,) = linear_points([r], repeats=1)
@@ -172,7 +176,10 @@ def test_resume_keeps_the_stored_tables_and_adds_the_missing_one(tmp_path: Path,
     """A resume that adds no scene computes only the missing /study table (no Exudyn run, no re-timing)."""
     import shutil
 
-    from compare.studies import study_io, work_precision, wp_analysis, wp_report
+    from ked_research import study_io
+    from ked_research.work_precision import analysis as wp_analysis
+    from ked_research.work_precision import report as wp_report
+    from ked_research.work_precision import study as work_precision
 
     _stored_references()
     out = tmp_path / "wp.h5"
@@ -205,8 +212,9 @@ def test_resume_keeps_the_stored_tables_and_adds_the_missing_one(tmp_path: Path,
 def test_findings_of_the_committed_study() -> None:
     """The findings of the committed work_precision.h5: expectations from numerics and physics, then named
     regression pins (the numbers its README section states)."""
-    from compare.studies import study_io, work_precision
-    from compare.studies.wp_analysis import Discretization, analyse
+    from ked_research import study_io
+    from ked_research.work_precision import study as work_precision
+    from ked_research.work_precision.analysis import Discretization, analyse
 
     if not work_precision.OUT.exists():
         pytest.skip("study results not generated")

@@ -9,8 +9,9 @@ from dataclasses import replace
 import pytest
 from click.testing import CliRunner
 
-from compare.studies import stress, stress_report
-from compare.studies.study_io import write_tables
+from ked_research.stress import report as stress_report
+from ked_research.stress import study as stress
+from ked_research.study_io import write_tables
 
 
 def test_one_scene_through_the_three_tiers():

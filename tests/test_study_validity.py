@@ -13,11 +13,11 @@ from click.testing import CliRunner
 from compare import store
 from compare.limits import Limit, crossing, errors, one_mode_curves, one_mode_errors, validity_limit
 from compare.sections import section_of
-from compare.studies.validity import CONFIGS, REFINE_FILE, load_study
-from compare.studies.validity_figures import FIGURES, reference
-from compare.studies.validity_report import render_section
-from compare.studies.validity_summary import answer, claims
 from ked_cli.main import cli as main
+from ked_research.validity.figures import FIGURES, reference
+from ked_research.validity.report import render_section
+from ked_research.validity.study import CONFIGS, REFINE_FILE, load_study
+from ked_research.validity.summary import answer, claims
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -1,0 +1,23 @@
+"""ked_check: the design check of one linkage (``ked check``): which tier of model its elastic answer needs at
+each speed, how sure that call is, its critical speeds, and its link stresses and fatigue.
+
+One call, :func:`check` (``ked_check.check.check``): a linkage and speeds in, one row per speed out; the CLI only
+renders the rows.  The rule of the quasi-static call (:mod:`ked_check.verdict_rule`) reads the check's own
+published limits, package data of this package (:mod:`ked_check.published`, written by ``ked study atlas``).
+Names are imported on first use: ``ked check`` keeps its start-up cheap.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_API = {"check": "ked_check.check", "CheckRow": "ked_check.check", "spec_for": "ked_check.check",
+        "VerdictMargins": "ked_check.verdict_rule", "check_critical": "ked_check.critical"}
+__all__ = sorted(_API)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _API:
+        return getattr(importlib.import_module(_API[name]), name)
+    raise AttributeError(f"module 'ked_check' has no attribute {name!r}")

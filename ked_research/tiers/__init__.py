@@ -1,0 +1,1 @@
+"""The tiers study: the three tiers side by side on the validity study's scenes (``study``)."""
