@@ -31,6 +31,15 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parents[1]
 
 
+def _atlas(tree: str, module: str):
+    """Module ``module`` of the atlas package of checkout ``tree`` (``ked_research.atlas``; ``compare.atlas`` in a
+    checkout older than the research package)."""
+    import importlib
+
+    package = "ked_research.atlas" if (Path(tree) / "ked_research" / "atlas").is_dir() else "compare.atlas"
+    return importlib.import_module(f"{package}.{module}")
+
+
 def _warm(tree: str, n: int, seed: int) -> tuple[str, list[tuple[int, int | None]]]:
     """On a worker, before the clock starts: import the harness from ``tree``; returns where it was found
     and the atlas's tasks of that checkout, (linkage i, family j), or (i, None) for a task per linkage."""
@@ -39,35 +48,25 @@ def _warm(tree: str, n: int, seed: int) -> tuple[str, list[tuple[int, int | None
     sys.path.insert(0, tree)
     import compare.solvers.linear
     import compare.solvers.quasi_static  # noqa: F401
-    import ked_research.atlas.compute
-    import ked_research.atlas.run as run
-    from ked_research.atlas.generate import generate
 
-    linkages = generate(n, seed).linkages
+    compute, run = _atlas(tree, "compute"), _atlas(tree, "run")
+    linkages = _atlas(tree, "generate").generate(n, seed).linkages
     if not hasattr(run, "family_tasks"):  # a checkout whose atlas task is a linkage
-        return ked_research.atlas.compute.__file__, [(i, None) for i in range(n)]
-    return ked_research.atlas.compute.__file__, [(i, j) for i, lk in enumerate(linkages)
-                                            for j in range(len(run.family_tasks([lk])))]
+        return compute.__file__, [(i, None) for i in range(n)]
+    return compute.__file__, [(i, j) for i, lk in enumerate(linkages) for j in range(len(run.family_tasks([lk])))]
 
 
-def _task(n: int, seed: int, i: int, j: int | None) -> tuple[int, float]:
+def _task(tree: str, n: int, seed: int, i: int, j: int | None) -> tuple[int, float]:
     """(scenes, CPU s) of task (i, j) of :func:`_warm`, on a worker: only plain numbers travel back, so two
     checkouts' workers can be compared by one client."""
-    from ked_research.atlas.compute import NOT_COMPUTED
-    from ked_research.atlas.generate import generate
-
-    linkage = generate(n, seed).linkages[i]
+    compute, run = _atlas(tree, "compute"), _atlas(tree, "run")
+    linkage = _atlas(tree, "generate").generate(n, seed).linkages[i]
     c0 = time.process_time()
     if j is None:
-        from ked_research.atlas.compute import compute_linkage
-
-        records = compute_linkage(linkage)
+        records = compute.compute_linkage(linkage)
     else:
-        from ked_research.atlas.compute import compute_family
-        from ked_research.atlas.run import family_tasks
-
-        records = (compute_family(*family_tasks([linkage])[j]),)
-    return sum(sum(c != NOT_COMPUTED for c in rec.code) for rec in records), time.process_time() - c0
+        records = (compute.compute_family(*run.family_tasks([linkage])[j]),)
+    return sum(sum(c != compute.NOT_COMPUTED for c in rec.code) for rec in records), time.process_time() - c0
 
 
 def one_run(workers: int, n: int, seed: int, tree: Path) -> tuple[float, int, float]:
@@ -79,11 +78,11 @@ def one_run(workers: int, n: int, seed: int, tree: Path) -> tuple[float, int, fl
                       silence_logs=40) as cluster, Client(cluster) as client:
         warm = client.run(_warm, str(tree), n, seed)  # workers up, harness imported, before the clock starts
         where = {w for w, _ in warm.values()}
-        if where != {str(tree / "compare" / "atlas" / "compute.py")}:
+        if len(where) != 1 or not Path(next(iter(where))).is_relative_to(tree):
             raise SystemExit(f"the workers imported the harness from {where}, not from {tree}")
         tasks = next(iter(warm.values()))[1]
         t0 = time.perf_counter()
-        futures = [client.submit(_task, n, seed, i, j, pure=False) for i, j in tasks]
+        futures = [client.submit(_task, str(tree), n, seed, i, j, pure=False) for i, j in tasks]
         done = [f.result() for f in futures]
         return time.perf_counter() - t0, sum(s for s, _ in done), sum(c for _, c in done)
 
@@ -106,8 +105,8 @@ def main() -> None:
     args = ap.parse_args()
     trees = {"this": HERE} | ({"against": Path(args.against).resolve()} if args.against else {})
     for tree in trees.values():
-        if not (tree / "compare" / "atlas" / "compute.py").is_file():
-            raise SystemExit(f"--against {tree}: not a ked-harness checkout (no compare/atlas/compute.py)")
+        if not any((tree / d / "atlas" / "compute.py").is_file() for d in ("ked_research", "compare")):
+            raise SystemExit(f"--against {tree}: not a ked-harness checkout (no atlas/compute.py)")
     print(f"{args.linkages} linkages (seed {args.seed}), {args.repeats} repeats per worker count"
           + (f"; this checkout ({HERE}) and {trees['against']} in turn" if args.against else ""))
     for workers in (int(w) for w in args.workers.split(",")):
