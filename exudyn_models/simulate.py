@@ -39,7 +39,6 @@ import numpy as np
 from ked_quasi import limits
 from ked_quasi.stress import StressHistory
 
-from .builder import build_model
 from .cycles import (  # noqa: F401 - re-exported (the public home of these names)
     EXTRAPOLATION_ORDER,
     ROUNDOFF_TOLERANCE,
@@ -50,19 +49,12 @@ from .cycles import (  # noqa: F401 - re-exported (the public home of these name
     relative_change,
     solver_settings,
 )
-from .damping import rayleigh_beta, reference_frequency
+from .damping import rayleigh_beta
 from .errors import SimulationError
 from .failure import Extension, classify, classify_newton_failure, cycles_to_grant, evidence_of
-from .lowspeed import run_settings
-from .march import march
-from .periodic import solve_periodic
+from .kinds import model
 from .refine import Attempt, failure_hint, ladder, over_budget, rung_settings
 from .settings import DynamicSettings
-from .slider_builder import check_slider_settings, is_slider_scene
-from .slider_simulate import run_slider, slider_reference_frequency
-from .start import linear_state, quasi_static_state, set_initial_state
-from .stress_cycle import steady_stress
-from .tolerance import newton_tolerances
 
 __all__ = ["Attempt", "DynamicResult", "SimulationError", "extrapolate_limit", "newton_abs_tolerance",
            "simulate_steady_state", "solver_settings"]
@@ -127,33 +119,9 @@ class DynamicResult:
 
 
 def _run(scene, settings: DynamicSettings, damping_beta: float, stress: bool = False) -> RunRecord:
-    """One run at fixed settings: build, start, constant-speed phase (march or periodic solve). At low
-    speed the steps per cycle are raised (exudyn_models.lowspeed; recorded in RunRecord.steps_per_cycle).
-    A slider-crank scene runs its own model (exudyn_models.slider_simulate), as given.  With ``stress``,
-    one more cycle gives the link stresses (exudyn_models.stress_cycle)."""
-    if is_slider_scene(scene):
-        return run_slider(scene, settings, damping_beta, stress)
-    settings = run_settings(scene, settings, damping_beta)
-    record, model = _run_as_given(scene, settings, damping_beta)
-    record.steps_per_cycle = settings.steps_per_cycle
-    if stress:
-        t0 = time.perf_counter()
-        record.stress = steady_stress(model, scene, scene.fourbar, settings.steps_per_cycle, settings,
-                                      newton_tolerances(settings, scene))
-        record.stress_wall_s = time.perf_counter() - t0
-    return record
-
-
-def _run_as_given(scene, settings: DynamicSettings, damping_beta: float) -> tuple[RunRecord, object]:
-    model = build_model(scene, settings, damping_beta=damping_beta)
-    note = "ramp"
-    if settings.start != "ramp":
-        st = (linear_state if settings.start == "linear" else quasi_static_state)(model, scene)
-        set_initial_state(model, st.q, st.v, st.a)
-        note = st.note
-    if settings.periodic == "anderson":
-        return solve_periodic(scene, settings, model, note), model
-    return march(scene, settings, model, note), model
+    """One run at fixed settings of the scene's kind (:mod:`exudyn_models.kinds`): build, start, constant-speed
+    phase; with ``stress``, one more cycle gives the link stresses (exudyn_models.stress_cycle)."""
+    return model(scene).run(scene, settings, damping_beta, stress)
 
 
 def _message(record: RunRecord, settings: DynamicSettings) -> str:
@@ -265,10 +233,9 @@ def simulate_steady_state(scene, settings: DynamicSettings | None = None, *, str
     settings = DynamicSettings() if settings is None else settings
     if not isinstance(settings, DynamicSettings):
         raise TypeError("settings must be a DynamicSettings")
-    if is_slider_scene(scene):
-        check_slider_settings(scene, settings)
-    f_ref = (slider_reference_frequency if is_slider_scene(scene) else reference_frequency)(scene, settings) \
-        if settings.damping_ratio > 0.0 else float("nan")
+    kind = model(scene)
+    kind.check_settings(scene, settings)
+    f_ref = kind.reference_frequency(scene, settings) if settings.damping_ratio > 0.0 else float("nan")
     beta = rayleigh_beta(settings.damping_ratio, f_ref) if settings.damping_ratio > 0.0 else 0.0
     attempts: list[Attempt] = []
     peaks: list[tuple[float, ...]] = []

@@ -100,11 +100,6 @@ class SliderModel:
         return j, s * n_el - j
 
 
-def is_slider_scene(scene) -> bool:
-    """Whether `scene` is a slider-crank scene (ked_quasi.slidercrank.SliderScene)."""
-    return isinstance(scene, SliderScene)
-
-
 def make_slider_drive(scene: SliderScene, settings: DynamicSettings) -> Drive:
     """The crank drive: the smooth ramp over ramp_cycles (whole time steps), as the four-bar's."""
     omega = scene.omega

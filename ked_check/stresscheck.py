@@ -34,7 +34,8 @@ from typing import Any
 import numpy as np
 
 from ked_quasi.fatigue import Material, history_fatigue
-from ked_quasi.stress import StressHistory, history_error, quasi_static_stress
+from ked_quasi.kinds import quasi_static_stress
+from ked_quasi.stress import StressHistory, history_error
 
 
 def stress_keys(scene: Any, linear_settings: Any | None, linear_stable: bool,

@@ -12,7 +12,8 @@ a ``ked_quasi.Scene``; derivation in docs/linear_model.md.  SI units.
 """
 
 from .floquet import FloquetResult, floquet, monodromy, multipliers
-from .linkage import LinkageSystem, frozen_frequencies, linkage_system
+from .kinds import linkage_system
+from .linkage import LinkageSystem, frozen_frequencies
 from .periodic import Coefficients, PeriodicSolution, PeriodicSystem, SteadyState, solve_periodic, steady_state
 from .settings import LinearSettings
 from .solver import UNRESOLVED_ESTIMATE, LinearResult, describe_flags, forget_recalled, result_flags, solve_linear

@@ -37,16 +37,10 @@ class LinkageSystem:
     damping_beta: float
 
 
-def linkage_system(scene: Scene, settings: LinearSettings, masses: bool = False) -> LinkageSystem:
-    """The linear KED equations of ``scene`` as a :class:`~ked_linear.periodic.PeriodicSystem` (a slider-crank
-    scene: :func:`ked_linear.slider.slider_system`); ``masses``: its output is every mass coordinate (the
+def four_bar_system(scene: Scene, settings: LinearSettings, masses: bool = False) -> LinkageSystem:
+    """The linear KED equations of a four-bar ``scene`` as a :class:`~ked_linear.periodic.PeriodicSystem`
+    (any kind: :func:`ked_linear.kinds.linkage_system`); ``masses``: its output is every mass coordinate (the
     identity) instead of dx, dy, rotation of P."""
-    from ked_quasi.slidercrank import SliderScene
-
-    if isinstance(scene, SliderScene):
-        from .slider import slider_system
-
-        return slider_system(scene, settings)  # type: ignore[return-value]
     f_ref = settings.damping_reference_hz
     f_ref = damping_reference_hz(scene) if f_ref is None else float(f_ref)
     beta = rayleigh_beta(settings.damping_ratio, f_ref)

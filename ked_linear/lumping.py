@@ -32,23 +32,10 @@ def coarse_scene(scene: Any, dynamic_lumps: int | None) -> Any | None:
     return replace(scene, mass_model=replace(mm, lumps=dynamic_lumps))
 
 
-def quasi_static_outputs(scene: Any) -> np.ndarray:
-    """The quasi-static answer on the scene's grid, (n, 3) dx, dy [m], rotation [rad] of P; a slider-crank
-    adds its midspan deflection [m] as a fourth column."""
-    from ked_quasi.slidercrank import SliderScene
-
-    if isinstance(scene, SliderScene):
-        from ked_quasi.slider_static import solve_slider_quasi_static
-
-        res = solve_slider_quasi_static(scene)
-        return np.column_stack([res.deflection, res.midspan])
-    from ked_quasi.solver import solve_quasi_static
-
-    return np.asarray(solve_quasi_static(scene).deflection)
-
-
 def static_correction(scene: Any, coarse: Any) -> np.ndarray:
-    """q_scene - q_coarse on the scene's grid (columns as :func:`quasi_static_outputs`)."""
+    """q_scene - q_coarse on the scene's grid (columns: :func:`ked_quasi.kinds.quasi_static_outputs`)."""
+    from ked_quasi.kinds import quasi_static_outputs
+
     return quasi_static_outputs(scene) - quasi_static_outputs(coarse)
 
 

@@ -15,10 +15,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from .corotating import periodic_steady_state
-from .linkage import linkage_system
+from .linkage import four_bar_system
 from .lumping import dynamic_scene
+from .reduction import REDUCE_FROM
+from .runtime import single_threaded_blas
 from .settings import LinearSettings
-from .solver import REDUCE_FROM, single_threaded_blas
 
 STEP_RAD = 0.005
 """Crank-angle step [rad] of the differences."""
@@ -47,7 +48,7 @@ def mass_motion(scene: object, settings: LinearSettings, theta: np.ndarray) -> M
     from ked_quasi.structure import topology
 
     dyn, s = dynamic_scene(scene, settings)
-    system = linkage_system(dyn, s, masses=True).system
+    system = four_bar_system(dyn, s, masses=True).system
     theta = np.atleast_1d(np.asarray(theta, dtype=float))
     offsets = STEP_RAD * np.arange(-2, 3)
     with single_threaded_blas():

@@ -85,6 +85,12 @@ from .reducedsystem import (  # noqa: F401  (INTERPOLATION_TOLERANCE re-exported
 from .reducedsystem import _Forcing, _Reduced
 from .sampled import TrigInterpolant
 
+REDUCE_FROM = 8
+"""Damped four-bar systems with at least this many coordinates (extender, distributed) get their Floquet
+multipliers from the reduced system (:mod:`ked_linear.reduction`) when it vouches for the tolerance;
+smaller ones (tip, joints: the full propagator is as fast), undamped ones and a fixed ``floquet_steps``
+use the full propagator (:func:`ked_linear.floquet.floquet`)."""
+
 FULL_NEAR_ONE = 0.9
 """A reduced max |mu| + error at or above this goes to the full model (the weakly damped threshold of the
 result flags: a verdict near the stability boundary is decided on the unreduced system)."""

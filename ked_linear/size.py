@@ -12,14 +12,10 @@ from .result import MAX_COORDINATES
 
 
 def elastic_size(scene: object) -> int:
-    """Elastic coordinates of the linear model of ``scene`` (a four-bar or a slider-crank; no frame solve)."""
-    if hasattr(scene, "fourbar"):
-        from .solver import elastic_coordinates
+    """Elastic coordinates of the linear model of a ``scene`` of any kind (no frame solve)."""
+    from .kinds import model
 
-        return elastic_coordinates(scene)  # type: ignore[arg-type]
-    from .slider import elastic_coordinates as slider_coordinates
-
-    return slider_coordinates(scene)  # type: ignore[arg-type]
+    return model(scene).elastic_coordinates(scene)
 
 
 def max_lumps(scene: object) -> int:

@@ -45,6 +45,7 @@ from ked_quasi.slider_static import (
     slider_topology,
 )
 from ked_quasi.slidercrank import SliderScene, slider_kinematics, slider_lumps
+from ked_quasi.stress import StressHistory
 from ked_quasi.units import omega1_min, speed_ratio
 
 from .floquet import floquet
@@ -310,6 +311,38 @@ class SliderLinearResult(LinearResult):
     midspan deflection normal to its chord (CCW normal of A->B), NaN when not stable."""
 
     midspan: np.ndarray | None = None
+
+
+def dynamic_stress(scene: SliderScene, settings: LinearSettings, theta: np.ndarray) -> StressHistory:
+    """The slider-crank model's stress under -M (a_rigid + u'') at ``theta`` [rad], on the model that carries the
+    dynamics (:func:`ked_linear.lumping.dynamic_scene`; no static correction here: :mod:`ked_linear.stress`)."""
+    from ked_quasi.slider_static import _frozen, inertia_loads
+    from ked_quasi.stress import slider_stress
+
+    from .lumping import dynamic_scene
+    from .motion import MAX_ERROR, STEP_RAD
+    from .periodic import steady_state
+
+    scene, settings = dynamic_scene(scene, settings)
+    system = slider_system(scene, settings).system
+    offsets = STEP_RAD * np.arange(-2, 3)
+    ss = steady_state(system, (theta[:, None] + offsets).ravel(), settings.tolerance, settings.harmonics,
+                      settings.max_harmonics)
+    if not ss.error_estimate <= MAX_ERROR:
+        raise ValueError(f"linear steady state not resolved (estimated error {ss.error_estimate:.2g} of the peak)")
+    u = np.asarray(ss.displacement).reshape(theta.size, offsets.size, -1)
+    d2 = (-u[:, 0] + 16 * u[:, 1] - 30 * u[:, 2] + 16 * u[:, 3] - u[:, 4]) / (12 * STEP_RAD**2)
+    frame = slider_frame(scene)
+    lm, topo, kin, _ = _frozen(scene, theta)
+    loads = inertia_loads(scene, topo, lm, kin)
+    loads[:, frame.master // 2, frame.master % 2] -= frame.mass * system.speed**2 * d2
+    return slider_stress(scene, theta, loads, tier="linear")
+
+
+def reduced_stability(scene: SliderScene, system: PeriodicSystem, settings: LinearSettings,
+                      reductions: object = None) -> None:
+    """None: the slider-crank has no reduced system in co-rotating frames; its full propagator decides."""
+    return None
 
 
 __all__ = ["OUTPUTS", "SliderCondensed", "SliderFrame", "SliderLinearResult", "SliderSystem", "condensed_slider",

@@ -5,7 +5,11 @@ on the scene's type.  A new kind is one more entry here and its own modules.
 Each function takes the scene first: ``quasi_static(scene, crank_angle=None)`` (a result with ``deflection`` (n, 3)
 [m, m, rad], ``loads`` and ``transmission_angle`` [rad]), ``natural_frequencies(scene, n_modes=3, crank_angle=None)``
 ((n, n_modes) [Hz] of the frozen structure), ``coupler_path(scene)`` ((n, 2) [m]: the rigid coupler point P over the
-scene's grid).
+scene's grid), ``outputs(scene)`` (the quasi-static answer on the grid, (n, 3) dx, dy [m], rotation [rad] of P, and
+the kind's further outputs as more columns: a slider-crank's midspan deflection [m]), ``stress(scene,
+crank_angle=None)`` (:class:`ked_quasi.stress.StressHistory` of every link of the kind).
+
+The generic entries :func:`quasi_static_outputs` and :func:`quasi_static_stress` take a scene of any kind.
 """
 
 from __future__ import annotations
@@ -26,6 +30,8 @@ class KindModel:
     quasi_static: Callable[..., Any]
     natural_frequencies: Callable[..., np.ndarray]
     coupler_path: Callable[[Any], np.ndarray]
+    outputs: Callable[[Any], np.ndarray]
+    stress: Callable[..., Any]
 
 
 def _four_bar_path(scene: Any) -> np.ndarray:
@@ -40,6 +46,19 @@ def _slider_path(scene: Any) -> np.ndarray:
     return np.asarray(slider_kinematics(scene.linkage, scene.crank_angles, scene.rpm).P, dtype=float)
 
 
+def _four_bar_outputs(scene: Any) -> np.ndarray:
+    from .solver import solve_quasi_static
+
+    return np.asarray(solve_quasi_static(scene).deflection)
+
+
+def _slider_outputs(scene: Any) -> np.ndarray:
+    from .slider_static import solve_slider_quasi_static
+
+    res = solve_slider_quasi_static(scene)
+    return np.column_stack([res.deflection, res.midspan])
+
+
 @functools.cache
 def models() -> dict[str, KindModel]:
     """Kind name -> its :class:`KindModel` (built on first use: the solvers load only then)."""
@@ -47,10 +66,12 @@ def models() -> dict[str, KindModel]:
     from . import slidercrank
     from .slider_static import slider_natural_frequencies, solve_slider_quasi_static
     from .solver import natural_frequencies, solve_quasi_static
+    from .stress import four_bar_stress, slider_stress
 
-    return {four_bar.KIND: KindModel(four_bar.KIND, solve_quasi_static, natural_frequencies, _four_bar_path),
+    return {four_bar.KIND: KindModel(four_bar.KIND, solve_quasi_static, natural_frequencies, _four_bar_path,
+                                     _four_bar_outputs, four_bar_stress),
             slidercrank.KIND: KindModel(slidercrank.KIND, solve_slider_quasi_static, slider_natural_frequencies,
-                                        _slider_path)}
+                                        _slider_path, _slider_outputs, slider_stress)}
 
 
 def model(scene: Any) -> KindModel:
@@ -61,4 +82,16 @@ def model(scene: Any) -> KindModel:
     return kinds[scene.kind]
 
 
-__all__ = ["KindModel", "model", "models"]
+def quasi_static_outputs(scene: Any) -> np.ndarray:
+    """The quasi-static answer of a scene of any kind on its grid (columns: :attr:`KindModel.outputs`)."""
+    return model(scene).outputs(scene)
+
+
+def quasi_static_stress(scene: Any, crank_angle: np.ndarray | None = None) -> Any:
+    """Quasi-static stress histories (:class:`ked_quasi.stress.StressHistory`) of a scene of any kind (default
+    grid: its ``crank_angles``): the frozen structure's member forces under the d'Alembert loads -m a_rigid.
+    Four-bar: crank, coupler, extender, follower; slider-crank: crank and coupler (the rod)."""
+    return model(scene).stress(scene, crank_angle)
+
+
+__all__ = ["KindModel", "model", "models", "quasi_static_outputs", "quasi_static_stress"]

@@ -137,32 +137,29 @@ def four_bar_stress_from_loads(scene: object, crank_angle: np.ndarray, loads: np
     return StressHistory(crank_angle=theta, links=links, tier=tier)
 
 
-def quasi_static_stress(scene: object, crank_angle: np.ndarray | None = None) -> StressHistory:
-    """Quasi-static stress histories of a four-bar or slider-crank ``scene`` (default grid: its
-    ``crank_angles``): the frozen structure's member forces under the d'Alembert loads -m a_rigid.
-    Four-bar: crank, coupler, extender, follower; slider-crank: crank and coupler (the rod)."""
-    from .slidercrank import SliderScene
-
-    theta = scene.crank_angles if crank_angle is None else np.atleast_1d(np.asarray(crank_angle, float))
-    if isinstance(scene, SliderScene):
-        return slider_stress(scene, theta)
+def four_bar_stress(scene: object, crank_angle: np.ndarray | None = None) -> StressHistory:
+    """Quasi-static stress histories of a four-bar ``scene`` (default grid: its ``crank_angles``): the frozen
+    structure's member forces under the d'Alembert loads -m a_rigid; links crank, coupler, extender, follower.
+    Any linkage kind: :func:`ked_quasi.kinds.quasi_static_stress`."""
     from .massmodel import lumps
     from .solver import inertia_loads
     from .structure import topology
 
+    theta = scene.crank_angles if crank_angle is None else np.atleast_1d(np.asarray(crank_angle, float))
     lm = lumps(scene.fourbar, scene.mass_model)
     loads = inertia_loads(scene, topology(lm), lm, theta)
     return four_bar_stress_from_loads(scene, theta, loads)
 
 
-def slider_stress(scene: object, crank_angle: np.ndarray, loads: np.ndarray | None = None,
+def slider_stress(scene: object, crank_angle: np.ndarray | None = None, loads: np.ndarray | None = None,
                   tier: str = "quasi-static") -> StressHistory:
-    """Stress histories of a slider-crank ``scene`` at ``crank_angle`` [rad] under nodal loads ``loads``
-    (n, N, 2) [N] (default: the quasi-static d'Alembert loads)."""
+    """Stress histories of a slider-crank ``scene`` at ``crank_angle`` [rad] (default: its grid) under nodal
+    loads ``loads`` (n, N, 2) [N] (default: the quasi-static d'Alembert loads); links crank and coupler (the
+    rod)."""
     from .slider_static import _chunk, _frozen, _sub, force_transformation, inertia_loads
     from .slidercrank import SLIDER_LINKS
 
-    theta = np.atleast_1d(np.asarray(crank_angle, dtype=float))
+    theta = scene.crank_angles if crank_angle is None else np.atleast_1d(np.asarray(crank_angle, dtype=float))
     lm, topo, kin, X = _frozen(scene, theta)
     loads = inertia_loads(scene, topo, lm, kin) if loads is None else loads
     P = np.concatenate([loads.reshape(theta.size, -1), np.zeros((theta.size, 1))], axis=1)
@@ -201,5 +198,5 @@ def history_error(test: StressHistory, reference: StressHistory) -> dict[str, fl
     return out
 
 
-__all__ = ["LinkStress", "StressHistory", "combine", "four_bar_stress_from_loads", "history_error",
-           "link_stress", "quasi_static_stress", "slider_stress"]
+__all__ = ["LinkStress", "StressHistory", "combine", "four_bar_stress", "four_bar_stress_from_loads", "history_error",
+           "link_stress", "slider_stress"]

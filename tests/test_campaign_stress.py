@@ -21,8 +21,9 @@ from compare import h5layout, store
 from compare.config import ConfigError, parse_config
 from compare.diff import diff_files
 from compare.runner import run_campaign
+from ked_quasi.kinds import quasi_static_stress
 from ked_quasi.linkage import LINKS
-from ked_quasi.stress import LinkStress, StressHistory, history_error, quasi_static_stress
+from ked_quasi.stress import LinkStress, StressHistory, history_error
 
 from .test_store_faults import ked
 

@@ -8,9 +8,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from ked_linear import LinearSettings, periodic, solve_linear
+from ked_linear import LinearSettings, linkage_system, periodic, solve_linear
 from ked_linear.corotating import four_bar_steady_state
-from ked_linear.linkage import linkage_system
 from ked_linear.periodic import _Collocation, _solve_on, evaluate, relative_change
 from ked_linear.result import OUTPUT_GROUPS
 from ked_quasi.presets import make_scene

@@ -23,9 +23,10 @@ from exudyn_models.settings import DynamicSettings
 from exudyn_models.simulate import simulate_steady_state
 from ked_linear.stress import linear_stress
 from ked_quasi import MassModel, SliderScene, simeon_slider_crank
+from ked_quasi.kinds import quasi_static_stress
 from ked_quasi.linkage import LINKS
 from ked_quasi.presets import make_scene
-from ked_quasi.stress import LinkStress, quasi_static_stress
+from ked_quasi.stress import LinkStress
 
 
 def _error(a: LinkStress, b: LinkStress) -> float:

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
+from ked_linear import linkage_system
 from ked_linear.floquet import floquet, multipliers
-from ked_linear.linkage import linkage_system
 from ked_linear.periodic import Coefficients, PeriodicSystem
 from ked_linear.reduction import (
     InterpolatedCoefficients,

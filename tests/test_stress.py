@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 
 from ked_quasi import MassModel, Scene, SliderScene, simeon_slider_crank, thesis_fourbar
+from ked_quasi.kinds import quasi_static_stress
 from ked_quasi.kinematics import joint_positions
 from ked_quasi.linkage import THESIS_SECTION, Section
-from ked_quasi.stress import history_error, quasi_static_stress
+from ked_quasi.stress import history_error
 from ked_quasi.units import INCH
 
 THETA = math.radians(40.0)

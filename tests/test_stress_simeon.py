@@ -19,7 +19,7 @@ import pytest
 
 from ked_bench.simeon import SimeonParameters, steady_state
 from ked_quasi import MassModel, SliderScene, simeon_slider_crank
-from ked_quasi.stress import quasi_static_stress
+from ked_quasi.kinds import quasi_static_stress
 
 GALERKIN = 32.0 / math.pi**3
 

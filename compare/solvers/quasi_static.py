@@ -28,8 +28,7 @@ def run(scene: Any, settings: QuasiStaticSettings, outputs: tuple[str, ...] = CO
     solved by its own frozen structure (ked_quasi.slider_static).  With the output ``stress``, the frozen
     structure's link stresses (ked_quasi.stress)."""
     from ked_quasi import limits
-    from ked_quasi.kinds import model
-    from ked_quasi.stress import quasi_static_stress
+    from ked_quasi.kinds import model, quasi_static_stress
 
     linkage = scene.linkage
     t0 = time.perf_counter()

@@ -171,7 +171,8 @@ def _solve(case: Case, spec: Any, material: str, t0: float) -> Row:
     from ked_linear.settings import LinearSettings
     from ked_linear.stress import linear_stress
     from ked_quasi.fatigue import Material
-    from ked_quasi.stress import history_error, quasi_static_stress
+    from ked_quasi.kinds import quasi_static_stress
+    from ked_quasi.stress import history_error
 
     nan = math.nan
     fr = frame(spec)
