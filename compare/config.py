@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+import json
 import math
 from dataclasses import dataclass, replace
 from importlib import resources
@@ -28,11 +29,10 @@ from compare.scenes import MECHANISMS, Grid, Items, SceneSpec, SpeedSpec
 from compare.solvers import COMPONENTS, OUTPUTS
 from compare.tolerances import Tolerances, parse_tolerances
 from compare.tomlcheck import Checker, ConfigError, read_text, read_toml, type_name
-from ked_quasi import rules, units
+from ked_quasi import kinds, rules, units
 from ked_quasi.fatigue import CRITERIA, CYCLES, STRENGTH_RULES, Material, SNCurve
 from ked_quasi.linkage import DIRECTIONS, THESIS_RPM, FourBar
 from ked_quasi.massmodel import MASS_MODELS, PLACEMENTS, MassModel, default_payload
-from ked_quasi.scene import Scene, variant
 from ked_quasi.slidercrank import SliderCrank
 
 DEFAULT_TOLERANCE = rules.DEFAULT_TOLERANCE
@@ -270,25 +270,22 @@ def _speeds(c: Checker, grid: dict[str, Any]) -> tuple[SpeedSpec, ...]:
 def _check_kind_axes(c: Checker, source: FourBar | SliderCrank, path: str, mechanisms: tuple[str, ...],
                      mass_models: tuple[MassModel, ...]) -> None:
     """Every grid point must apply to every linkage of the grid: refused at load (one line naming the grid
-    parameter and the linkage), never skipped nor stored as failed.  A four-bar's mechanisms must be
-    crank-drivable; a slider-crank has only its source mechanism and the mass models of
-    :data:`ked_quasi.slidercrank.SLIDER_MASS_MODELS`."""
-    from ked_quasi.slidercrank import SLIDER_MASS_MODELS
-
+    parameter and the linkage), never skipped nor stored as failed.  Each mechanism must be one of the linkage's
+    kind (a four-bar's crank-drivable; a slider-crank has only its source) and each mass model one of its kind's
+    (:mod:`ked_quasi.kinds`)."""
+    kind = kinds.of_linkage(source)
     split = " (split the grid into one campaign per kind and join the files with ked merge)" \
         if path != "linkage" else ""
-    if isinstance(source, SliderCrank):
-        if tuple(mechanisms) != ("source",):
-            c.err("grid.mechanisms", f"{path} is a slider-crank, which has no Roberts cognate: use [\"source\"]"
-                                     + split)
-        bad = [mm.name for mm in mass_models if mm.name not in SLIDER_MASS_MODELS]
-        if bad:
-            c.err("grid.mass_models", f"{', '.join(bad)}: not a mass model of a slider-crank ({path}; allowed: "
-                                      f"{', '.join(SLIDER_MASS_MODELS)}){split}")
-        return
-    for mech in mechanisms:
+    if any(mech not in kind.mechanisms for mech in mechanisms):  # the mechanisms are a source and its cognate
+        c.err("grid.mechanisms", f"{path} is a {kind.name}, which has no Roberts cognate: use "
+                                 f"{json.dumps(list(kind.mechanisms))}{split}")
+    bad = [mm.name for mm in mass_models if mm.name not in kind.mass_models]
+    if bad:
+        c.err("grid.mass_models", f"{', '.join(bad)}: not a mass model of a {kind.name} ({path}; allowed: "
+                                  f"{', '.join(kind.mass_models)}){split}")
+    for mech in (m for m in mechanisms if m in kind.mechanisms):
         try:
-            variant(source, mech)
+            kind.variant(source, mech)
         except ValueError as exc:
             c.err("grid.mechanisms", f"{mech!r}: {exc}" + (f" ({path})" if path != "linkage" else ""))
 
@@ -303,13 +300,11 @@ def _check_linear_size(c: Checker, grid: Grid) -> None:
     if not any(name in LINEAR_SOLVERS for name in grid.solvers):
         return
     from ked_linear.size import check_size
-    from ked_quasi.slidercrank import SliderScene
 
     for i, linkage in enumerate(grid.linkages):
         where = "" if len(grid.linkages) == 1 else f" ({linkage_path(i, len(grid.linkages))})"
         for j, mm in enumerate(grid.mass_models):
-            scene = (SliderScene(linkage, mm, 1.0, grid.step_deg) if isinstance(linkage, SliderCrank)
-                     else Scene(linkage, mm, 1.0, grid.step_deg))
+            scene = kinds.of_linkage(linkage).scene_type(linkage, mm, 1.0, grid.step_deg)
             try:
                 check_size(scene, label=f"grid.mass_models[{j}].lumps{where}")
             except ValueError as exc:
@@ -330,13 +325,12 @@ def _check_speed_ratios(c: Checker, grid: Grid) -> None:
     for rpm, k in ((max(rpms), min(grid.stiffness_scales)), (min(rpms), max(grid.stiffness_scales))):
         for i, linkage in enumerate(grid.linkages):
             where = "" if len(grid.linkages) == 1 else f"{linkage_path(i, len(grid.linkages))}, "
-            if isinstance(linkage, SliderCrank):
-                _check_slider_grid(c, grid, linkage, rpm, k, where)
-            for mech, mm in itertools.product(() if isinstance(linkage, SliderCrank) else grid.mechanisms,
-                                              grid.mass_models):
+            kind = kinds.of_linkage(linkage)
+            for mech, mm in itertools.product(grid.mechanisms, grid.mass_models):
+                named = f"{mech}, " if len(kind.mechanisms) > 1 else ""  # a kind of one mechanism: not named
                 try:
-                    check_speed(variant(linkage, mech, k), mm, rpm, grid.step_deg,
-                                label=f"grid.rpm ({where}{mech}, {mm.name}, stiffness x{k:g})")
+                    check_speed(kind.variant(linkage, mech, k), mm, rpm, grid.step_deg,
+                                label=f"grid.rpm ({where}{named}{mm.name}, stiffness x{k:g})")
                 except ValueError as exc:
                     c.problems.append(str(exc))
                     c.bad.add("grid.rpm")
@@ -345,29 +339,8 @@ def _check_speed_ratios(c: Checker, grid: Grid) -> None:
                 return
 
 
-def _check_slider_grid(c: Checker, grid: Grid, linkage: SliderCrank, rpm: float, k: float, where: str = "") -> None:
-    """A slider-crank of the grid (its mass models checked by :func:`_check_kind_axes`): r = Omega/omega1_min
-    within the bound at the fastest rpm and the smallest stiffness scale (as for a four-bar)."""
-    import numpy as np
-
-    from ked_quasi.slider_static import slider_natural_frequencies
-    from ked_quasi.slidercrank import SliderScene
-    from ked_quasi.units import rpm_to_rad_s
-
-    sc = linkage.with_stiffness_scale(k) if k != 1.0 else linkage
-    for mm in grid.mass_models:
-        scene = SliderScene(sc, mm, rpm, grid.step_deg)
-        f1 = float(np.nanmin(slider_natural_frequencies(scene, n_modes=1)[:, 0]))
-        try:
-            rules.check_speed_ratio(units.speed_ratio(rpm_to_rad_s(rpm), 2.0 * math.pi * f1), rpm, f1,
-                                    f"grid.rpm ({where}{mm.name}, stiffness x{k:g})")
-        except ValueError as exc:
-            c.problems.append(str(exc))
-            c.bad.add("grid.rpm")
-            return
-
-
-def check_speed(fourbar: FourBar, mass_model: MassModel, rpm: float, step_deg: float, label: str = "rpm") -> None:
+def check_speed(fourbar: FourBar | SliderCrank, mass_model: MassModel, rpm: float, step_deg: float,
+                label: str = "rpm") -> None:
     """Refuse a crank speed ``rpm`` [rev/min] at which r = Omega/omega1_min exceeds the rule's bound
     (:func:`ked_quasi.rules.check_speed_ratio`, naming the likely unit mix-up) or lies below
     :data:`~ked_quasi.rules.MIN_SPEED_RATIO`.  A quick estimate (:data:`~ked_quasi.rules.SPEED_RATIO_LOAD_STEP_DEG`)
@@ -386,17 +359,15 @@ def check_speed(fourbar: FourBar, mass_model: MassModel, rpm: float, step_deg: f
 
 
 @functools.lru_cache(maxsize=512)
-def _omega1_min(fourbar: FourBar, mass_model: MassModel, step_deg: float) -> float:
+def _omega1_min(fourbar: FourBar | SliderCrank, mass_model: MassModel, step_deg: float) -> float:
     """Lowest first natural circular frequency over the turn [rad/s] (nan if none is finite), as
     :func:`compare.execute.frame` computes it."""
     import warnings
 
     import numpy as np
 
-    from ked_quasi.scene import Scene
-    from ked_quasi.solver import natural_frequencies
-
-    f1 = natural_frequencies(Scene(fourbar, mass_model, 1.0, step_deg), n_modes=1)[:, 0]
+    kind = kinds.of_linkage(fourbar)
+    f1 = kind.natural_frequencies(kind.scene_type(fourbar, mass_model, 1.0, step_deg), n_modes=1)[:, 0]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         return 2.0 * math.pi * float(np.nanmin(f1)) if np.isfinite(f1).any() else math.nan

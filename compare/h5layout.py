@@ -35,7 +35,7 @@ from compare.h5schema import (  # noqa: F401 (h5layout.<name>: the readers' name
 )
 from compare.metrics import PairMetrics, all_pairs
 from compare.results import STATUS_OK, RunStats, SceneResult
-from compare.scenes import SceneSpec, canonical_json
+from compare.scenes import FOUR_BAR, SLIDER_KIND, SceneSpec, canonical_json
 from compare.solvers import COMPONENT_UNITS, COMPONENTS, STATUS_FAILED, Solution
 from compare.solvers import STRESS as STRESS_OUTPUT
 from ked_quasi.linkage import LINKS, direction_sign
@@ -243,8 +243,12 @@ def parameter_row(spec: SceneSpec) -> dict[str, Any]:
         a[name] = getattr(spec, name)
     a["outputs"], a["solvers"] = ",".join(spec.outputs), ",".join(spec.solvers)
     a["kind"] = spec.kind
-    if spec.kind != "four-bar":
-        return {**a, **_slider_columns(lk)}
+    return {**a, **_LINKAGE_COLUMNS[spec.kind](lk)}
+
+
+def _four_bar_columns(lk: Any) -> dict[str, Any]:
+    """A four-bar's linkage columns."""
+    a: dict[str, Any] = {}
     for name in ("crank", "coupler", "follower", "extender"):
         a[f"{name}_m"] = float(getattr(lk, name))
     a["coupler_angle_rad"] = float(lk.coupler_angle)
@@ -269,6 +273,10 @@ def _slider_columns(lk: Any) -> dict[str, Any]:
                         ("second_moment", "second_moment_m4"), ("density", "density_kg_m3")):
         a[attr] = np.array([getattr(s, field) for s in lk.sections] + pad, dtype=np.float64)
     return a
+
+
+_LINKAGE_COLUMNS = {FOUR_BAR: _four_bar_columns, SLIDER_KIND: _slider_columns}
+"""Linkage kind -> its linkage columns of the scenes table (a new kind adds its entry)."""
 
 
 def scene_row(r: SceneResult, run: int, parameters: dict[str, Any] | None = None,

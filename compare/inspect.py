@@ -19,6 +19,7 @@ from typing import Any
 from compare import solvers as registry
 from compare.metrics import VERDICT_METRIC, pair_name
 from compare.results import SceneResult
+from compare.scenes import FOUR_BAR, SLIDER_KIND
 from compare.solvers import STRESS_PREFIX
 
 
@@ -359,17 +360,26 @@ def scene_detail(r: SceneResult) -> dict[str, Any]:
 
 
 def _linkage_lines(s: Any) -> list[str]:
-    """The mechanism and linkage lines of a scene's description (four-bar or slider-crank)."""
-    lk = s.linkage
-    if s.kind != "four-bar":
-        rigid = [n for n, r in zip(("crank", "coupler"), lk.rigid) if r]
-        return [f"  mechanism   : slider-crank, direction {s.direction}",
-                f"  linkage [m] : crank {lk.crank:.4g}, coupler {lk.coupler:.4g}, offset {lk.offset:.4g}, coupler "
-                f"point at {lk.coupler_point:.4g} of the coupler, slider {lk.slider_mass:.4g} kg"
-                + (f", rigid {' and '.join(rigid)}" if rigid else "")]
+    """The mechanism and linkage lines of a scene's description (by its linkage kind)."""
+    return _LINKAGE_LINES[s.kind](s, s.linkage)
+
+
+def _four_bar_lines(s: Any, lk: Any) -> list[str]:
     return [f"  mechanism   : {s.mechanism}, branch {lk.branch}, direction {s.direction}",
             f"  linkage [m] : crank {lk.crank:.4g}, coupler {lk.coupler:.4g}, follower {lk.follower:.4g}, "
             f"extender {lk.extender:.4g}, coupler angle {math.degrees(lk.coupler_angle):.4g} deg"]
+
+
+def _slider_lines(s: Any, lk: Any) -> list[str]:
+    rigid = [n for n, r in zip(("crank", "coupler"), lk.rigid) if r]
+    return [f"  mechanism   : slider-crank, direction {s.direction}",
+            f"  linkage [m] : crank {lk.crank:.4g}, coupler {lk.coupler:.4g}, offset {lk.offset:.4g}, coupler "
+            f"point at {lk.coupler_point:.4g} of the coupler, slider {lk.slider_mass:.4g} kg"
+            + (f", rigid {' and '.join(rigid)}" if rigid else "")]
+
+
+_LINKAGE_LINES = {FOUR_BAR: _four_bar_lines, SLIDER_KIND: _slider_lines}
+"""Linkage kind -> its description lines (a new kind adds its entry)."""
 
 
 def format_detail(r: SceneResult) -> str:

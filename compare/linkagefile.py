@@ -12,7 +12,7 @@ from compare.scenes import FOUR_BAR, SLIDER_KIND
 from compare.tomlcheck import Checker, ConfigError, type_name
 from ked_quasi import rules
 from ked_quasi.linkage import BRANCHES, LINKS, SECTION_RULES, FourBar, thesis_fourbar
-from ked_quasi.slidercrank import SliderCrank, kind_conflict, simeon_slider_crank, slider_from_table
+from ked_quasi.slidercrank import PRESET_KINDS, SliderCrank, kind_conflict, simeon_slider_crank, slider_from_table
 
 SECTION_KEYS = tuple(SECTION_RULES)
 LINKAGE_NUMBERS = ("crank", "coupler", "follower", "extender")
@@ -60,23 +60,33 @@ def linkage_from_table(c: Checker, tab: dict[str, Any]) -> FourBar | SliderCrank
     """A ``[linkage]`` table (campaign schema) -> the source :class:`FourBar` (None after a problem); with
     ``kind = "slider-crank"`` (or ``preset = "simeon"``) the :class:`~ked_quasi.slidercrank.SliderCrank`
     (keys: :func:`ked_quasi.slidercrank.slider_from_table`)."""
-    kind = c.string(tab, "linkage.kind", default=FOUR_BAR, choices=(FOUR_BAR, SLIDER_KIND))
+    kind = c.string(tab, "linkage.kind", default=FOUR_BAR, choices=tuple(_READERS))
     if kind is None:
         return None
     if kind_conflict(tab):
         c.err("linkage", kind_conflict(tab).removeprefix("linkage."))
         return None
-    if kind == SLIDER_KIND or tab.get("preset") == "simeon":
-        if tab.get("preset") == "simeon":
-            c.keys(tab, "linkage", ("preset", "kind"))
-            return None if c.problems else simeon_slider_crank()
-        try:
-            return slider_from_table(tab)
-        except ValueError as exc:
-            msg = str(exc)
-            c.problems.append(msg if msg.startswith("linkage") else f"linkage: {msg}")
-            c.bad.add("linkage")
-            return None
+    preset = tab.get("preset")
+    kind = PRESET_KINDS.get(preset, kind) if isinstance(preset, str) else kind  # a preset names its kind
+    return _READERS[kind](c, tab)
+
+
+def _slider_from_table(c: Checker, tab: dict[str, Any]) -> SliderCrank | None:
+    """A slider-crank's ``[linkage]`` table (or ``preset = "simeon"``)."""
+    if tab.get("preset") == "simeon":
+        c.keys(tab, "linkage", ("preset", "kind"))
+        return None if c.problems else simeon_slider_crank()
+    try:
+        return slider_from_table(tab)
+    except ValueError as exc:
+        msg = str(exc)
+        c.problems.append(msg if msg.startswith("linkage") else f"linkage: {msg}")
+        c.bad.add("linkage")
+        return None
+
+
+def _four_bar_from_table(c: Checker, tab: dict[str, Any]) -> FourBar | None:
+    """A four-bar's ``[linkage]`` table (or ``preset = "thesis"``)."""
     tab = {k: v for k, v in tab.items() if k != "kind"}
     c.keys(tab, "linkage", ("preset", *LINKAGE_NUMBERS, "coupler_angle_deg", "ground", "branch", "section",
                             "sections", "kind"))
@@ -101,6 +111,10 @@ def linkage_from_table(c: Checker, tab: dict[str, Any]) -> FourBar | SliderCrank
     except ValueError as exc:
         c.err("linkage", str(exc))
         return None
+
+
+_READERS = {FOUR_BAR: _four_bar_from_table, SLIDER_KIND: _slider_from_table}
+"""Linkage kind -> the reader of its ``[linkage]`` table (a new kind adds its entry)."""
 
 
 def _sections(c: Checker, tab: dict[str, Any], base: list[dict[str, float]] | None) -> list[dict[str, float]] | None:

@@ -22,12 +22,13 @@ import json
 from dataclasses import dataclass
 from typing import Any
 
+from ked_quasi import kinds
 from ked_quasi.cognates import MECHANISMS  # noqa: F401  (re-exported where it was defined)
 from ked_quasi.linkage import FourBar
 from ked_quasi.massmodel import MassModel
 from ked_quasi.scene import KIND as FOUR_BAR
-from ked_quasi.scene import Scene, variant
-from ked_quasi.slidercrank import KIND as SLIDER_KIND
+from ked_quasi.scene import Scene
+from ked_quasi.slidercrank import KIND as SLIDER_KIND  # noqa: F401  (the kinds' names, imported from here)
 from ked_quasi.slidercrank import SliderCrank, SliderScene
 
 DEFAULT_SOLVERS = ("quasi_static", "dynamic")
@@ -81,25 +82,17 @@ class SceneSpec:
     # -- the scene itself -------------------------------------------------------------------
     @property
     def kind(self) -> str:
-        """The linkage kind: "four-bar", or "slider-crank" when ``linkage`` is a ``SliderCrank``."""
-        return SLIDER_KIND if isinstance(self.linkage, SliderCrank) else FOUR_BAR
+        """The linkage kind ("four-bar", "slider-crank": the linkage's own, :mod:`ked_quasi.kinds`)."""
+        return self.linkage.kind
 
     def fourbar(self) -> FourBar | SliderCrank:
         """The analysed linkage (mechanism, stiffness scale and direction applied; a slider-crank has only its
         source mechanism)."""
-        if isinstance(self.linkage, SliderCrank):
-            if self.mechanism != "source":
-                raise ValueError(f"mechanism: a slider-crank has no Roberts cognate; got {self.mechanism!r}")
-            sc = self.linkage.with_stiffness_scale(self.stiffness_scale) if self.stiffness_scale != 1.0 \
-                else self.linkage
-            return sc.with_direction(self.direction)
-        return variant(self.linkage, self.mechanism, self.stiffness_scale, self.direction)
+        return kinds.model(self).variant(self.linkage, self.mechanism, self.stiffness_scale, self.direction)
 
     def scene(self, rpm: float) -> Scene | SliderScene:
         """The ``ked_quasi.Scene`` (a ``SliderScene`` for a slider-crank) at a resolved crank speed [rev/min]."""
-        if isinstance(self.linkage, SliderCrank):
-            return SliderScene(self.fourbar(), self.mass_model, rpm=rpm, step_deg=self.step_deg)
-        return Scene(self.fourbar(), self.mass_model, rpm=rpm, step_deg=self.step_deg)
+        return kinds.model(self).scene_type(self.fourbar(), self.mass_model, rpm=rpm, step_deg=self.step_deg)
 
     def settings_for(self, solver: str) -> dict[str, Any]:
         """Explicit settings overrides of one solver (``dynamic``: the Exudyn model's)."""
@@ -142,13 +135,8 @@ class SceneSpec:
     def from_dict(d: dict[str, Any]) -> SceneSpec:
         known = {"linkage", "mechanism", "mass_model", "speed", "stiffness_scale", "damping_ratio", "direction",
                  "step_deg", "n_modes", "outputs", "tolerance", "dynamic", "solvers"}
-        if d["linkage"].get("kind") == SLIDER_KIND:
-            linkage = SliderCrank.from_dict(d["linkage"])
-        else:
-            try:
-                linkage = FourBar.from_dict(d["linkage"])
-            except ValueError:  # stored as failed because it cannot assemble: read it all the same
-                linkage = FourBar.from_dict(d["linkage"], full_turn=False)
+        # a four-bar's stored linkage has no kind (the keys of the campaigns stored before the slider-crank)
+        linkage = kinds.named(d["linkage"].get("kind", FOUR_BAR)).read_linkage(d["linkage"])
         return SceneSpec(
             linkage=linkage,
             mechanism=str(d["mechanism"]),
@@ -180,9 +168,14 @@ class SceneSpec:
         """Short human-readable label, e.g. ``source/tip/300rpm/k1/z0.02/ccw``; a slider-crank's first segment is
         ``slider-crank`` (its only mechanism is its source), so the two kinds of a mixed grid never share one."""
         return (
-            f"{SLIDER_KIND if self.kind == SLIDER_KIND else self.mechanism}/{self.mass_model.name}/{self.speed.label()}"
+            f"{self._first_segment()}/{self.mass_model.name}/{self.speed.label()}"
             f"/k{self.stiffness_scale:g}/z{self.damping_ratio:g}/{self.direction}"
         )
+
+
+    def _first_segment(self) -> str:
+        """The mechanism; the kind's name for a kind with one mechanism only (a slider-crank's source)."""
+        return self.kind if len(kinds.model(self).mechanisms) == 1 else self.mechanism
 
 
 @functools.lru_cache(maxsize=64)

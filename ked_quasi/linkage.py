@@ -103,6 +103,10 @@ class Section:
         return self.youngs_modulus * self.second_moment
 
 
+KIND = "four-bar"
+"""The linkage kind of a :class:`FourBar` and its scenes (the slider-crank's: :data:`ked_quasi.slidercrank.KIND`)."""
+
+
 @dataclass(frozen=True)
 class FourBar:
     """A planar four-bar with a coupler point, its assembly branch and elastic links (SI units).
@@ -252,6 +256,11 @@ class FourBar:
 
     def with_direction(self, direction: str) -> FourBar:
         return replace(self, direction=direction)
+
+    @property
+    def kind(self) -> str:
+        """The linkage kind, :data:`KIND` (every linkage type has one: :mod:`ked_quasi.kinds`)."""
+        return KIND
 
 
 

@@ -9,6 +9,7 @@ import numpy as np
 
 from . import rules, units
 from .cognates import mechanism as cognate_mechanism
+from .linkage import KIND as FOUR_BAR_KIND
 from .linkage import FourBar
 from .massmodel import MassModel, lumps
 
@@ -42,7 +43,7 @@ class CrankGrid:
         return units.rpm_to_rad_s(self.rpm)
 
 
-KIND = "four-bar"
+KIND = FOUR_BAR_KIND
 """The linkage kind of a :class:`Scene` (the slider-crank's: :data:`ked_quasi.slidercrank.KIND`)."""
 
 

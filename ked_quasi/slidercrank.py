@@ -142,6 +142,27 @@ class SliderCrank:
     def with_direction(self, direction: str) -> SliderCrank:
         return replace(self, direction=direction)
 
+    @property
+    def kind(self) -> str:
+        """The linkage kind, :data:`KIND` (every linkage type has one: :mod:`ked_quasi.kinds`)."""
+        return KIND
+
+
+MECHANISMS = ("source",)
+"""A slider-crank's mechanisms: its source only (no Roberts cognate)."""
+
+
+def slider_variant(source: SliderCrank, mechanism: str = "source", stiffness_scale: float = 1.0,
+                   direction: str | None = None) -> SliderCrank:
+    """The slider-crank a scene analyses (as :func:`ked_quasi.scene.variant` for a four-bar): the source (its only
+    mechanism), every Young's modulus times ``stiffness_scale``, crank turning in ``direction`` (None: the
+    source's).  ValueError for another mechanism."""
+    if mechanism not in MECHANISMS:
+        raise ValueError(f"mechanism: a slider-crank has no Roberts cognate (its only mechanism is \"source\"); "
+                         f"got {mechanism!r}")
+    sc = source.with_stiffness_scale(stiffness_scale) if stiffness_scale != 1.0 else source
+    return sc.with_direction(direction) if direction is not None else sc
+
 
 # -- the data sheet's mechanism (Simeon 1996) --------------------------------------------------
 SIMEON_OMEGA = 150.0
