@@ -11,7 +11,8 @@ import numpy as np
 
 from exudyn_models.settings import DynamicSettings
 from exudyn_models.simulate import simulate_steady_state
-from ked_quasi.slidercrank import SliderScene
+
+from .tiers import simeon_scene
 
 
 def simeon_damping() -> tuple[float, float]:
@@ -24,16 +25,6 @@ def simeon_damping() -> tuple[float, float]:
     rod = rod_matrices(par)
     zeta = float(rod.dq[0, 0] / (2.0 * math.sqrt(rod.kq[0, 0] * rod.mq[0, 0])))
     return zeta, par.first_bending_rad_s / (2.0 * math.pi)
-
-
-def simeon_scene(omega: float, step_deg: float = 5.0) -> SliderScene:
-    """The ``--linkage simeon`` scene (distributed mass: the rod's own, the slider; rigid crank) at crank
-    speed ``omega`` [rad/s] (> 0, CCW)."""
-    from ked_quasi.slidercrank import build_slider_scene, simeon_slider_crank
-
-    if not (math.isfinite(omega) and omega > 0.0):
-        raise ValueError(f"omega: must be a positive crank speed [rad/s]; got {omega!r}")
-    return build_slider_scene(simeon_slider_crank(), "distributed", omega * 60.0 / (2.0 * math.pi), step_deg)
 
 
 def slider_midspan_history(omega: float, *, step_deg: float = 5.0, settings: DynamicSettings | None = None):

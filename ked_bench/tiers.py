@@ -56,14 +56,16 @@ def reference_first_bending_hz() -> float:
     return math.sqrt(rod.kq[0, 0] / rod.mq[0, 0]) / (2.0 * math.pi)
 
 
-def simeon_scene(omega: float, samples: int = 72, lumps: int = LUMPS):
-    """The harness's scene of the benchmark at crank speed ``omega`` [rad/s] on ``samples`` crank angles."""
-    from ked_quasi.massmodel import MassModel
-    from ked_quasi.slidercrank import SliderScene, simeon_slider_crank
+def simeon_scene(omega: float, step_deg: float = 5.0, lumps: int = 5):
+    """The harness's scene of the benchmark (the ``--linkage simeon`` scene: distributed mass, the rod's own and the
+    slider's; rigid crank) at crank speed ``omega`` [rad/s] (> 0, CCW) on a grid of ``step_deg`` [deg], the rod in
+    ``lumps`` lumps (the linear tier takes :data:`LUMPS`)."""
+    from ked_quasi.slidercrank import build_slider_scene, simeon_slider_crank
     from ked_quasi.units import rad_s_to_rpm
 
-    return SliderScene(simeon_slider_crank(), MassModel("distributed", lumps=lumps), rpm=rad_s_to_rpm(abs(omega)),
-                       step_deg=360.0 / samples)
+    if not (math.isfinite(omega) and omega > 0.0):
+        raise ValueError(f"omega: must be a positive crank speed [rad/s]; got {omega!r}")
+    return build_slider_scene(simeon_slider_crank(), "distributed", rad_s_to_rpm(omega), step_deg, lumps=lumps)
 
 
 def linear_settings(prestress: bool = False):
@@ -80,14 +82,14 @@ def quasi_static_midspan(omega: float, samples: int = 72, lumps: int = QS_LUMPS)
     """The quasi-static tier's midspan deflection [m] at ``samples`` crank angles from 0."""
     from ked_quasi.slider_static import solve_slider_quasi_static
 
-    return solve_slider_quasi_static(simeon_scene(omega, samples, lumps)).midspan
+    return solve_slider_quasi_static(simeon_scene(omega, 360.0 / samples, lumps)).midspan
 
 
 def linear_midspan(omega: float, samples: int = 72, lumps: int = LUMPS, prestress: bool = False):
     """The linear tier's result (``ked_linear.slider.SliderLinearResult``: ``midspan`` [m], stability)."""
     from ked_linear import solve_linear
 
-    return solve_linear(simeon_scene(omega, samples, lumps), linear_settings(prestress))
+    return solve_linear(simeon_scene(omega, 360.0 / samples, lumps), linear_settings(prestress))
 
 
 def exudyn_midspan(omega: float, samples: int = 72) -> np.ndarray:
