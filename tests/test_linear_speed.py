@@ -534,15 +534,15 @@ def test_recalled_system_and_multipliers_give_the_fresh_answer(monkeypatch):
     # a second solve of the same scene with more harmonics reuses the linear system and its Floquet
     # multipliers (they do not depend on the periodic solve's settings): the answer equals a solve from
     # scratch (the recall emptied) to round-off
-    from ked_linear import solver
+    from ked_linear import runtime
     from ked_quasi.presets import make_scene
 
     scene = make_scene(mass_model="joints", rpm=150.0)
-    monkeypatch.setattr(solver, "_RECALL", {})
+    monkeypatch.setattr(runtime, "_RECALL", {})
     solve_linear(scene, LinearSettings(max_harmonics=16))
     again = solve_linear(scene, LinearSettings(max_harmonics=32))
-    assert len(solver._RECALL) == 2
-    monkeypatch.setattr(solver, "_RECALL", {})
+    assert len(runtime._RECALL) == 2
+    monkeypatch.setattr(runtime, "_RECALL", {})
     fresh = solve_linear(scene, LinearSettings(max_harmonics=32))
     assert again.floquet_max_abs == fresh.floquet_max_abs and again.harmonics == fresh.harmonics
     np.testing.assert_allclose(again.deflection, fresh.deflection, rtol=0, atol=1e-12 * np.abs(fresh.deflection).max())
@@ -552,16 +552,16 @@ def test_recalled_system_and_multipliers_give_the_fresh_answer(monkeypatch):
 def test_forget_recalled_makes_the_next_solve_compute_afresh(monkeypatch):
     # timings of repeated solves (the work-precision study, bench_linear) empty the recall before each solve:
     # afterwards nothing is recalled, and the next solve stores its system and multipliers again
-    from ked_linear import forget_recalled, solver
+    from ked_linear import forget_recalled, runtime
     from ked_quasi.presets import make_scene
 
-    monkeypatch.setattr(solver, "_RECALL", {})
+    monkeypatch.setattr(runtime, "_RECALL", {})
     solve_linear(make_scene(mass_model="joints", rpm=150.0))
-    assert len(solver._RECALL) == 2
+    assert len(runtime._RECALL) == 2
     forget_recalled()
-    assert solver._RECALL == {}
+    assert runtime._RECALL == {}
     solve_linear(make_scene(mass_model="joints", rpm=150.0))
-    assert len(solver._RECALL) == 2
+    assert len(runtime._RECALL) == 2
 
 # --- the steady state on a co-rotating reduced basis (ked_linear/corotating.py) ----------------------------
 
