@@ -12,6 +12,7 @@ or ``scene_*.png``) is never overwritten: :class:`FigureDirError` names it inste
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 from collections import defaultdict
 from collections.abc import Callable, Sequence
@@ -42,7 +43,8 @@ def save_figure(fig: Figure, path: Path, dpi: int = DPI, metadata: dict | None =
         fig.savefig(tmp, dpi=dpi, format=path.suffix[1:], metadata=metadata)
         tmp.replace(path)
     except OSError as exc:
-        tmp.unlink(missing_ok=True)
+        with contextlib.suppress(OSError):  # the failure to report is the write's, not this clean-up's
+            tmp.unlink(missing_ok=True)
         raise FigureWriteError(exc.errno, exc.strerror or str(exc), str(path)) from None
     return path
 
@@ -154,27 +156,43 @@ def check_figure_dir(out_dir: str | Path, names: Sequence[str] = (), fmt: str = 
 
 def _draw_in_pool(jobs: list[tuple[SceneResult, Path]], dpi: int, workers: int, written: list[Path],
                   on_each: Callable[[Path], Any] | None) -> None:
-    """Scene figures in ``workers`` spawned processes that die with this one (no orphan keeps drawing
-    after kill -9) and are killed at once on an interrupt or failure; each figure written is appended to
-    ``written`` as it completes."""
-    import concurrent.futures as cf
-    import multiprocessing
+    """Scene figures on ``workers`` local processes of the one executor (:func:`compare.executor.run_tasks`:
+    spawned workers that die with this one, crash isolation, stopped at once on an interrupt); each figure
+    written is appended to ``written`` as it completes.  A figure that cannot be written stops the drawing
+    and raises its :class:`FigureWriteError`, naming the file."""
+    from compare.executor import run_tasks
 
-    from compare.executor import _start_children_quietly, default_workers, kill_pool, worker_init
+    failed: list[tuple[int, str, str]] = []
 
-    pool = cf.ProcessPoolExecutor(min(workers, default_workers()), mp_context=multiprocessing.get_context("spawn"),
-                                  initializer=worker_init)
-    try:
-        with _start_children_quietly():
-            futures = [pool.submit(_write_scene_png, r, p, dpi) for r, p in jobs]
-        for f in cf.as_completed(futures):
-            written.append(f.result())
+    def commit(batch: list[tuple[tuple[SceneResult, Path, int], _Drawn]]) -> bool:
+        for _, (path, error) in batch:
+            if error is not None:
+                failed.append(error)
+                return True  # the figures not started are not drawn
+            written.append(path)
             if on_each is not None:
-                on_each(written[-1])
-    except BaseException:
-        kill_pool(pool)
-        raise
-    pool.shutdown(wait=True)
+                on_each(path)
+        return False
+
+    def crashed(job: tuple[SceneResult, Path, int], exc: BaseException | None) -> _Drawn:
+        why = "its drawing process died" if exc is None else f"{type(exc).__name__}: {exc}"
+        return None, (errno.EIO, f"not drawn ({why})", str(job[1]))
+
+    run_tasks([(r, p, dpi) for r, p in jobs], _draw_task, workers=workers, on_result=commit, crashed=crashed)
+    if failed:
+        raise FigureWriteError(*failed[0])
+
+
+_Drawn = tuple[Path | None, tuple[int, str, str] | None]
+"""A drawing task's answer: the figure written, or None and its failure (errno, reason, file)."""
+
+
+def _draw_task(job: tuple[SceneResult, Path, int]) -> _Drawn:
+    """One scene figure, on a worker; its write failure is data (the executor's tasks keep their own)."""
+    try:
+        return _write_scene_png(*job), None
+    except FigureWriteError as exc:
+        return None, (exc.errno or errno.EIO, exc.strerror or str(exc), str(exc.filename))
 
 
 def figure_count(results: Sequence[SceneResult]) -> int:

@@ -10,6 +10,7 @@ import json
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import matplotlib.colors as mcolors
 import pytest
@@ -252,3 +253,27 @@ def test_a_results_file_moved_with_its_figures_still_owns_them(campaign, tmp_pat
     plot_cmd.main([str(moved / "campaign.h5"), "--workers", "1"], standalone_mode=False)  # not refused
     index = json.loads((moved / "campaign_figures" / "index.json").read_text())
     assert index[figure_dir.MANIFEST]["results_file"] == str((moved / "campaign.h5").resolve())
+
+
+def test_figures_drawn_on_the_executor_report_a_failed_figure_by_its_file(tmp_path):
+    # more scenes than twice the workers: the figures are drawn on the one executor's worker processes; a figure
+    # that cannot be written (its temporary file's place taken by a directory: an OS error in the worker) stops
+    # the drawing with that figure's FigureWriteError, naming it; the index lists only figures that are there,
+    # and once the place is free the next run completes the directory
+    from compare import read_scenes
+
+    results = read_scenes(Path(__file__).resolve().parents[1] / "results" / "reference" / "reference.h5")
+    assert len(results) > 4
+    out = tmp_path / "figs"
+    names = figure_dir.figure_names(results)
+    victim = out / names[results[-1].key]
+    out.mkdir()
+    (out / (victim.name + ".tmp")).mkdir()
+    with pytest.raises(figure_dir.FigureWriteError) as exc:
+        figure_dir.write_figures(results, out, workers=2, source="reference.h5")
+    assert exc.value.filename == str(victim) and not victim.exists()
+    index = json.loads((out / "index.json").read_text())
+    assert all((out / k).is_file() for k in index if k != figure_dir.MANIFEST)
+    (out / (victim.name + ".tmp")).rmdir()
+    written = figure_dir.write_figures(results, out, workers=2, source="reference.h5")
+    assert victim in written and all((out / n).is_file() for n in names.values())
