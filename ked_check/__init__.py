@@ -1,8 +1,9 @@
 """ked_check: the design check of one linkage (``ked check``): which tier of model its elastic answer needs at
 each speed, how sure that call is, its critical speeds, and its link stresses and fatigue.
 
-One call, :func:`check` (``ked_check.check.check``): a linkage and speeds in, one row per speed out; the CLI only
-renders the rows.  The rule of the quasi-static call (:mod:`ked_check.verdict_rule`) reads the check's own
+One call, :func:`run` (``ked_check.report.run``): a linkage and speeds in, a :class:`CheckReport` out (one row per
+speed, the critical speeds and amplification peaks); the CLI only renders it.  ``ked_check.check.check`` gives
+the rows alone.  The rule of the quasi-static call (:mod:`ked_check.verdict_rule`) reads the check's own
 published limits, package data of this package (:mod:`ked_check.published`, written by ``ked study atlas``).
 Names are imported on first use: ``ked check`` keeps its start-up cheap.
 """
@@ -12,8 +13,9 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-_API = {"check": "ked_check.check", "CheckRow": "ked_check.check", "spec_for": "ked_check.check",
-        "VerdictMargins": "ked_check.verdict_rule", "check_critical": "ked_check.critical"}
+_API = {"run": "ked_check.report", "CheckReport": "ked_check.report", "check": "ked_check.check",
+        "CheckRow": "ked_check.check", "spec_for": "ked_check.check", "VerdictMargins": "ked_check.verdict_rule",
+        "check_critical": "ked_check.critical"}
 __all__ = sorted(_API)
 
 

@@ -142,9 +142,8 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
     stress_error_exudyn_<link>, linear_stress_error_exudyn_<link>).
     """
     from compare.inspect import rpm_text
-    from ked_check.check import check as run_check
-    from ked_check.check import progress, redraw
-    from ked_check.checkwork import CheckWorkerError, CheckWorkers
+    from ked_check.checkwork import CheckWorkerError
+    from ked_check.report import run as run_check
     from ked_check.stresscheck import fatigue_line
     from ked_cli.quasi import slider_source
     from ked_quasi.massmodel import MassModel, default_payload
@@ -189,26 +188,14 @@ def check(linkage: str, mechanism: str, mass_model: str, rpms: tuple[float, ...]
         first = specs[0] if specs else spec_for(source, mechanism, mm, speeds[0], stiffness_scale=stiffness_scale,
                                                 direction=direction)
         refuse_oversized(first.scene(speeds[0]))
-        sweep = len(speeds) >= 3  # critical speeds: local maxima over the range (ked_check.critical)
-        # one bar over the speeds and then the critical-speed sweep; worker processes once the work is worth them
-        with progress(len(speeds)) as bar, CheckWorkers(workers) as pool:
-            rows = run_check(source, mechanism, mm, speeds, stiffness_scale=stiffness_scale,
-                             damping_ratio=damping_ratio, direction=direction, tolerance=tolerance, confirm=confirm,
-                             bar=bar, workers=pool, specs=specs, material=material)
-            crit, amp = (), ()
-            if sweep:
-                from ked_check.critical import check_critical, sweep_evaluations
-
-                bar.total = bar.n + sweep_evaluations(rows)
-                redraw(bar)
-                crit, amp, rows = check_critical(rows, source, mechanism, mm, bar=bar, workers=pool,
-                                                 base=specs[0] if specs else None,
-                                                 stiffness_scale=stiffness_scale, damping_ratio=damping_ratio,
-                                                 direction=direction, tolerance=tolerance)
+        report = run_check(source, mechanism, mm, speeds, stiffness_scale=stiffness_scale,
+                           damping_ratio=damping_ratio, direction=direction, tolerance=tolerance, confirm=confirm,
+                           workers=workers, specs=specs, material=material)
     except ValueError as exc:
         raise click.UsageError(str(exc)) from None
     except CheckWorkerError as exc:
         raise click.ClickException(str(exc)) from None
+    rows, crit, amp = report.rows, report.critical_speeds, report.amplification_peaks_rpm
     if as_json:
         extra = {"critical_speeds_rpm": [c.rpm for c in crit], "amplification_peaks_rpm": list(amp)}
         click.echo(json_text([{**asdict(r), **extra} for r in rows]))

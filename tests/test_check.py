@@ -193,3 +193,21 @@ def test_confirmed_check_reproduces_the_stored_exudyn_numbers(tmp_path):
     for name in ("quasi_static", "linear"):
         expected = metrics.history_error(xy[name], xy["dynamic"])
         assert row.confirmed[f"{name}_vs_dynamic"] == pytest.approx(expected, rel=1e-9, abs=1e-12)
+
+
+def test_the_check_is_one_call_whose_report_the_command_renders():
+    # ked_check.run is the design check of a script: the rows and the critical speeds the command prints come from
+    # it (a second path: `ked check --json` through the command line gives the same numbers)
+    import ked_check
+
+    mm = MassModel("tip", payload=default_payload("tip"))
+    report = ked_check.run(thesis_fourbar(), "source", mm, [100.0, 250.0, 400.0])
+    assert [r.rpm for r in report.rows] == [100.0, 250.0, 400.0]
+    res = CliRunner().invoke(cli, ["check", "--mass-model", "tip", "--rpm", "100", "--rpm", "250", "--rpm", "400",
+                                   "--json", "--workers", "1"])
+    assert res.exit_code == 0, res.output
+    printed = json.loads(res.output)
+    assert [p["tier"] for p in printed] == [r.tier for r in report.rows]
+    assert [p["linear_peak_m"] for p in printed] == [r.linear_peak_m for r in report.rows]
+    assert printed[0]["critical_speeds_rpm"] == [c.rpm for c in report.critical_speeds]
+    assert printed[0]["amplification_peaks_rpm"] == list(report.amplification_peaks_rpm)
