@@ -12,7 +12,7 @@ import numpy as np
 from exudyn_models.settings import DynamicSettings
 from exudyn_models.simulate import simulate_steady_state
 
-from .tiers import simeon_scene
+from .simeon import simeon_scene
 
 
 def simeon_damping() -> tuple[float, float]:

@@ -369,3 +369,15 @@ def steady_state(omega: float, *, samples: int = 72, tolerance: float = 1e-8, ma
         last = hist
     raise RuntimeError(f"Simeon slider-crank at {omega:g} rad/s: no periodic steady state within {max_cycles} "
                        f"cycles (last change {change:.2g} of the peak)")
+
+
+def simeon_scene(omega: float, step_deg: float = 5.0, lumps: int = 5):
+    """The harness's scene of the benchmark (the ``--linkage simeon`` scene: distributed mass, the rod's own and the
+    slider's; rigid crank) at crank speed ``omega`` [rad/s] (> 0, CCW) on a grid of ``step_deg`` [deg], the rod in
+    ``lumps`` lumps (the linear tier takes :data:`ked_bench.tiers.LUMPS`)."""
+    from ked_quasi.slidercrank import build_slider_scene, simeon_slider_crank
+    from ked_quasi.units import rad_s_to_rpm
+
+    if not (math.isfinite(omega) and omega > 0.0):
+        raise ValueError(f"omega: must be a positive crank speed [rad/s]; got {omega!r}")
+    return build_slider_scene(simeon_slider_crank(), "distributed", rad_s_to_rpm(omega), step_deg, lumps=lumps)

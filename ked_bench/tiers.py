@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .simeon import SimeonParameters, SteadyState, rod_matrices, steady_state
+from .simeon import SimeonParameters, SteadyState, rod_matrices, simeon_scene, steady_state
 
 SPEEDS = tuple(float(w) for w in range(25, 325, 25))
 """The crank speeds of the benchmark sweep [rad/s]: 25, 50, ..., 300."""
@@ -54,18 +54,6 @@ def reference_first_bending_hz() -> float:
     """The reference rod's first bending frequency [Hz], sqrt(KQ11 / MQ11) / (2 pi)."""
     rod = rod_matrices(SimeonParameters())
     return math.sqrt(rod.kq[0, 0] / rod.mq[0, 0]) / (2.0 * math.pi)
-
-
-def simeon_scene(omega: float, step_deg: float = 5.0, lumps: int = 5):
-    """The harness's scene of the benchmark (the ``--linkage simeon`` scene: distributed mass, the rod's own and the
-    slider's; rigid crank) at crank speed ``omega`` [rad/s] (> 0, CCW) on a grid of ``step_deg`` [deg], the rod in
-    ``lumps`` lumps (the linear tier takes :data:`LUMPS`)."""
-    from ked_quasi.slidercrank import build_slider_scene, simeon_slider_crank
-    from ked_quasi.units import rad_s_to_rpm
-
-    if not (math.isfinite(omega) and omega > 0.0):
-        raise ValueError(f"omega: must be a positive crank speed [rad/s]; got {omega!r}")
-    return build_slider_scene(simeon_slider_crank(), "distributed", rad_s_to_rpm(omega), step_deg, lumps=lumps)
 
 
 def linear_settings(prestress: bool = False):

@@ -221,3 +221,44 @@ def test_no_package_holds_most_of_the_house():
     total = sum(lines.values())
     big = {p: f"{n / total:.0%}" for p, n in lines.items() if n > MAX_PACKAGE_SHARE * total}
     assert not big, f"packages over {MAX_PACKAGE_SHARE:.0%} of {total} product lines: {big}"
+
+
+KIND_MODULES = {"ked_quasi.scene", "ked_quasi.slidercrank", "ked_quasi.linkage", "ked_quasi.kinds"}
+"""The modules that implement a linkage kind (or its seam): they may test a linkage's or a scene's type."""
+KIND_BRANCHES_LEFT = {
+    "compare.scenefile": "a slider-crank file without grid.mass_models gets the single-scene commands' default",
+    "ked_check.published": "the published limits file keeps a four-bar's limits at its top level (its format)",
+    "ked_cli.options": "the single-scene commands render a slider-crank's own columns (the midspan)",
+    "ked_cli.quasi": "the single-scene commands render a slider-crank's own columns (the midspan)",
+}
+"""Branches on the linkage kind still outside the kind modules, each with its reason; a new one fails below."""
+_KIND_TYPES = {"FourBar", "SliderCrank", "Scene", "SliderScene"}
+_KIND_NAMES = {"SLIDER_KIND", "FOUR_BAR", "KIND", "FOUR_BAR_KIND"}
+
+
+def _kind_branches(tree: ast.AST) -> list[int]:
+    """Lines of isinstance/hasattr tests of a linkage or scene type, and comparisons with a kind's name."""
+    lines = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in ("isinstance", "hasattr"):
+            named = {n.id for n in ast.walk(node) if isinstance(n, ast.Name)} | \
+                {n.value for n in ast.walk(node) if isinstance(n, ast.Constant) and isinstance(n.value, str)}
+            if named & (_KIND_TYPES | {"fourbar", "slider_mass", "offset"}):
+                lines.append(node.lineno)
+        elif isinstance(node, ast.Compare):
+            for side in (node.left, *node.comparators):
+                if (isinstance(side, ast.Name) and side.id in _KIND_NAMES) or \
+                        (isinstance(side, ast.Attribute) and side.attr in _KIND_NAMES) or \
+                        (isinstance(side, ast.Constant) and side.value in ("slider-crank", "four-bar")):
+                    lines.append(node.lineno)
+                    break
+    return lines
+
+
+def test_no_branch_on_the_linkage_kind_outside_its_modules():
+    # a linkage kind is one implementation per tier (ked_quasi.kinds, ked_linear.kinds, exudyn_models.kinds):
+    # callers ask the scene's kind, they do not test its type
+    found = {name: lines for name, path in _modules().items()
+             if name not in KIND_MODULES and (lines := _kind_branches(ast.parse(path.read_text())))}
+    assert set(found) <= set(KIND_BRANCHES_LEFT), {k: v for k, v in found.items() if k not in KIND_BRANCHES_LEFT}
+    assert set(found) == set(KIND_BRANCHES_LEFT), f"no branch left in {set(KIND_BRANCHES_LEFT) - set(found)}: drop it"
