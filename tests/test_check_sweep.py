@@ -26,10 +26,11 @@ def test_the_progress_bar_covers_the_critical_speed_sweep(monkeypatch):
     # `ked check --rpm-range` on a terminal: one bar over the speeds and then the sweep's Floquet
     # evaluations (here shown at once: delay 0), which it names; it ends complete (n = total)
     from ked_check import check as chk
+    from ked_check import report
     from ked_cli.check import check as command
 
     bars = []
-    original = chk.progress
+    original = report.progress
 
     def recording(total):
         bar = original(total)
@@ -39,7 +40,7 @@ def test_the_progress_bar_covers_the_critical_speed_sweep(monkeypatch):
     err = Terminal()
     monkeypatch.setattr(sys, "stderr", err)
     monkeypatch.setattr(chk, "PROGRESS_DELAY_S", 0.0)
-    monkeypatch.setattr(chk, "progress", recording)
+    monkeypatch.setattr(report, "progress", recording)  # the bar of the check's one call
     command.main(["--mass-model", "tip", "--rpm-range", "100:200:3"], standalone_mode=False)
     text = "".join(err.parts)
     assert "critical speeds" in text and "ked check" in text
