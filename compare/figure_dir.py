@@ -165,14 +165,14 @@ def _draw_in_pool(jobs: list[tuple[SceneResult, Path]], dpi: int, workers: int, 
     failed: list[tuple[int, str, str]] = []
 
     def commit(batch: list[tuple[tuple[SceneResult, Path, int], _Drawn]]) -> bool:
-        for _, (path, error) in batch:
+        for _, (path, error) in batch:  # every figure of the batch that was drawn is recorded
             if error is not None:
                 failed.append(error)
-                return True  # the figures not started are not drawn
+                continue
             written.append(path)
             if on_each is not None:
                 on_each(path)
-        return False
+        return bool(failed)  # the figures not started are not drawn
 
     def crashed(job: tuple[SceneResult, Path, int], exc: BaseException | None) -> _Drawn:
         why = "its drawing process died" if exc is None else f"{type(exc).__name__}: {exc}"

@@ -180,5 +180,4 @@ def compare_speed(omega: float, reference: SteadyState | None = None, lumps: int
 
 
 __all__ = ["LUMPS", "QS_LUMPS", "SPEEDS", "SpeedComparison", "compare_speed", "exudyn_midspan", "linear_midspan",
-           "linear_settings", "quasi_static_midspan", "reference_damping_ratio", "reference_first_bending_hz",
-           "simeon_scene"]
+           "linear_settings", "quasi_static_midspan", "reference_damping_ratio", "reference_first_bending_hz"]

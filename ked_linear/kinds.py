@@ -59,10 +59,11 @@ def model(scene: Any) -> LinearKind:
     return kinds[scene.kind]
 
 
-def linkage_system(scene: Any, settings: LinearSettings) -> Any:
+def linkage_system(scene: Any, settings: LinearSettings, **options: Any) -> Any:
     """The linear KED equations of a scene of any kind: its periodic system (``.system``) and damping reference
-    [Hz] and beta [s] (``.damping_reference_hz``, ``.damping_beta``)."""
-    return model(scene).system(scene, settings)
+    [Hz] and beta [s] (``.damping_reference_hz``, ``.damping_beta``).  ``options``: the kind's own (a four-bar's
+    ``masses``: output every mass coordinate, :func:`ked_linear.linkage.four_bar_system`)."""
+    return model(scene).system(scene, settings, **options)
 
 
 __all__ = ["LinearKind", "linkage_system", "model", "models"]

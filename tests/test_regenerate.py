@@ -22,10 +22,15 @@ from pathlib import Path
 import matplotlib
 import pytest
 
+from compare.sections import replace_section
+
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "results"
 QUICK = ("stability", "stress", "work-precision")
 SLOW = ("validity", "tiers", "atlas")
+SECTIONS = {"stability": "stability", "stress": "stress", "work-precision": "work-precision", "validity": "validity",
+            "tiers": "tiers", "atlas": "atlas"}
+"""Each study's section of results/README.md (its <!-- BEGIN name --> ... <!-- END name --> markers)."""
 FIGURES = {"stability": (), "stress": ("stress_limits",), "work-precision": ("work_precision", "work_precision_lumps"),
            "validity": ("validity_amplification", "validity_error", "validity_histories", "validity_rule",
                         "validity_variants"),
@@ -52,6 +57,10 @@ def _software(png: Path) -> str | None:
 
 
 def _regenerate(name: str, results: Path) -> None:
+    # the study's section emptied first: a study that no longer writes its section fails too
+    readme_path = results / "README.md"
+    readme_path.write_text(replace_section(readme_path.read_text(encoding="utf-8"), SECTIONS[name], ""),
+                           encoding="utf-8")
     proc = subprocess.run([sys.executable, "-m", "ked_cli", "study", name, "--report-only",
                            "--results-dir", str(results)], capture_output=True, text=True, timeout=1800)
     assert proc.returncode == 0, proc.stderr[-2000:]
