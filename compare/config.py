@@ -164,7 +164,7 @@ def validate(doc: dict[str, Any], text: str = "", source: str = "campaign config
             "dynamic_variants"))
         c.err("grid", f"{grid_obj.size()} scenes ({axes}) is more than one campaign may hold "
                       f"({rules.MAX_SCENES}); split the grid into several campaigns (join results with ked merge)")
-    elif grid_obj is not None and check_speeds:
+    elif grid_obj is not None and _check_scene_size(c, grid_obj) and check_speeds:
         _check_speed_ratios(c, grid_obj)
         _check_linear_size(c, grid_obj)
     tolerances, expect = _regression_tables(c, doc)
@@ -292,6 +292,21 @@ def _check_kind_axes(c: Checker, source: FourBar | SliderCrank, path: str, mecha
 
 LINEAR_SOLVERS = ("linear", "linear_classic")
 """The solvers that run the linear KED model (its coordinate cap applies to their scenes)."""
+
+
+def _check_scene_size(c: Checker, grid: Grid) -> bool:
+    """Every linkage and mass model of the grid makes a scene of a size the solvers can hold at the campaign's
+    step (:func:`ked_quasi.rules.check_work`): else refused at load, naming the two parameters; False then."""
+    for i, linkage in enumerate(grid.linkages):
+        where = "" if len(grid.linkages) == 1 else f" ({linkage_path(i, len(grid.linkages))})"
+        for j, mm in enumerate(grid.mass_models):
+            try:
+                kinds.of_linkage(linkage).scene_type(linkage, mm, 1.0, grid.step_deg)
+            except ValueError as exc:
+                reason = str(exc).split(": ", 1)[-1]
+                c.err("campaign.step_deg", f"with grid.mass_models[{j}].lumps = {mm.lumps}{where}: {reason}")
+                return False
+    return True
 
 
 def _check_linear_size(c: Checker, grid: Grid) -> None:

@@ -323,3 +323,26 @@ def test_atlas_linkages_are_above_the_bound():
         for name in ("linkages/min_transmission_deg", "linkages/cognate_min_transmission_deg"):
             mu = np.asarray(f[name][()], dtype=float)
             assert np.nanmin(mu) >= rules.MIN_TRANSMISSION_DEG, name
+
+
+@pytest.mark.parametrize("preset", ["thesis", "simeon"])
+@pytest.mark.parametrize("solvers", ['["quasi_static"]', '["quasi_static", "linear"]'])
+def test_a_scene_too_large_to_solve_is_refused_at_load(preset, solvers):
+    # 36000 crank angles x 256 lumps per link exceeds the work bound of ked_quasi.rules.check_work (angles x
+    # coordinates^2 > 4e8) for either kind: refused when the file is read, one line naming both parameters,
+    # whatever the solvers (it used to fail at run time, or as an internal error with the linear model)
+    text = f"""
+[linkage]
+preset = "{preset}"
+[grid]
+mass_models = [{{name = "distributed", lumps = 256}}]
+rpm = [300]
+[campaign]
+solvers = {solvers}
+step_deg = 0.01
+"""
+    with pytest.raises(ConfigError) as exc:
+        parse_config(text)
+    (problem,) = exc.value.problems
+    assert problem.startswith("campaign.step_deg: with grid.mass_models[0].lumps = 256: ")
+    assert "too large a problem" in problem
