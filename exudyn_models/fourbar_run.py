@@ -5,6 +5,7 @@ and with ``stress`` one more steady cycle for the link stresses."""
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 from .builder import build_model
 from .cycles import RunRecord
@@ -12,7 +13,7 @@ from .lowspeed import run_settings
 from .march import march
 from .periodic import solve_periodic
 from .settings import DynamicSettings
-from .start import linear_state, quasi_static_state, set_initial_state
+from .start import linear_start_problem, linear_state, quasi_static_state, set_initial_state
 from .stress_cycle import steady_stress
 from .tolerance import newton_tolerances
 
@@ -36,8 +37,11 @@ def check_four_bar_settings(scene, settings: DynamicSettings) -> None:
 
 
 def _run_as_given(scene, settings: DynamicSettings, damping_beta: float) -> tuple[RunRecord, object]:
-    model = build_model(scene, settings, damping_beta=damping_beta)
     note = "ramp"
+    problem = linear_start_problem(scene, settings) if settings.start == "linear" else ""
+    if problem:  # the linear answer is outside its range: the ramp, as without the linear start
+        settings, note = replace(settings, start="ramp"), f"ramp ({problem})"
+    model = build_model(scene, settings, damping_beta=damping_beta)
     if settings.start != "ramp":
         st = (linear_state if settings.start == "linear" else quasi_static_state)(model, scene)
         set_initial_state(model, st.q, st.v, st.a)

@@ -110,13 +110,14 @@ def make_slider_drive(scene: SliderScene, settings: DynamicSettings) -> Drive:
 
 
 def check_slider_settings(scene, settings: DynamicSettings) -> None:
-    """SliderInputError for what the slider model does not take (a rigid coupler; a start or periodic
-    method other than the ramp and marching)."""
+    """SliderInputError for what the slider model does not take (a rigid coupler; the quasi-static start or
+    the periodic solve; start = "linear" runs from the ramp)."""
     if scene.linkage.is_rigid("coupler"):
         raise SliderInputError("the Exudyn slider-crank model needs an elastic coupler (rigid = false): a rigid "
                                "coupler has no coupler deflection to simulate")
-    if settings.start != "ramp" or settings.periodic != "off":
-        raise SliderInputError(f"the Exudyn slider-crank model runs with start = 'ramp' and periodic = 'off' "
+    if settings.start == "quasi_static" or settings.periodic != "off":
+        raise SliderInputError(f"the Exudyn slider-crank model runs with start = 'ramp' or 'linear' (from the "
+                               f"ramp) and periodic = 'off' "
                                f"(got start = {settings.start!r}, periodic = {settings.periodic!r})")
 
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 import time
 import warnings
+from dataclasses import replace
 
 import numpy as np
 from scipy.interpolate import CubicSpline
@@ -133,14 +134,16 @@ def slider_reference_frequency(scene: SliderScene, settings: DynamicSettings) ->
 
 
 def run_slider(scene: SliderScene, settings: DynamicSettings, damping_beta: float, stress: bool = False) -> RunRecord:
-    """One run at fixed settings: build, ramp, march to steady state (RunRecord.deflection: (n, 4), the
-    columns of OUTPUT_COLUMNS); with ``stress``, the link stresses of one more cycle
-    (exudyn_models.stress_cycle)."""
+    """One run at fixed settings: build, ramp (also for start = "linear", said in the start note), march to steady
+    state (RunRecord.deflection: (n, 4), the columns of OUTPUT_COLUMNS); with ``stress``, the link stresses of one
+    more cycle (exudyn_models.stress_cycle)."""
     from .stress_cycle import steady_stress
 
+    note = "ramp" if settings.start == "ramp" else "ramp (the slider-crank model has no linear start)"
+    settings = replace(settings, start="ramp")
     model = build_slider_model(scene, settings, damping_beta)
     tol = slider_tolerances(settings, scene)
-    record = march(scene, settings, model, "ramp", sampler=SliderSampler(model, scene, settings.steps_per_cycle),
+    record = march(scene, settings, model, note, sampler=SliderSampler(model, scene, settings.steps_per_cycle),
                    tolerances=tol)
     if stress:
         t0 = time.perf_counter()

@@ -246,6 +246,23 @@ def linear_state(model: BuiltModel, scene) -> StartState:
                               LINEAR_STEP_RAD)
 
 
+def linear_start_problem(scene, settings: DynamicSettings) -> str:
+    """Why the linear model's periodic answer cannot start this run ("" when it can): it is unavailable, not
+    stable, or outside its range (its flags: small-deflection bounds, "unresolved", "weakly_damped",
+    ``ked_linear.result_flags``).  The run then starts from the ramp, as without the linear start."""
+    from ked_linear import LinearSettings, result_flags, solve_linear
+
+    lin = LinearSettings(damping_ratio=settings.damping_ratio, damping_reference_hz=settings.damping_reference_hz)
+    try:
+        res = solve_linear(scene, lin)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        return f"linear answer unavailable: {str(exc)[:200]}"
+    if not res.stable:
+        return f"linear answer not stable: {res.message[:200]}"
+    flags = result_flags(res, scene.linkage)
+    return f"linear answer outside its range: {', '.join(flags)}" if flags else ""
+
+
 def _state_under_loads(model: BuiltModel, scene, elastic, note: str, step: float = QS_STEP_RAD) -> StartState:
     """q, v, a at the start angle from static solves at the start angle and ``step`` [rad] either side under
     -M (a_r + elastic(j)) (j = 0, 1, 2 for the three angles); the rigid motion alone if a solve fails."""

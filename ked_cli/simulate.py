@@ -49,9 +49,11 @@ def dynamic_options(f: Any) -> Any:
                      help="Accept the steady cycle extrapolated from the last 4 cycles once a cycle simulated "
                           "from it reproduces it [default: on]."),
         click.option("--sparse/--dense", default=None, help="Exudyn linear solver [default: sparse]."),
-        click.option("--start", type=click.Choice(("ramp", "quasi_static")), default=None,
-                     help="Start of the constant-speed phase: from rest through the ramp, or at full speed "
-                          "from the quasi-static deflected state [default: ramp]."),
+        click.option("--start", type=click.Choice(("ramp", "quasi_static", "linear")), default=None,
+                     help="Start of the constant-speed phase: from rest through the ramp, at full speed from the "
+                          "quasi-static deflected state, or on the linear model's periodic orbit (from the ramp "
+                          "where the linear answer is outside its range) [default: the file's, else ramp; the "
+                          "default campaign's: linear]."),
         click.option("--periodic", type=click.Choice(("off", "anderson")), default=None,
                      help="off: march cycle after cycle; anderson: solve the periodic orbit directly "
                           "(Anderson-accelerated fixed point of one cycle) [default: off]."),

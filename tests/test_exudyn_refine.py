@@ -17,7 +17,7 @@ import pytest
 
 from exudyn_models import LEGACY_DEFAULTS, DynamicSettings, SimulationError, build_model, simulate_steady_state
 from exudyn_models.builder import p_pose
-from exudyn_models.start import linear_state, quasi_static_state
+from exudyn_models.start import linear_start_problem, linear_state, quasi_static_state
 from ked_quasi import MassModel, thesis_fourbar
 from ked_quasi.kinematics import coupler_point
 from ked_quasi.linkage import THESIS_TIP_MASS_KG
@@ -198,6 +198,22 @@ def test_linear_start_falls_back_where_the_linear_answer_is_unavailable():
     model = build_model(scene, DynamicSettings(start="linear", damping_ratio=0.0))
     st = linear_state(model, scene)
     assert st.note.startswith("quasi-static (linear start unavailable:"), st.note
+
+
+def test_linear_start_is_the_ramp_where_the_linear_answer_is_outside_its_range():
+    """Case I at 150 rpm: the linear answer is beyond the small-deflection range (and unresolved), so the run
+    starts from the ramp, says why in its start note, and is the ramp's run (the same discrete equations from the
+    same state: equal bit for bit); Case III at 300 rpm (r ~ 0.1) is inside the range and starts on the orbit."""
+    inside = make_scene(mass_model="extender", step_deg=30.0)
+    assert linear_start_problem(inside, DynamicSettings()) == ""
+    scene = make_scene(mass_model="tip", rpm=150.0, step_deg=30.0)
+    assert "large_deflection" in linear_start_problem(scene, DynamicSettings())
+    base = DynamicSettings(steps_per_cycle=360)
+    ramp = simulate_steady_state(scene, base)
+    lin = simulate_steady_state(scene, dataclasses.replace(base, start="linear"))
+    assert lin.start.startswith("ramp (linear answer outside its range: large_deflection"), lin.start
+    assert "(start: ramp (linear answer outside its range" in lin.message
+    assert lin.cycles == ramp.cycles and np.array_equal(lin.deflection, ramp.deflection)
 
 
 def test_periodic_solve_matches_a_tightly_settled_march_in_fewer_cycles():

@@ -106,6 +106,19 @@ def test_refused_input():
     assert SliderInputError("x").failure_class == "input"
 
 
+def test_linear_start_runs_from_the_ramp_and_says_so():
+    """The slider-crank model has no linear start: start = "linear" (a campaign's or check's setting for every
+    kind) runs from the ramp, says so in the start note, and is the ramp's run bit for bit; the quasi-static
+    start is refused as input."""
+    scene, base = simeon_scene(50.0), DynamicSettings(steps_per_cycle=360)
+    ramp = simulate_steady_state(scene, base)
+    lin = simulate_steady_state(scene, DynamicSettings(steps_per_cycle=360, start="linear"))
+    assert lin.start == "ramp (the slider-crank model has no linear start)"
+    assert np.array_equal(lin.deflection, ramp.deflection) and np.array_equal(lin.midspan, ramp.midspan)
+    with pytest.raises(SliderInputError, match="start"):
+        simulate_steady_state(scene, DynamicSettings(start="quasi_static"))
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("omega, bound", [(50.0, 0.02), (150.0, 0.08)])
 def test_against_simeon_reference(omega, bound):
