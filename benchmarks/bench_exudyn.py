@@ -13,7 +13,15 @@ and reports the median wall seconds over --runs, steps, constant-speed cycles, t
 the result, and the error against a fine reference (ANCF 8 el/link, 2880 steps/cycle, periodic solve
 to steady_tol 1e-6): max |d - d_ref| of (dx, dy) over the reference peak, and the same for the rotation.
 
+With --starts it compares the two starts of the constant-speed phase instead, at the default campaign's
+discretization (ANCF 6 el/link, 1080 steps/cycle, 2 % damping) per mass model and crank speed (--rpms, default
+30-300): "ramp" (from rest through the start-up ramp) and "linear" (on the linear model's periodic orbit, the ramp
+where the linear answer is outside its range): median wall seconds, constant-speed cycles, the history difference
+of the two starts' answers and each one's error against the fine run (ANCF 8 el/link, 2880 steps/cycle, to
+steady_tol 1e-6), all (dx, dy) over the fine run's peak.
+
 Usage: .venv/bin/python benchmarks/bench_exudyn.py [--runs 3] [--mass-models tip,joints,...]
+       .venv/bin/python benchmarks/bench_exudyn.py --starts [--runs 3] [--mechanism source|cognate] [--rpms 30,300]
 """
 
 from __future__ import annotations
@@ -59,13 +67,42 @@ def timed(scene, settings: DynamicSettings, runs: int):
     return statistics.median(walls), res
 
 
+CAMPAIGN = DynamicSettings(elements_per_link=6, steps_per_cycle=1080)
+"""The default campaign's [dynamic] discretization (compare/default_campaign.toml)."""
+
+
+def starts(args: argparse.Namespace) -> None:
+    """The --starts comparison (module doc)."""
+    print(f"starts: thesis {args.mechanism}, 6 el, 1080 steps, 2 % damping, median of {args.runs} runs; errors "
+          "against the fine run, (dx, dy) over its peak")
+    print(f"{'mass model':<12}{'rpm':>5}  {'ramp s':>7}{'cyc':>4}{'err %':>8}  {'linear s':>8}{'cyc':>4}{'err %':>8}"
+          f"{'diff %':>8}  linear start")
+    for mm in args.mass_models.split(","):
+        for rpm in (float(r) for r in args.rpms.split(",")):
+            scene = make_scene(mechanism_name=args.mechanism, mass_model=mm, rpm=rpm)
+            ref = simulate_steady_state(scene, reference_settings()).deflection
+            row, answers = f"{mm:<12}{rpm:5.0f}", []
+            for start in ("ramp", "linear"):
+                wall, res = timed(scene, replace(CAMPAIGN, start=start), args.runs)
+                answers.append(res)
+                row += f"  {wall:7.2f}{res.cycles:4d}{100 * errors(res.deflection, ref)[0]:8.3f}"
+            diff = errors(answers[1].deflection, answers[0].deflection)[0]
+            print(f"{row}{100 * diff:8.3f}  {answers[1].start[:70]}", flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--mass-models", default=",".join(MASS_MODELS))
     ap.add_argument("--rpm", type=float, default=300.0)
+    ap.add_argument("--starts", action="store_true", help="compare the ramp and linear starts (module doc)")
+    ap.add_argument("--rpms", default="30,75,150,225,300", help="crank speeds of --starts [rpm]")
+    ap.add_argument("--mechanism", default="source", choices=("source", "cognate"))
     args = ap.parse_args()
     warnings.simplefilter("ignore")
+    if args.starts:
+        starts(args)
+        return
     print(f"exudyn_models benchmark: thesis source, {args.rpm:g} rpm, 2 % damping, median of {args.runs} runs")
     print(f"{'mass model':<12}{'method':<13}{'wall s':>8}{'steps':>7}{'cycles':>7}{'err xy %':>10}{'err rot %':>10}"
           "  solved with")
