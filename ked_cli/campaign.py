@@ -142,9 +142,16 @@ def run_cmd(config: Path | None, out: Path | None, workers: int | None, schedule
     from compare.inspect import format_counts, format_table, summary_row
     from compare.runner import SettingsMismatchError, run_campaign
 
+    note = _other_settings_note(cfg, out)
+
+    def started(p: Any) -> None:
+        click.echo(_start_line(cfg, n, p, out), err=True)
+        if note:
+            click.echo(wrap(note), err=True)
+
     try:
         summary = run_campaign(cfg, out, workers=workers, scheduler=scheduler, retry_failed=retry_failed,
-                               progress=progress, on_start=lambda p: click.echo(_start_line(cfg, n, p, out), err=True))
+                               progress=progress, on_start=started)
     except (store.LockedError, SettingsMismatchError, store.StoreError, store.CommitError, SchedulerError,
             WorkerStartError, WorkerError) as exc:
         raise click.ClickException(str(exc)) from None
@@ -178,6 +185,26 @@ def _report_expectations(results: list, expect: Any) -> None:
     click.echo(wrap(f"expectations: {len(violations)} violated" if violations else "expectations: all met"))
     if violations:
         sys.exit(1)
+
+
+def _other_settings_note(cfg: Any, out: Path) -> str:
+    """One line when ``out`` already holds some of the campaign's physical scenes computed with other settings
+    (e.g. a file of an earlier default campaign): the run adds its own beside them ("" otherwise, or when the file
+    cannot be read: the run itself then says why)."""
+    from compare import store
+    from compare.diff import other_settings
+
+    if not out.is_file():
+        return ""
+    try:
+        count, differ = other_settings(cfg.scenes(), [r.spec for r in store.read_scenes(out)])
+    except (store.StoreError, OSError, ValueError):
+        return ""
+    if not count:
+        return ""
+    shown = "; ".join(differ[:3]) + (f"; ... {len(differ) - 3} more" if len(differ) > 3 else "")
+    return (f"note: {out.name} also holds {count} of these scenes computed with other settings ({shown}); this "
+            "run stores its own beside them under their own keys and reports only its own (ked inspect lists both)")
 
 
 def _start_line(cfg: Any, n: int, p: Any, out: Path) -> str:

@@ -230,3 +230,34 @@ def test_table_marks_answers_outside_their_model(tmp_path):
     assert f"{100 * rows['tip']['verdict_error']:.1f}*" in lines["tip"]
     assert "*" not in lines["extender"]
     assert "outside the range where its model holds" in res.output
+
+
+QS_ONLY = """
+[campaign]
+name = "twins"
+step_deg = {step}
+solvers = ["quasi_static"]
+
+[grid]
+mechanisms = ["source"]
+mass_models = ["tip"]
+rpm = [100.0]
+"""
+
+
+def test_run_into_a_file_of_other_settings_says_it_adds_beside_them(tmp_path):
+    """A campaign run into a file holding the same physical scene computed with other settings (here the crank-angle
+    step; an earlier default campaign's Exudyn start alike) stores its own scene under its own key beside it and says
+    so in one line naming the setting; the stored scene is kept."""
+    out, a, b = tmp_path / "f.h5", tmp_path / "a.toml", tmp_path / "b.toml"
+    a.write_text(QS_ONLY.format(step=30.0))
+    b.write_text(QS_ONLY.format(step=20.0))
+    runner = CliRunner()
+    first = runner.invoke(main, ["run", str(a), "--out", str(out), "--no-progress", "--no-figures"])
+    assert first.exit_code == 0, first.output
+    assert "also holds" not in first.output
+    second = runner.invoke(main, ["run", str(b), "--out", str(out), "--no-progress", "--no-figures"])
+    assert second.exit_code == 0, second.output
+    assert "note: f.h5 also holds 1 of these scenes computed with other settings (step_deg: 30.0 -> 20.0)" in \
+        " ".join(second.output.split())
+    assert len(store.read_scenes(out)) == 2
