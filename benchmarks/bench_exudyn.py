@@ -13,12 +13,12 @@ and reports the median wall seconds over --runs, steps, constant-speed cycles, t
 the result, and the error against a fine reference (ANCF 8 el/link, 2880 steps/cycle, periodic solve
 to steady_tol 1e-6): max |d - d_ref| of (dx, dy) over the reference peak, and the same for the rotation.
 
-With --starts it compares the two starts of the constant-speed phase instead, at the default campaign's
-discretization (ANCF 6 el/link, 1080 steps/cycle, 2 % damping) per mass model and crank speed (--rpms, default
-30-300): "ramp" (from rest through the start-up ramp) and "linear" (on the linear model's periodic orbit, the ramp
-where the linear answer is outside its range): median wall seconds, constant-speed cycles, the history difference
-of the two starts' answers and each one's error against the fine run (ANCF 8 el/link, 2880 steps/cycle, to
-steady_tol 1e-6), all (dx, dy) over the fine run's peak.
+With --starts it compares the two starts of the constant-speed phase instead, on the default campaign's scenes
+and [dynamic] settings (lumps, grid, damping; ANCF 6 el/link, 1080 steps/cycle) per mass model and crank speed
+(--rpms, default 30-300): "ramp" (from rest through the start-up ramp) and "linear" (on the linear model's
+periodic orbit, the ramp where the linear answer is outside its range): median wall seconds, constant-speed
+cycles, the history difference of the two starts' answers and each one's error against the fine run (ANCF 8
+el/link, 2880 steps/cycle, to steady_tol 1e-6), all (dx, dy) over the fine run's peak.
 
 Usage: .venv/bin/python benchmarks/bench_exudyn.py [--runs 3] [--mass-models tip,joints,...]
        .venv/bin/python benchmarks/bench_exudyn.py --starts [--runs 3] [--mechanism source|cognate] [--rpms 30,300]
@@ -67,23 +67,30 @@ def timed(scene, settings: DynamicSettings, runs: int):
     return statistics.median(walls), res
 
 
-CAMPAIGN = DynamicSettings(elements_per_link=6, steps_per_cycle=1080)
-"""The default campaign's [dynamic] discretization (compare/default_campaign.toml)."""
+def campaign_scenes(mechanism: str, mass_model: str, rpms: list[float]) -> list:
+    """The default campaign's scenes (compare/default_campaign.toml: its lumps, grid and damping) of one mechanism
+    and mass model at the crank speeds ``rpms``, with its [dynamic] settings except the start."""
+    from compare.config import load_config
+    from compare.solvers.dynamic import settings_for
+
+    specs = {s.speed.value: s for s in load_config(None).scenes()
+             if s.mechanism == mechanism and s.mass_model.name == mass_model}
+    return [(specs[rpm].scene(rpm), settings_for(specs[rpm])) for rpm in rpms]
 
 
 def starts(args: argparse.Namespace) -> None:
     """The --starts comparison (module doc)."""
-    print(f"starts: thesis {args.mechanism}, 6 el, 1080 steps, 2 % damping, median of {args.runs} runs; errors "
-          "against the fine run, (dx, dy) over its peak")
+    print(f"starts: the default campaign's thesis {args.mechanism} scenes and [dynamic] settings, median of "
+          f"{args.runs} runs; errors against the fine run, (dx, dy) over its peak")
     print(f"{'mass model':<12}{'rpm':>5}  {'ramp s':>7}{'cyc':>4}{'err %':>8}  {'linear s':>8}{'cyc':>4}{'err %':>8}"
           f"{'diff %':>8}  linear start")
     for mm in args.mass_models.split(","):
-        for rpm in (float(r) for r in args.rpms.split(",")):
-            scene = make_scene(mechanism_name=args.mechanism, mass_model=mm, rpm=rpm)
+        rpms = [float(r) for r in args.rpms.split(",")]
+        for rpm, (scene, settings) in zip(rpms, campaign_scenes(args.mechanism, mm, rpms)):
             ref = simulate_steady_state(scene, reference_settings()).deflection
             row, answers = f"{mm:<12}{rpm:5.0f}", []
             for start in ("ramp", "linear"):
-                wall, res = timed(scene, replace(CAMPAIGN, start=start), args.runs)
+                wall, res = timed(scene, replace(settings, start=start), args.runs)
                 answers.append(res)
                 row += f"  {wall:7.2f}{res.cycles:4d}{100 * errors(res.deflection, ref)[0]:8.3f}"
             diff = errors(answers[1].deflection, answers[0].deflection)[0]
@@ -96,8 +103,8 @@ def main() -> None:
     ap.add_argument("--mass-models", default=",".join(MASS_MODELS))
     ap.add_argument("--rpm", type=float, default=300.0)
     ap.add_argument("--starts", action="store_true", help="compare the ramp and linear starts (module doc)")
-    ap.add_argument("--rpms", default="30,75,150,225,300", help="crank speeds of --starts [rpm]")
-    ap.add_argument("--mechanism", default="source", choices=("source", "cognate"))
+    ap.add_argument("--rpms", default="30,75,150,225,300", help="crank speeds of --starts [rpm] (default campaign's)")
+    ap.add_argument("--mechanism", default="source", choices=("source", "cognate"), help="mechanism of --starts")
     args = ap.parse_args()
     warnings.simplefilter("ignore")
     if args.starts:

@@ -86,8 +86,9 @@ class DynamicSettings:
         shape (Exudyn static solve of the frozen linkage under the d'Alembert loads -M a_rigid) and its
         rate; ramp_cycles is then unused; "linear": as "quasi_static", with the static solves under the loads of
         the whole motion of the linear model's periodic steady state (its elastic accelerations too), so the
-        start lies on that orbit (falls back to "quasi_static" where the linear answer is unavailable). See
-        exudyn_models.start.
+        start lies on that orbit; where the linear answer is unavailable, not stable or outside its range (its
+        flags) the run starts from the ramp and its start note says why, as does the slider-crank model, which
+        has no linear start. See exudyn_models.start.
     periodic: "off": march cycle after cycle (steady-state test and extrapolation as above);
         "anderson": solve the periodic orbit directly: the full Exudyn state at the start of a cycle is
         the unknown of the fixed point x = Phi(x) (Phi = one simulated crank cycle), accelerated by

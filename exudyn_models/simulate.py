@@ -10,7 +10,8 @@ modified Newton with one Jacobian update per step. One run at fixed settings (_r
   start (settings.start): "ramp": from rest, zero initial accelerations (consistent: the drive starts
       from rest with zero acceleration, and links may be exactly massless), through the start-up ramp
       (exudyn_models.drive); "quasi_static": at full speed from crank angle 0, from the quasi-static
-      deflected state and its rate (exudyn_models.start).
+      deflected state and its rate (exudyn_models.start); "linear": the same on the linear model's periodic
+      orbit, or from the ramp where the linear answer is outside its range (the start note says why).
   constant-speed phase (settings.periodic): "off": marching in one Exudyn run (exudyn_models.march):
       after each cycle the deflection is sampled on the scene's crank-angle grid and compared with the
       previous cycle; steady when max |change| < steady_tol * peak, for dx,dy (relative to the peak of
@@ -79,7 +80,8 @@ class DynamicResult:
         ladder (exudyn_models.refine.Attempt), the first one at the requested settings.
     failure_class: "" when converged, else "numerical" or "physical"; evidence: the reason and its
         numbers (exudyn_models.failure).
-    start: how the constant-speed phase began ("ramp", "quasi-static" or the fallback's reason).
+    start: how the constant-speed phase began ("ramp", "quasi-static", "linear", or the fallback and its reason,
+        e.g. "ramp (linear answer outside its range: large_deflection)").
     periodic_residuals: |Phi(y) - y| / |Phi(y)| per cycle of the periodic solve (empty when marching).
     cycle_peaks [m]: peak |d| (vector dx, dy) of every constant-speed cycle.
     midspan (n,) [m]: a slider-crank's coupler midspan deflection normal to its chord
@@ -153,7 +155,7 @@ def _result(scene, settings: DynamicSettings, solved: DynamicSettings, record: R
         message += f" (refined: {attempts[-1].rung})"
     if record.steps_per_cycle not in (0, solved.steps_per_cycle):
         message += f" (low speed: {record.steps_per_cycle} steps per cycle)"
-    if record.start_note not in ("ramp", "quasi-static"):
+    if record.start_note not in ("ramp", "quasi-static", "linear"):
         message += f" (start: {record.start_note})"
     d = np.asarray(record.deflection)
     linkage = scene.linkage

@@ -139,7 +139,7 @@ def run_slider(scene: SliderScene, settings: DynamicSettings, damping_beta: floa
     more cycle (exudyn_models.stress_cycle)."""
     from .stress_cycle import steady_stress
 
-    note = "ramp" if settings.start == "ramp" else "ramp (the slider-crank model has no linear start)"
+    note = "ramp (the slider-crank model has no linear start)" if settings.start == "linear" else "ramp"
     settings = replace(settings, start="ramp")
     model = build_slider_model(scene, settings, damping_beta)
     tol = slider_tolerances(settings, scene)
