@@ -192,7 +192,7 @@ def _other_settings_note(cfg: Any, out: Path) -> str:
     (e.g. a file of an earlier default campaign): the run adds its own beside them ("" otherwise, or when the file
     cannot be read: the run itself then says why)."""
     from compare import store
-    from compare.diff import other_settings
+    from compare.physical import other_settings
 
     if not out.is_file():
         return ""
