@@ -196,8 +196,11 @@ def _other_settings_note(cfg: Any, out: Path) -> str:
 
     if not out.is_file():
         return ""
+    scenes = cfg.scenes()
     try:
-        count, differ = other_settings(cfg.scenes(), [r.spec for r in store.read_scenes(out)])
+        others = set(store.stored_status(out)) - {s.key for s in scenes}  # only these can be other settings
+        count, differ = other_settings(scenes, [r.spec for r in store.read_scenes(out, sorted(others))]
+                                       if others else [])
     except (store.StoreError, OSError, ValueError):
         return ""
     if not count:
