@@ -43,7 +43,8 @@ def _run_as_given(scene, settings: DynamicSettings, damping_beta: float) -> tupl
         settings, note = replace(settings, start="ramp"), f"ramp ({problem})"
     model = build_model(scene, settings, damping_beta=damping_beta)
     if settings.start != "ramp":
-        st = (linear_state if settings.start == "linear" else quasi_static_state)(model, scene)
+        linear = settings.start == "linear"  # its problems were asked above
+        st = linear_state(model, scene, checked=True) if linear else quasi_static_state(model, scene)
         set_initial_state(model, st.q, st.v, st.a)
         note = st.note
     if settings.periodic == "anderson":

@@ -224,21 +224,19 @@ def _elastic_accelerations(model: BuiltModel, motion, j: int) -> np.ndarray:
     return out
 
 
-def linear_state(model: BuiltModel, scene) -> StartState:
+def linear_state(model: BuiltModel, scene, checked: bool = False) -> StartState:
     """Start state at crank angle 0 and full speed on the linear model's orbit (see the module doc); the
-    quasi-static start, with the reason in its note, where the linear answer is unavailable."""
-    from ked_linear import LinearSettings, solve_linear
+    quasi-static start, with the reason in its note, where the linear answer cannot start the run
+    (:func:`linear_start_problem`, asked here unless the caller did: ``checked``) or its masses' motion is not
+    resolved."""
     from ked_linear.motion import mass_motion
 
-    settings = model.settings
-    lin = LinearSettings(damping_ratio=settings.damping_ratio, damping_reference_hz=settings.damping_reference_hz)
-    theta0 = model.start_angle
-    angles = theta0 + LINEAR_STEP_RAD * np.arange(-1, 2)
+    angles = model.start_angle + LINEAR_STEP_RAD * np.arange(-1, 2)
+    problem = "" if checked else linear_start_problem(scene, model.settings)
     try:
-        res = solve_linear(scene, lin)
-        if not res.stable:
-            raise ValueError(res.message)
-        motion = mass_motion(scene, lin, angles)
+        if problem:
+            raise ValueError(problem)
+        motion = mass_motion(scene, _linear_settings(model.settings), angles)
     except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
         st = quasi_static_state(model, scene)
         return StartState(st.q, st.v, st.a, f"{st.note} (linear start unavailable: {str(exc)[:200]})")
@@ -246,15 +244,21 @@ def linear_state(model: BuiltModel, scene) -> StartState:
                               LINEAR_STEP_RAD)
 
 
+def _linear_settings(settings: DynamicSettings):
+    """The linear model's settings of the same damping as an Exudyn run's."""
+    from ked_linear import LinearSettings
+
+    return LinearSettings(damping_ratio=settings.damping_ratio, damping_reference_hz=settings.damping_reference_hz)
+
+
 def linear_start_problem(scene, settings: DynamicSettings) -> str:
     """Why the linear model's periodic answer cannot start this run ("" when it can): it is unavailable, not
     stable, or outside its range (its flags: small-deflection bounds, "unresolved", "weakly_damped",
     ``ked_linear.result_flags``).  The run then starts from the ramp, as without the linear start."""
-    from ked_linear import LinearSettings, result_flags, solve_linear
+    from ked_linear import result_flags, solve_linear
 
-    lin = LinearSettings(damping_ratio=settings.damping_ratio, damping_reference_hz=settings.damping_reference_hz)
     try:
-        res = solve_linear(scene, lin)
+        res = solve_linear(scene, _linear_settings(settings))
     except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
         return f"linear answer unavailable: {str(exc)[:200]}"
     if not res.stable:
