@@ -170,7 +170,8 @@ def threshold_text(t: fd.ThresholdFindings | None, strata: dict[str, cal.Margins
          f"{t.strata_max} scenes each), families drawn from equal strata of their r* (10 %), one scene "
          f"each at r = f x r* with f uniform in [0.75, 1.25] (drawn: {t.factor_min:.3f}-{t.factor_max:.3f}; r* the "
          "interpolated value the file stores, which lies in its first-crossing bracket); quasi-static, linear and "
-         f"Exudyn (default settings, those of the default campaign): {t.threshold_scenes} scenes, joined by the "
+         "Exudyn (`DynamicSettings()` defaults: 4 elements per link, 720 steps per cycle, from the ramp): "
+         f"{t.threshold_scenes} scenes, joined by the "
          f"{t.joined} scenes of the confirmed sample below that lie in the same band (at r = r*).", "",
          f"* {t.scenes} scenes, {t.exudyn_ok} with an Exudyn steady state, {t.scenes - t.exudyn_ok} failed (stored "
          "with their reasons, left out of the rates).",

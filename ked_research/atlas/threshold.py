@@ -7,7 +7,7 @@ sorted by r10 and cut into equal chunks, one family drawn from each chunk; each 
 scene at r = f x r10 with f drawn uniformly from [1 - :data:`BAND`, 1 + :data:`BAND`] (one scene per
 family: the scenes are independent draws for the binomial intervals of :mod:`ked_research.atlas.calibration`).
 Every scene is the atlas's campaign scene (:func:`ked_research.atlas.compute.spec_of`: the Exudyn settings are
-the registered defaults, which are the default campaign's ``[dynamic]`` table) run by the ``quasi_static``,
+the registered defaults, ``DynamicSettings()``: 4 elements, 720 steps, from the ramp) run by the ``quasi_static``,
 ``linear`` and ``dynamic`` solvers (:func:`ked_research.atlas.confirm.confirm_scene`); the records are
 :class:`~ked_research.atlas.confirm.ConfirmRecord` rows of the atlas table ``/threshold`` (kept apart from
 ``/confirm``, whose per-family ratio walks give the linear model's limits).  A failed solver is stored

@@ -4,7 +4,7 @@ holds, and how far the quasi-static fatigue safety factor can be trusted.
 
 Every scene is solved by the three tiers: the quasi-static and linear models (the campaign's solvers, through
 :func:`compare.execute.solve_one`) and Exudyn with the link stresses of its steady cycle
-(``simulate_steady_state(..., stress=True)``, the default campaign's settings with :data:`ELEMENTS` beam
+(``simulate_steady_state(..., stress=True)``, ``DynamicSettings()`` defaults with :data:`ELEMENTS` beam
 elements per link: the section moment converges more slowly than the deflection in the element count).
 Against Exudyn, per scene:
 

@@ -154,7 +154,8 @@ def section(rows: Sequence[Row], fams: Sequence[Family]) -> str:
         "",
         f"Regenerate: `ked study stress` (resumable; stored: `studies/stress.h5`, {len(rows)} scenes, {n_ok} with a "
         f"valid Exudyn answer; solver time stored {wall:.0f} CPU-min). Every scene solved by the quasi-static, linear "
-        f"and Exudyn tiers (Exudyn: the default campaign's settings with {ELEMENTS} beam elements per link, the link "
+        "and Exudyn tiers (Exudyn: `DynamicSettings()` defaults, 720 steps per cycle from the ramp, with "
+        f"{ELEMENTS} beam elements per link, the link "
         "stresses from the beam elements' own section forces over one more steady cycle). Errors against Exudyn: the "
         "coupler point's vector history error, and per link max |sigma - sigma_Exudyn| of the largest and smallest "
         "fibre stress over the Exudyn peak of that link (a scene's stress error: its worst link's). Limits: first "
